@@ -1,0 +1,1 @@
+"""Subcommands of the `filmcal` command line, one module each (see `filmcal.cli`)."""
