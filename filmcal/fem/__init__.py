@@ -1,0 +1,139 @@
+"""Axisymmetric FE contact model of a steel sphere on a steel flat with a film between.
+
+The model of the paper's Hertzian experiments (section 2.1), in scikit-fem:
+`SphereOnFlat` is built once per sphere radius and mesh (the steel bodies are
+condensed onto their contact faces), then `SphereOnFlat.solve` evaluates a
+film and force cheaply. `evaluate_point` is the campaign entry point (a
+parameter dict in, a dict of outputs out), with a per-process model cache.
+"""
+from __future__ import annotations
+
+from collections import OrderedDict
+from typing import Any, Iterable
+
+from filmcal._validation import as_finite, check_choice
+from filmcal.fem.forms import lame_parameters, oedometric_modulus_mpa
+from filmcal.fem.hertz import (STEEL_MODULUS_MPA, STEEL_POISSON, effective_modulus_mpa, hertz_approach_mm,
+                               hertz_max_pressure_mpa, hertz_pressure_mpa, hertz_radius_mm)
+from filmcal.fem.mesh import MeshSettings
+from filmcal.fem.model import CONTACT_MODES, ContactOptions, Film, SphereOnFlat
+from filmcal.fem.result import FEResult, read_contact_radius
+from filmcal.fem.thinlayer import ThinLayerResult, thin_layer_contact
+
+__all__ = [
+    "SphereOnFlat", "Film", "ContactOptions", "MeshSettings", "FEResult", "CONTACT_MODES",
+    "solve_sphere_on_flat", "solve_many", "evaluate_point", "OUTPUT_KEYS",
+    "hertz_radius_mm", "hertz_max_pressure_mpa", "hertz_approach_mm", "hertz_pressure_mpa",
+    "effective_modulus_mpa", "oedometric_modulus_mpa", "lame_parameters", "read_contact_radius",
+    "thin_layer_contact", "ThinLayerResult", "STEEL_MODULUS_MPA", "STEEL_POISSON", "get_model",
+]
+
+_MODELS: "OrderedDict[tuple, SphereOnFlat]" = OrderedDict()
+_MAX_MODELS = 8
+
+
+def get_model(radius_mm: float, mesh: MeshSettings | None = None, film_thickness_mm: float = 0.09,
+              film_layers: int = 1) -> SphereOnFlat:
+    """A `SphereOnFlat` for these settings, built once per process and kept (LRU of 8)."""
+    mesh = MeshSettings() if mesh is None else mesh
+    key = (float(radius_mm), mesh, float(film_thickness_mm), int(film_layers))
+    if key in _MODELS:
+        _MODELS.move_to_end(key)
+        return _MODELS[key]
+    model = SphereOnFlat(radius_mm, mesh, film_thickness_mm, film_layers)
+    _MODELS[key] = model
+    while len(_MODELS) > _MAX_MODELS:
+        _MODELS.popitem(last=False)
+    return model
+
+
+def solve_sphere_on_flat(radius_mm: float, force_n: float, film: Film | None = None,
+                         options: ContactOptions | None = None, mesh: MeshSettings | None = None,
+                         film_thickness_mm: float = 0.09, film_layers: int = 1,
+                         activation_pressure_mpa: float | None = None) -> FEResult:
+    """One evaluation of the FE model (reusing a cached model for this R and mesh).
+
+    Parameters
+    ----------
+    radius_mm : float
+        Sphere radius R (mm).
+    force_n : float
+        Normal force F (N).
+    film : Film or None
+        Film material; None for steel on steel.
+    options : ContactOptions, optional
+    mesh : MeshSettings, optional
+    film_thickness_mm : float
+    film_layers : int
+    activation_pressure_mpa : float, optional
+        Also read the imprint radius where the pressure exceeds this level.
+    """
+    model = get_model(radius_mm, mesh, film_thickness_mm, film_layers)
+    return model.solve(film, force_n, options, activation_pressure_mpa)
+
+
+def solve_many(radius_mm: float, points: Iterable[tuple[Film | None, float]],
+               options: ContactOptions | None = None, mesh: MeshSettings | None = None,
+               film_thickness_mm: float = 0.09, film_layers: int = 1) -> list[FEResult]:
+    """Evaluate many (film, force_n) points for one sphere radius, sharing the condensed bodies."""
+    model = get_model(radius_mm, mesh, film_thickness_mm, film_layers)
+    return [model.solve(film, force, options) for film, force in points]
+
+
+OUTPUT_KEYS = ("contact_radius_mm", "contact_area_mm2", "max_pressure_mpa", "hertz_radius_mm",
+               "radius_error_mm", "approach_mm", "film_strain_max", "n_active", "converged", "reason",
+               "iterations", "elapsed_s")
+
+
+def _as_bool(name: str, value: Any) -> bool:
+    if isinstance(value, str):
+        v = value.strip().lower()
+        if v in ("1", "true", "yes", "y"):
+            return True
+        if v in ("0", "false", "no", "n", ""):
+            return False
+        raise ValueError(f"{name} must be a boolean (true/false), got {value!r}")
+    return bool(value)
+
+
+def evaluate_point(params: dict) -> dict:
+    """Evaluate one design point: the campaign's model.
+
+    Parameters
+    ----------
+    params : dict
+        ``radius_mm``, ``force_kn`` and, unless ``no_film`` is true,
+        ``modulus_mpa`` and ``poisson``; optional ``sphere_contact``,
+        ``flat_contact``, ``friction_coefficient``, ``large_strain``,
+        ``element_size_mm``, ``film_thickness_mm``, ``activation_pressure_mpa``.
+
+    Returns
+    -------
+    dict
+        The scalar outputs listed in `OUTPUT_KEYS`; ``converged = False`` with
+        a ``reason`` when the solve failed (never raises for that).
+    """
+    def get(name, default=None):
+        v = params.get(name, default)
+        return default if v is None or (isinstance(v, str) and v.strip() == "") else v
+
+    no_film = _as_bool("no_film", get("no_film", False))
+    film = None if no_film else Film(as_finite("modulus_mpa", get("modulus_mpa")),
+                                     as_finite("poisson", get("poisson", 0.33)))
+    options = ContactOptions(
+        sphere_contact=check_choice("sphere_contact", str(get("sphere_contact", "frictionless")), CONTACT_MODES),
+        flat_contact=check_choice("flat_contact", str(get("flat_contact", "tied")), CONTACT_MODES),
+        friction_coefficient=as_finite("friction_coefficient", get("friction_coefficient", 0.4)),
+        large_strain=_as_bool("large_strain", get("large_strain", False)))
+    mesh = MeshSettings(element_size_mm=as_finite("element_size_mm", get("element_size_mm", 0.1)))
+    act = get("activation_pressure_mpa")
+    res = solve_sphere_on_flat(as_finite("radius_mm", get("radius_mm")),
+                               1e3 * as_finite("force_kn", get("force_kn")), film, options, mesh,
+                               as_finite("film_thickness_mm", get("film_thickness_mm", 0.09)),
+                               activation_pressure_mpa=None if act is None else as_finite("activation_pressure_mpa", act))
+    summary = res.summary()
+    out = {k: summary[k] for k in OUTPUT_KEYS}
+    if act is not None:
+        out["imprint_radius_mm"] = res.imprint_radius_mm
+        out["imprint_area_mm2"] = res.imprint_area_mm2
+    return out

@@ -1,0 +1,52 @@
+"""Weak forms of axisymmetric elasticity (forms as plain functions).
+
+Displacement u = (u_r, u_z); strains eps_rr = du_r/dr, eps_zz = du_z/dz,
+eps_tt = u_r / r, gamma_rz = du_r/dz + du_z/dr. Integrals carry the full
+2 pi r weight, so that assembled nodal forces are forces in newton.
+"""
+from __future__ import annotations
+
+import numpy as np
+from skfem import BilinearForm, LinearForm
+
+__all__ = ["lame_parameters", "oedometric_modulus_mpa", "linear_elasticity", "axial_traction"]
+
+
+def lame_parameters(modulus_mpa: float, poisson: float) -> tuple[float, float]:
+    """Lame's lambda and mu (MPa) of an isotropic material."""
+    lam = modulus_mpa * poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson))
+    mu = modulus_mpa / (2.0 * (1.0 + poisson))
+    return lam, mu
+
+
+def oedometric_modulus_mpa(modulus_mpa, poisson):
+    """Constrained (oedometric) modulus M = E (1 - nu) / ((1 + nu)(1 - 2 nu)) in MPa.
+
+    A thin film held laterally is compressed at M: in a linear model, film
+    properties enter the contact only through M.
+    """
+    e = np.asarray(modulus_mpa, dtype=float)
+    nu = np.asarray(poisson, dtype=float)
+    m = e * (1.0 - nu) / ((1.0 + nu) * (1.0 - 2.0 * nu))
+    return float(m) if m.ndim == 0 else m
+
+
+def _strains(u, r):
+    return (u.grad[0, 0], u.grad[1, 1], u.value[0] / r, u.grad[0, 1] + u.grad[1, 0])
+
+
+@BilinearForm
+def linear_elasticity(u, v, w):
+    """Axisymmetric isotropic elasticity with Lame parameters ``w.lam``, ``w.mu``."""
+    r = w.x[0]
+    eu, ev = _strains(u, r), _strains(v, r)
+    tr_u = eu[0] + eu[1] + eu[2]
+    tr_v = ev[0] + ev[1] + ev[2]
+    normal = eu[0] * ev[0] + eu[1] * ev[1] + eu[2] * ev[2]
+    return (w.lam * tr_u * tr_v + 2.0 * w.mu * normal + w.mu * eu[3] * ev[3]) * 2.0 * np.pi * r
+
+
+@LinearForm
+def axial_traction(v, w):
+    """Uniform traction ``w.traction`` (MPa, positive along +z) on a boundary."""
+    return w.traction * v.value[1] * 2.0 * np.pi * w.x[0]

@@ -1,0 +1,536 @@
+"""The axisymmetric finite-element model of a steel sphere pressed on a steel
+flat with a Prescale film between them (the paper's section 2.1).
+
+Speed by reuse: the steel bodies depend only on (R, mesh). Each is condensed
+once onto its contact-face DOFs (`filmcal.fem.condense`); an evaluation for a
+film (E, nu) and force F then works on the film's few hundred DOFs and the
+pair forces only.
+
+Interfaces
+----------
+sphere-film : unilateral contact; ``frictionless`` (default), ``friction``
+    (Coulomb, coefficient mu) or ``tied`` (no slip once in contact).
+film-flat : the film never separates from the flat (bilateral normal contact,
+    as in the paper's model); tangentially ``tied`` (default),
+    ``frictionless`` or ``friction``.
+
+The default (frictionless at the sphere, tied to the flat) is a linear
+complementarity problem with a unique, loading-path independent solution,
+solved exactly in one step. It holds the film laterally, so that it is
+compressed oedometrically like the paper's friction-held film, and it is the
+configuration in which the thin-layer model (`filmcal.fem.thinlayer`) is an
+independent check. Friction and no-slip cases depend on the loading path and
+are solved in load increments.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+from skfem import Basis, ElementQuad1, ElementVector, FacetBasis
+from threadpoolctl import threadpool_limits
+
+from filmcal._validation import check_choice, check_poisson, check_positive, check_range
+from filmcal.fem.condense import CondensedBody, condense, nested_dissection
+from filmcal.fem.contact import CLOSED, FREE, OPEN, ContactState, PairSystem, solve_pairs
+from filmcal.fem.forms import axial_traction, lame_parameters, linear_elasticity, oedometric_modulus_mpa
+from filmcal.fem.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, hertz_radius_mm
+from filmcal.fem.largestrain import film_internal_force_and_tangent
+from filmcal.fem.mesh import BodyGrid, MeshSettings, film_grid, flat_grid, sphere_grid
+from filmcal.fem.result import FEResult, read_contact_radius
+
+__all__ = ["Film", "ContactOptions", "SphereOnFlat", "CONTACT_MODES"]
+
+CONTACT_MODES = ("frictionless", "tied", "friction")
+
+
+@dataclass(frozen=True)
+class Film:
+    """A linear elastic (or neo-Hookean, with large strain) film.
+
+    Parameters
+    ----------
+    modulus_mpa : float
+        Young's modulus E (MPa), > 0.
+    poisson : float
+        Poisson's ratio nu, -1 < nu < 0.5. The paper fixes 0.33.
+    """
+
+    modulus_mpa: float
+    poisson: float = 0.33
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "modulus_mpa", check_positive("film_modulus_mpa", self.modulus_mpa))
+        object.__setattr__(self, "poisson", check_poisson("film_poisson", self.poisson))
+
+    @property
+    def oedometric_modulus_mpa(self) -> float:
+        """M = E (1 - nu) / ((1 + nu)(1 - 2 nu))."""
+        return oedometric_modulus_mpa(self.modulus_mpa, self.poisson)
+
+
+@dataclass(frozen=True)
+class ContactOptions:
+    """Interface and kinematics options of an evaluation.
+
+    Parameters
+    ----------
+    sphere_contact, flat_contact : {'frictionless', 'tied', 'friction'}
+        Tangential behaviour at the sphere-film and film-flat interfaces.
+    friction_coefficient : float
+        Coulomb coefficient for 'friction' interfaces (the paper: 0.4).
+    large_strain : bool
+        Geometrically nonlinear film (compressible neo-Hookean, total
+        Lagrangian) instead of small-strain linear elasticity.
+    load_steps : int or None
+        Load increments; None picks 1 for path-independent linear cases and
+        8 otherwise.
+    max_iterations : int
+        Limit of active-set (and Newton) iterations per load step.
+    """
+
+    sphere_contact: str = "frictionless"
+    flat_contact: str = "tied"
+    friction_coefficient: float = 0.4
+    large_strain: bool = False
+    load_steps: int | None = None
+    max_iterations: int = 60
+
+    def __post_init__(self) -> None:
+        check_choice("sphere_contact", self.sphere_contact, CONTACT_MODES)
+        check_choice("flat_contact", self.flat_contact, CONTACT_MODES)
+        check_range("friction_coefficient", self.friction_coefficient, 0.0, 10.0, low_open=False)
+        if self.load_steps is not None and (int(self.load_steps) != self.load_steps or self.load_steps < 1):
+            raise ValueError(f"load_steps must be an integer >= 1, got {self.load_steps!r}")
+
+    @property
+    def path_dependent(self) -> bool:
+        return self.sphere_contact != "frictionless" or self.flat_contact == "friction"
+
+    def steps(self) -> int:
+        if self.load_steps is not None:
+            return int(self.load_steps)
+        return 8 if (self.path_dependent or self.large_strain) else 1
+
+
+def _face_dofs(basis: Basis, grid: BodyGrid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Face DOFs in condensation order and the positions of each node's z and r DOF.
+
+    The axis node has no r DOF (u_r = 0 on the axis); its r position is -1.
+    """
+    nodes = grid.face_nodes
+    dofs, zpos, rpos = [], np.zeros(len(nodes), int), -np.ones(len(nodes), int)
+    for i, node in enumerate(nodes):
+        if i > 0:
+            rpos[i] = len(dofs)
+            dofs.append(basis.nodal_dofs[0, node])
+        zpos[i] = len(dofs)
+        dofs.append(basis.nodal_dofs[1, node])
+    return np.asarray(dofs), zpos, rpos
+
+
+def _condense_body(grid: BodyGrid, fixed: np.ndarray, load: np.ndarray | None,
+                   basis: Basis, K) -> tuple[CondensedBody, np.ndarray, np.ndarray]:
+    face, zpos, rpos = _face_dofs(basis, grid)
+    order_nodes = nested_dissection(grid.node_at[:, 1:])
+    rest_face = grid.node_at[grid.n_face:, 0]
+    order_nodes = np.concatenate([order_nodes, rest_face])
+    interior = basis.nodal_dofs[:, order_nodes].T.ravel()
+    interior = interior[~np.isin(interior, np.concatenate([fixed, face]))]
+    return condense(K, interior, face, load), zpos, rpos
+
+
+@dataclass
+class _Lower:
+    """The film plus the flat's face as one linear system (for one flat mode)."""
+
+    n_x: int
+    film_index: np.ndarray  # film DOF -> x index (-1: fixed on the axis)
+    flat_index: np.ndarray  # flat face DOF (condensed order) -> x index
+    top_z: np.ndarray  # x index of the upper face's z DOF per face node
+    top_r: np.ndarray  # x index of the upper face's r DOF per face node (-1 on the axis)
+    film_bottom_r: np.ndarray
+    flat_r: np.ndarray
+    flat_z: np.ndarray
+
+
+def _radius_where_pressure_exceeds(r_mm: np.ndarray, pressure_mpa: np.ndarray, level_mpa: float) -> float:
+    """Outermost radius where the nodal pressure exceeds `level_mpa` (linear interpolation)."""
+    above = np.flatnonzero(pressure_mpa > level_mpa)
+    if len(above) == 0:
+        return 0.0
+    k = int(above[-1])
+    if k + 1 >= len(r_mm):
+        return float(r_mm[k])
+    p0, p1 = pressure_mpa[k], pressure_mpa[k + 1]
+    return float(r_mm[k] + (r_mm[k + 1] - r_mm[k]) * (p0 - level_mpa) / (p0 - p1))
+
+
+class SphereOnFlat:
+    """Axisymmetric FE model of the paper's Hertzian experiment for one sphere.
+
+    Built once per sphere radius and mesh (the steel bodies are condensed
+    then); :meth:`solve` evaluates a film and force cheaply.
+
+    Parameters
+    ----------
+    radius_mm : float
+        Sphere radius R (mm).
+    mesh : MeshSettings, optional
+    film_thickness_mm : float
+        Film thickness t (the paper: 0.09 mm).
+    film_layers : int
+        Element layers through the film thickness (the paper: 1).
+    steel_modulus_mpa, steel_poisson : float
+        Elastic constants of both steel bodies.
+
+    Examples
+    --------
+    >>> model = SphereOnFlat(450.0)                          # doctest: +SKIP
+    >>> res = model.solve(Film(2800.0, 0.33), force_n=75e3)  # doctest: +SKIP
+    >>> res.contact_radius_mm - res.hertz_radius_mm          # doctest: +SKIP
+    """
+
+    def __init__(self, radius_mm: float, mesh: MeshSettings | None = None, film_thickness_mm: float = 0.09,
+                 film_layers: int = 1, steel_modulus_mpa: float = STEEL_MODULUS_MPA,
+                 steel_poisson: float = STEEL_POISSON) -> None:
+        t0 = time.perf_counter()
+        self.radius_mm = check_positive("radius_mm", radius_mm)
+        self.mesh = MeshSettings() if mesh is None else mesh
+        self.film_thickness_mm = check_range("film_thickness_mm", film_thickness_mm, 0.0, 5.0, high_open=False)
+        self.steel_modulus_mpa = check_positive("steel_modulus_mpa", steel_modulus_mpa)
+        self.steel_poisson = check_poisson("steel_poisson", steel_poisson)
+        lam, mu = lame_parameters(self.steel_modulus_mpa, self.steel_poisson)
+        e = ElementVector(ElementQuad1())
+
+        # sphere body: u_r = 0 on the axis, the axis node of the top pinned in z
+        # (its rigid displacement w is an unknown fixed by the force balance)
+        self.sphere = sphere_grid(self.radius_mm, self.mesh, self.film_thickness_mm)
+        sb = Basis(self.sphere.mesh, e)
+        Ks = linear_elasticity.assemble(sb, lam=lam, mu=mu)
+        top = self.sphere.node_at[:, -1]
+        fixed_s = np.concatenate([sb.nodal_dofs[0, self.sphere.node_at[0, :]], [sb.nodal_dofs[1, top[0]]]])
+        top_facets = self.sphere.mesh.facets_satisfying(
+            lambda x: np.isclose(x[1], self.film_thickness_mm + self.mesh.body_size_mm))
+        area = np.pi * self.mesh.body_size_mm**2
+        f_top = axial_traction.assemble(FacetBasis(self.sphere.mesh, e, facets=top_facets), traction=-1.0 / area)
+        f_top[fixed_s] = 0.0
+        self.sphere_body, self._s_z, self._s_r = _condense_body(self.sphere, fixed_s, f_top, sb, Ks)
+
+        # flat body: bottom fixed in z, u_r = 0 on the axis
+        self.flat = flat_grid(self.mesh, float(self.sphere.r_face_mm[-1]))
+        fb = Basis(self.flat.mesh, e)
+        Kf = linear_elasticity.assemble(fb, lam=lam, mu=mu)
+        fixed_f = np.concatenate([fb.nodal_dofs[1, self.flat.node_at[:, -1]], fb.nodal_dofs[0, self.flat.node_at[0, :]]])
+        self.flat_body, self._f_z, self._f_r = _condense_body(self.flat, fixed_f, None, fb, Kf)
+
+        # film: stiffness split as lambda * K_lam + mu * K_mu
+        self.r_face_mm = self.sphere.r_face_mm
+        self.film = film_grid(self.r_face_mm, self.film_thickness_mm, film_layers)
+        self._film_basis = Basis(self.film.mesh, e)
+        self._K_lam = linear_elasticity.assemble(self._film_basis, lam=1.0, mu=0.0).toarray()
+        self._K_mu = linear_elasticity.assemble(self._film_basis, lam=0.0, mu=1.0).toarray()
+        self.gap0_mm = self.radius_mm - np.sqrt(self.radius_mm**2 - self.r_face_mm**2)
+        self.face_area_mm2 = self._tributary_areas(self.r_face_mm)
+        self._lower_cache: dict[str, _Lower] = {}
+        self.n_dofs = int(sb.N + fb.N + self._film_basis.N)
+        self.setup_time_s = time.perf_counter() - t0
+
+    # ------------------------------------------------------------------ helpers
+    @staticmethod
+    def _tributary_areas(r: np.ndarray) -> np.ndarray:
+        """Integral of each face node's hat function times 2 pi r (mm^2)."""
+        areas = np.zeros(len(r))
+        for i in range(len(r) - 1):
+            r0, r1 = r[i], r[i + 1]
+            h = r1 - r0
+            areas[i] += 2 * np.pi * h * (2 * r0 + r1) / 6.0
+            areas[i + 1] += 2 * np.pi * h * (r0 + 2 * r1) / 6.0
+        return areas
+
+    @property
+    def n_face(self) -> int:
+        return len(self.r_face_mm)
+
+    def _lower(self, flat_contact: str, with_film: bool) -> _Lower:
+        key = f"{flat_contact}:{with_film}"
+        if key in self._lower_cache:
+            return self._lower_cache[key]
+        n = self.n_face
+        n_flat = len(self.flat_body.face_dofs)
+        flat_index = -np.ones(n_flat, int)
+        if not with_film:
+            flat_index = np.arange(n_flat)
+            low = _Lower(n_flat, np.zeros(0, int), flat_index, self._f_z.copy(), self._f_r.copy(),
+                         -np.ones(n, int), self._f_r.copy(), self._f_z.copy())
+            self._lower_cache[key] = low
+            return low
+        fb = self._film_basis
+        film_index = -np.ones(fb.N, int)
+        axis_r = fb.nodal_dofs[0, self.film.node_at[0, :]]
+        free = np.setdiff1d(np.arange(fb.N), axis_r)
+        film_index[free] = np.arange(len(free))
+        n_x = len(free)
+        bottom = self.film.node_at[:, 0]
+        for i in range(n):  # flat z merged with the film bottom's z (no separation)
+            flat_index[self._f_z[i]] = film_index[fb.nodal_dofs[1, bottom[i]]]
+            if i > 0:
+                if flat_contact == "tied":
+                    flat_index[self._f_r[i]] = film_index[fb.nodal_dofs[0, bottom[i]]]
+                else:
+                    flat_index[self._f_r[i]] = n_x
+                    n_x += 1
+        topn = self.film.node_at[:, -1]
+        top_z = film_index[fb.nodal_dofs[1, topn]]
+        top_r = np.where(np.arange(n) > 0, film_index[fb.nodal_dofs[0, topn]], -1)
+        bot_r = np.where(np.arange(n) > 0, film_index[fb.nodal_dofs[0, bottom]], -1)
+        flat_r = np.where(np.arange(n) > 0, flat_index[np.maximum(self._f_r, 0)], -1)
+        flat_z = flat_index[self._f_z]
+        low = _Lower(n_x, film_index, flat_index, top_z, top_r, bot_r, flat_r, flat_z)
+        self._lower_cache[key] = low
+        return low
+
+    def _film_stiffness(self, film: Film) -> np.ndarray:
+        lam, mu = lame_parameters(film.modulus_mpa, film.poisson)
+        return lam * self._K_lam + mu * self._K_mu
+
+    def _lower_stiffness(self, low: _Lower, K_film: np.ndarray | None) -> np.ndarray:
+        K = np.zeros((low.n_x, low.n_x))
+        S = self.flat_body.stiffness
+        fi = low.flat_index
+        K[np.ix_(fi, fi)] += S
+        if K_film is not None:
+            keep = low.film_index >= 0
+            idx = low.film_index[keep]
+            K[np.ix_(idx, idx)] += K_film[np.ix_(keep, keep)]
+        return K
+
+    # -------------------------------------------------------------- the solve
+    def solve(self, film: Film | None, force_n: float, options: ContactOptions | None = None,
+              activation_pressure_mpa: float | None = None) -> FEResult:
+        """Press the sphere on the flat with force F, with or without a film.
+
+        Parameters
+        ----------
+        film : Film or None
+            The film's material; None solves steel on steel (no film).
+        force_n : float
+            Normal force F (N), > 0.
+        options : ContactOptions, optional
+            Interfaces, kinematics and solver limits.
+        activation_pressure_mpa : float, optional
+            If given, also report the imprint radius where the pressure on the
+            film exceeds it (MS 10, HS 50, HHS 130 MPa).
+
+        Returns
+        -------
+        FEResult
+            A result with ``converged = False`` and a reason when the solve
+            fails (e.g. a film so soft that it collapses); never raises for a
+            failed solve.
+        """
+        # the dense work here is small: one BLAS thread is fastest, and leaves
+        # the other cores to parallel evaluations
+        with threadpool_limits(limits=1, user_api="blas"):
+            return self._solve(film, force_n, options, activation_pressure_mpa)
+
+    def _solve(self, film, force_n, options, activation_pressure_mpa) -> FEResult:
+        t0 = time.perf_counter()
+        force_n = check_positive("force_n", force_n)
+        opts = ContactOptions() if options is None else options
+        if activation_pressure_mpa is not None:
+            check_positive("activation_pressure_mpa", activation_pressure_mpa)
+        h = self.mesh.element_size_mm
+        a_h = hertz_radius_mm(self.radius_mm, force_n)
+        if a_h < 10.0 * h:
+            raise ValueError(f"element_size_mm = {h:g} cannot resolve a contact radius of about {a_h:.2f} mm "
+                             f"(R = {self.radius_mm:g} mm, F = {force_n:g} N): use element_size_mm <= {a_h / 10:.3g}")
+        with_film = film is not None
+        sphere_mode = opts.sphere_contact
+        flat_mode = opts.flat_contact if with_film else "tied"
+        low = self._lower(flat_mode, with_film)
+        n = self.n_face
+        mu_f = np.inf if sphere_mode == "tied" else opts.friction_coefficient
+
+        # pair unknowns: sphere normals, sphere tangentials, flat tangentials
+        normal = np.arange(n)
+        tang_nodes = np.arange(1, n)
+        blocks = [normal]
+        tangential, friction, gate = [], [], []
+        if sphere_mode != "frictionless":
+            idx = n + np.arange(len(tang_nodes))
+            tangential.append(idx)
+            friction.append(np.full(len(idx), mu_f))
+            gate.append(tang_nodes)
+            blocks.append(idx)
+        n_lam = n + sum(len(b) for b in blocks[1:])
+        flat_t = np.zeros(0, int)
+        if with_film and flat_mode == "friction":
+            flat_t = n_lam + np.arange(len(tang_nodes))
+            tangential.append(flat_t)
+            friction.append(np.full(len(flat_t), opts.friction_coefficient))
+            gate.append(-np.ones(len(flat_t), int))
+            n_lam += len(flat_t)
+        tangential = np.concatenate(tangential) if tangential else np.zeros(0, int)
+        friction = np.concatenate(friction) if friction else np.zeros(0)
+        gate = np.concatenate(gate) if gate else np.zeros(0, int)
+
+        # maps: B_S (Lambda -> sphere face forces), D (Lambda -> lower body x)
+        m_s = len(self.sphere_body.face_dofs)
+        B_S = np.zeros((n_lam, m_s))
+        D = np.zeros((n_lam, low.n_x))
+        B_S[normal, self._s_z] = 1.0
+        D[normal, low.top_z] = 1.0
+        if sphere_mode != "frictionless":
+            idx = n + np.arange(len(tang_nodes))
+            B_S[idx, self._s_r[tang_nodes]] = 1.0
+            D[idx, low.top_r[tang_nodes]] = 1.0
+        if len(flat_t):
+            D[flat_t, low.film_bottom_r[tang_nodes]] = -1.0
+            D[flat_t, low.flat_r[tang_nodes]] = 1.0
+
+        G = self.sphere_body.compliance
+        H_s = B_S @ G @ B_S.T
+        d0_unit = B_S @ self.sphere_body.load_displacement  # per newton of load
+        g0 = np.zeros(n_lam)
+        g0[normal] = self.gap0_mm
+        a = np.zeros(n_lam)
+        a[normal] = 1.0
+        K_film = self._film_stiffness(film) if with_film else None
+
+        steps = opts.steps()
+        state = self._initial_state(n_lam, normal, tangential, force_n / steps)
+        d_prev = np.zeros(n_lam)
+        x = np.zeros(low.n_x)
+        total_iterations = 0
+        reason = ""
+        converged = True
+        for k in range(1, steps + 1):
+            load = force_n * k / steps
+            for newton in range(1, (opts.max_iterations if opts.large_strain and with_film else 1) + 1):
+                if opts.large_strain and with_film:
+                    f_int, K_t = film_internal_force_and_tangent(self._film_basis, film, self._film_dofs(low, x))
+                    K_L = self._lower_stiffness(low, K_t)
+                    # residual of the lower body at x without pair forces
+                    r_x = self._lower_internal(low, f_int, x)
+                else:
+                    K_L = self._lower_stiffness(low, K_film)
+                    r_x = np.zeros(low.n_x)
+                try:
+                    cho = sla.cho_factor(K_L)
+                except np.linalg.LinAlgError:
+                    converged, reason = False, "film stiffness lost positive definiteness (film collapsed)"
+                    break
+                Y = sla.cho_solve(cho, D.T)
+                x_hat = x - sla.cho_solve(cho, r_x) if opts.large_strain and with_film else np.zeros(low.n_x)
+                H = H_s + D @ Y
+                d0 = g0 + load * d0_unit - D @ x_hat
+                pairs = PairSystem(normal, tangential, friction, gate, *self._normal_force_map(low, Y, x_hat, tangential, gate))
+                state = solve_pairs(H, d0, a, load, pairs, state, d_prev, opts.max_iterations)
+                total_iterations += state.iterations
+                if not state.converged:
+                    converged, reason = False, f"load step {k}/{steps}: {state.reason}"
+                    break
+                x_new = x_hat - Y @ state.forces
+                if not (opts.large_strain and with_film):
+                    x = x_new
+                    break
+                dx = np.max(np.abs(x_new - x))
+                x = x_new
+                if dx < 1e-9 * max(self.film_thickness_mm, 1.0):
+                    break
+            else:
+                converged, reason = False, f"load step {k}/{steps}: film Newton iterations did not converge"
+            if not converged:
+                break
+            d_prev = state.relative.copy()
+            strain = self._film_strain(low, x) if with_film else np.zeros(n)
+            if with_film and np.min(strain) <= -0.95:
+                converged, reason = False, "film collapsed: through-thickness strain beyond -95 %"
+                break
+        return self._result(film, force_n, opts, state, x, low, converged, reason, total_iterations,
+                            activation_pressure_mpa, time.perf_counter() - t0)
+
+    def _initial_state(self, n_lam, normal, tangential, force_n) -> ContactState:
+        a_guess = hertz_radius_mm(self.radius_mm, force_n)
+        ns = np.where(self.r_face_mm <= 0.8 * a_guess, CLOSED, OPEN)
+        ns[0] = CLOSED
+        return ContactState(np.zeros(n_lam), 0.0, ns, np.full(len(tangential), FREE))
+
+    def _normal_force_map(self, low: _Lower, Y, x_hat, tangential, gate):
+        """Normal force of each tangential component's pair as an affine map of Lambda."""
+        nt = len(tangential)
+        n_lam = Y.shape[1]
+        rows = np.zeros((nt, n_lam))
+        offset = np.zeros(nt)
+        for k in range(nt):
+            if gate[k] >= 0:
+                rows[k, gate[k]] = 1.0
+        flat_k = np.flatnonzero(gate < 0)
+        if len(flat_k):
+            # force of the film on the flat at face node i, z: (S x_T)_z; the
+            # flat pushes the film with its negative
+            S = self.flat_body.stiffness
+            nodes = np.arange(1, self.n_face)
+            Sz = S[self._f_z[nodes]]  # rows of S for the z DOFs
+            Xmap = np.zeros((len(low.flat_index), low.n_x))
+            Xmap[np.arange(len(low.flat_index)), low.flat_index] = 1.0
+            rows[flat_k] = Sz @ Xmap @ Y  # x = x_hat - Y Lambda -> -(S x)_z = S Y Lambda - S x_hat
+            offset[flat_k] = -(Sz @ (Xmap @ x_hat))
+        return rows, offset
+
+    def _film_dofs(self, low: _Lower, x: np.ndarray) -> np.ndarray:
+        u = np.zeros(self._film_basis.N)
+        keep = low.film_index >= 0
+        u[keep] = x[low.film_index[keep]]
+        return u
+
+    def _lower_internal(self, low: _Lower, f_int_film: np.ndarray, x: np.ndarray) -> np.ndarray:
+        r = np.zeros(low.n_x)
+        keep = low.film_index >= 0
+        np.add.at(r, low.film_index[keep], f_int_film[keep])
+        S = self.flat_body.stiffness
+        xt = x[low.flat_index]
+        np.add.at(r, low.flat_index, S @ xt)
+        return r
+
+    def _film_strain(self, low: _Lower, x: np.ndarray) -> np.ndarray:
+        top = x[low.top_z]
+        bottom = x[low.flat_z]
+        return (top - bottom) / self.film_thickness_mm
+
+    def _result(self, film, force_n, opts, state: ContactState, x, low, converged, reason, iterations,
+                activation_pressure_mpa, elapsed) -> FEResult:
+        n = self.n_face
+        lam_n = state.forces[:n] if len(state.forces) else np.zeros(n)
+        pressure = np.where(state.normal_status == CLOSED, lam_n / self.face_area_mm2, 0.0)
+        active = state.normal_status == CLOSED
+        gaps = state.relative[:n] if len(state.relative) else np.full(n, np.nan)
+        reading = read_contact_radius(self.r_face_mm, pressure, active)
+        if converged and active[-3:].any():
+            converged = False
+            reason = (f"contact reached the edge of the refined zone (r = {self.r_face_mm[-1]:.2f} mm): "
+                      "enlarge MeshSettings.contact_zone_mm")
+        a_h = hertz_radius_mm(self.radius_mm, force_n)
+        strain = self._film_strain(low, x) if film is not None else np.zeros(n)
+        imprint = None
+        if activation_pressure_mpa is not None:
+            imprint = _radius_where_pressure_exceeds(self.r_face_mm, pressure, activation_pressure_mpa)
+        return FEResult(
+            radius_mm=self.radius_mm, force_n=force_n,
+            film_modulus_mpa=None if film is None else film.modulus_mpa,
+            film_poisson=None if film is None else film.poisson,
+            sphere_contact=opts.sphere_contact, flat_contact=opts.flat_contact if film is not None else "none",
+            friction_coefficient=opts.friction_coefficient, large_strain=opts.large_strain and film is not None,
+            contact_radius_mm=reading, contact_area_mm2=np.pi * reading**2,
+            max_pressure_mpa=float(np.max(pressure)), hertz_radius_mm=a_h,
+            approach_mm=float(-state.rigid_w), film_strain_max=float(-np.min(strain)) if film is not None else 0.0,
+            r_mm=self.r_face_mm.copy(), pressure_mpa=pressure, gap_mm=gaps, film_strain=strain,
+            n_active=int(active.sum()), imprint_radius_mm=imprint,
+            imprint_area_mm2=None if imprint is None else np.pi * imprint**2,
+            activation_pressure_mpa=activation_pressure_mpa,
+            converged=bool(converged), reason=reason, iterations=int(iterations),
+            elapsed_s=elapsed, n_dofs=self.n_dofs, element_size_mm=self.mesh.element_size_mm,
+        )

@@ -1,0 +1,108 @@
+"""An independent second method: the thin-layer model of sphere on flat with film.
+
+Both steel bodies are elastic half-spaces (axisymmetric boundary elements:
+uniform pressure on rings, exact surface displacements from the closed-form
+solution for a uniformly loaded disc, Johnson, Contact Mechanics, eqs. 3.25,
+3.26); the film is a layer of independent springs of stiffness M/t per unit
+area in series with them, M = E(1-nu)/((1+nu)(1-2nu)) being the oedometric
+modulus of a film held laterally. The contact problem is the same LCP as in
+the FE model but shares none of its discretisation.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import ellipe, ellipk
+
+from filmcal._validation import check_positive
+from filmcal.fem.contact import CLOSED, OPEN, ContactState, PairSystem, solve_pairs
+from filmcal.fem.hertz import effective_modulus_mpa, hertz_radius_mm
+
+__all__ = ["ThinLayerResult", "disc_displacement_mm", "thin_layer_contact"]
+
+
+def disc_displacement_mm(r_mm: np.ndarray, disc_radius_mm: float, contact_modulus_mpa: float) -> np.ndarray:
+    """Mutual surface approach at radius r from unit pressure on a disc of radius c.
+
+    u(r) = 4 c E(r/c) / (pi E*) for r <= c and
+    u(r) = 4 r [E(c/r) - (1 - c^2/r^2) K(c/r)] / (pi E*) for r > c,
+    with complete elliptic integrals of modulus k (scipy takes m = k^2).
+    """
+    r = np.asarray(r_mm, dtype=float)
+    c = float(disc_radius_mm)
+    out = np.empty_like(r)
+    inside = r <= c
+    out[inside] = 4.0 * c * ellipe((r[inside] / c) ** 2) / np.pi
+    ro = r[~inside]
+    m = (c / ro) ** 2
+    out[~inside] = 4.0 * ro * (ellipe(m) - (1.0 - m) * ellipk(m)) / np.pi
+    return out / contact_modulus_mpa
+
+
+@dataclass
+class ThinLayerResult:
+    """Contact of the thin-layer model (lengths mm, pressures MPa)."""
+
+    contact_radius_mm: float
+    edge_mm: tuple[float, float]
+    max_pressure_mpa: float
+    r_mm: np.ndarray
+    pressure_mpa: np.ndarray
+    approach_mm: float
+    converged: bool
+
+
+def thin_layer_contact(radius_mm: float, force_n: float, film_modulus_mpa: float | None = None,
+                       film_poisson: float = 0.33, film_thickness_mm: float = 0.09,
+                       ring_width_mm: float = 0.02, zone_mm: float | None = None) -> ThinLayerResult:
+    """Solve sphere-on-flat contact of two steel half-spaces with a spring film between.
+
+    Parameters
+    ----------
+    radius_mm, force_n : float
+        Sphere radius R (mm) and normal force F (N).
+    film_modulus_mpa : float or None
+        Film Young's modulus; None for no film.
+    film_poisson, film_thickness_mm : float
+        Film Poisson's ratio and thickness.
+    ring_width_mm : float
+        Width of the uniform-pressure rings.
+    zone_mm : float, optional
+        Outer radius of the discretised zone (default 2.2 Hertz radii + 2 mm).
+
+    Returns
+    -------
+    ThinLayerResult
+        ``contact_radius_mm`` is the middle of the ring interval holding the
+        edge (``edge_mm``: last loaded ring's outer radius, first unloaded
+        ring's outer radius).
+    """
+    R = check_positive("radius_mm", radius_mm)
+    F = check_positive("force_n", force_n)
+    estar = effective_modulus_mpa()
+    a_h = hertz_radius_mm(R, F)
+    zone = zone_mm if zone_mm is not None else 2.2 * a_h + 2.0
+    edges = np.arange(0.0, zone + ring_width_mm / 2, ring_width_mm)
+    mid = 0.5 * (edges[1:] + edges[:-1])
+    area = np.pi * (edges[1:] ** 2 - edges[:-1] ** 2)
+    # C[i, j]: approach at ring i from unit pressure on ring j (annulus = disc - disc)
+    discs = np.stack([disc_displacement_mm(mid, c, estar) if c > 0 else np.zeros_like(mid) for c in edges])
+    C = (discs[1:] - discs[:-1]).T
+    spring = 0.0
+    if film_modulus_mpa is not None:
+        e = check_positive("film_modulus_mpa", film_modulus_mpa)
+        nu = film_poisson
+        spring = film_thickness_mm * (1 + nu) * (1 - 2 * nu) / (e * (1 - nu))
+    H = C / area[None, :] + np.diag(spring / area)  # unknowns: ring forces (N)
+    gap = R - np.sqrt(R**2 - mid**2)
+    n = len(mid)
+    pairs = PairSystem(np.arange(n), np.zeros(0, int), np.zeros(0), np.zeros(0, int),
+                       np.zeros((0, n)), np.zeros(0))
+    status = np.where(mid <= a_h, CLOSED, OPEN)
+    state = solve_pairs(H, gap, -np.ones(n), F, pairs, ContactState(np.zeros(n), 0.0, status, np.zeros(0, int)),
+                        np.zeros(n), max_iterations=200)
+    p = np.where(state.normal_status == CLOSED, state.forces / area, 0.0)
+    k = int(np.flatnonzero(p > 0)[-1])
+    edge = (float(edges[k + 1]), float(edges[min(k + 2, len(edges) - 1)]))
+    return ThinLayerResult(0.5 * (edge[0] + edge[1]), edge, float(p.max()), mid, p, state.rigid_w, state.converged)
