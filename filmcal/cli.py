@@ -9,10 +9,20 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import pkgutil
 import sys
 
-# Subcommand modules in `filmcal.commands`, in the order `--help` lists them.
-COMMANDS = ["fem"]
+import filmcal.commands
+
+# The order in which `--help` lists the subcommands; any other module in
+# `filmcal.commands` (not starting with "_") follows in alphabetical order.
+ORDER = ["pipeline", "fem", "doe", "campaign", "calibrate", "profile", "wheelrail", "correct", "report"]
+
+
+def command_modules() -> list[str]:
+    """Names of the subcommand modules in `filmcal.commands`."""
+    names = [m.name for m in pkgutil.iter_modules(filmcal.commands.__path__) if not m.name.startswith("_")]
+    return sorted(names, key=lambda n: (ORDER.index(n) if n in ORDER else len(ORDER), n))
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -34,7 +44,7 @@ def build_parser() -> argparse.ArgumentParser:
     from filmcal import __version__
     parser.add_argument("--version", action="version", version=f"filmcal {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
-    for name in COMMANDS:
+    for name in command_modules():
         importlib.import_module(f"filmcal.commands.{name}").add_parser(sub)
     return parser
 
@@ -55,6 +65,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         sys.stderr.write("filmcal: interrupted\n")
         return 130
+    except BrokenPipeError:  # output piped into e.g. `head`
+        sys.stderr.close()
+        return 0
 
 
 if __name__ == "__main__":

@@ -32,7 +32,7 @@ def oedometric_modulus_mpa(modulus_mpa, poisson):
 
 
 def _strains(u, r):
-    return (u.grad[0, 0], u.grad[1, 1], u.value[0] / r, u.grad[0, 1] + u.grad[1, 0])
+    return (u.grad[0, 0], u.grad[1, 1], u[0] / r, u.grad[0, 1] + u.grad[1, 0])
 
 
 @BilinearForm
@@ -49,4 +49,4 @@ def linear_elasticity(u, v, w):
 @LinearForm
 def axial_traction(v, w):
     """Uniform traction ``w.traction`` (MPa, positive along +z) on a boundary."""
-    return w.traction * v.value[1] * 2.0 * np.pi * w.x[0]
+    return w.traction * v[1] * 2.0 * np.pi * w.x[0]

@@ -22,10 +22,10 @@ __all__ = ["film_internal_force_and_tangent"]
 
 def _grad3(u, r):
     """3 x 3 displacement gradient (r, z, theta) of a vector field at quadrature points."""
-    z = np.zeros_like(u.value[0])
+    z = np.zeros_like(u[0])
     return np.array([[u.grad[0, 0], u.grad[0, 1], z],
                      [u.grad[1, 0], u.grad[1, 1], z],
-                     [z, z, u.value[0] / r]])
+                     [z, z, u[0] / r]])
 
 
 def _kinematics(w):
@@ -69,6 +69,9 @@ def film_internal_force_and_tangent(basis: Basis, film, u: np.ndarray) -> tuple[
     """
     lam, mu = lame_parameters(film.modulus_mpa, film.poisson)
     uh = basis.interpolate(u)
+    jac = (1 + uh.grad[0, 0]) * (1 + uh.grad[1, 1]) - uh.grad[0, 1] * uh.grad[1, 0]
+    if np.any(jac <= 0.0) or np.any(1 + uh[0] / basis.global_coordinates()[0] <= 0.0):
+        raise np.linalg.LinAlgError("film element inverted (J <= 0)")
     f = _internal_force.assemble(basis, u=uh, lam=lam, mu=mu)
     if not np.all(np.isfinite(f)):
         raise np.linalg.LinAlgError("film element inverted (J <= 0)")

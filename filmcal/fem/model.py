@@ -85,8 +85,10 @@ class ContactOptions:
         Geometrically nonlinear film (compressible neo-Hookean, total
         Lagrangian) instead of small-strain linear elasticity.
     load_steps : int or None
-        Load increments; None picks 1 for path-independent linear cases and
-        8 otherwise.
+        Load increments; None picks 1 for the path-independent linear cases,
+        4 for a large-strain film with frictionless/tied interfaces, and 32 for
+        friction or no-slip at the sphere (the loading path matters there, and
+        fewer increments leave stick-slip noise in the edge pressures).
     max_iterations : int
         Limit of active-set (and Newton) iterations per load step.
     """
@@ -112,7 +114,9 @@ class ContactOptions:
     def steps(self) -> int:
         if self.load_steps is not None:
             return int(self.load_steps)
-        return 8 if (self.path_dependent or self.large_strain) else 1
+        if self.path_dependent:
+            return 32
+        return 4 if self.large_strain else 1
 
 
 def _face_dofs(basis: Basis, grid: BodyGrid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -411,7 +415,11 @@ class SphereOnFlat:
             load = force_n * k / steps
             for newton in range(1, (opts.max_iterations if opts.large_strain and with_film else 1) + 1):
                 if opts.large_strain and with_film:
-                    f_int, K_t = film_internal_force_and_tangent(self._film_basis, film, self._film_dofs(low, x))
+                    try:
+                        f_int, K_t = film_internal_force_and_tangent(self._film_basis, film, self._film_dofs(low, x))
+                    except np.linalg.LinAlgError:
+                        converged, reason = False, f"load step {k}/{steps}: film element inverted (film collapsed)"
+                        break
                     K_L = self._lower_stiffness(low, K_t)
                     # residual of the lower body at x without pair forces
                     r_x = self._lower_internal(low, f_int, x)

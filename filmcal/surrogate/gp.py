@@ -1,0 +1,397 @@
+"""Gaussian-process surrogate of one model output over named inputs.
+
+`GPSurrogate` fits ``C * Matern(nu=2.5, anisotropic) + White`` (scikit-learn
+kernels) to transformed data: each input optionally log-transformed, then
+scaled to the unit cube or to z-scores; the output optionally log-transformed,
+then standardised. The hyperparameters maximise the log marginal likelihood
+over several L-BFGS starts (the kernel's initial values plus `n_restarts`
+random ones), run in parallel with joblib while BLAS is pinned to one thread in
+each start. Predictions are returned in physical output units; their standard
+deviation includes the Jacobian of the output transform.
+
+The white-noise term models the numerical noise of the model being emulated
+(finite-element results scatter by ~1e-3 mm): `predict` returns the std of the
+smooth latent function by default and adds the noise with ``noise=True``, which
+is the right comparison against new noisy model runs.
+"""
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+from joblib import Parallel, delayed
+from scipy.linalg import cho_solve, cholesky, solve_triangular
+from scipy.stats import norm
+from sklearn.base import BaseEstimator
+from sklearn.exceptions import ConvergenceWarning
+from sklearn.gaussian_process import GaussianProcessRegressor
+from sklearn.gaussian_process.kernels import Kernel
+from sklearn.utils.validation import check_is_fitted
+from threadpoolctl import threadpool_limits
+
+from filmcal.surrogate.kernels import kernel_parts, make_kernel
+from filmcal.surrogate.transforms import (
+    InputTransform,
+    OutputTransform,
+    as_input_matrix,
+    as_output_vector,
+    column_names,
+)
+
+__all__ = ["GPSurrogate"]
+
+# Box (natural units, GP coordinates) from which random optimiser starts are drawn
+# log-uniformly, intersected with the hyperparameter bounds.
+_START_LENGTH_SCALE = (0.1, 3.0)
+_START_CONSTANT = (0.1, 10.0)
+_START_NOISE = (1e-8, 1e-2)
+_MIN_POINTS = 3
+
+
+def _optimise_from(kernel: Kernel, theta0: np.ndarray, T: np.ndarray, z: np.ndarray
+                   ) -> tuple[np.ndarray, float, list[str]]:
+    """One L-BFGS maximisation of the log marginal likelihood from `theta0`.
+
+    Runs with BLAS pinned to one thread. Returns the optimal log-hyperparameters,
+    the log marginal likelihood there (-inf if the kernel matrix was not
+    positive definite) and the warnings raised on the way.
+    """
+    with threadpool_limits(limits=1), warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        gpr = GaussianProcessRegressor(kernel=kernel.clone_with_theta(theta0), alpha=0.0,
+                                       optimizer="fmin_l_bfgs_b", n_restarts_optimizer=0,
+                                       normalize_y=False, copy_X_train=False)
+        try:
+            gpr.fit(T, z)
+        except np.linalg.LinAlgError:
+            return np.asarray(theta0, dtype=float), -np.inf, ["kernel matrix not positive definite"]
+    messages = [str(w.message).splitlines()[0] for w in caught if "bound" not in str(w.message)]
+    return gpr.kernel_.theta, float(gpr.log_marginal_likelihood_value_), messages
+
+
+class GPSurrogate(BaseEstimator):
+    """Gaussian-process surrogate ``y = f(x)`` of one output over named inputs.
+
+    Parameters
+    ----------
+    inputs : sequence of str, optional
+        Input names in column order. Default: the column names of the `X`
+        given to `fit` (mapping, DataFrame or structured array), else
+        ``x0, x1, ...``.
+    output : str, default "y"
+        Output name (selects the column when `y` is a mapping or DataFrame).
+    log_inputs : sequence of str, default ()
+        Inputs modelled in log scale (e.g. the film modulus); they must be > 0.
+    input_scaling : {"unit", "zscore"}, default "unit"
+        ``"unit"`` maps each (log-)input onto [0, 1], ``"zscore"`` standardises it.
+    input_bounds : mapping of str -> (low, high), optional
+        Physical domain used by ``"unit"`` scaling; inputs not listed use the
+        range of the training data.
+    output_transform : {"standardize", "log"}, default "standardize"
+        ``"log"`` models ``log(y)`` (y > 0) and is then standardised.
+    length_scale_bounds, constant_value_bounds, noise_level_bounds : (float, float)
+        Bounds of the Matern length scales (scaled inputs), of the signal
+        variance and of the white-noise variance (standardised output).
+    noise_level : float, default 1e-4
+        Initial white-noise variance of the first optimiser start.
+    n_restarts : int, default 8
+        Random optimiser starts in addition to the first one.
+    n_jobs : int, optional
+        Parallel optimiser starts (joblib, processes by default); None means 1,
+        -1 all CPUs. Every start runs with BLAS pinned to one thread, which is
+        what matters most for these small matrices; processes help only when
+        cores are idle (about 1.6x on 2 idle cores for 8 starts, slower than
+        serial on a loaded machine).
+    random_state : int, numpy.random.Generator or None
+        Seed of the random starts: the same seed gives the same fit.
+
+    Attributes
+    ----------
+    input_names_ : list of str
+        Input names, the column order of `X_train_`.
+    n_features_in_ : int
+        Number of inputs.
+    X_train_ : ndarray of shape (n, d)
+        Training inputs in physical units.
+    y_train_ : ndarray of shape (n,)
+        Training outputs in physical units.
+    input_transform_ : InputTransform
+    output_transform_ : OutputTransform
+    kernel_ : sklearn Kernel
+        Kernel with the fitted hyperparameters (GP coordinates).
+    log_marginal_likelihood_value_ : float
+        Log marginal likelihood of the transformed data at `kernel_`.
+    restart_log_marginal_likelihoods_ : ndarray
+        Optimum reached from each start (-inf where the fit failed), in start order.
+    at_bounds_ : list of str
+        Hyperparameters that ended at a bound (a white noise at its lower bound
+        is normal for noise-free data).
+    X_gp_ : ndarray of shape (n, d)
+        Training inputs in GP coordinates.
+    cholesky_ : ndarray of shape (n, n)
+        Lower Cholesky factor of the training covariance (noise included).
+    dual_coef_ : ndarray of shape (n,)
+        ``K^-1 z`` for the standardised training outputs z.
+    """
+
+    def __init__(self, inputs: Sequence[str] | None = None, output: str = "y", *,
+                 log_inputs: Sequence[str] = (), input_scaling: str = "unit",
+                 input_bounds: Mapping[str, Sequence[float]] | None = None,
+                 output_transform: str = "standardize",
+                 length_scale_bounds: Sequence[float] = (1e-2, 1e3),
+                 constant_value_bounds: Sequence[float] = (1e-3, 1e4),
+                 noise_level: float = 1e-4,
+                 noise_level_bounds: Sequence[float] = (1e-8, 1e-1),
+                 n_restarts: int = 8, n_jobs: int | None = None,
+                 random_state: int | np.random.Generator | None = None) -> None:
+        self.inputs = inputs
+        self.output = output
+        self.log_inputs = log_inputs
+        self.input_scaling = input_scaling
+        self.input_bounds = input_bounds
+        self.output_transform = output_transform
+        self.length_scale_bounds = length_scale_bounds
+        self.constant_value_bounds = constant_value_bounds
+        self.noise_level = noise_level
+        self.noise_level_bounds = noise_level_bounds
+        self.n_restarts = n_restarts
+        self.n_jobs = n_jobs
+        self.random_state = random_state
+
+    # ------------------------------------------------------------------ fitting
+    def _input_names(self, X: object) -> list[str]:
+        if self.inputs is not None:
+            names = [str(n) for n in self.inputs]
+        else:
+            names = column_names(X)
+            if names is None:
+                shape = np.shape(X)
+                if len(shape) != 2:
+                    raise ValueError(f"X must be 2-D (n_points, n_inputs), got shape {shape}")
+                names = [f"x{j}" for j in range(shape[1])]
+        if not names or len(set(names)) != len(names):
+            raise ValueError(f"input names must be non-empty and unique, got {names}")
+        return names
+
+    def _template_kernel(self, n_inputs: int) -> Kernel:
+        for name in ("length_scale_bounds", "constant_value_bounds", "noise_level_bounds"):
+            lo_hi = np.asarray(getattr(self, name), dtype=float)
+            if lo_hi.shape != (2,) or not np.all(np.isfinite(lo_hi)) or not 0 < lo_hi[0] < lo_hi[1]:
+                raise ValueError(f"{name} must be (low, high) with 0 < low < high, got {getattr(self, name)!r}")
+        noise = float(np.clip(self.noise_level, *self.noise_level_bounds))
+        return make_kernel(n_inputs, length_scale_bounds=self.length_scale_bounds,
+                           constant_value_bounds=self.constant_value_bounds,
+                           noise_level=noise, noise_level_bounds=self.noise_level_bounds)
+
+    def _starts(self, kernel: Kernel, rng: np.random.Generator) -> np.ndarray:
+        """Log-hyperparameters of the optimiser starts: the kernel's own, then random ones."""
+        d = kernel.n_dims - 2
+        lows = np.log([_START_CONSTANT[0]] + [_START_LENGTH_SCALE[0]] * d + [_START_NOISE[0]])
+        highs = np.log([_START_CONSTANT[1]] + [_START_LENGTH_SCALE[1]] * d + [_START_NOISE[1]])
+        bounds = kernel.bounds
+        lows = np.clip(lows, bounds[:, 0], bounds[:, 1])
+        highs = np.clip(highs, bounds[:, 0], bounds[:, 1])
+        random = rng.uniform(lows, highs, size=(self.n_restarts, kernel.n_dims))
+        return np.vstack([kernel.theta[None, :], random])
+
+    def fit(self, X: object, y: object) -> GPSurrogate:
+        """Fit the hyperparameters and condition the GP on the data.
+
+        Parameters
+        ----------
+        X : mapping, DataFrame, structured array or array_like of shape (n, d)
+            Training inputs in physical units.
+        y : array_like of shape (n,), or a mapping / DataFrame with column `output`
+            Training outputs in physical units.
+
+        Returns
+        -------
+        self
+
+        Raises
+        ------
+        ValueError
+            For NaN/inf values, mismatched shapes, unknown or missing columns,
+            invalid settings, or fewer than 3 points.
+        """
+        if not isinstance(self.n_restarts, (int, np.integer)) or self.n_restarts < 0:
+            raise ValueError(f"n_restarts must be an integer >= 0, got {self.n_restarts!r}")
+        names = self._input_names(X)
+        X = as_input_matrix(X, names)
+        y = as_output_vector(y, self.output, X.shape[0])
+        if X.shape[0] < _MIN_POINTS:
+            raise ValueError(f"need at least {_MIN_POINTS} training points, got {X.shape[0]}")
+        input_transform = InputTransform.fit(names, X, self.log_inputs, self.input_scaling, self.input_bounds)
+        output_transform = OutputTransform.fit(y, self.output_transform)
+        T, z = input_transform.transform(X), output_transform.transform(y)
+
+        template = self._template_kernel(len(names))
+        starts = self._starts(template, np.random.default_rng(self.random_state))
+        results = Parallel(n_jobs=self.n_jobs)(
+            delayed(_optimise_from)(template, theta0, T, z) for theta0 in starts)
+        lml = np.array([r[1] for r in results])
+        if not np.any(np.isfinite(lml)):
+            raise ValueError("the GP fit failed from every start (kernel matrix not positive definite); "
+                             "raise noise_level_bounds[0]")
+        best = int(np.argmax(lml))
+        for message in dict.fromkeys(results[best][2]):
+            warnings.warn(f"GP hyperparameter optimisation: {message}", ConvergenceWarning, stacklevel=2)
+        self._set_state(X, y, input_transform, output_transform, template.clone_with_theta(results[best][0]))
+        self.restart_log_marginal_likelihoods_ = lml
+        return self
+
+    def _set_state(self, X: np.ndarray, y: np.ndarray, input_transform: InputTransform,
+                   output_transform: OutputTransform, kernel: Kernel) -> None:
+        """Condition the GP with fixed hyperparameters (used by `fit` and by loading)."""
+        _, matern, _ = kernel_parts(kernel)
+        if np.size(matern.length_scale) not in (1, X.shape[1]):
+            raise ValueError(f"kernel has {np.size(matern.length_scale)} length scales for {X.shape[1]} inputs")
+        T, z = input_transform.transform(X), output_transform.transform(y)
+        K = kernel(T)
+        try:
+            L = cholesky(K, lower=True, check_finite=False)
+        except np.linalg.LinAlgError:
+            raise ValueError("the kernel matrix is not positive definite; raise noise_level_bounds[0]") from None
+        dual = cho_solve((L, True), z, check_finite=False)
+        self.input_names_ = list(input_transform.names)
+        self.n_features_in_ = len(self.input_names_)
+        self.X_train_, self.y_train_ = X, y
+        self.input_transform_, self.output_transform_ = input_transform, output_transform
+        self.kernel_ = kernel
+        self.X_gp_, self.cholesky_, self.dual_coef_ = T, L, dual
+        self.log_marginal_likelihood_value_ = float(
+            -0.5 * z @ dual - np.log(np.diag(L)).sum() - 0.5 * z.size * np.log(2.0 * np.pi))
+        self.at_bounds_ = self._hyperparameters_at_bounds()
+
+    def _hyperparameters_at_bounds(self) -> list[str]:
+        isotropic = np.size(kernel_parts(self.kernel_)[1].length_scale) == 1
+        lengths = ["length_scale"] if isotropic else [f"length_scale[{n}]" for n in self.input_names_]
+        labels = ["constant_value"] + lengths + ["noise_level"]
+        theta, bounds = self.kernel_.theta, self.kernel_.bounds
+        near = (np.abs(theta - bounds[:, 0]) < 1e-3) | (np.abs(theta - bounds[:, 1]) < 1e-3)
+        return [label for label, flag in zip(labels, near) if flag]
+
+    # -------------------------------------------------------------- prediction
+    @property
+    def length_scales_(self) -> dict[str, float]:
+        """Fitted Matern length scale of each input (GP coordinates)."""
+        check_is_fitted(self)
+        scales = np.broadcast_to(kernel_parts(self.kernel_)[1].length_scale, (self.n_features_in_,))
+        return {name: float(s) for name, s in zip(self.input_names_, scales)}
+
+    @property
+    def noise_variance_(self) -> float:
+        """Fitted white-noise variance (GP coordinates: standardised output)."""
+        check_is_fitted(self)
+        return float(kernel_parts(self.kernel_)[2].noise_level)
+
+    def _gp_inputs(self, X: object) -> tuple[np.ndarray, np.ndarray]:
+        """Physical and GP coordinates of the query points."""
+        check_is_fitted(self)
+        X = as_input_matrix(X, self.input_names_)
+        return X, self.input_transform_.transform(X)
+
+    def predict_gp(self, T: np.ndarray, noise: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """Posterior mean and std in GP coordinates at GP-coordinate points `T`.
+
+        Parameters
+        ----------
+        T : ndarray of shape (m, d)
+            Points in GP coordinates (``input_transform_.transform(X)``).
+        noise : bool, default False
+            Add the white-noise variance (predict a new noisy observation).
+        """
+        check_is_fitted(self)
+        Ks = self.kernel_(T, self.X_gp_)
+        mean = Ks @ self.dual_coef_
+        v = solve_triangular(self.cholesky_, Ks.T, lower=True, check_finite=False)
+        var = self.kernel_.k1.diag(T) - np.einsum("ij,ij->j", v, v)
+        var = np.maximum(var, 0.0)
+        if noise:
+            var = var + self.noise_variance_
+        return mean, np.sqrt(var)
+
+    def predict(self, X: object, return_std: bool = False, noise: bool = False
+                ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+        """Predict the output in physical units.
+
+        Parameters
+        ----------
+        X : mapping, DataFrame, structured array or array_like of shape (m, d)
+            Query points in physical units.
+        return_std : bool, default False
+            Also return the predictive standard deviation.
+        noise : bool, default False
+            Include the fitted white noise in the std (for comparison with new
+            noisy model runs); by default the std of the smooth function.
+
+        Returns
+        -------
+        mean : ndarray of shape (m,)
+            Posterior mean; with ``output_transform="log"`` the posterior median
+            ``exp(m)``.
+        std : ndarray of shape (m,)
+            Only with `return_std`: the GP std times ``|dy/dz|``, the Jacobian
+            of the output transform.
+        """
+        _, T = self._gp_inputs(X)
+        if not return_std:
+            return self.output_transform_.inverse(self.kernel_(T, self.X_gp_) @ self.dual_coef_)
+        mean, std = self.predict_gp(T, noise=noise)
+        return self.output_transform_.inverse(mean), self.output_transform_.derivative(mean) * std
+
+    def predict_interval(self, X: object, level: float = 0.9, noise: bool = False
+                         ) -> tuple[np.ndarray, np.ndarray]:
+        """Central predictive interval in physical units.
+
+        The Gaussian interval of the GP coordinate is mapped through the
+        (monotone) output transform, so it is exact for the log transform too.
+
+        Parameters
+        ----------
+        X : as in `predict`
+        level : float, default 0.9
+            Probability content, in (0, 1).
+        noise : bool, default False
+            Include the fitted white noise.
+
+        Returns
+        -------
+        lower, upper : ndarray of shape (m,)
+        """
+        if not 0.0 < level < 1.0:
+            raise ValueError(f"level must lie in (0, 1), got {level!r}")
+        _, T = self._gp_inputs(X)
+        mean, std = self.predict_gp(T, noise=noise)
+        q = norm.ppf(0.5 + 0.5 * level)
+        return self.output_transform_.inverse(mean - q * std), self.output_transform_.inverse(mean + q * std)
+
+    def predict_gradient(self, X: object) -> np.ndarray:
+        """Gradient of the predicted output with respect to the physical inputs.
+
+        Analytic derivative of the Matern 5/2 posterior mean,
+        ``dk/dt_d = -c (5/3) (1 + sqrt5 r) exp(-sqrt5 r) (t_d - t'_d) / l_d^2``,
+        chained with the input and output transforms.
+
+        Parameters
+        ----------
+        X : as in `predict`
+
+        Returns
+        -------
+        ndarray of shape (m, d)
+            ``d mean / d x`` in output units per input unit, columns in
+            `input_names_` order.
+        """
+        X, T = self._gp_inputs(X)
+        constant, matern, _ = kernel_parts(self.kernel_)
+        length = np.broadcast_to(np.asarray(matern.length_scale, dtype=float), (self.n_features_in_,))
+        diff = T[:, None, :] - self.X_gp_[None, :, :]
+        r = np.sqrt(np.sum((diff / length) ** 2, axis=2))
+        s5r = np.sqrt(5.0) * r
+        factor = -constant.constant_value * (5.0 / 3.0) * (1.0 + s5r) * np.exp(-s5r)
+        dmean_dt = np.einsum("mn,mnd,n->md", factor, diff / length**2, self.dual_coef_)
+        mean = self.kernel_(T, self.X_gp_) @ self.dual_coef_
+        dmean_dx = dmean_dt * self.input_transform_.derivative(X)
+        return self.output_transform_.derivative(mean)[:, None] * dmean_dx

@@ -1,0 +1,189 @@
+"""Save and load a fitted `GPSurrogate` as arrays + JSON (no pickle).
+
+A surrogate saved under the base path ``p`` is two files:
+
+``p.npz``
+    The training data in physical units: ``X_train`` (n, d) and ``y_train`` (n,).
+``p.json``
+    Format name and version, the package versions, the estimator settings,
+    the input/output transforms, the kernel as a tree of known kernel types
+    with its fitted hyperparameters, and the log marginal likelihood.
+
+Loading reads the arrays with ``allow_pickle=False``, rebuilds the kernel from
+its JSON description (`filmcal.surrogate.kernels.kernel_from_dict`: known types
+only, no code is evaluated) and conditions the GP on the stored data with the
+stored hyperparameters, which reproduces the predictions of the saved object.
+The recomputed log marginal likelihood is checked against the stored one.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import sklearn
+from sklearn.utils.validation import check_is_fitted
+
+import filmcal
+from filmcal.surrogate.gp import GPSurrogate
+from filmcal.surrogate.kernels import kernel_from_dict, kernel_to_dict
+from filmcal.surrogate.transforms import InputTransform, OutputTransform
+
+__all__ = ["FORMAT", "FORMAT_VERSION", "save_surrogate", "load_surrogate"]
+
+FORMAT = "filmcal-gp-surrogate"
+FORMAT_VERSION = 1
+_PARAMS = tuple(GPSurrogate().get_params())
+
+
+def _base(path: str | Path) -> Path:
+    path = Path(path)
+    return path.with_suffix("") if path.suffix in (".json", ".npz") else path
+
+
+def _json_params(surrogate: GPSurrogate) -> dict:
+    """Estimator settings as plain JSON values (a Generator seed is not saved)."""
+    p = surrogate.get_params()
+    seed = p["random_state"]
+    return {
+        "inputs": None if p["inputs"] is None else [str(n) for n in p["inputs"]],
+        "output": str(p["output"]),
+        "log_inputs": [str(n) for n in p["log_inputs"]],
+        "input_scaling": str(p["input_scaling"]),
+        "input_bounds": None if p["input_bounds"] is None else
+        {str(k): [float(v) for v in lo_hi] for k, lo_hi in p["input_bounds"].items()},
+        "output_transform": str(p["output_transform"]),
+        "length_scale_bounds": [float(v) for v in p["length_scale_bounds"]],
+        "constant_value_bounds": [float(v) for v in p["constant_value_bounds"]],
+        "noise_level": float(p["noise_level"]),
+        "noise_level_bounds": [float(v) for v in p["noise_level_bounds"]],
+        "n_restarts": int(p["n_restarts"]),
+        "n_jobs": None if p["n_jobs"] is None else int(p["n_jobs"]),
+        "random_state": int(seed) if isinstance(seed, (int, np.integer)) else None,
+    }
+
+
+def _tuples(params: dict) -> dict:
+    """JSON lists back to the tuples the settings are given as."""
+    out = dict(params)
+    for key in ("inputs", "log_inputs", "length_scale_bounds", "constant_value_bounds", "noise_level_bounds"):
+        if isinstance(out.get(key), list):
+            out[key] = tuple(out[key])
+    if isinstance(out.get("input_bounds"), dict):
+        out["input_bounds"] = {k: tuple(v) if isinstance(v, list) else v for k, v in out["input_bounds"].items()}
+    return out
+
+
+def save_surrogate(surrogate: GPSurrogate, path: str | Path) -> tuple[Path, Path]:
+    """Write a fitted surrogate to ``<path>.json`` and ``<path>.npz``.
+
+    Parameters
+    ----------
+    surrogate : GPSurrogate
+        A fitted surrogate.
+    path : str or Path
+        Base path; a ``.json`` or ``.npz`` suffix is replaced.
+
+    Returns
+    -------
+    (json_path, npz_path) : tuple of Path
+    """
+    check_is_fitted(surrogate)
+    base = _base(path)
+    json_path, npz_path = base.with_name(base.name + ".json"), base.with_name(base.name + ".npz")
+    restarts = getattr(surrogate, "restart_log_marginal_likelihoods_", np.array([]))
+    meta = {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "filmcal_version": filmcal.__version__,
+        "sklearn_version": sklearn.__version__,
+        "numpy_version": np.__version__,
+        "arrays": npz_path.name,
+        "params": _json_params(surrogate),
+        "input_names": list(surrogate.input_names_),
+        "output": surrogate.output,
+        "n_train": int(surrogate.y_train_.size),
+        "input_transform": surrogate.input_transform_.to_dict(),
+        "output_transform": surrogate.output_transform_.to_dict(),
+        "kernel": kernel_to_dict(surrogate.kernel_),
+        "log_marginal_likelihood": surrogate.log_marginal_likelihood_value_,
+        "restart_log_marginal_likelihoods": [float(v) if math.isfinite(v) else None for v in restarts],
+    }
+    json_path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez(npz_path, X_train=np.asarray(surrogate.X_train_, dtype=np.float64),
+             y_train=np.asarray(surrogate.y_train_, dtype=np.float64))
+    json_path.write_text(json.dumps(meta, indent=2, allow_nan=False) + "\n", encoding="utf-8")
+    return json_path, npz_path
+
+
+def _read_arrays(npz_path: Path, n_inputs: int, n_train: int) -> tuple[np.ndarray, np.ndarray]:
+    with np.load(npz_path, allow_pickle=False) as arrays:
+        if set(arrays.files) != {"X_train", "y_train"}:
+            raise ValueError(f"{npz_path}: expected arrays X_train, y_train; found {sorted(arrays.files)}")
+        X, y = arrays["X_train"], arrays["y_train"]
+    if X.dtype != np.float64 or y.dtype != np.float64 or X.shape != (n_train, n_inputs) or y.shape != (n_train,):
+        raise ValueError(f"{npz_path}: arrays do not match the JSON description "
+                         f"(X_train {X.dtype} {X.shape}, y_train {y.dtype} {y.shape})")
+    if not (np.all(np.isfinite(X)) and np.all(np.isfinite(y))):
+        raise ValueError(f"{npz_path}: training data must be finite")
+    return X, y
+
+
+def load_surrogate(path: str | Path) -> GPSurrogate:
+    """Load a surrogate written by `save_surrogate`.
+
+    Parameters
+    ----------
+    path : str or Path
+        Base path, or the ``.json`` / ``.npz`` file of the pair.
+
+    Returns
+    -------
+    GPSurrogate
+        A fitted surrogate whose predictions equal those of the saved one.
+
+    Raises
+    ------
+    FileNotFoundError
+        If a file of the pair is missing.
+    ValueError
+        If the files are not a valid surrogate of this format version.
+    """
+    base = _base(path)
+    json_path = base.with_name(base.name + ".json")
+    try:
+        meta = json.loads(json_path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{json_path}: not valid JSON ({exc})") from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise ValueError(f"{json_path}: not a {FORMAT} file")
+    if meta.get("format_version") != FORMAT_VERSION:
+        raise ValueError(f"{json_path}: format version {meta.get('format_version')!r} is not supported "
+                         f"(this is version {FORMAT_VERSION})")
+    try:
+        arrays_name = str(meta["arrays"])
+        params = dict(meta["params"])
+        input_transform = InputTransform.from_dict(meta["input_transform"])
+        output_transform = OutputTransform.from_dict(meta["output_transform"])
+        kernel = kernel_from_dict(meta["kernel"])
+        n_train = int(meta["n_train"])
+        stored_lml = float(meta["log_marginal_likelihood"])
+        restarts = np.array([-np.inf if v is None else float(v) for v in meta["restart_log_marginal_likelihoods"]])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"{json_path}: missing or invalid entry ({exc})") from None
+    if Path(arrays_name).name != arrays_name:
+        raise ValueError(f"{json_path}: 'arrays' must be a file name next to the JSON, got {arrays_name!r}")
+    unknown = set(params) - set(_PARAMS)
+    if unknown:
+        raise ValueError(f"{json_path}: unknown setting(s) {sorted(unknown)}")
+    surrogate = GPSurrogate(**_tuples(params))
+    if surrogate.output != meta.get("output") or list(input_transform.names) != meta.get("input_names"):
+        raise ValueError(f"{json_path}: input/output names are inconsistent")
+    X, y = _read_arrays(json_path.with_name(arrays_name), len(input_transform.names), n_train)
+    surrogate._set_state(X, y, input_transform, output_transform, kernel)
+    surrogate.restart_log_marginal_likelihoods_ = restarts
+    if not math.isclose(surrogate.log_marginal_likelihood_value_, stored_lml, rel_tol=1e-8, abs_tol=1e-8):
+        raise ValueError(f"{json_path}: the stored data and hyperparameters do not reproduce the saved "
+                         f"log marginal likelihood ({surrogate.log_marginal_likelihood_value_!r} != {stored_lml!r})")
+    return surrogate

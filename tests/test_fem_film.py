@@ -1,0 +1,110 @@
+"""The FE model with film: a second method, mesh convergence, interfaces, kinematics."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from filmcal.fem import ContactOptions, Film, MeshSettings, SphereOnFlat, read_contact_radius, thin_layer_contact
+
+
+@pytest.mark.parametrize("modulus_mpa", [500.0, 1000.0, 2800.0, 5000.0, 10000.0])
+def test_tied_film_matches_thin_layer_model(model450, modulus_mpa):
+    """Film tied to the flat and frictionless at the sphere behaves like springs M/t in
+    series with the steel half-spaces (an independent boundary-element model)."""
+    fe = model450.solve(Film(modulus_mpa, 0.33), 75e3)
+    thin = thin_layer_contact(450.0, 75e3, modulus_mpa, 0.33, 0.09)
+    thin_a = read_contact_radius(thin.r_mm, thin.pressure_mpa, thin.pressure_mpa > 0)
+    assert fe.converged and thin.converged
+    assert abs(fe.contact_radius_mm - thin_a) <= 0.02
+
+
+def test_mesh_convergence_with_film():
+    radii = {}
+    for h in (0.2, 0.1, 0.05):
+        res = SphereOnFlat(450.0, MeshSettings(element_size_mm=h)).solve(Film(2800.0, 0.33), 75e3)
+        assert res.converged, res.reason
+        radii[h] = res.contact_radius_mm
+    assert abs(radii[0.1] - radii[0.05]) <= 0.005
+    assert abs(radii[0.1] - radii[0.05]) <= abs(radii[0.2] - radii[0.1]) + 0.005
+
+
+def test_film_enlarges_radius_monotonically_with_compliance(model450):
+    radii = [model450.solve(Film(e, 0.33), 50e3).contact_radius_mm for e in (500, 1000, 2800, 10000)]
+    hertz = model450.solve(None, 50e3).contact_radius_mm
+    assert all(a > b for a, b in zip(radii, radii[1:]))
+    assert radii[-1] > hertz
+
+
+def test_small_strain_depends_on_oedometric_modulus_only(model450):
+    """With the film held laterally, (E, nu) pairs of equal M give nearly the same radius."""
+    e1, nu1 = 2800.0, 0.33
+    m = Film(e1, nu1).oedometric_modulus_mpa
+    nu2 = 0.2
+    e2 = m * (1 + nu2) * (1 - 2 * nu2) / (1 - nu2)
+    a1 = model450.solve(Film(e1, nu1), 75e3).contact_radius_mm
+    a2 = model450.solve(Film(e2, nu2), 75e3).contact_radius_mm
+    assert abs(a1 - a2) < 0.01
+
+
+def test_flat_friction_lies_between_frictionless_and_tied(model450):
+    film = Film(2800.0, 0.33)
+    free = model450.solve(film, 75e3, ContactOptions(flat_contact="frictionless"))
+    fric = model450.solve(film, 75e3, ContactOptions(flat_contact="friction", friction_coefficient=0.1))
+    tied = model450.solve(film, 75e3, ContactOptions(flat_contact="tied"))
+    assert free.converged and fric.converged and tied.converged
+    assert tied.contact_radius_mm < fric.contact_radius_mm < free.contact_radius_mm
+    # loaded in one step, a very large coefficient sticks everywhere: the tied answer (in load
+    # increments, film outside the early contact is unloaded and may slide before it sticks)
+    stuck = model450.solve(film, 75e3, ContactOptions(flat_contact="friction", friction_coefficient=5.0,
+                                                      load_steps=1))
+    assert stuck.converged, stuck.reason
+    assert stuck.contact_radius_mm == pytest.approx(tied.contact_radius_mm, abs=2e-3)
+
+
+def test_zero_friction_equals_frictionless(model450):
+    film = Film(2800.0, 0.33)
+    a = model450.solve(film, 50e3, ContactOptions(sphere_contact="friction", flat_contact="friction",
+                                                  friction_coefficient=0.0)).contact_radius_mm
+    b = model450.solve(film, 50e3, ContactOptions(sphere_contact="frictionless",
+                                                  flat_contact="frictionless")).contact_radius_mm
+    assert a == pytest.approx(b, abs=1e-6)
+
+
+def test_paper_friction_configuration_converges(model450):
+    res = model450.solve(Film(2800.0, 0.33), 75e3, ContactOptions(sphere_contact="friction",
+                                                                  flat_contact="friction"))
+    assert res.converged, res.reason
+    assert np.sum(res.pressure_mpa * model450.face_area_mm2) == pytest.approx(75e3, rel=1e-9)
+
+
+def test_large_strain_tends_to_small_strain_for_small_strains(model450):
+    """Neo-Hookean reduces to linear elasticity as strains vanish: a stiff film at low load."""
+    film = Film(50000.0, 0.33)
+    small = model450.solve(film, 20e3)
+    large = model450.solve(film, 20e3, ContactOptions(large_strain=True, load_steps=2))
+    assert large.converged, large.reason
+    assert small.film_strain_max < 0.02
+    assert large.contact_radius_mm == pytest.approx(small.contact_radius_mm, abs=2e-3)
+
+
+def test_large_strain_film_is_stiffer_in_compression(model450):
+    """A compressible neo-Hookean film stiffens in compression: smaller radius at 20 % strain."""
+    film = Film(2800.0, 0.33)
+    small = model450.solve(film, 75e3)
+    large = model450.solve(film, 75e3, ContactOptions(large_strain=True))
+    assert large.converged, large.reason
+    assert large.contact_radius_mm < small.contact_radius_mm
+    assert large.film_strain_max < small.film_strain_max
+
+
+def test_soft_film_fails_with_reason_not_exception(model450):
+    res = model450.solve(Film(20.0, 0.33), 75e3)
+    assert not res.converged
+    assert "collapse" in res.reason
+
+
+def test_imprint_radius_inside_contact(model450):
+    res = model450.solve(Film(2800.0, 0.33), 75e3, activation_pressure_mpa=50.0)
+    assert 0 < res.imprint_radius_mm < res.contact_radius_mm
+    k = np.searchsorted(res.r_mm, res.imprint_radius_mm)
+    assert res.pressure_mpa[k - 1] >= 50.0 >= res.pressure_mpa[k]
