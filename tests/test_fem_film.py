@@ -108,3 +108,15 @@ def test_imprint_radius_inside_contact(model450):
     assert 0 < res.imprint_radius_mm < res.contact_radius_mm
     k = np.searchsorted(res.r_mm, res.imprint_radius_mm)
     assert res.pressure_mpa[k - 1] >= 50.0 >= res.pressure_mpa[k]
+
+
+def test_radius_error_depends_on_force_times_radius():
+    """Linear scaling law: R -> lambda R, F -> F / lambda leaves the Hertz radius,
+    and (pressure, gap, film compression, body displacements) all scale by 1/lambda,
+    so the film's radius error depends on F R alone (DESIGN.md; Table 1 repeats it)."""
+    from filmcal.fem import get_model
+    film = Film(2800.0, 0.33)
+    a = get_model(300.0).solve(film, 50e3)
+    b = get_model(600.0).solve(film, 25e3)
+    assert a.converged and b.converged
+    assert a.radius_error_mm == pytest.approx(b.radius_error_mm, abs=3e-3)
