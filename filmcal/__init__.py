@@ -4,9 +4,40 @@ with film, with their uncertainty.
 
 Units inside the package: millimetre, newton, megapascal (N/mm^2). Names carry
 their unit where a number has one (``radius_mm``, ``force_n``, ``modulus_mpa``).
+
+The public API is re-exported here and imported on first use, so that
+``import filmcal`` (and the command line's start-up) stays fast.
 """
 from __future__ import annotations
 
+import importlib
+
 __version__ = "0.1.0"
 
-__all__ = ["__version__"]
+_EXPORTS = {
+    "filmcal.fem": ["SphereOnFlat", "Film", "ContactOptions", "MeshSettings", "FEResult", "get_model",
+                    "solve_sphere_on_flat", "solve_many", "evaluate_point", "hertz_radius_mm",
+                    "hertz_max_pressure_mpa", "oedometric_modulus_mpa", "thin_layer_contact"],
+    "filmcal.doe": ["Parameter", "DesignSpace", "OptimalLatinHypercube", "latin_design", "augment_design",
+                    "design_quality", "read_design_csv", "write_design_csv"],
+    "filmcal.surrogate": ["GPSurrogate", "validate", "leave_one_out", "refine", "save_surrogate",
+                          "load_surrogate"],
+    "filmcal.calibration.data": ["load_table1", "RadiusErrorData"],
+    "filmcal.wheelrail.profiles": ["get_profile", "load_profile_csv"],
+    "filmcal.wheelrail.placement": ["place_wheel_on_rail"],
+}
+_WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
+
+__all__ = ["__version__", *sorted(_WHERE)]
+
+
+def __getattr__(name: str):
+    if name in _WHERE:
+        value = getattr(importlib.import_module(_WHERE[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'filmcal' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return list(__all__)
