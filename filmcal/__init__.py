@@ -22,6 +22,8 @@ _EXPORTS = {
                     "design_quality", "read_design_csv", "write_design_csv"],
     "filmcal.surrogate": ["GPSurrogate", "validate", "leave_one_out", "refine", "save_surrogate",
                           "load_surrogate"],
+    "filmcal.campaign": ["Campaign", "CampaignSummary", "RunStore", "LocalPoolExecutor", "DaskExecutor",
+                         "SerialExecutor"],
     "filmcal.calibration.data": ["load_table1", "RadiusErrorData"],
     "filmcal.wheelrail.profiles": ["get_profile", "load_profile_csv"],
     "filmcal.wheelrail.placement": ["place_wheel_on_rail"],

@@ -1,0 +1,229 @@
+"""`filmcal campaign`: run a design through the FE model into an SQLite store.
+
+``run`` evaluates every design point that has no finished run yet (a second
+``run`` resumes an interrupted one), ``status`` counts the runs, ``export``
+writes them to CSV.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import math
+import os
+import re
+from typing import Any, Callable
+
+from filmcal._validation import check_choice, check_poisson, check_positive, check_range
+from filmcal.commands._common import print_json
+
+DEFAULT_MODEL = "filmcal.fem:evaluate_point"
+REQUIRED_COLUMNS = ("modulus_mpa", "poisson", "radius_mm", "force_kn")
+CONTACT_CHOICES = ("frictionless", "tied", "friction")
+_MODEL_SPEC = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")
+
+
+def _contact(name: str, value: Any) -> str:
+    return check_choice(name, str(value), CONTACT_CHOICES)
+
+
+def _flag(name: str, value: Any) -> bool:
+    if isinstance(value, bool):
+        return value
+    if value in (0.0, 1.0):
+        return bool(value)
+    raise ValueError(f"{name} must be true or false, got {value!r}")
+
+
+def _friction(name: str, value: Any) -> float:
+    return check_range(name, value, 0.0, float("inf"), low_open=False)
+
+
+# Design columns of the FE model and how each is checked; the values go to
+# `evaluate_point` unchanged (forces stay in kN, as in the design).
+COLUMN_CHECKS: dict[str, Callable[[str, Any], Any]] = {
+    "modulus_mpa": check_positive,
+    "poisson": check_poisson,
+    "radius_mm": check_positive,
+    "force_kn": check_positive,
+    "sphere_contact": _contact,
+    "flat_contact": _contact,
+    "friction_coefficient": _friction,
+    "large_strain": _flag,
+    "element_size_mm": check_positive,
+    "no_film": _flag,
+    "film_thickness_mm": check_positive,
+    "activation_pressure_mpa": check_positive,
+}
+# The FE model builds its meshes once per (radius, element size, film
+# thickness) in each worker: submit points sorted by these.
+FE_SETUP_COLUMNS = ("radius_mm", "element_size_mm", "film_thickness_mm")
+
+
+def check_fe_design(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Check design points against the FE model's columns; return them with checked values.
+
+    Raises
+    ------
+    ValueError
+        A required column is missing, a column is unknown, or a value is out
+        of range or of the wrong kind (the message names the column and row).
+    """
+    columns = dict.fromkeys(name for point in points for name in point)
+    unknown = [name for name in columns if name not in COLUMN_CHECKS]
+    if unknown:
+        raise ValueError(f"unknown design column(s) {', '.join(unknown)}; allowed: {', '.join(COLUMN_CHECKS)}")
+    checked = []
+    for row, point in enumerate(points, start=1):
+        missing = [name for name in REQUIRED_COLUMNS if name not in point]
+        if missing:
+            raise ValueError(f"design row {row} lacks column(s) {', '.join(missing)} "
+                             f"(required: {', '.join(REQUIRED_COLUMNS)})")
+        try:
+            checked.append({name: COLUMN_CHECKS[name](name, value) for name, value in point.items()})
+        except ValueError as exc:
+            raise ValueError(f"{exc} (design row {row})") from None
+    return checked
+
+
+def import_model(spec: str) -> Callable[[dict], dict]:
+    """Import the model ``module:function`` by name (nothing is read from data files)."""
+    if not _MODEL_SPEC.match(spec):
+        raise ValueError(f"model must be given as MODULE:FUNCTION, got {spec!r}")
+    module_name, function_name = spec.split(":")
+    try:
+        model = getattr(importlib.import_module(module_name), function_name)
+    except (ImportError, AttributeError) as exc:
+        raise ValueError(f"cannot import the model {spec}: {exc}") from None
+    if not callable(model):
+        raise ValueError(f"model {spec} is not callable")
+    return model
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {value}")
+    return value
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number > 0, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
+    return value
+
+
+def _run(args: argparse.Namespace) -> int:
+    from filmcal.campaign import Campaign, DaskExecutor, LocalPoolExecutor, read_design_csv
+
+    points = check_fe_design(read_design_csv(args.design))
+    model = import_model(args.model)
+    if args.dask:
+        executor = DaskExecutor(args.dask)
+    else:
+        executor = LocalPoolExecutor(args.workers or os.cpu_count() or 1)
+    with executor:
+        campaign = Campaign(model, args.store, executor=executor, group_by=FE_SETUP_COLUMNS, model_name=args.model)
+        summary = campaign.run(points, retry_failed=args.retry_failed, timeout_s=args.timeout_s,
+                               progress=not args.no_progress)
+    if args.json:
+        print_json({"store": str(args.store), "settings_hash": campaign.settings_hash, **summary.as_dict()})
+    else:
+        counts = summary.counts
+        print(f"{summary.n_points} points: {counts.ok} ok, {counts.failed} failed, {counts.pending} pending "
+              f"(ran {summary.n_run} in {summary.elapsed_s:.1f} s, {summary.n_skipped} already done) "
+              f"-> {args.store}")
+    return 0
+
+
+def _status(args: argparse.Namespace) -> int:
+    from filmcal.campaign import RunStore
+
+    with RunStore(args.store, create=False) as store:
+        counts = store.counts()
+    if args.json:
+        print_json(counts.as_dict())
+    else:
+        print(f"{args.store}: {counts.ok} ok, {counts.failed} failed, {counts.pending} pending "
+              f"({counts.total} total)")
+    return 0
+
+
+def _export(args: argparse.Namespace) -> int:
+    from filmcal.campaign import RunStore
+
+    with RunStore(args.store, create=False) as store:
+        n_rows = store.export_csv(args.out)
+    if args.json:
+        print_json({"out": str(args.out), "rows": n_rows})
+    else:
+        print(f"wrote {n_rows} runs to {args.out}")
+    return 0
+
+
+ACTIONS = {"run": _run, "status": _status, "export": _export}
+
+
+def run(args: argparse.Namespace) -> int:
+    """Carry out the chosen campaign action; return the exit status."""
+    return ACTIONS[args.action](args)
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Register ``filmcal campaign`` and its actions run, status and export."""
+    parser = subparsers.add_parser(
+        "campaign",
+        help="run a design through the FE model into an SQLite store (resumable)",
+        description="Evaluate a design (CSV: modulus_mpa, poisson, radius_mm, force_kn, plus optional FE "
+                    "options) with the FE model, in parallel, storing one row per point in SQLite. "
+                    "Running again resumes: finished points are not recomputed.",
+    )
+    actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
+
+    run_parser = actions.add_parser(
+        "run", help="evaluate the design points that have no finished run yet",
+        description="Evaluate every design point without a finished run in the store. Design columns: "
+                    f"{', '.join(REQUIRED_COLUMNS)} (required; force in kN); optional "
+                    f"{', '.join(name for name in COLUMN_CHECKS if name not in REQUIRED_COLUMNS)}. "
+                    "A point whose model raises, does not converge, returns NaN or runs past --timeout-s "
+                    "is stored as failed with its reason.",
+    )
+    run_parser.add_argument("--design", required=True, help="design CSV file (e.g. from `filmcal doe --out`)")
+    run_parser.add_argument("--store", required=True, help="SQLite store of the runs (created if missing)")
+    where = run_parser.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=_positive_int, metavar="N",
+                       help="number of local worker processes (default: number of CPUs)")
+    where.add_argument("--dask", metavar="ADDRESS",
+                       help="run on a Dask distributed cluster, given its scheduler address (tcp://host:8786)")
+    run_parser.add_argument("--timeout-s", type=_positive_float, metavar="T",
+                            help="deadline of each point in seconds; a point past it fails with 'timeout after T s'")
+    run_parser.add_argument("--retry-failed", action="store_true", help="evaluate again the points that failed")
+    run_parser.add_argument("--model", default=DEFAULT_MODEL, metavar="MODULE:FUNCTION",
+                            help=f"model to evaluate, imported by name (default: {DEFAULT_MODEL})")
+    run_parser.add_argument("--no-progress", action="store_true", help="do not show a progress bar")
+    run_parser.add_argument("--json", action="store_true", help="print the run summary as one JSON object")
+
+    status_parser = actions.add_parser(
+        "status", help="count the ok, failed and pending runs of a store",
+        description="Count the runs of a store by status (ok, failed, pending) and in total.",
+    )
+    status_parser.add_argument("--store", required=True, help="SQLite store of the runs")
+    status_parser.add_argument("--json", action="store_true", help="print the counts as one JSON object")
+
+    export_parser = actions.add_parser(
+        "export", help="write the runs of a store to CSV",
+        description="Write one CSV row per run: point_id, inputs, outputs, status, reason, elapsed_s, "
+                    "attempts, settings_hash, package_version, created_at, finished_at.",
+    )
+    export_parser.add_argument("--store", required=True, help="SQLite store of the runs")
+    export_parser.add_argument("--out", required=True, help="CSV file to write")
+    export_parser.add_argument("--json", action="store_true", help="print the file name and row count as JSON")
+
+    parser.set_defaults(func=run)
+    return parser
