@@ -1,0 +1,229 @@
+"""Studies that compose the stages: FE designs -> campaigns -> surrogates.
+
+No science of its own lives here: the FE model (`filmcal.fem`), the designs
+(`filmcal.doe`), the campaign store (`filmcal.campaign`) and the surrogates
+(`filmcal.surrogate`) are wired together so that a calibration can see the FE
+model as a validated surrogate (`SurrogateRadiusModel`) or directly
+(`FERadiusModel`, FE in the loop).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from filmcal.campaign import Campaign, LocalPoolExecutor
+from filmcal.doe import DesignSpace, Parameter, latin_design
+from filmcal.fem import ContactOptions, Film, evaluate_point, get_model, hertz_radius_mm
+from filmcal.surrogate import GPSurrogate, load_surrogate, save_surrogate, validate
+
+__all__ = ["SurrogateDomain", "SurrogateValidation", "fe_design_points", "run_fe_points",
+           "fit_radius_surrogate", "validate_radius_surrogate", "build_radius_surrogate",
+           "SurrogateRadiusModel", "FERadiusModel", "INPUTS"]
+
+INPUTS = ("modulus_mpa", "poisson", "radius_mm", "force_kn")
+LOG_INPUTS = ("modulus_mpa", "radius_mm", "force_kn")
+
+
+@dataclass(frozen=True)
+class SurrogateDomain:
+    """The domain over which a radius surrogate is trained and validated.
+
+    The default covers Table 1's experiments (R 300-600 mm, F 25-100 kN) with
+    margins, film moduli from 400 MPa (softer films collapse at 100 kN) to
+    20000 MPa and Poisson's ratios 0.29-0.37 (thin PET films, the paper's
+    range). Sphere radii are discrete levels: each needs its own FE model.
+    """
+
+    modulus_mpa: tuple[float, float] = (400.0, 20000.0)
+    poisson: tuple[float, float] = (0.29, 0.37)
+    radius_levels_mm: tuple[float, ...] = (300.0, 375.0, 450.0, 525.0, 600.0)
+    force_kn: tuple[float, float] = (20.0, 110.0)
+
+    def space(self) -> DesignSpace:
+        return DesignSpace((Parameter("modulus_mpa", *self.modulus_mpa, unit="MPa", scale="log"),
+                            Parameter("poisson", *self.poisson),
+                            Parameter("radius_mm", levels=tuple(self.radius_levels_mm), unit="mm"),
+                            Parameter("force_kn", *self.force_kn, unit="kN")))
+
+    def bounds(self) -> dict[str, tuple[float, float]]:
+        return {"modulus_mpa": self.modulus_mpa, "poisson": self.poisson,
+                "radius_mm": (min(self.radius_levels_mm), max(self.radius_levels_mm)),
+                "force_kn": self.force_kn}
+
+    def contains(self, modulus_mpa, poisson, radius_mm, force_kn) -> np.ndarray:
+        """Elementwise: inside the domain (radius within the levels' span)."""
+        b = self.bounds()
+        inside = np.ones(np.broadcast(modulus_mpa, poisson, radius_mm, force_kn).shape, bool)
+        for name, x in zip(INPUTS, (modulus_mpa, poisson, radius_mm, force_kn)):
+            lo, hi = b[name]
+            inside &= (np.asarray(x) >= lo * (1 - 1e-12)) & (np.asarray(x) <= hi * (1 + 1e-12))
+        return inside
+
+
+def _option_columns(options: ContactOptions) -> dict:
+    return {"sphere_contact": options.sphere_contact, "flat_contact": options.flat_contact,
+            "friction_coefficient": options.friction_coefficient, "large_strain": options.large_strain}
+
+
+def fe_design_points(domain: SurrogateDomain, samples: int, seed: int,
+                     options: ContactOptions | None = None) -> list[dict]:
+    """An optimal Latin hypercube over the domain as FE campaign points."""
+    design = latin_design(domain.space(), samples, seed=seed)
+    cols = _option_columns(options or ContactOptions())
+    return [dict(zip(INPUTS, map(float, row)), **cols) for row in design.points]
+
+
+def run_fe_points(points: list[dict], store_path: str | Path, workers: int | None = None,
+                  progress: bool = True):
+    """Run FE points as a resumable campaign; return the stored results of these points."""
+    executor = LocalPoolExecutor(workers)
+    try:
+        campaign = Campaign(evaluate_point, store_path, model_name="filmcal.fem:evaluate_point", executor=executor)
+        campaign.run(points, progress=progress)
+    finally:
+        executor.shutdown()
+    results = campaign.results(status=None)
+    return _select(results, points)
+
+
+def _select(results, points: list[dict]):
+    """Rows of `results` matching `points` (inputs and options), in the points' order."""
+    keys = {}
+    for i in range(len(results.status)):
+        k = tuple(round(float(results.inputs[n][i]), 9) for n in INPUTS)
+        k += tuple(str(results.inputs.get(o, [""] * len(results.status))[i]) for o in ("sphere_contact", "flat_contact", "large_strain"))
+        keys[k] = i
+    rows = []
+    for p in points:
+        k = tuple(round(float(p[n]), 9) for n in INPUTS) + tuple(str(p[o]) for o in ("sphere_contact", "flat_contact", "large_strain"))
+        rows.append(keys.get(k, -1))
+    rows = np.asarray(rows)
+    found = rows >= 0
+    X = {n: np.array([p[n] for p in points])[found] for n in INPUTS}
+    ok = np.zeros(found.sum(), bool)
+    radius = np.full(found.sum(), np.nan)
+    idx = rows[found]
+    ok[:] = results.status[idx] == "ok"
+    radius[:] = np.asarray(results.outputs["contact_radius_mm"], dtype=float)[idx]
+    return X, radius, ok
+
+
+def _excess(X: dict, radius: np.ndarray) -> np.ndarray:
+    return radius - hertz_radius_mm(X["radius_mm"], X["force_kn"] * 1e3)
+
+
+def fit_radius_surrogate(X: dict, radius_mm: np.ndarray, domain: SurrogateDomain, seed: int = 0,
+                         n_restarts: int = 8) -> GPSurrogate:
+    """GP of the film's radius excess over Hertz, log output, over (log E, nu, log R, log F)."""
+    return GPSurrogate(list(INPUTS), output="radius_excess_mm", log_inputs=list(LOG_INPUTS),
+                       output_transform="log", input_bounds=domain.bounds(), n_restarts=n_restarts,
+                       random_state=seed).fit(X, _excess(X, radius_mm))
+
+
+@dataclass
+class SurrogateValidation:
+    """Held-out accuracy of a radius surrogate, in radius and in area."""
+
+    n: int
+    radius_rms_error_mm: float
+    radius_max_error_mm: float
+    area_rms_relative_error: float
+    area_max_relative_error: float
+    coverage90: float
+    q2: float
+    details: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {k: v for k, v in self.__dict__.items() if k != "details"}
+
+
+def validate_radius_surrogate(surrogate: GPSurrogate, X: dict, radius_mm: np.ndarray) -> SurrogateValidation:
+    """Accuracy on held-out FE runs; intervals include the fitted FE noise (a new FE run's jitter)."""
+    v = validate(surrogate, X, _excess(X, radius_mm), noise=True)
+    mean = surrogate.predict(X) + hertz_radius_mm(X["radius_mm"], X["force_kn"] * 1e3)
+    area_rel = (mean / radius_mm) ** 2 - 1.0
+    err = mean - radius_mm
+    return SurrogateValidation(int(len(radius_mm)), float(np.sqrt(np.mean(err**2))), float(np.max(np.abs(err))),
+                               float(np.sqrt(np.mean(area_rel**2))), float(np.max(np.abs(area_rel))),
+                               float(v.coverage90), float(v.q2), {"excess": v.__dict__})
+
+
+def build_radius_surrogate(study_dir: str | Path, options: ContactOptions | None = None,
+                           domain: SurrogateDomain | None = None, n_train: int = 200, n_test: int = 100,
+                           seed: int = 0, workers: int | None = None, progress: bool = True,
+                           tag: str | None = None) -> tuple[GPSurrogate, SurrogateValidation]:
+    """Train (and validate on held-out runs) the radius surrogate for one set of FE options.
+
+    FE runs go to ``study_dir/runs.sqlite`` (resumable); the surrogate is saved
+    as ``study_dir/surrogate-<tag>.npz/.json`` and reused when present.
+    """
+    options = options or ContactOptions()
+    domain = domain or SurrogateDomain()
+    study_dir = Path(study_dir)
+    study_dir.mkdir(parents=True, exist_ok=True)
+    tag = tag or _tag(options)
+    train = fe_design_points(domain, n_train, seed, options)
+    test = fe_design_points(domain, n_test, seed + 1000, options)
+    X, radius, ok = run_fe_points(train + test, study_dir / "runs.sqlite", workers, progress)
+    n_tr = len(train)
+    Xtr = {k: v[:n_tr][ok[:n_tr]] for k, v in X.items()}
+    Xte = {k: v[n_tr:][ok[n_tr:]] for k, v in X.items()}
+    path = study_dir / f"surrogate-{tag}"
+    if path.with_suffix(".json").exists():
+        surrogate = load_surrogate(path)
+    else:
+        surrogate = fit_radius_surrogate(Xtr, radius[:n_tr][ok[:n_tr]], domain, seed)
+        save_surrogate(surrogate, path)
+    return surrogate, validate_radius_surrogate(surrogate, Xte, radius[n_tr:][ok[n_tr:]])
+
+
+def _tag(options: ContactOptions) -> str:
+    tag = f"{options.sphere_contact}-{options.flat_contact}"
+    if "friction" in (options.sphere_contact, options.flat_contact):
+        tag += f"-mu{options.friction_coefficient:g}"
+    return tag + ("-large" if options.large_strain else "-small")
+
+
+class SurrogateRadiusModel:
+    """A radius surrogate seen by the calibration: ``predict(E, nu, R, F) -> (mean, std)``.
+
+    The std includes the FE model's numerical jitter (the GP's fitted noise).
+    Points outside the surrogate's domain get a NaN mean.
+    """
+
+    def __init__(self, surrogate: GPSurrogate, domain: SurrogateDomain | None = None) -> None:
+        self.surrogate = surrogate
+        self.domain = domain or SurrogateDomain()
+
+    def predict(self, modulus_mpa, poisson, sphere_radius_mm, force_n):
+        e, nu, r, f = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in
+                                            (modulus_mpa, poisson, sphere_radius_mm, force_n)))
+        shape = e.shape
+        X = {"modulus_mpa": e.ravel(), "poisson": nu.ravel(), "radius_mm": r.ravel(), "force_kn": f.ravel() / 1e3}
+        mean, std = self.surrogate.predict(X, return_std=True, noise=True)
+        mean = mean + hertz_radius_mm(X["radius_mm"], f.ravel())
+        inside = self.domain.contains(*(X[n] for n in INPUTS))
+        mean = np.where(inside, mean, np.nan)
+        return mean.reshape(shape), std.reshape(shape)
+
+
+class FERadiusModel:
+    """The FE model itself seen by the calibration (FE in the loop): std = 0.
+
+    Slow per call compared with a surrogate; meant for deterministic checks
+    (e.g. inverting each case) rather than for MCMC.
+    """
+
+    def __init__(self, options: ContactOptions | None = None) -> None:
+        self.options = options or ContactOptions()
+
+    def predict(self, modulus_mpa, poisson, sphere_radius_mm, force_n):
+        e, nu, r, f = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in
+                                            (modulus_mpa, poisson, sphere_radius_mm, force_n)))
+        out = np.empty(e.shape)
+        for idx in np.ndindex(e.shape):
+            res = get_model(float(r[idx])).solve(Film(float(e[idx]), float(nu[idx])), float(f[idx]), self.options)
+            out[idx] = res.contact_radius_mm if res.converged else np.nan
+        return out, np.zeros(e.shape)
