@@ -24,7 +24,9 @@ _EXPORTS = {
                           "load_surrogate"],
     "filmcal.campaign": ["Campaign", "CampaignSummary", "RunStore", "LocalPoolExecutor", "DaskExecutor",
                          "SerialExecutor"],
-    "filmcal.calibration.data": ["load_table1", "RadiusErrorData"],
+    "filmcal.calibration": ["load_table1", "RadiusErrorData", "calibrate_film", "CalibrationResult",
+                            "RadiusModel", "Priors"],
+    "filmcal.study": ["build_radius_surrogate", "SurrogateRadiusModel", "FERadiusModel", "SurrogateDomain"],
     "filmcal.wheelrail.profiles": ["get_profile", "load_profile_csv"],
     "filmcal.wheelrail.placement": ["place_wheel_on_rail"],
 }

@@ -1,0 +1,169 @@
+"""Posterior sampling of the film calibration on synthetic data with a known truth.
+
+The model is a *test function*, not physics (made-up constants):
+
+    r = a_H(R, F) + c * (p_H(R, F) / M)^k,    M = E (1 - nu) / ((1 + nu)(1 - 2 nu)),
+
+c = 2.2 mm, k = 0.5, with the steel-on-steel Hertz radius a_H and peak pressure
+p_H. Synthetic radii are drawn from it at the Table 1 cases with E = 2800 MPa,
+nu = 0.33 and Gaussian noise of known sigma, so the posterior must recover E and
+sigma.
+"""
+from __future__ import annotations
+
+import math
+
+import h5py
+import numpy as np
+import pytest
+from scipy.stats import kstest
+
+from filmcal.calibration.pipeline import calibrate
+from filmcal.calibration.data import RadiusErrorData, hertz_radius_mm, load_table1
+from filmcal.calibration.likelihood import oedometric_ratio
+from filmcal.calibration.sampling import SamplerSettings, read_chain
+
+E_TRUE, NU_TRUE, SIGMA_TRUE = 2800.0, 0.33, 0.1
+
+
+STEEL_CONTACT_MODULUS_MPA = 210000.0 / (2.0 * (1.0 - 0.3**2))
+
+
+class ToyRadiusModel:
+    """Test function (not physics): r = a_H + 2.2 mm * (p_H / M)^0.5, exact (std 0).
+
+    Hertz (Johnson, Contact Mechanics, eqs. 4.21-4.22), steel on steel:
+    a_H = (3 F R / (4 E*))^(1/3), p_H = 3 F / (2 pi a_H^2).
+    """
+
+    def predict(self, modulus_mpa, poisson, sphere_radius_mm, force_n):
+        E, nu, R, F = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in
+                                            (modulus_mpa, poisson, sphere_radius_mm, force_n)))
+        a = np.cbrt(3.0 * F * R / (4.0 * STEEL_CONTACT_MODULUS_MPA))
+        p = 3.0 * F / (2.0 * np.pi * a**2)
+        mean = a + 2.2 * np.sqrt(p / (E * oedometric_ratio(nu)))
+        return mean, np.zeros(mean.shape)
+
+
+def synthetic(repeats: int, sigma: float = SIGMA_TRUE, seed: int = 0) -> RadiusErrorData:
+    """The 10 Table 1 cases, `repeats` times each, with radii drawn from the test function."""
+    cases = load_table1("HS")
+    R = np.tile(cases.sphere_radius_mm, repeats)
+    F = np.tile(cases.force_n, repeats)
+    mean, _ = ToyRadiusModel().predict(E_TRUE, NU_TRUE, R, F)
+    y = mean + sigma * np.random.default_rng(seed).standard_normal(R.size)
+    a = hertz_radius_mm(R, F)
+    return RadiusErrorData(film=np.full(R.size, "SYN"), sphere_radius_mm=R, force_n=F, radius_error_mm=y - a,
+                           hertz_radius_mm=a, measured_radius_mm=y)
+
+
+def summary(result) -> dict:
+    d = result.to_dict()
+    d.pop("elapsed_s")
+    return d
+
+
+@pytest.fixture(scope="module")
+def small():
+    """10 radii, default settings, seed 0."""
+    return calibrate(synthetic(1), ToyRadiusModel(), seed=0)
+
+
+@pytest.fixture(scope="module")
+def large():
+    """60 radii."""
+    return calibrate(synthetic(6, seed=1), ToyRadiusModel(), seed=0)
+
+
+def relative_width(s: dict) -> float:
+    return (s["ci90"][1] - s["ci90"][0]) / s["median"]
+
+
+def test_recovers_modulus_and_sigma(small, large):
+    for result in (small, large):
+        assert result.diagnostics_ok, result.diagnostics.messages
+        assert result.modulus_mpa["ci90"][0] < E_TRUE < result.modulus_mpa["ci90"][1]
+        assert result.sigma_mm["ci90"][0] < SIGMA_TRUE < result.sigma_mm["ci90"][1]
+        assert result.sigma_mm["median"] > 0.0
+        assert result.rhat_max <= 1.01 and result.ess_bulk["modulus_mpa"] >= 2000
+        # burn-in and thinning follow tau; the chain is >= 50 tau long
+        tau = max(result.tau.values())
+        assert result.n_steps >= 50 * tau
+        assert result.burn_in == math.ceil(5 * tau) and result.thin == int(0.5 * min(result.tau.values()))
+    # six times the data: the interval narrows by about sqrt(6) = 2.4
+    assert relative_width(large.modulus_mpa) < 0.6 * relative_width(small.modulus_mpa)
+    # nu fixed: M = E * M/E(0.33) sample by sample
+    np.testing.assert_allclose(small.samples["oedometric_modulus_mpa"],
+                               small.samples["modulus_mpa"] * oedometric_ratio(0.33), rtol=1e-12)
+    assert small.poisson == {"fixed": 0.33}
+
+
+def test_contract_keys(small):
+    d = small.to_dict()
+    assert set(d["modulus_mpa"]) >= {"median", "ci90"} and len(d["modulus_mpa"]["ci90"]) == 2
+    assert set(d["oedometric_modulus_mpa"]) >= {"median", "ci90"} and "median" in d["sigma_mm"]
+    assert d["rhat"] == max(d["diagnostics"]["rhat"].values())
+    assert d["ess"] == min(d["diagnostics"]["ess_bulk"].values())
+    assert d["n_data"] == 10
+
+
+def test_posterior_predictive_coverage(large):
+    pc = large.predictive
+    assert 0.8 <= pc.coverage <= 0.98  # nominal 0.9 on 60 points
+    assert kstest(pc.pit, "uniform").pvalue > 0.01
+    assert np.all(pc.lower_mm < pc.mean_mm) and np.all(pc.mean_mm < pc.upper_mm)
+    # predictive std includes sigma: at least the posterior median sigma
+    assert np.all(pc.std_mm >= 0.95 * large.sigma_mm["median"])
+
+
+def test_same_seed_same_summary_digit_for_digit(small):
+    again = calibrate(synthetic(1), ToyRadiusModel(), seed=0)
+    assert summary(again) == summary(small)
+    other = calibrate(synthetic(1), ToyRadiusModel(), seed=1, settings=SamplerSettings(max_steps=500))
+    assert other.modulus_mpa["median"] != small.modulus_mpa["median"]
+
+
+def test_backend_resume_continues_the_chain(small, tmp_path):
+    path = tmp_path / "chain.h5"
+    first = calibrate(synthetic(1), ToyRadiusModel(), seed=0, backend_path=path,
+                      settings=SamplerSettings(max_steps=1000))
+    assert first.n_steps == 1000 and first.n_steps_new == 1000 and not first.diagnostics_ok
+    head = read_chain(path).chain.copy()
+    second = calibrate(synthetic(1), ToyRadiusModel(), seed=0, backend_path=path)
+    assert second.n_steps == small.n_steps == 1000 + second.n_steps_new
+    stored = read_chain(path)
+    assert stored.chain.shape == (second.n_steps, 32, 2)
+    np.testing.assert_array_equal(stored.chain[:1000], head)
+    # continuing restores emcee's random state: the same as one uninterrupted run
+    assert summary(second) | {"n_steps_new": 0, "backend_path": None} == summary(small) | {"n_steps_new": 0}
+    # the file holds numbers and strings only: nothing to unpickle
+    kinds = []
+    with h5py.File(path, "r") as f:
+        f.visititems(lambda name, obj: kinds.append(obj.dtype.kind) if isinstance(obj, h5py.Dataset) else None)
+        for obj in (f, f["mcmc"]):
+            kinds += [np.asarray(v).dtype.kind for v in obj.attrs.values()]
+    assert set(kinds) <= set("fiubSUO") and all(k != "V" for k in kinds)
+    assert stored.metadata["seed"] == 0 and stored.metadata["problem"]["poisson"] == "fixed"
+    # another configuration is refused, reset starts afresh
+    with pytest.raises(ValueError, match="another configuration"):
+        calibrate(synthetic(1), ToyRadiusModel(), seed=5, backend_path=path)
+    fresh = calibrate(synthetic(1), ToyRadiusModel(), seed=5, backend_path=path, reset=True,
+                      settings=SamplerSettings(max_steps=300))
+    assert fresh.n_steps == fresh.n_steps_new == 300
+
+
+def test_short_run_is_flagged_with_its_diagnostics():
+    result = calibrate(synthetic(1), ToyRadiusModel(), seed=0, settings=SamplerSettings(max_steps=150))
+    assert result.n_steps == 150 and not result.diagnostics_ok
+    assert any("shorter than 50 tau" in m for m in result.diagnostics.messages)
+    assert math.isfinite(result.rhat_max) and math.isfinite(result.ess_min)
+    assert result.to_dict()["diagnostics_ok"] is False
+
+
+def test_run_is_extended_until_the_ess_target_or_the_cap():
+    # the autocorrelation criterion made trivial: only R-hat / ESS can extend the run
+    loose = dict(check_every=100, min_tau_multiple=1.0, tau_rtol=10.0)
+    done = calibrate(synthetic(1), ToyRadiusModel(), seed=0, settings=SamplerSettings(**loose))
+    assert done.diagnostics_ok and done.ess_bulk["modulus_mpa"] >= 2000 and done.n_steps > 200
+    capped = calibrate(synthetic(1), ToyRadiusModel(), seed=0, settings=SamplerSettings(**loose, max_steps=200))
+    assert not capped.diagnostics_ok and any("bulk ESS of modulus_mpa" in m for m in capped.diagnostics.messages)
