@@ -16,8 +16,9 @@ __version__ = "0.1.0"
 
 _EXPORTS = {
     "filmcal.fem": ["SphereOnFlat", "Film", "ContactOptions", "MeshSettings", "FEResult", "get_model",
-                    "solve_sphere_on_flat", "solve_many", "evaluate_point", "hertz_radius_mm",
-                    "hertz_max_pressure_mpa", "oedometric_modulus_mpa", "thin_layer_contact"],
+                    "solve_sphere_on_flat", "solve_many", "evaluate_point", "oedometric_modulus_mpa",
+                    "thin_layer_contact"],
+    "filmcal.hertz": ["hertz_radius_mm", "hertz_max_pressure_mpa", "contact_modulus_mpa"],
     "filmcal.doe": ["Parameter", "DesignSpace", "OptimalLatinHypercube", "latin_design", "augment_design",
                     "design_quality", "read_design_csv", "write_design_csv"],
     "filmcal.surrogate": ["GPSurrogate", "validate", "leave_one_out", "refine", "save_surrogate",

@@ -19,7 +19,8 @@ import pytest
 from scipy.stats import kstest
 
 from filmcal.calibration.pipeline import calibrate
-from filmcal.calibration.data import RadiusErrorData, hertz_radius_mm, load_table1
+from filmcal.calibration.data import RadiusErrorData, load_table1
+from filmcal.hertz import hertz_radius_mm
 from filmcal.calibration.likelihood import oedometric_ratio
 from filmcal.calibration.sampling import SamplerSettings, read_chain
 

@@ -18,7 +18,8 @@ import numpy as np
 import pytest
 
 from filmcal.calibration.pipeline import calibrate
-from filmcal.calibration.data import RadiusErrorData, hertz_radius_mm, load_table1
+from filmcal.calibration.data import RadiusErrorData, load_table1
+from filmcal.hertz import hertz_radius_mm
 from filmcal.calibration.likelihood import oedometric_ratio
 from filmcal.calibration.plots import plot_case_intervals, plot_corner, plot_predictive, plot_trace
 from filmcal.calibration.posterior import load_result, save_result

@@ -13,7 +13,7 @@ from typing import Any, Iterable
 
 from filmcal._validation import as_finite, check_choice
 from filmcal.fem.forms import lame_parameters, oedometric_modulus_mpa
-from filmcal.fem.hertz import (STEEL_MODULUS_MPA, STEEL_POISSON, effective_modulus_mpa, hertz_approach_mm,
+from filmcal.hertz import (STEEL_MODULUS_MPA, STEEL_POISSON, contact_modulus_mpa, hertz_approach_mm,
                                hertz_max_pressure_mpa, hertz_pressure_mpa, hertz_radius_mm)
 from filmcal.fem.mesh import MeshSettings
 from filmcal.fem.model import CONTACT_MODES, ContactOptions, Film, SphereOnFlat
@@ -24,7 +24,7 @@ __all__ = [
     "SphereOnFlat", "Film", "ContactOptions", "MeshSettings", "FEResult", "CONTACT_MODES",
     "solve_sphere_on_flat", "solve_many", "evaluate_point", "OUTPUT_KEYS",
     "hertz_radius_mm", "hertz_max_pressure_mpa", "hertz_approach_mm", "hertz_pressure_mpa",
-    "effective_modulus_mpa", "oedometric_modulus_mpa", "lame_parameters", "read_contact_radius",
+    "contact_modulus_mpa", "oedometric_modulus_mpa", "lame_parameters", "read_contact_radius",
     "thin_layer_contact", "ThinLayerResult", "STEEL_MODULUS_MPA", "STEEL_POISSON", "get_model",
 ]
 

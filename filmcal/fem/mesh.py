@@ -72,7 +72,7 @@ def default_contact_zone_mm(radius_mm: float, settings: MeshSettings) -> float:
     """Radius of the refined contact zone used when the settings leave it open."""
     if settings.contact_zone_mm is not None:
         return float(settings.contact_zone_mm)
-    from filmcal.fem.hertz import hertz_radius_mm
+    from filmcal.hertz import hertz_radius_mm
     zone = max(4.0, 1.6 * hertz_radius_mm(radius_mm, 150e3))
     zone = min(zone, 0.6 * settings.body_size_mm)
     h = settings.element_size_mm

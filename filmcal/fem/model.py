@@ -36,7 +36,7 @@ from filmcal._validation import check_choice, check_poisson, check_positive, che
 from filmcal.fem.condense import CondensedBody, condense, nested_dissection
 from filmcal.fem.contact import CLOSED, FREE, OPEN, ContactState, PairSystem, solve_pairs
 from filmcal.fem.forms import axial_traction, lame_parameters, linear_elasticity, oedometric_modulus_mpa
-from filmcal.fem.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, hertz_radius_mm
+from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, hertz_radius_mm
 from filmcal.fem.largestrain import film_internal_force_and_tangent
 from filmcal.fem.mesh import BodyGrid, MeshSettings, film_grid, flat_grid, sphere_grid
 from filmcal.fem.result import FEResult, read_contact_radius

@@ -17,7 +17,7 @@ from scipy.special import ellipe, ellipk
 
 from filmcal._validation import check_positive
 from filmcal.fem.contact import CLOSED, OPEN, ContactState, PairSystem, solve_pairs
-from filmcal.fem.hertz import effective_modulus_mpa, hertz_radius_mm
+from filmcal.hertz import contact_modulus_mpa, hertz_radius_mm
 
 __all__ = ["ThinLayerResult", "disc_displacement_mm", "thin_layer_contact"]
 
@@ -80,7 +80,7 @@ def thin_layer_contact(radius_mm: float, force_n: float, film_modulus_mpa: float
     """
     R = check_positive("radius_mm", radius_mm)
     F = check_positive("force_n", force_n)
-    estar = effective_modulus_mpa()
+    estar = contact_modulus_mpa()
     a_h = hertz_radius_mm(R, F)
     zone = zone_mm if zone_mm is not None else 2.2 * a_h + 2.0
     edges = np.arange(0.0, zone + ring_width_mm / 2, ring_width_mm)

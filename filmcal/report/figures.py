@@ -11,7 +11,7 @@ def _figure(**kwargs):
 
 def plot_pressure_profile(result, path: str) -> None:
     """Pressure p(r) of an FE result against the Hertz distribution (PNG)."""
-    from filmcal.fem.hertz import hertz_pressure_mpa
+    from filmcal.hertz import hertz_pressure_mpa
 
     fig = _figure(figsize=(6.4, 4.2))
     ax = fig.subplots()
