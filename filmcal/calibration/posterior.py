@@ -8,11 +8,12 @@ included, stays in the emcee HDF5 file named by ``backend_path`` (read it with
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from filmcal._json import json_safe
 
 from filmcal.calibration.checks import CaseIntervals, PredictiveCheck
 from filmcal.calibration.diagnostics import Diagnostics
@@ -36,21 +37,6 @@ def summarize(values: np.ndarray) -> dict:
     values = np.asarray(values, dtype=float).ravel()
     lo, med, hi = np.quantile(values, [0.05, 0.5, 0.95])
     return {"median": float(med), "mean": float(np.mean(values)), "ci90": [float(lo), float(hi)]}
-
-
-def _json_safe(obj):
-    """numpy values to plain ones, non-finite floats to None (strict JSON)."""
-    if isinstance(obj, dict):
-        return {str(k): _json_safe(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_json_safe(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _json_safe(obj.tolist())
-    if isinstance(obj, np.generic):
-        return _json_safe(obj.item())
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
 
 
 @dataclass(frozen=True)
@@ -188,7 +174,7 @@ class CalibrationResult:
         }
         if include_samples:
             d["samples"] = {k: np.asarray(v).tolist() for k, v in self.samples.items()}
-        return _json_safe(d)
+        return json_safe(d)
 
     @classmethod
     def from_dict(cls, d: dict) -> CalibrationResult:

@@ -51,7 +51,6 @@ def read_contact_radius(r_mm: np.ndarray, pressure_mpa: np.ndarray, active: np.n
         Contact radius (mm). With fewer than three contact nodes, the middle of
         the element beyond the last contact node.
     """
-    from scipy.optimize import least_squares
 
     idx = np.flatnonzero(active)
     if len(idx) == 0:

@@ -1,0 +1,24 @@
+"""Test functions shared by the calibration tests (not physics)."""
+from __future__ import annotations
+
+import numpy as np
+
+from filmcal.calibration.likelihood import oedometric_ratio
+
+STEEL_CONTACT_MODULUS_MPA = 210000.0 / (2.0 * (1.0 - 0.3**2))
+
+
+class ToyRadiusModel:
+    """Test function (not physics): r = a_H + 2.2 mm * (p_H / M)^0.5, exact (std 0).
+
+    Hertz (Johnson, Contact Mechanics, eqs. 4.21-4.22), steel on steel:
+    a_H = (3 F R / (4 E*))^(1/3), p_H = 3 F / (2 pi a_H^2).
+    """
+
+    def predict(self, modulus_mpa, poisson, sphere_radius_mm, force_n):
+        E, nu, R, F = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in
+                                            (modulus_mpa, poisson, sphere_radius_mm, force_n)))
+        a = np.cbrt(3.0 * F * R / (4.0 * STEEL_CONTACT_MODULUS_MPA))
+        p = 3.0 * F / (2.0 * np.pi * a**2)
+        mean = a + 2.2 * np.sqrt(p / (E * oedometric_ratio(nu)))
+        return mean, np.zeros(mean.shape)
