@@ -1,0 +1,433 @@
+"""Compliant interfaces in series with the elastic bodies: film and roughness.
+
+Both act on the normal contact problem of :mod:`filmcal.wheelrail.halfspace`
+through an *interface closure* ``c(p)``: the extra approach of the two bodies
+that a cell under pressure ``p`` allows on top of the elastic displacement of
+the half-spaces. Contact holds where ``h + u_el(p) + c(p) = delta``.
+
+* :class:`FilmLayer` -- a thin layer of thickness ``t`` held laterally (tied, or
+  sticking by friction) is compressed oedometrically: ``c(p) = p t / M`` with
+  ``M = E (1 - nu) / ((1 + nu)(1 - 2 nu))`` the oedometric (constrained)
+  modulus. In a linear model the contact depends on ``(E, nu)`` only through
+  ``M``: ``E`` and ``nu`` cannot be identified separately from contact areas.
+* :class:`InterfaceLaw` subclasses -- pressure-overclosure laws of a rough
+  interface, ``c(p)`` increasing with ``c(0) = 0``: closures are measured from
+  the separation at which the interface starts to carry pressure.
+
+  - :class:`HardLaw`: no closure (smooth, hard contact).
+  - :class:`ExponentialLaw`: ``p = p0 (exp(c / c0) - 1)``.
+  - :class:`TabularLaw`: measured pressure-closure points, monotone
+    (PCHIP) interpolation.
+  - :class:`GreenwoodWilliamsonLaw`: elastic spherical asperities with
+    Gaussian or exponential summit heights, from ``Ra``.
+
+A note on Abaqus: its "exponential" pressure-overclosure law is
+``p = p0 / (e - 1) * (h/c0 + 1) * (exp(h/c0 + 1) - 1)`` for an overclosure
+``h > -c0``; :class:`ExponentialLaw` is the simpler ``p0 (exp(c/c0) - 1)``
+(the exact Greenwood-Williamson law of exponential summit heights, shifted to
+start at zero pressure). A tabulated Abaqus law is used with :class:`TabularLaw`.
+"""
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import PchipInterpolator
+from scipy.special import gamma, pbdv
+
+from filmcal._validation import check_choice, check_poisson, check_positive, check_range
+
+__all__ = [
+    "FilmLayer",
+    "InterfaceLaw",
+    "HardLaw",
+    "ExponentialLaw",
+    "TabularLaw",
+    "GreenwoodWilliamsonLaw",
+    "oedometric_modulus_mpa",
+]
+
+
+def oedometric_modulus_mpa(youngs_modulus_mpa: float, poisson: float) -> float:
+    """Constrained (oedometric) modulus ``M = E (1 - nu) / ((1 + nu)(1 - 2 nu))``.
+
+    The stress-strain slope of a layer compressed through its thickness with
+    no lateral strain.
+    """
+    e = check_positive("youngs_modulus_mpa", youngs_modulus_mpa)
+    nu = check_poisson("poisson", poisson)
+    return e * (1.0 - nu) / ((1.0 + nu) * (1.0 - 2.0 * nu))
+
+
+@dataclass(frozen=True)
+class FilmLayer:
+    """Linear-elastic film between the bodies, acting as normal springs.
+
+    Parameters
+    ----------
+    modulus_mpa : float
+        Young's modulus of the film (MPa), > 0.
+    poisson : float
+        Poisson's ratio, -1 < nu < 0.5 (default 0.33, the paper's value).
+    thickness_mm : float
+        Film thickness (mm), default 0.09 (Prescale's PET carrier).
+
+    Notes
+    -----
+    The film adds ``p t / M`` to the elastic closure of every loaded cell: a
+    Winkler layer of stiffness ``M / t`` per unit area in series with the
+    half-spaces. This neglects the film's shear coupling between neighbouring
+    cells (its bending and membrane stiffness), which is small for a film
+    much thinner than the contact (90 um against millimetres).
+    """
+
+    modulus_mpa: float
+    poisson: float = 0.33
+    thickness_mm: float = 0.09
+
+    def __post_init__(self) -> None:
+        check_positive("modulus_mpa", self.modulus_mpa)
+        check_poisson("poisson", self.poisson)
+        check_positive("thickness_mm", self.thickness_mm)
+
+    @property
+    def oedometric_modulus_mpa(self) -> float:
+        """Constrained modulus ``M`` of the film (MPa)."""
+        return oedometric_modulus_mpa(self.modulus_mpa, self.poisson)
+
+    @property
+    def compliance_mm_per_mpa(self) -> float:
+        """Closure per unit pressure, ``t / M`` (mm/MPa)."""
+        return self.thickness_mm / self.oedometric_modulus_mpa
+
+
+class InterfaceLaw(ABC):
+    """Pressure-overclosure law of an interface, written as closure(pressure).
+
+    Subclasses give ``closure_mm(p)``, increasing with ``closure_mm(0) = 0``,
+    its slope ``tangent_compliance_mm_per_mpa(p)`` and its inverse
+    ``pressure_mpa(c)``.
+    """
+
+    #: True for the law without any closure (hard contact).
+    is_hard: bool = False
+
+    @abstractmethod
+    def closure_mm(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """Interface closure (mm) at pressures ``pressure_mpa`` (>= 0)."""
+
+    @abstractmethod
+    def pressure_mpa(self, closure_mm: np.ndarray) -> np.ndarray:
+        """Pressure (MPa) carried at closures ``closure_mm`` (inverse law)."""
+
+    @abstractmethod
+    def tangent_compliance_mm_per_mpa(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """Slope ``dc/dp`` (mm/MPa) at pressures ``pressure_mpa`` (>= 0)."""
+
+    @abstractmethod
+    def closure_integral(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """``int_0^p c(q) dq`` (mm MPa): the energy per unit area stored in the
+        interface (complementary energy), used by the nonlinear solver."""
+
+    @property
+    def initial_compliance_mm_per_mpa(self) -> float:
+        """``dc/dp`` at zero pressure (mm/MPa)."""
+        return float(self.tangent_compliance_mm_per_mpa(np.zeros(1))[0])
+
+
+class HardLaw(InterfaceLaw):
+    """Hard contact: no closure at any pressure (smooth surfaces)."""
+
+    is_hard = True
+
+    def closure_mm(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """Zero closure."""
+        return np.zeros_like(np.asarray(pressure_mpa, dtype=float))
+
+    def pressure_mpa(self, closure_mm: np.ndarray) -> np.ndarray:
+        """Zero below contact, unbounded for any positive closure."""
+        c = np.asarray(closure_mm, dtype=float)
+        return np.where(c > 0.0, np.inf, 0.0)
+
+    def tangent_compliance_mm_per_mpa(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """Zero."""
+        return np.zeros_like(np.asarray(pressure_mpa, dtype=float))
+
+    def closure_integral(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """Zero."""
+        return np.zeros_like(np.asarray(pressure_mpa, dtype=float))
+
+    def __repr__(self) -> str:
+        return "HardLaw()"
+
+
+class ExponentialLaw(InterfaceLaw):
+    """Exponential pressure-overclosure: ``p = p0 (exp(c / c0) - 1)``.
+
+    Equivalently ``c = c0 log(1 + p / p0)``. Its stiffness at zero pressure is
+    ``p0 / c0``; for pressures far below ``p0`` it is a linear spring.
+
+    Parameters
+    ----------
+    pressure_scale_mpa : float
+        ``p0`` (MPa), > 0.
+    closure_scale_mm : float
+        ``c0`` (mm), > 0.
+    """
+
+    def __init__(self, pressure_scale_mpa: float, closure_scale_mm: float) -> None:
+        self.pressure_scale_mpa = check_positive("pressure_scale_mpa", pressure_scale_mpa)
+        self.closure_scale_mm = check_positive("closure_scale_mm", closure_scale_mm)
+
+    def closure_mm(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """``c0 log(1 + p / p0)``."""
+        p = np.asarray(pressure_mpa, dtype=float)
+        return self.closure_scale_mm * np.log1p(p / self.pressure_scale_mpa)
+
+    def pressure_mpa(self, closure_mm: np.ndarray) -> np.ndarray:
+        """``p0 (exp(c / c0) - 1)`` for ``c >= 0``, zero below."""
+        c = np.clip(np.asarray(closure_mm, dtype=float), 0.0, None)
+        return self.pressure_scale_mpa * np.expm1(c / self.closure_scale_mm)
+
+    def tangent_compliance_mm_per_mpa(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """``c0 / (p0 + p)``."""
+        p = np.asarray(pressure_mpa, dtype=float)
+        return self.closure_scale_mm / (self.pressure_scale_mpa + p)
+
+    def closure_integral(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """``c0 ((p0 + p) log(1 + p/p0) - p)``."""
+        p = np.asarray(pressure_mpa, dtype=float)
+        p0 = self.pressure_scale_mpa
+        return self.closure_scale_mm * ((p0 + p) * np.log1p(p / p0) - p)
+
+    def __repr__(self) -> str:
+        return (f"ExponentialLaw(pressure_scale_mpa={self.pressure_scale_mpa:g}, "
+                f"closure_scale_mm={self.closure_scale_mm:g})")
+
+
+class TabularLaw(InterfaceLaw):
+    """Pressure-overclosure law given by measured points.
+
+    Parameters
+    ----------
+    closure_mm : array_like
+        Closures (mm), strictly increasing. Closures are measured from the
+        first point (which must carry zero pressure), so any offset in the
+        data is removed.
+    pressure_mpa : array_like
+        Pressures (MPa) at those closures, strictly increasing from 0.
+
+    Notes
+    -----
+    The closure is interpolated as a function of pressure with the monotone
+    piecewise-cubic Hermite interpolant (PCHIP; Fritsch & Carlson 1980), so
+    the law stays monotone between the points. Above the last point the law
+    continues linearly with the slope of the last interval (as Abaqus does for
+    tabulated laws).
+    """
+
+    def __init__(self, closure_mm: np.ndarray, pressure_mpa: np.ndarray) -> None:
+        c = np.asarray(closure_mm, dtype=float)
+        p = np.asarray(pressure_mpa, dtype=float)
+        if c.ndim != 1 or c.shape != p.shape or c.size < 2:
+            raise ValueError("closure_mm and pressure_mpa must be 1-D arrays of the same "
+                             f"length >= 2, got shapes {c.shape} and {p.shape}")
+        if not (np.all(np.isfinite(c)) and np.all(np.isfinite(p))):
+            raise ValueError("closure_mm and pressure_mpa must be finite")
+        if p[0] != 0.0:
+            raise ValueError(f"pressure_mpa must start at 0, got {p[0]:g}")
+        if np.any(np.diff(c) <= 0.0) or np.any(np.diff(p) <= 0.0):
+            raise ValueError("closure_mm and pressure_mpa must both be strictly increasing")
+        self.closures_mm = c - c[0]
+        self.pressures_mpa = p
+        self._closure_of_pressure = PchipInterpolator(p, self.closures_mm, extrapolate=False)
+        self._closure_integral = self._closure_of_pressure.antiderivative()
+        self._last_slope = (self.closures_mm[-1] - self.closures_mm[-2]) / (p[-1] - p[-2])
+
+    def closure_mm(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """Interpolated closure; linear continuation above the last point."""
+        p = np.clip(np.asarray(pressure_mpa, dtype=float), 0.0, None)
+        p_last = self.pressures_mpa[-1]
+        inside = self._closure_of_pressure(np.minimum(p, p_last))
+        return inside + self._last_slope * np.maximum(p - p_last, 0.0)
+
+    def pressure_mpa(self, closure_mm: np.ndarray) -> np.ndarray:
+        """Inverse of :meth:`closure_mm` (bisection on the monotone interpolant)."""
+        c = np.clip(np.asarray(closure_mm, dtype=float), 0.0, None)
+        c_last, p_last = self.closures_mm[-1], self.pressures_mpa[-1]
+        lo, hi = np.zeros(c.shape), np.full(c.shape, p_last)
+        target = np.minimum(c, c_last)
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            below = self._closure_of_pressure(mid) < target
+            lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+        return 0.5 * (lo + hi) + np.maximum(c - c_last, 0.0) / self._last_slope
+
+    def tangent_compliance_mm_per_mpa(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """Slope of the interpolant (of the last interval above the last point)."""
+        p = np.clip(np.asarray(pressure_mpa, dtype=float), 0.0, None)
+        p_last = self.pressures_mpa[-1]
+        inside = self._closure_of_pressure(np.minimum(p, p_last), 1)
+        return np.where(p < p_last, inside, self._last_slope)
+
+    def closure_integral(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """Integral of the interpolant, continued with the linear extension."""
+        p = np.clip(np.asarray(pressure_mpa, dtype=float), 0.0, None)
+        p_last, c_last = self.pressures_mpa[-1], self.closures_mm[-1]
+        extra = np.maximum(p - p_last, 0.0)
+        return (self._closure_integral(np.minimum(p, p_last))
+                + c_last * extra + 0.5 * self._last_slope * extra ** 2)
+
+    def __repr__(self) -> str:
+        return (f"TabularLaw(<{self.pressures_mpa.size} points up to "
+                f"{self.pressures_mpa[-1]:g} MPa>)")
+
+
+def _gaussian_moment(order: float, h: np.ndarray) -> np.ndarray:
+    """``F_n(h) = int_h^inf (s - h)**n phi(s) ds`` for the standard normal ``phi``.
+
+    Closed form with the parabolic-cylinder function ``D_v``:
+    ``F_n(h) = Gamma(n + 1) exp(-h**2 / 4) D_{-(n+1)}(h) / sqrt(2 pi)``.
+    """
+    d, _ = pbdv(-(order + 1.0), h)
+    return gamma(order + 1.0) * np.exp(-0.25 * h * h) * d / math.sqrt(2.0 * math.pi)
+
+
+class GreenwoodWilliamsonLaw(InterfaceLaw):
+    """Greenwood-Williamson (1966) law of a rough surface against a smooth one.
+
+    Identical spherical elastic asperities (radius ``beta``, density ``eta``
+    per unit area) with random summit heights of standard deviation
+    ``sigma``; at mean-plane separation ``d`` the nominal pressure is::
+
+        p_GW(d) = (4/3) eta E* sqrt(beta) sigma**1.5 F_{3/2}(d / sigma)
+
+    with ``F_{3/2}(h) = int_h^inf (s - h)**1.5 phi(s) ds`` for the
+    standardised summit-height density ``phi``.
+
+    Parameters
+    ----------
+    ra_um : float
+        Arithmetic mean roughness Ra (um), 0.1 <= Ra <= 30 (from polished
+        specimens to freshly re-profiled wheels).
+    contact_modulus_mpa : float
+        Contact modulus ``E*`` of the asperity contacts (MPa): the combined
+        modulus of the rough body and the body it touches (for steel against
+        a PET film, ``filmcal.hertz.contact_modulus_mpa(E_film, nu_film,
+        210000, 0.3)``).
+    heights : {"gaussian", "exponential"}
+        Summit-height distribution. "exponential" gives the closed form
+        ``p = p0 (exp(c / sigma) - 1)`` (Greenwood & Williamson's own
+        exponential model).
+    eta_sigma_beta : float
+        ``eta sigma beta``, default 0.04: Greenwood & Tripp (1970, Proc. IMechE
+        185:625) report 0.03-0.05 for engineering surfaces.
+    sigma_over_beta : float
+        ``sigma / beta``, default 1e-3, the middle (on a log scale) of the range
+        1e-4-1e-2 they report.
+    onset_sigma : float
+        Separation, in units of ``sigma``, at which the interface starts to
+        carry pressure (the highest summits), default 4. The law is shifted
+        so that ``p = 0`` there: ``p(d) = p_GW(d) - p_GW(d_onset)``.
+    saturation_sigma : float
+        Separation, in units of ``sigma``, below which the interface is taken
+        as hard (closure no longer grows), default 0: GW theory assumes a
+        small real contact fraction (``pi eta sigma beta F_1(d/sigma)``, 5 %
+        at ``d = 0`` with the defaults); beyond that the valleys are filled.
+
+    Notes
+    -----
+    The roughness sigma is taken as ``sqrt(pi/2) Ra = 1.2533 Ra`` (exact for
+    Gaussian profile heights) and the summit-height deviation as equal to it
+    (Greenwood & Williamson 1966 found them close). Only the two groups
+    ``eta sigma beta`` and ``sigma / beta`` enter the pressure scale
+    ``(4/3) (eta sigma beta) E* sqrt(sigma / beta)``; ``Ra`` sets the closure
+    scale. Closures are measured from the onset separation.
+    """
+
+    def __init__(self, ra_um: float, contact_modulus_mpa: float, *,
+                 heights: str = "gaussian", eta_sigma_beta: float = 0.04,
+                 sigma_over_beta: float = 1e-3, onset_sigma: float = 4.0,
+                 saturation_sigma: float = 0.0) -> None:
+        self.ra_um = check_range("ra_um", ra_um, 0.1, 30.0, low_open=False, high_open=False)
+        self.contact_modulus_mpa = check_positive("contact_modulus_mpa", contact_modulus_mpa)
+        self.heights = check_choice("heights", heights, ("gaussian", "exponential"))
+        self.eta_sigma_beta = check_range("eta_sigma_beta", eta_sigma_beta, 0.0, 1.0)
+        self.sigma_over_beta = check_range("sigma_over_beta", sigma_over_beta, 0.0, 1.0)
+        self.onset_sigma = check_range("onset_sigma", onset_sigma, 0.0, 10.0, high_open=False)
+        low = -10.0 if self.heights == "gaussian" else 0.0
+        self.saturation_sigma = check_range("saturation_sigma", saturation_sigma, low,
+                                            self.onset_sigma, low_open=False)
+        self.sigma_mm = math.sqrt(0.5 * math.pi) * self.ra_um * 1e-3
+        self._h = np.linspace(self.saturation_sigma, self.onset_sigma, 801)
+        self._p_table = self._nominal_pressure(self._h) - self._nominal_pressure(
+            np.array([self.onset_sigma]))[0]
+        self._c_table = self.sigma_mm * (self.onset_sigma - self._h)
+        # increasing pressure order for the interpolants
+        self._closure_of_pressure = PchipInterpolator(self._p_table[::-1], self._c_table[::-1])
+        self._closure_integral = self._closure_of_pressure.antiderivative()
+
+    @property
+    def pressure_scale_mpa(self) -> float:
+        """``(4/3) eta E* sqrt(beta) sigma**1.5`` (MPa)."""
+        return (4.0 / 3.0) * self.eta_sigma_beta * self.contact_modulus_mpa \
+            * math.sqrt(self.sigma_over_beta)
+
+    @property
+    def saturation_pressure_mpa(self) -> float:
+        """Pressure above which the interface is hard."""
+        return float(self._p_table[0])
+
+    @property
+    def saturation_closure_mm(self) -> float:
+        """Largest closure, ``sigma (onset - saturation)``."""
+        return float(self._c_table[0])
+
+    def _nominal_pressure(self, h: np.ndarray) -> np.ndarray:
+        """Greenwood-Williamson nominal pressure at separations ``h sigma``."""
+        if self.heights == "gaussian":
+            moment = _gaussian_moment(1.5, h)
+        else:  # exponential heights on [0, inf): F_{3/2}(h) = Gamma(5/2) exp(-h)
+            moment = gamma(2.5) * np.exp(-h)
+        return self.pressure_scale_mpa * moment
+
+    def closure_mm(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """Closure from the onset separation; constant above saturation."""
+        p = np.clip(np.asarray(pressure_mpa, dtype=float), 0.0, self.saturation_pressure_mpa)
+        return self._closure_of_pressure(p)
+
+    def pressure_mpa(self, closure_mm: np.ndarray) -> np.ndarray:
+        """Pressure at a closure (exact GW law); unbounded past saturation."""
+        c = np.clip(np.asarray(closure_mm, dtype=float), 0.0, None)
+        h = self.onset_sigma - np.minimum(c, self.saturation_closure_mm) / self.sigma_mm
+        p = self._nominal_pressure(h) - self._nominal_pressure(np.array([self.onset_sigma]))[0]
+        return np.where(c > self.saturation_closure_mm, np.inf, p)
+
+    def tangent_compliance_mm_per_mpa(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """Slope of the interpolated law; zero above saturation (hard)."""
+        p = np.clip(np.asarray(pressure_mpa, dtype=float), 0.0, None)
+        p_sat = self.saturation_pressure_mpa
+        return np.where(p < p_sat, self._closure_of_pressure(np.minimum(p, p_sat), 1), 0.0)
+
+    def closure_integral(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """Integral of the interpolated law, continued at constant closure."""
+        p = np.clip(np.asarray(pressure_mpa, dtype=float), 0.0, None)
+        p_sat = self.saturation_pressure_mpa
+        return (self._closure_integral(np.minimum(p, p_sat))
+                + self.saturation_closure_mm * np.maximum(p - p_sat, 0.0))
+
+    @property
+    def initial_compliance_mm_per_mpa(self) -> float:
+        """``dc/dp = sigma / |dp_GW/dh|`` at the onset (``dF_n/dh = -n F_{n-1}``)."""
+        h = np.array([self.onset_sigma])
+        if self.heights == "gaussian":
+            slope = 1.5 * _gaussian_moment(0.5, h)[0]
+        else:
+            slope = gamma(2.5) * math.exp(-self.onset_sigma)
+        return self.sigma_mm / (self.pressure_scale_mpa * slope)
+
+    def __repr__(self) -> str:
+        return (f"GreenwoodWilliamsonLaw(ra_um={self.ra_um:g}, contact_modulus_mpa="
+                f"{self.contact_modulus_mpa:g}, heights={self.heights!r})")

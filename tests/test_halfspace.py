@@ -1,0 +1,362 @@
+"""Half-space contact solver: influence coefficients, Hertz, film and roughness."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import dblquad, quad
+
+from filmcal.wheelrail.halfspace import (
+    HalfSpaceContactSolver,
+    SurfaceGrid,
+    rectangle_influence_mm,
+    sphere_on_flat_contact,
+)
+from filmcal.hertz import contact_modulus_mpa
+from filmcal.wheelrail.hertz import hertz_elliptic
+from filmcal.wheelrail.interface import (
+    ExponentialLaw,
+    FilmLayer,
+    GreenwoodWilliamsonLaw,
+    HardLaw,
+    TabularLaw,
+    oedometric_modulus_mpa,
+)
+
+
+@pytest.fixture(scope="module")
+def solver():
+    return HalfSpaceContactSolver()
+
+
+def _quadratic_case(a_coef, b_coef, spacing, margin=1.15, force=75e3, solver=None):
+    e_star = contact_modulus_mpa() if solver is None else solver.contact_modulus_mpa
+    hz = hertz_elliptic(a_coef, b_coef, force, e_star)
+    grid = SurfaceGrid.centred(2 * margin * hz.semi_axis_x_mm, 2 * margin * hz.semi_axis_y_mm,
+                               spacing)
+    x, y = grid.mesh()
+    return grid, a_coef * x ** 2 + b_coef * y ** 2, hz
+
+
+# --- influence coefficients -------------------------------------------------
+
+@pytest.mark.parametrize("x, y", [(0.0, 0.0), (0.05, 0.0), (0.02, -0.01), (0.13, -0.07),
+                                  (0.3, 0.25)])
+def test_love_coefficient_matches_quadrature(x, y):
+    """Closed form against numerical integration of 1/r over the cell."""
+    dx, dy = 0.1, 0.06
+    if abs(x) <= dx / 2 and abs(y) <= dy / 2:  # integrable singularity inside the cell
+        value = _singular_integral(x, y, dx, dy)
+    else:
+        value = dblquad(lambda eta, xi: 1.0 / math.hypot(x - xi, y - eta),
+                        -dx / 2, dx / 2, -dy / 2, dy / 2, epsabs=1e-12, epsrel=1e-10)[0]
+    assert rectangle_influence_mm(x, y, dx, dy) == pytest.approx(value / math.pi, rel=1e-6)
+
+
+def _singular_integral(x, y, dx, dy):
+    """int int 1/r over the cell when (x, y) lies inside it: in polar form around
+    (x, y), split into the four rectangles that have (x, y) as a corner."""
+    total = 0.0
+    for w in (dx / 2 - x, dx / 2 + x):
+        for h in (dy / 2 - y, dy / 2 + y):
+            # corner rectangle w x h: int_0^atan(h/w) w/cos + int_atan(h/w)^(pi/2) h/sin
+            phi = math.atan2(h, w)
+            total += quad(lambda t: w / math.cos(t), 0.0, phi)[0]
+            total += quad(lambda t: h / math.sin(t), phi, 0.5 * math.pi)[0]
+    return total
+
+
+def test_love_coefficient_far_field_is_boussinesq():
+    """Far away a loaded cell acts as a point force: u E* / p = A / (pi r)."""
+    r = 20.0
+    assert rectangle_influence_mm(r, 0.0, 0.1, 0.1) == pytest.approx(0.01 / (math.pi * r),
+                                                                       rel=1e-5)
+
+
+def test_fft_convolution_equals_direct_sum(solver):
+    """Zero padding: no periodic images (a wrap-around would differ at the far cells)."""
+    grid = SurfaceGrid(7, 5, 0.2, 0.1)
+    conv = solver._convolution(grid)
+    rng = np.random.default_rng(0)
+    p = rng.random(grid.shape)
+    x, y = grid.mesh()
+    direct = np.zeros(grid.shape)
+    for i in range(grid.nx):
+        for j in range(grid.ny):
+            direct[i, j] = np.sum(p * rectangle_influence_mm(x[i, j] - x, y[i, j] - y,
+                                                             grid.dx_mm, grid.dy_mm))
+    np.testing.assert_allclose(conv(p), direct / solver.contact_modulus_mpa, rtol=1e-10)
+
+
+# --- Hertz ------------------------------------------------------------------
+
+@pytest.mark.parametrize("a_coef, b_coef", [
+    (1 / 900, 1 / 900),     # sphere R450 on a flat, a/b = 1
+    (1 / 900, 3 / 900),     # a/b = 2.1
+    (1 / 2000, 1 / 200),    # a/b = 4.5
+])
+def test_hertz_area_and_pressure_at_default_grid(solver, a_coef, b_coef):
+    grid, gap, hz = _quadratic_case(a_coef, b_coef, 0.1, solver=solver)
+    res = solver.solve(gap, 75e3, grid)
+    assert res.converged
+    assert res.area_mm2 == pytest.approx(hz.area_mm2, rel=5e-3)
+    assert res.max_pressure_mpa == pytest.approx(hz.max_pressure_mpa, rel=1e-2)
+    assert res.approach_mm == pytest.approx(hz.approach_mm, rel=1e-2)
+    # the raw cell count over-estimates (O(h)); the sub-cell estimate is closer
+    assert abs(res.area_mm2 / hz.area_mm2 - 1) < abs(res.area_cells_mm2 / hz.area_mm2 - 1)
+
+
+def test_outline_follows_hertz_ellipse_and_encloses_the_area(solver):
+    grid, gap, hz = _quadratic_case(1 / 900, 3 / 900, 0.1, solver=solver)
+    res = solver.solve(gap, 75e3, grid)
+    assert len(res.outline_mm) == 1
+    ring = res.outline_mm[0]
+    np.testing.assert_allclose(ring[0], ring[-1])
+    radius = np.hypot(ring[:, 0] / hz.semi_axis_x_mm, ring[:, 1] / hz.semi_axis_y_mm)
+    # within a cell of the exact boundary everywhere
+    assert np.max(np.abs(radius - 1.0)) * hz.semi_axis_y_mm < grid.dx_mm
+    shoelace = 0.5 * abs(np.sum(ring[:-1, 0] * ring[1:, 1] - ring[1:, 0] * ring[:-1, 1]))
+    assert shoelace == pytest.approx(res.area_mm2, rel=1e-9)
+
+
+def test_area_above_threshold_is_the_hertz_sub_ellipse(solver):
+    """p > t on a scaled ellipse: area pi a b (1 - (t/p0)**2)."""
+    grid, gap, hz = _quadratic_case(1 / 900, 1 / 900, 0.1, solver=solver)
+    res = solver.solve(gap, 75e3, grid)
+    thr = 0.5 * hz.max_pressure_mpa
+    assert res.area_above_mm2(thr) == pytest.approx(hz.area_mm2 * 0.75, rel=3e-3)
+    assert res.area_above_mm2(2 * hz.max_pressure_mpa) == 0.0
+    with pytest.raises(ValueError, match="threshold_mpa"):
+        res.area_above_mm2(0.0)
+
+
+def test_sphere_on_flat_without_film_is_hertz(solver):
+    res = sphere_on_flat_contact(300.0, 25e3, solver=solver)
+    a = (3 * 25e3 * 300.0 / (4 * solver.contact_modulus_mpa)) ** (1 / 3)
+    assert res.equivalent_radius_mm == pytest.approx(a, rel=2.5e-3)
+
+
+# --- conservation, complementarity, symmetry -------------------------------
+
+def _direct_displacement(grid, p, e_star):
+    """K p by direct summation of Love's coefficients (independent of the FFT)."""
+    x, y = grid.x_mm, grid.y_mm
+    kx = x[:, None] - x[None, :]
+    ky = y[:, None] - y[None, :]
+    coeff = rectangle_influence_mm(kx[:, None, :, None], ky[None, :, None, :],
+                                   grid.dx_mm, grid.dy_mm)
+    return np.einsum("ijkl,kl->ij", coeff, p) / e_star
+
+
+@pytest.mark.parametrize("film", [None, FilmLayer(2800.0)])
+def test_force_balance_and_complementarity(solver, film):
+    """sum p dA = F; p >= 0; h + K p + c(p) - delta = 0 where p > 0 and >= 0 elsewhere,
+    with K p recomputed by direct summation."""
+    grid = SurfaceGrid.centred(20.0, 20.0, 0.4)
+    x, y = grid.mesh()
+    gap = (x ** 2 + 1.5 * y ** 2) / 900.0
+    res = solver.solve(gap, 60e3, grid, film=film)
+    p = res.pressure_mpa
+    assert np.sum(p) * grid.cell_area_mm2 == pytest.approx(60e3, rel=1e-12)
+    assert np.all(p >= 0.0)
+    compliance = 0.0 if film is None else film.compliance_mm_per_mpa
+    sep = gap - gap.min() + _direct_displacement(grid, p, solver.contact_modulus_mpa) \
+        + compliance * p - res.approach_mm
+    loaded = p > 0
+    assert np.max(np.abs(sep[loaded])) < 1e-6 * res.approach_mm
+    assert np.min(sep[~loaded]) > -1e-6 * res.approach_mm
+    assert np.max(np.abs(p * sep)) < 1e-6 * res.approach_mm * res.max_pressure_mpa
+    np.testing.assert_allclose(res.separation_mm, np.where(loaded, 0.0, sep),
+                               atol=1e-6 * res.approach_mm)
+
+
+def test_symmetric_gap_gives_symmetric_pressure(solver):
+    grid, gap, _ = _quadratic_case(1 / 900, 3 / 900, 0.2, solver=solver)
+    res = solver.solve(gap, 75e3, grid)
+    p = res.pressure_mpa
+    tol = 1e-6 * res.max_pressure_mpa
+    np.testing.assert_allclose(p, p[::-1, :], atol=tol)
+    np.testing.assert_allclose(p, p[:, ::-1], atol=tol)
+    assert res.centroid_mm == pytest.approx((0.0, 0.0), abs=1e-9)
+    assert res.pressure_centre_mm == pytest.approx((0.0, 0.0), abs=1e-9)
+
+
+def test_two_patches_give_two_outlines(solver):
+    """Two separate bumps share the force; the outline has one ring per patch."""
+    grid = SurfaceGrid.centred(40.0, 16.0, 0.2)
+    x, y = grid.mesh()
+    gap = np.minimum(((x - 10) ** 2 + y ** 2), ((x + 10) ** 2 + y ** 2)) / 900.0
+    res = solver.solve(gap, 100e3, grid)
+    assert len(res.outline_mm) == 2
+    # each bump takes half the load: its area is the Hertz area at 50 kN
+    hz = hertz_elliptic(1 / 900, 1 / 900, 50e3, solver.contact_modulus_mpa)
+    assert res.area_mm2 == pytest.approx(2 * hz.area_mm2, rel=1e-2)
+
+
+# --- film -------------------------------------------------------------------
+
+def test_film_softens_monotonically_and_stiff_film_recovers_hertz(solver):
+    grid, gap, _ = _quadratic_case(1 / 900, 1 / 900, 0.1, margin=1.6, solver=solver)
+    smooth = solver.solve(gap, 75e3, grid)
+    areas, peaks = [], []
+    for modulus in (1e7, 2e4, 5000.0, 2800.0, 1000.0):  # increasing t/M
+        res = solver.solve(gap, 75e3, grid, film=FilmLayer(modulus))
+        areas.append(res.area_mm2)
+        peaks.append(res.max_pressure_mpa)
+    assert np.all(np.diff(areas) > 0) and np.all(np.diff(peaks) < 0)
+    assert areas[0] == pytest.approx(smooth.area_mm2, rel=2e-3)
+    assert peaks[0] == pytest.approx(smooth.max_pressure_mpa, rel=5e-3)
+
+
+def test_film_depends_on_e_and_nu_only_through_oedometric_modulus(solver):
+    film_a = FilmLayer(2800.0, 0.33)
+    m = film_a.oedometric_modulus_mpa
+    assert m == pytest.approx(2800 * 0.67 / (1.33 * 0.34))
+    # the same M with nu = 0.2: E = M (1 + nu)(1 - 2 nu) / (1 - nu)
+    film_b = FilmLayer(m * 1.2 * 0.6 / 0.8, 0.2)
+    assert film_b.oedometric_modulus_mpa == pytest.approx(m)
+    res_a = sphere_on_flat_contact(450.0, 75e3, film=film_a, spacing_mm=0.2, solver=solver)
+    res_b = sphere_on_flat_contact(450.0, 75e3, film=film_b, spacing_mm=0.2, solver=solver)
+    assert res_a.area_mm2 == pytest.approx(res_b.area_mm2, rel=1e-9)
+
+
+def test_film_compliance_is_an_spd_diagonal_term(solver):
+    """With a film, K + (t/M) I: a uniform pressure on a flat gap closes by t p / M more."""
+    grid = SurfaceGrid(9, 9, 0.5, 0.5)
+    conv = solver._convolution(grid)
+    p = np.ones(grid.shape)
+    film = FilmLayer(2800.0)
+    assert film.compliance_mm_per_mpa == pytest.approx(0.09 / oedometric_modulus_mpa(2800, 0.33))
+    matrix = np.array([conv(e.reshape(grid.shape)).ravel() for e in np.eye(81)])
+    matrix += film.compliance_mm_per_mpa * np.eye(81)
+    np.testing.assert_allclose(matrix, matrix.T, rtol=1e-10, atol=1e-16)
+    assert np.linalg.eigvalsh(matrix).min() > 0.0
+    assert matrix @ p.ravel() == pytest.approx(conv(p).ravel() + film.compliance_mm_per_mpa)
+
+
+# --- interface laws -----------------------------------------------------------
+
+def test_nearly_linear_law_approaches_film_springs(solver):
+    """p = p0 (exp(c/c0) - 1) with p0/c0 = M/t tends to the film as p0 grows."""
+    film = FilmLayer(2800.0)
+    ref = sphere_on_flat_contact(450.0, 75e3, film=film, spacing_mm=0.2, solver=solver)
+    errors = []
+    for p0 in (1e3, 1e4, 1e5):
+        law = ExponentialLaw(p0, p0 * film.compliance_mm_per_mpa)
+        res = sphere_on_flat_contact(450.0, 75e3, law=law, spacing_mm=0.2, solver=solver)
+        assert res.converged and res.newton_iterations >= 1
+        errors.append(abs(res.area_mm2 / ref.area_mm2 - 1))
+    assert errors[0] > errors[1] > errors[2]
+    assert errors[2] < 1e-3
+
+
+def test_linear_tabular_law_equals_film(solver):
+    film = FilmLayer(2800.0)
+    closure = np.linspace(0.0, 0.05, 6)
+    law = TabularLaw(closure, closure / film.compliance_mm_per_mpa)
+    ref = sphere_on_flat_contact(450.0, 75e3, film=film, spacing_mm=0.2, solver=solver)
+    res = sphere_on_flat_contact(450.0, 75e3, law=law, spacing_mm=0.2, solver=solver)
+    assert res.area_mm2 == pytest.approx(ref.area_mm2, rel=1e-6)
+    assert res.max_pressure_mpa == pytest.approx(ref.max_pressure_mpa, rel=1e-6)
+
+
+def test_hard_law_is_no_law(solver):
+    ref = sphere_on_flat_contact(450.0, 75e3, spacing_mm=0.2, solver=solver)
+    res = sphere_on_flat_contact(450.0, 75e3, law=HardLaw(), spacing_mm=0.2, solver=solver)
+    assert res.area_mm2 == ref.area_mm2
+
+
+def test_rough_law_enlarges_the_contact(solver):
+    e_asperity = contact_modulus_mpa(2800.0, 0.33, 210000.0, 0.3)
+    smooth = sphere_on_flat_contact(450.0, 75e3, spacing_mm=0.2, solver=solver)
+    areas = []
+    for ra in (0.5, 1.5):
+        law = GreenwoodWilliamsonLaw(ra, e_asperity)
+        res = sphere_on_flat_contact(450.0, 75e3, law=law, spacing_mm=0.2, solver=solver)
+        assert res.converged
+        assert np.sum(res.pressure_mpa) * res.grid.cell_area_mm2 == pytest.approx(75e3)
+        areas.append(res.area_mm2)
+    assert smooth.area_mm2 < areas[0] < areas[1]
+    film = FilmLayer(2800.0)
+    with_film = sphere_on_flat_contact(450.0, 75e3, film=film, spacing_mm=0.2, solver=solver)
+    rough_film = sphere_on_flat_contact(450.0, 75e3, film=film, spacing_mm=0.2, solver=solver,
+                                        law=GreenwoodWilliamsonLaw(1.5, e_asperity))
+    assert rough_film.converged and rough_film.area_mm2 > with_film.area_mm2
+
+
+@pytest.mark.parametrize("law", [
+    ExponentialLaw(50.0, 0.002),
+    TabularLaw([0.0, 0.001, 0.003, 0.004], [0.0, 5.0, 40.0, 200.0]),
+    GreenwoodWilliamsonLaw(1.5, 3100.0),
+    GreenwoodWilliamsonLaw(10.0, 3100.0, heights="exponential"),
+])
+def test_law_closure_inverse_slope_and_integral(law):
+    p = np.array([0.0, 0.01, 0.3, 1.0, 3.0, 30.0, 150.0, 400.0])
+    c = law.closure_mm(p)
+    assert c[0] == 0.0 and np.all(np.diff(c) >= 0.0)
+    finite = np.isfinite(law.pressure_mpa(c))
+    hard_above = getattr(law, "saturation_pressure_mpa", np.inf)
+    check = finite & (p < hard_above)
+    np.testing.assert_allclose(law.pressure_mpa(c[check]), p[check], rtol=1e-6, atol=1e-9)
+    for q in (0.05, 0.7, 20.0):
+        step = 1e-6 * q
+        slope = (law.closure_mm(q + step) - law.closure_mm(q - step)) / (2 * step)
+        assert law.tangent_compliance_mm_per_mpa(np.array([q]))[0] == pytest.approx(
+            slope, rel=1e-4, abs=1e-12)
+        assert law.closure_integral(np.array([q]))[0] == pytest.approx(
+            quad(lambda s: float(law.closure_mm(s)), 0.0, q, limit=200)[0], rel=1e-6)
+
+
+def test_greenwood_williamson_closed_forms():
+    """Exponential heights: c = sigma log(1 + p/p0) exactly; Gaussian: the
+    onset compliance (closed form) matches the interpolated law."""
+    law = GreenwoodWilliamsonLaw(2.0, 3000.0, heights="exponential")
+    sigma = math.sqrt(math.pi / 2) * 2.0e-3
+    p0 = law.pressure_scale_mpa * math.gamma(2.5) * math.exp(-law.onset_sigma)
+    p = np.array([0.1, 1.0, 5.0])
+    assert law.saturation_pressure_mpa > 5.0
+    np.testing.assert_allclose(law.closure_mm(p), sigma * np.log1p(p / p0), rtol=1e-6)
+    gauss = GreenwoodWilliamsonLaw(2.0, 3000.0)
+    assert gauss.tangent_compliance_mm_per_mpa(np.array([0.0]))[0] == pytest.approx(
+        gauss.initial_compliance_mm_per_mpa, rel=1e-2)
+    assert gauss.saturation_closure_mm == pytest.approx(4.0 * sigma)
+
+
+# --- bad input ----------------------------------------------------------------
+
+def test_bad_input_raises_naming_the_parameter(solver):
+    grid, gap, _ = _quadratic_case(1 / 900, 1 / 900, 0.2, solver=solver)
+    with pytest.raises(ValueError, match="force_n"):
+        solver.solve(gap, 0.0, grid)
+    with pytest.raises(ValueError, match="force_n"):
+        solver.solve(gap, -5.0, grid)
+    bad = gap.copy()
+    bad[3, 4] = np.nan
+    with pytest.raises(ValueError, match="gap_mm"):
+        solver.solve(bad, 1e4, grid)
+    with pytest.raises(ValueError, match="gap_mm"):
+        solver.solve(gap[:-1], 1e4, grid)
+    with pytest.raises(ValueError, match="modulus_mpa"):
+        FilmLayer(0.0)
+    with pytest.raises(ValueError, match="ra_um"):
+        GreenwoodWilliamsonLaw(50.0, 3000.0)
+    with pytest.raises(ValueError, match="pressure_mpa"):
+        TabularLaw([0.0, 1e-3], [1.0, 2.0])
+    with pytest.raises(ValueError, match="nx"):
+        SurfaceGrid(2, 10, 0.1, 0.1)
+
+
+def test_coarse_grid_is_rejected(solver):
+    """About 8 cells across a contact of diameter 12 mm at 1.5 mm spacing."""
+    grid, gap, _ = _quadratic_case(1 / 900, 1 / 900, 1.5, margin=1.6, solver=solver)
+    with pytest.raises(ValueError, match="too coarse"):
+        solver.solve(gap, 75e3, grid)
+
+
+def test_contact_reaching_the_grid_edge(solver):
+    grid, gap, _ = _quadratic_case(1 / 900, 1 / 900, 0.2, margin=0.8, solver=solver)
+    with pytest.raises(ValueError, match="edge"):
+        solver.solve(gap, 75e3, grid)
+    res = solver.solve(gap, 75e3, grid, allow_edge=True)
+    assert res.reaches_edge
