@@ -21,7 +21,7 @@ from scipy.stats import kstest
 from filmcal.calibration.pipeline import calibrate
 from filmcal.calibration.data import RadiusErrorData, load_table1
 from filmcal.hertz import hertz_radius_mm
-from filmcal.calibration.likelihood import oedometric_ratio
+from filmcal.elastic import oedometric_ratio
 from toymodels import ToyRadiusModel
 from filmcal.calibration.sampling import SamplerSettings, read_chain
 

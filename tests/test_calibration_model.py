@@ -23,7 +23,8 @@ from filmcal.calibration.pipeline import calibrate_film
 from filmcal.calibration.checks import case_modulus_intervals, predictive_check
 from filmcal.calibration.data import RadiusErrorData, load_table1
 from filmcal.hertz import hertz_max_pressure_mpa, hertz_radius_mm
-from filmcal.calibration.likelihood import CalibrationProblem, Priors, RadiusModel, oedometric_ratio
+from filmcal.calibration.likelihood import CalibrationProblem, Priors, RadiusModel
+from filmcal.elastic import oedometric_ratio
 from filmcal.fem import Film, get_model
 
 C_MM, K = 2.2, 0.5

@@ -20,7 +20,7 @@ import pytest
 from filmcal.calibration.pipeline import calibrate
 from filmcal.calibration.data import RadiusErrorData, load_table1
 from filmcal.hertz import hertz_radius_mm
-from filmcal.calibration.likelihood import oedometric_ratio
+from filmcal.elastic import oedometric_ratio
 from toymodels import ToyRadiusModel
 from filmcal.calibration.plots import plot_case_intervals, plot_corner, plot_predictive, plot_trace
 from filmcal.calibration.posterior import load_result, save_result

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from filmcal.calibration.likelihood import oedometric_ratio
+from filmcal.elastic import oedometric_ratio
 
 STEEL_CONTACT_MODULUS_MPA = 210000.0 / (2.0 * (1.0 - 0.3**2))
 

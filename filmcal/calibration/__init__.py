@@ -7,7 +7,8 @@ a validated surrogate of the FE model, or the FE model itself.
 from filmcal.calibration.checks import CaseIntervals, PredictiveCheck, case_modulus_intervals, predictive_check
 from filmcal.calibration.data import FILM_TYPES, RadiusErrorData, load_table1, parse_load_range
 from filmcal.calibration.diagnostics import Diagnostics, compute_diagnostics
-from filmcal.calibration.likelihood import CalibrationProblem, Priors, RadiusModel, oedometric_ratio
+from filmcal.calibration.likelihood import CalibrationProblem, Priors, RadiusModel
+from filmcal.elastic import oedometric_ratio
 from filmcal.calibration.pipeline import calibrate, calibrate_film
 from filmcal.calibration.posterior import CalibrationResult, load_result, save_result, summarize
 from filmcal.calibration.sampling import SamplerSettings, read_chain, run_chain

@@ -39,6 +39,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from filmcal.elastic import oedometric_ratio
 from filmcal._validation import check_choice, check_positive
 from filmcal.calibration.data import RadiusErrorData
 
@@ -69,13 +70,6 @@ class RadiusModel(Protocol):
     def predict(self, modulus_mpa: np.ndarray, poisson: np.ndarray, sphere_radius_mm: np.ndarray,
                 force_n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         ...
-
-
-def oedometric_ratio(poisson: float | np.ndarray) -> float | np.ndarray:
-    """``M / E = (1 - nu) / ((1 + nu)(1 - 2 nu))`` of an isotropic solid."""
-    nu = np.asarray(poisson, dtype=float)
-    ratio = (1.0 - nu) / ((1.0 + nu) * (1.0 - 2.0 * nu))
-    return float(ratio) if ratio.ndim == 0 else ratio
 
 
 @dataclass(frozen=True)

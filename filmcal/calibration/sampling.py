@@ -33,7 +33,8 @@ import h5py
 import numpy as np
 
 from filmcal.calibration.diagnostics import Diagnostics, compute_diagnostics
-from filmcal.calibration.likelihood import CalibrationProblem, oedometric_ratio
+from filmcal.calibration.likelihood import CalibrationProblem
+from filmcal.elastic import oedometric_ratio
 
 __all__ = ["SamplerSettings", "ChainRun", "StoredChain", "initial_positions", "run_chain", "read_chain",
            "CHAIN_GROUP"]

@@ -9,26 +9,9 @@ from __future__ import annotations
 import numpy as np
 from skfem import BilinearForm, LinearForm
 
+from filmcal.elastic import lame_parameters, oedometric_modulus_mpa
+
 __all__ = ["lame_parameters", "oedometric_modulus_mpa", "linear_elasticity", "axial_traction"]
-
-
-def lame_parameters(modulus_mpa: float, poisson: float) -> tuple[float, float]:
-    """Lame's lambda and mu (MPa) of an isotropic material."""
-    lam = modulus_mpa * poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson))
-    mu = modulus_mpa / (2.0 * (1.0 + poisson))
-    return lam, mu
-
-
-def oedometric_modulus_mpa(modulus_mpa, poisson):
-    """Constrained (oedometric) modulus M = E (1 - nu) / ((1 + nu)(1 - 2 nu)) in MPa.
-
-    A thin film held laterally is compressed at M: in a linear model, film
-    properties enter the contact only through M.
-    """
-    e = np.asarray(modulus_mpa, dtype=float)
-    nu = np.asarray(poisson, dtype=float)
-    m = e * (1.0 - nu) / ((1.0 + nu) * (1.0 - 2.0 * nu))
-    return float(m) if m.ndim == 0 else m
 
 
 def _strains(u, r):

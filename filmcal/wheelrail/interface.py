@@ -37,6 +37,7 @@ import numpy as np
 from scipy.interpolate import PchipInterpolator
 from scipy.special import gamma, pbdv
 
+from filmcal.elastic import oedometric_modulus_mpa
 from filmcal._validation import check_choice, check_poisson, check_positive, check_range
 
 __all__ = [
@@ -46,19 +47,7 @@ __all__ = [
     "ExponentialLaw",
     "TabularLaw",
     "GreenwoodWilliamsonLaw",
-    "oedometric_modulus_mpa",
 ]
-
-
-def oedometric_modulus_mpa(youngs_modulus_mpa: float, poisson: float) -> float:
-    """Constrained (oedometric) modulus ``M = E (1 - nu) / ((1 + nu)(1 - 2 nu))``.
-
-    The stress-strain slope of a layer compressed through its thickness with
-    no lateral strain.
-    """
-    e = check_positive("youngs_modulus_mpa", youngs_modulus_mpa)
-    nu = check_poisson("poisson", poisson)
-    return e * (1.0 - nu) / ((1.0 + nu) * (1.0 - 2.0 * nu))
 
 
 @dataclass(frozen=True)
