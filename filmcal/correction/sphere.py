@@ -1,0 +1,126 @@
+"""Correction of sphere-on-flat film imprints: the contact without film, with its uncertainty.
+
+Model (the calibration's): a radius measured on film is the FE radius with film
+plus scatter, r_m = a_0(R, F) + delta(E; R, F) + eps, eps ~ N(0, sigma^2 + s^2),
+where a_0 is the contact radius without film, delta the film's enlargement
+(the radius model's excess over Hertz), sigma the scatter of one measurement
+about the model (inferred by the calibration), and s the radius model's own
+uncertainty. For each posterior sample (E, nu, sigma) the true radius is
+
+    a_0 = r_m - delta(E, nu; R, F) - eps,   eps ~ N(0, sigma^2 + s^2 + u^2),
+
+u being the user's stated measurement uncertainty. The corrected area is
+pi a_0^2; its mean, standard deviation and 90 % interval summarise those
+samples.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from filmcal.hertz import hertz_radius_mm
+
+__all__ = ["CorrectedArea", "SphereCorrector"]
+
+
+@dataclass
+class CorrectedArea:
+    """A corrected contact area (mm^2) with its uncertainty, per input point.
+
+    Attributes
+    ----------
+    area_mm2, area_std_mm2 : ndarray
+        Posterior mean and standard deviation.
+    area_ci90_mm2 : ndarray, shape (..., 2)
+        5 % and 95 % quantiles.
+    radius_mm, radius_std_mm : ndarray
+        The same for the equivalent radius.
+    samples_mm2 : ndarray, shape (..., n_samples)
+        Posterior samples of the corrected area.
+    """
+
+    area_mm2: np.ndarray
+    area_std_mm2: np.ndarray
+    area_ci90_mm2: np.ndarray
+    radius_mm: np.ndarray
+    radius_std_mm: np.ndarray
+    samples_mm2: np.ndarray
+
+    def to_dict(self) -> dict:
+        """Scalar (or list) summaries for JSON, without the samples."""
+        def plain(x):
+            x = np.asarray(x)
+            return x.item() if x.ndim == 0 else x.tolist()
+        return {"area_mm2": plain(self.area_mm2), "area_std_mm2": plain(self.area_std_mm2),
+                "area_ci90_mm2": plain(self.area_ci90_mm2), "radius_mm": plain(self.radius_mm),
+                "radius_std_mm": plain(self.radius_std_mm), "n_samples": int(self.samples_mm2.shape[-1])}
+
+
+def _summarise(samples_mm2: np.ndarray, radius_samples: np.ndarray) -> CorrectedArea:
+    return CorrectedArea(samples_mm2.mean(axis=-1), samples_mm2.std(axis=-1, ddof=1),
+                         np.moveaxis(np.quantile(samples_mm2, [0.05, 0.95], axis=-1), 0, -1),
+                         radius_samples.mean(axis=-1), radius_samples.std(axis=-1, ddof=1), samples_mm2)
+
+
+class SphereCorrector:
+    """Correct sphere-on-flat imprints measured with one film type.
+
+    Parameters
+    ----------
+    model : RadiusModel
+        ``predict(modulus_mpa, poisson, sphere_radius_mm, force_n) -> (mean, std)``
+        of the radius printed on film (e.g. `filmcal.study.SurrogateRadiusModel`).
+    posterior : dict of ndarray
+        Posterior samples ``modulus_mpa``, ``poisson`` and ``sigma_mm`` of equal
+        shape, any layout (e.g. ``CalibrationResult.samples``, walkers x steps).
+    max_samples : int
+        Thin the posterior to at most this many samples (evenly).
+    random_state : int or numpy.random.Generator, optional
+        Seed of the scatter draws: the same seed gives the same answer.
+    """
+
+    def __init__(self, model, posterior: dict, max_samples: int = 2000, random_state=0) -> None:
+        self.model = model
+        modulus = np.asarray(posterior["modulus_mpa"], dtype=float).ravel()
+        n = len(modulus)
+        take = np.unique(np.linspace(0, n - 1, min(n, max_samples)).round().astype(int))
+        self.modulus_mpa_ = modulus[take]
+        poisson = np.asarray(posterior.get("poisson", 0.33), dtype=float)
+        self.poisson_ = np.broadcast_to(poisson.ravel()[take] if poisson.ndim else poisson, take.shape).copy()
+        self.sigma_mm_ = np.asarray(posterior["sigma_mm"], dtype=float).ravel()[take]
+        self.random_state = random_state
+
+    def correct(self, measured_radius_mm, sphere_radius_mm, force_n, measurement_std_mm=0.0) -> CorrectedArea:
+        """The contact area without film behind measured imprint radii (vectorised).
+
+        Parameters
+        ----------
+        measured_radius_mm : float or array_like
+            Imprint radius on the film (mm), > 0.
+        sphere_radius_mm, force_n : float or array_like
+            Sphere radius R (mm) and force F (N), > 0.
+        measurement_std_mm : float or array_like
+            The user's standard uncertainty of the measured radius (mm), >= 0.
+        """
+        r_m, R, F, u = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in
+                                             (measured_radius_mm, sphere_radius_mm, force_n, measurement_std_mm)))
+        for name, x in (("measured_radius_mm", r_m), ("sphere_radius_mm", R), ("force_n", F)):
+            if not np.all(np.isfinite(x)) or np.any(x <= 0):
+                raise ValueError(f"{name} must be finite and > 0")
+        if not np.all(np.isfinite(u)) or np.any(u < 0):
+            raise ValueError("measurement_std_mm must be finite and >= 0")
+        shape = r_m.shape
+        e = self.modulus_mpa_[None, :]
+        mean, std = self.model.predict(e, self.poisson_[None, :], R.reshape(-1, 1), F.reshape(-1, 1))
+        if not np.all(np.isfinite(mean)):
+            raise ValueError("sphere_radius_mm or force_n outside the radius model's domain")
+        delta = mean - hertz_radius_mm(R.reshape(-1, 1), F.reshape(-1, 1))
+        rng = np.random.default_rng(self.random_state)
+        scale = np.sqrt(self.sigma_mm_[None, :] ** 2 + std**2 + u.reshape(-1, 1) ** 2)
+        a0 = r_m.reshape(-1, 1) - delta - scale * rng.standard_normal(delta.shape)
+        a0 = np.clip(a0, 0.0, None)
+        out = _summarise(np.pi * a0**2, a0)
+        return CorrectedArea(*(x.reshape(shape + x.shape[1:]) for x in
+                               (out.area_mm2, out.area_std_mm2, out.area_ci90_mm2, out.radius_mm,
+                                out.radius_std_mm, out.samples_mm2)))
