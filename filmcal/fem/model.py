@@ -172,6 +172,26 @@ def _radius_where_pressure_exceeds(r_mm: np.ndarray, pressure_mpa: np.ndarray, l
     return float(r_mm[k] + (r_mm[k + 1] - r_mm[k]) * (p0 - level_mpa) / (p0 - p1))
 
 
+@dataclass
+class _StepProblem:
+    """What a load step needs besides the load and the current state."""
+
+    low: "_Lower"
+    D: np.ndarray
+    H_s: np.ndarray
+    g0: np.ndarray
+    d0_unit: np.ndarray
+    a: np.ndarray
+    normal: np.ndarray
+    tangential: np.ndarray
+    friction: np.ndarray
+    gate: np.ndarray
+    K_film: np.ndarray | None
+    film: Film | None
+    nonlinear: bool
+    max_iterations: int
+
+
 class SphereOnFlat:
     """Axisymmetric FE model of the paper's Hertzian experiment for one sphere.
 
@@ -405,54 +425,31 @@ class SphereOnFlat:
         K_film = self._film_stiffness(film) if with_film else None
 
         steps = opts.steps()
+        nonlinear = bool(opts.large_strain and with_film)
+        problem = _StepProblem(low, D, H_s, g0, d0_unit, a, normal, tangential, friction, gate, K_film, film,
+                               nonlinear, opts.max_iterations)
         state = self._initial_state(n_lam, normal, tangential, force_n / steps)
         d_prev = np.zeros(n_lam)
         x = np.zeros(low.n_x)
         total_iterations = 0
         reason = ""
         converged = True
-        for k in range(1, steps + 1):
-            load = force_n * k / steps
-            for newton in range(1, (opts.max_iterations if opts.large_strain and with_film else 1) + 1):
-                if opts.large_strain and with_film:
-                    try:
-                        f_int, K_t = film_internal_force_and_tangent(self._film_basis, film, self._film_dofs(low, x))
-                    except np.linalg.LinAlgError:
-                        converged, reason = False, f"load step {k}/{steps}: film element inverted (film collapsed)"
-                        break
-                    K_L = self._lower_stiffness(low, K_t)
-                    # residual of the lower body at x without pair forces
-                    r_x = self._lower_internal(low, f_int, x)
-                else:
-                    K_L = self._lower_stiffness(low, K_film)
-                    r_x = np.zeros(low.n_x)
-                try:
-                    cho = sla.cho_factor(K_L)
-                except np.linalg.LinAlgError:
-                    converged, reason = False, "film stiffness lost positive definiteness (film collapsed)"
-                    break
-                Y = sla.cho_solve(cho, D.T)
-                x_hat = x - sla.cho_solve(cho, r_x) if opts.large_strain and with_film else np.zeros(low.n_x)
-                H = H_s + D @ Y
-                d0 = g0 + load * d0_unit - D @ x_hat
-                pairs = PairSystem(normal, tangential, friction, gate, *self._normal_force_map(low, Y, x_hat, tangential, gate))
-                state = solve_pairs(H, d0, a, load, pairs, state, d_prev, opts.max_iterations)
-                total_iterations += state.iterations
-                if not state.converged:
-                    converged, reason = False, f"load step {k}/{steps}: {state.reason}"
-                    break
-                x_new = x_hat - Y @ state.forces
-                if not (opts.large_strain and with_film):
-                    x = x_new
-                    break
-                dx = np.max(np.abs(x_new - x))
-                x = x_new
-                if dx < 1e-9 * max(self.film_thickness_mm, 1.0):
-                    break
-            else:
-                converged, reason = False, f"load step {k}/{steps}: film Newton iterations did not converge"
-            if not converged:
+        # load increments; an increment whose active set or Newton iterations fail is
+        # retried in halves, down to 1/16 of the nominal increment
+        nominal = force_n / steps
+        increment, done = nominal, 0.0
+        while done < force_n * (1 - 1e-12):
+            load = min(done + increment, force_n)
+            ok, why, x_new, new_state, its = self._load_step(problem, load, x, state, d_prev)
+            total_iterations += its
+            if not ok:
+                if increment > nominal / 16 * (1 + 1e-9):
+                    increment /= 2
+                    continue
+                converged, reason = False, f"at {load / force_n:.0%} of the load: {why}"
                 break
+            x, state, done = x_new, new_state, load
+            increment = min(2 * increment, nominal)
             d_prev = state.relative.copy()
             strain = self._film_strain(low, x) if with_film else np.zeros(n)
             if with_film and np.min(strain) <= -0.95:
@@ -460,6 +457,44 @@ class SphereOnFlat:
                 break
         return self._result(film, force_n, opts, state, x, low, converged, reason, total_iterations,
                             activation_pressure_mpa, time.perf_counter() - t0)
+
+    def _load_step(self, pb: "_StepProblem", load: float, x: np.ndarray, state: ContactState,
+                   d_prev: np.ndarray) -> tuple[bool, str, np.ndarray, ContactState, int]:
+        """Solve the pair problem at one load level (Newton on a large-strain film)."""
+        iterations = 0
+        for _ in range(pb.max_iterations if pb.nonlinear else 1):
+            if pb.nonlinear:
+                try:
+                    f_int, K_t = film_internal_force_and_tangent(self._film_basis, pb.film, self._film_dofs(pb.low, x))
+                except np.linalg.LinAlgError:
+                    return False, "film element inverted (film collapsed)", x, state, iterations
+                K_L = self._lower_stiffness(pb.low, K_t)
+                r_x = self._lower_internal(pb.low, f_int, x)  # lower body's residual without pair forces
+            else:
+                K_L = self._lower_stiffness(pb.low, pb.K_film)
+                r_x = np.zeros(pb.low.n_x)
+            try:
+                cho = sla.cho_factor(K_L)
+            except np.linalg.LinAlgError:
+                return False, "film stiffness lost positive definiteness (film collapsed)", x, state, iterations
+            Y = sla.cho_solve(cho, pb.D.T)
+            x_hat = x - sla.cho_solve(cho, r_x) if pb.nonlinear else np.zeros(pb.low.n_x)
+            H = pb.H_s + pb.D @ Y
+            d0 = pb.g0 + load * pb.d0_unit - pb.D @ x_hat
+            pairs = PairSystem(pb.normal, pb.tangential, pb.friction, pb.gate,
+                               *self._normal_force_map(pb.low, Y, x_hat, pb.tangential, pb.gate))
+            state = solve_pairs(H, d0, pb.a, load, pairs, state, d_prev, pb.max_iterations)
+            iterations += state.iterations
+            if not state.converged:
+                return False, state.reason, x, state, iterations
+            x_new = x_hat - Y @ state.forces
+            if not pb.nonlinear:
+                return True, "", x_new, state, iterations
+            dx = np.max(np.abs(x_new - x))
+            x = x_new
+            if dx < 1e-9 * max(self.film_thickness_mm, 1.0):
+                return True, "", x, state, iterations
+        return False, "film Newton iterations did not converge", x, state, iterations
 
     def _initial_state(self, n_lam, normal, tangential, force_n) -> ContactState:
         a_guess = hertz_radius_mm(self.radius_mm, force_n)
