@@ -30,13 +30,41 @@ With ``--accuracy`` it also prints the accuracy figures of the solver:
   90 um film (nu = 0.33, E = 1000, 2800, 5000 MPa) for R = 300, 450, 600 mm
   and F = 25-100 kN, to compare with the axisymmetric finite-element model.
 
-Run: ``python bench/wheelrail_speed.py [--repeats 10] [--workers N] [--accuracy]``
+Wheel-rail problem (``filmcal.wheelrail.wheelrail``), always printed:
+
+* one S1002/60E2 solve at eta = -3 mm, 100 kN with the HS film on the 0.1 mm
+  grid: cold (new model: placement, sampled profiles, spectrum) and the
+  median of repeated solves (what a loop over posterior samples costs);
+  target <= 1 s median;
+* the 20-case table of the paper (eta = -7 ... 2 mm in 1 mm steps, F = 50
+  and 100 kN) without and with the film, from a new model: total time
+  target <= 30 s, with the areas (FE edge reading and pressure > 0), the
+  local Hertz area and the number of patches.
+
+With ``--fe-table`` it prints the film representation against the
+axisymmetric FE model (``filmcal.fem``, film tied to the flat and
+frictionless at the sphere, 0.1 mm elements) on the ten Table 1 cases at
+E = 1000, 2800 and 5000 MPa (nu = 0.33, t = 0.09 mm), and without film: the FE radius (edge
+profile fit, ``filmcal.fem.result.read_contact_radius``) and the half-space
+radius by three definitions: ``sqrt(A/pi)`` of the positive-pressure area,
+the FE reading applied to the radial line of cells through the centre, and
+``sqrt(A/pi)`` of the fitted outline (the definition the wheel-rail model
+uses, ``filmcal.wheelrail.edge``); target |difference| <= 0.02 mm.
+
+With ``--hertz-table`` it prints the wheel-rail areas without film against
+the local Hertz solution for eta = -7 ... 2 mm in 0.5 mm steps.
+
+Run: ``python bench/wheelrail_speed.py [--repeats 10] [--workers N] [--accuracy]
+[--fe-table] [--hertz-table]``
 """
 from __future__ import annotations
 
 import argparse
+import math
 import statistics
 import time
+
+import numpy as np
 
 from scipy.optimize import brentq
 
@@ -44,7 +72,9 @@ from filmcal.wheelrail.halfspace import (HalfSpaceContactSolver, SurfaceGrid,
                                          sphere_on_flat_contact)
 from filmcal.wheelrail.hertz import hertz_elliptic
 from filmcal.hertz import contact_modulus_mpa
+from filmcal.wheelrail.edge import read_contact_edge, read_radial_edge_mm
 from filmcal.wheelrail.interface import FilmLayer, GreenwoodWilliamsonLaw, InterfaceLaw
+from filmcal.wheelrail.wheelrail import WheelRailModel
 
 TARGET_S = 1.0
 FORCE_N = 100e3
@@ -144,6 +174,120 @@ def film_sphere_table(solver: HalfSpaceContactSolver) -> None:
             print(f"{radius:>5.0f} {force / 1e3:>5.0f} {a:>7.3f} " + " ".join(cells))
 
 
+HS_FILM = FilmLayer(2800.0, 0.33, 0.09)
+PAPER_OFFSETS_MM = tuple(float(e) for e in range(-7, 3))
+PAPER_FORCES_N = (50e3, 100e3)
+TABLE_TARGET_S = 30.0
+TABLE1_CASES = ((300, 25), (450, 25), (600, 25), (300, 50), (450, 50), (600, 50), (450, 75),
+                (600, 75), (450, 100), (600, 100))
+
+
+def wheel_rail_timing(repeats: int, workers: int | None) -> float:
+    """Cold and median time of one wheel-rail solve with the HS film; returns the median."""
+    model = WheelRailModel(solver=HalfSpaceContactSolver(workers=workers))
+    start = time.perf_counter()
+    first = model.solve(-3.0, 100e3, film=HS_FILM)
+    cold = time.perf_counter() - start
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        model.solve(-3.0, 100e3, film=HS_FILM)
+        times.append(time.perf_counter() - start)
+    median = statistics.median(times)
+    print(f"\nwheel-rail S1002/60E2, eta = -3 mm, 100 kN, HS film, grid 0.1 mm "
+          f"({first.grid.nx}x{first.grid.ny} cells, {first.contact.iterations} CG iterations): "
+          f"cold {cold:.3f} s, median {median:.3f} s (min {min(times):.3f}, max {max(times):.3f}); "
+          f"target {TARGET_S:.1f} s -> {'met' if median <= TARGET_S else 'NOT met'} "
+          f"(ratio {TARGET_S / median:.1f}x); area {first.area_mm2:.2f} mm2")
+    return median
+
+
+def paper_table(workers: int | None) -> float:
+    """The 20 cases of the paper without and with the HS film, from a new model; returns the total time."""
+    model = WheelRailModel(solver=HalfSpaceContactSolver(workers=workers))
+    print("\n20-case table (S1002/60E2, inclination 1/40, R0 460 mm, grid 0.1 mm); areas in mm2: "
+          "A = contact area (FE edge reading with film), A>0 = pressure > 0")
+    print(f"{'eta':>5} {'F kN':>5} | {'A':>7} {'A>0':>7} {'Hertz':>7} {'patch':>5} {'s':>5} | "
+          f"{'A film':>7} {'A>0':>7} {'s':>5} | {'ratio':>6}")
+    totals = {"none": 0.0, "film": 0.0}
+    start_all = time.perf_counter()
+    for force in PAPER_FORCES_N:
+        for eta in PAPER_OFFSETS_MM:
+            bare = model.solve(eta, force)
+            film = model.solve(eta, force, film=HS_FILM)
+            totals["none"] += bare.elapsed_s
+            totals["film"] += film.elapsed_s
+            hertz = bare.hertz.area_mm2 if bare.hertz is not None else float("nan")
+            print(f"{eta:>5.1f} {force / 1e3:>5.0f} | {bare.area_mm2:>7.2f} {bare.support_area_mm2:>7.2f} "
+                  f"{hertz:>7.2f} {bare.n_patches:>5d} {bare.elapsed_s:>5.2f} | {film.area_mm2:>7.2f} "
+                  f"{film.support_area_mm2:>7.2f} {film.elapsed_s:>5.2f} | "
+                  f"{film.area_mm2 / bare.area_mm2:>6.3f}")
+    total = time.perf_counter() - start_all
+    print(f"total {total:.1f} s (without film {totals['none']:.1f} s, with film {totals['film']:.1f} s); "
+          f"target {TABLE_TARGET_S:.0f} s -> {'met' if total <= TABLE_TARGET_S else 'NOT met'} "
+          f"(ratio {TABLE_TARGET_S / total:.1f}x)")
+    return total
+
+
+def fe_film_table(workers: int | None) -> None:
+    """Film springs of the half-space model against the axisymmetric FE model (30 cases)."""
+    from filmcal.fem import Film, get_model
+
+    solver = HalfSpaceContactSolver(workers=workers)
+    print("\nFilm representation against the axisymmetric FE model (t = 0.09 mm, nu = 0.33, "
+          "grid/elements 0.1 mm); radii in mm")
+    print("  FE: edge-profile fit of the FE pressures; BEM: sqrt(A/pi) of p > 0 | FE reading on "
+          "the radial line of cells | sqrt(A/pi) of the fitted outline (wheel-rail definition)")
+    print(f"{'R':>4} {'F kN':>5} {'E MPa':>6} {'FE':>8} | {'p>0':>8} {'diff':>7} | {'line':>8} "
+          f"{'diff':>7} | {'outline':>8} {'diff':>7}")
+    worst = {"support": 0.0, "line": 0.0, "outline": 0.0}
+    for radius, force_kn in TABLE1_CASES:
+        model = get_model(float(radius))
+        for modulus in (1000.0, 2800.0, 5000.0, None):
+            fe = model.solve(None if modulus is None else Film(modulus, 0.33), force_kn * 1e3)
+            film = None if modulus is None else FilmLayer(modulus, 0.33, 0.09)
+            bem = sphere_on_flat_contact(radius, force_kn * 1e3, film=film, solver=solver)
+            grid = bem.grid
+            row = bem.pressure_mpa[grid.nx // 2]
+            half = grid.y_mm >= 0.0
+            radii = {"support": bem.equivalent_radius_mm,
+                     "line": read_radial_edge_mm(grid.y_mm[half], row[half]),
+                     "outline": math.sqrt(read_contact_edge(bem).area_mm2 / math.pi)}
+            diff = {k: v - fe.contact_radius_mm for k, v in radii.items()}
+            for k, v in diff.items():
+                worst[k] = max(worst[k], abs(v))
+            label = "none" if modulus is None else f"{modulus:.0f}"
+            print(f"{radius:>4d} {force_kn:>5d} {label:>6} {fe.contact_radius_mm:>8.4f} | "
+                  f"{radii['support']:>8.4f} {diff['support']:>+7.4f} | {radii['line']:>8.4f} "
+                  f"{diff['line']:>+7.4f} | {radii['outline']:>8.4f} {diff['outline']:>+7.4f}")
+    print("largest |difference| (target 0.02 mm): " + ", ".join(
+        f"{k} {v:.4f} mm ({'met' if v <= 0.02 else 'NOT met'})" for k, v in worst.items()))
+
+
+def hertz_table(workers: int | None) -> None:
+    """Wheel-rail contact without film against the local Hertz solution."""
+    model = WheelRailModel(solver=HalfSpaceContactSolver(workers=workers))
+    print("\nWheel-rail without film against local Hertz (S1002/60E2, 1/40, 0.1 mm grid); "
+          "'Hertz-like': one patch, one contact point, relative curvature within x2 over the ellipse")
+    print(f"{'F kN':>5} {'eta':>5} {'y_c':>7} {'theta':>6} {'A':>8} {'Hertz':>8} {'dev %':>7} "
+          f"{'p0':>6} {'p0 H':>6} {'patches':>7} {'Hertz-like':>10}")
+    worst = 0.0
+    for force in PAPER_FORCES_N:
+        for eta in np.arange(-7.0, 2.01, 0.5):
+            res = model.solve(float(eta), force)
+            hz = res.hertz
+            dev = 100.0 * (res.area_mm2 / hz.area_mm2 - 1.0) if hz is not None else float("nan")
+            if res.hertz_like:
+                worst = max(worst, abs(dev))
+            point = res.placement.contact
+            print(f"{force / 1e3:>5.0f} {eta:>5.1f} {point.y_mm:>7.2f} "
+                  f"{math.degrees(point.contact_angle_rad):>6.2f} {res.area_mm2:>8.2f} "
+                  f"{hz.area_mm2 if hz else float('nan'):>8.2f} {dev:>+7.2f} "
+                  f"{res.max_pressure_mpa:>6.0f} {hz.max_pressure_mpa if hz else float('nan'):>6.0f} "
+                  f"{res.n_patches:>7d} {str(res.hertz_like):>10}")
+    print(f"largest |deviation| over the Hertz-like cases: {worst:.2f} % (target 3 %)")
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--repeats", type=int, default=10,
@@ -152,6 +296,11 @@ def main() -> int:
                         help="FFT threads (default: all CPUs)")
     parser.add_argument("--accuracy", action="store_true",
                         help="also print the Hertz grid-convergence and film sphere tables")
+    parser.add_argument("--fe-table", action="store_true",
+                        help="also print the film representation against the axisymmetric FE "
+                             "model (30 cases)")
+    parser.add_argument("--hertz-table", action="store_true",
+                        help="also print the wheel-rail areas against local Hertz over eta")
     args = parser.parse_args()
     film = FilmLayer(2800.0, 0.33, 0.09)
     rough = GreenwoodWilliamsonLaw(1.5, contact_modulus_mpa(2800.0, 0.33, 210000.0, 0.3))
@@ -170,10 +319,16 @@ def main() -> int:
     worst = max(r["median_s"] for r in rows if r["film"] == "HS")
     print(f"slowest film solve: median {worst:.3f} s, target {TARGET_S:.1f} s -> "
           f"{'met' if worst <= TARGET_S else 'NOT met'} (ratio {TARGET_S / worst:.1f}x)")
+    wheel_rail_timing(args.repeats, args.workers)
+    paper_table(args.workers)
     if args.accuracy:
         solver = HalfSpaceContactSolver(workers=args.workers)
         hertz_convergence_table(solver)
         film_sphere_table(solver)
+    if args.fe_table:
+        fe_film_table(args.workers)
+    if args.hertz_table:
+        hertz_table(args.workers)
     return 0
 
 

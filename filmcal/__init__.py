@@ -28,8 +28,9 @@ _EXPORTS = {
     "filmcal.calibration": ["load_table1", "RadiusErrorData", "calibrate_film", "CalibrationResult",
                             "RadiusModel", "Priors"],
     "filmcal.study": ["build_radius_surrogate", "SurrogateRadiusModel", "FERadiusModel", "SurrogateDomain"],
-    "filmcal.wheelrail.profiles": ["get_profile", "load_profile_csv"],
-    "filmcal.wheelrail.placement": ["place_wheel_on_rail"],
+    "filmcal.wheelrail": ["get_profile", "load_profile_csv", "place_wheel_on_rail", "solve_wheel_rail",
+                          "solve_wheel_rail_many", "WheelRailModel", "HalfSpaceContactSolver", "FilmLayer"],
+    "filmcal.correction": ["SphereCorrector", "CorrectedArea"],
 }
 _WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
 

@@ -1,0 +1,246 @@
+"""Wheel-rail contact area with and without Prescale film: the paper's Figs. 6 and 7 in kind.
+
+S1002 wheel (nominal radius 460 mm) on a 60E2 rail inclined 1:40, vertical
+loads F = 50 and 100 kN, lateral offsets eta = -7 ... +2 mm (0.5 mm steps by
+default, the paper's 1 mm steps included), three models as in the paper's
+section 2.2:
+
+* no film (hard steel-on-steel contact);
+* HS film: E = 2800 MPa, nu = 0.33, t = 0.09 mm (the paper's calibrated film),
+  as springs in series;
+* HS film and a rough wheel: Greenwood-Williamson law from Ra = 1.5 um at the
+  film-wheel interface.
+
+The contact area (``contact_area_mm2``) is read with the edge-profile fit of
+the axisymmetric FE calibration model when there is a film; without film it
+is the positive-pressure area, which that fit reproduces for Hertzian edges.
+The positive-pressure area (``support_area_mm2``) is written too. Run::
+
+    python examples/wheelrail_figures.py [--out-dir out/wheelrail_figures] [--step-mm 0.5]
+                                         [--rail 60E2]
+
+Writes into the output folder:
+
+* ``wheelrail_area_curves.csv`` -- one row per (F, eta, model): areas, peak
+  pressure, number of patches, centroid, local Hertz area (no film) and
+  whether the case is Hertz-like;
+* ``fig6_area_vs_offset.png`` -- A(eta) for both loads and the three models,
+  and the ratio of the film areas to the area without film (the
+  measurement error the film introduces);
+* ``fig7_outlines_50kN.png`` -- contact outlines without (solid) and with
+  (dashed) film at 50 kN for eta = -7 ... +2 mm in 1 mm steps, with the
+  rail profile joints;
+* ``hertz_comparison.png`` -- the area without film against the local Hertz
+  solution.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, contact_modulus_mpa
+from filmcal.wheelrail import FilmLayer, GreenwoodWilliamsonLaw
+from filmcal.wheelrail.wheelrail import WheelRailModel, WheelRailResult
+
+FORCES_KN = (50.0, 100.0)
+HS_FILM = FilmLayer(2800.0, 0.33, 0.09)
+ROUGH_WHEEL = GreenwoodWilliamsonLaw(1.5, contact_modulus_mpa(HS_FILM.modulus_mpa, HS_FILM.poisson,
+                                                              STEEL_MODULUS_MPA, STEEL_POISSON))
+MODELS = {
+    "no film": (None, None),
+    "HS film": (HS_FILM, None),
+    "HS film + rough wheel": (HS_FILM, ROUGH_WHEEL),
+}
+STYLE = {"no film": ("tab:blue", "o"), "HS film": ("tab:orange", "s"),
+         "HS film + rough wheel": ("tab:green", "^")}
+
+
+def solve_all(model: WheelRailModel, offsets_mm: np.ndarray) -> dict:
+    """Results keyed by (force_kn, model name, eta)."""
+    results = {}
+    for force in FORCES_KN:
+        for eta in offsets_mm:
+            for name, (film, law) in MODELS.items():
+                res = model.solve(float(eta), force * 1e3, film=film, roughness=law)
+                results[(force, name, float(eta))] = res
+            line = " ".join(f"{name}: {results[(force, name, float(eta))].area_mm2:7.2f}"
+                            for name in MODELS)
+            print(f"F = {force:5.0f} kN, eta = {eta:+5.1f} mm | {line} mm2", flush=True)
+    return results
+
+
+def write_csv(results: dict, path: Path) -> None:
+    """One row per case."""
+    fields = ["force_kn", "offset_mm", "model", "contact_area_mm2", "support_area_mm2",
+              "max_pressure_mpa", "n_patches", "centroid_y_mm", "centroid_rail_y_mm",
+              "centroid_wheel_y_mm", "contact_angle_deg", "hertz_area_mm2", "hertz_like",
+              "converged", "elapsed_s"]
+    with open(path, "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=fields)
+        writer.writeheader()
+        for (force, name, eta), res in sorted(results.items(), key=lambda kv: (kv[0][0], kv[0][1], kv[0][2])):
+            writer.writerow({
+                "force_kn": force, "offset_mm": eta, "model": name,
+                "contact_area_mm2": f"{res.area_mm2:.4f}",
+                "support_area_mm2": f"{res.support_area_mm2:.4f}",
+                "max_pressure_mpa": f"{res.max_pressure_mpa:.2f}", "n_patches": res.n_patches,
+                "centroid_y_mm": f"{res.centroid_y_mm:.4f}",
+                "centroid_rail_y_mm": f"{res.centroid_rail_y_mm:.4f}",
+                "centroid_wheel_y_mm": f"{res.centroid_wheel_y_mm:.4f}",
+                "contact_angle_deg": f"{math.degrees(res.contact_angle_rad):.4f}",
+                "hertz_area_mm2": "" if res.hertz is None or res.film is not None
+                else f"{res.hertz.area_mm2:.4f}",
+                "hertz_like": res.hertz_like if res.film is None else "",
+                "converged": res.converged, "elapsed_s": f"{res.elapsed_s:.3f}"})
+
+
+def _hard_contact(name: str) -> bool:
+    """Whether a model name is the hard contact (its area is the positive-pressure area)."""
+    return MODELS[name][0] is None and MODELS[name][1] is None
+
+
+def _curve(results: dict, force: float, name: str, offsets: np.ndarray, attr: str) -> np.ndarray:
+    return np.array([getattr(results[(force, name, float(e))], attr) for e in offsets])
+
+
+def plot_area_curves(results: dict, offsets: np.ndarray, path: Path) -> None:
+    """Fig. 6 analog: A(eta) per load and model, and the film's area ratio."""
+    fig = Figure(figsize=(11, 7.5), layout="constrained")
+    axes = fig.subplots(2, 2, sharex=True)
+    for col, force in enumerate(FORCES_KN):
+        ax = axes[0, col]
+        for name in MODELS:
+            color, marker = STYLE[name]
+            label = name if _hard_contact(name) else f"{name} (FE edge reading)"
+            ax.plot(offsets, _curve(results, force, name, offsets, "area_mm2"), "-", color=color,
+                    marker=marker, ms=4, label=label)
+        rough = _curve(results, force, "HS film + rough wheel", offsets, "support_area_mm2")
+        ax.plot(offsets, rough, "--", color=STYLE["HS film + rough wheel"][0], lw=1.0,
+                label="HS film + rough wheel, pressure > 0 (the Greenwood-Williamson tail, "
+                      f"below {ROUGH_WHEEL.saturation_pressure_mpa:.1f} MPa)")
+        ax.set_title(f"F = {force:g} kN")
+        ax.set_ylabel("contact area A (mm$^2$)")
+        ax.grid(True, lw=0.3)
+        ratio_ax = axes[1, col]
+        bare = _curve(results, force, "no film", offsets, "area_mm2")
+        for name in ("HS film", "HS film + rough wheel"):
+            color, marker = STYLE[name]
+            ratio_ax.plot(offsets, _curve(results, force, name, offsets, "area_mm2") / bare, "-",
+                          color=color, marker=marker, ms=4, label=name)
+        ratio_ax.plot(offsets, rough / bare, "--", color=STYLE["HS film + rough wheel"][0], lw=1.0)
+        ratio_ax.set_xlabel("lateral offset $\\eta$ (mm), flange towards the gauge corner $\\rightarrow$")
+        ratio_ax.set_ylabel("A / A(no film)")
+        ratio_ax.grid(True, lw=0.3)
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=2, fontsize=8)
+    fig.suptitle("S1002 on 60E2 (1:40, R0 = 460 mm): contact area with and without HS film "
+                 "(E = 2800 MPa, $\\nu$ = 0.33, t = 90 $\\mu$m)", fontsize=10)
+    fig.savefig(path, dpi=150)
+
+
+def _rail_joints_track_y(res: WheelRailResult) -> list[float]:
+    """Track y of the rail profile joints (section bounds) inside the placement overlap."""
+    placement = res.placement
+    theta = math.atan(placement.rail_inclination)
+    lo, hi = placement.y_range_mm
+    out = []
+    for sec in placement.rail.sections[1:]:
+        u = sec.y_start_mm
+        y = u * math.cos(theta) - float(placement.rail.z(u)) * math.sin(theta)
+        if lo < y < hi:
+            out.append(y)
+    return out
+
+
+def plot_outlines(results: dict, offsets: np.ndarray, force: float, path: Path) -> None:
+    """Fig. 7 analog: outlines with and without film, one panel per offset."""
+    shown = [e for e in offsets if abs(e - round(e)) < 1e-9]
+    ncol = 5
+    nrow = int(math.ceil(len(shown) / ncol))
+    fig = Figure(figsize=(2.6 * ncol, 3.3 * nrow), layout="constrained")
+    axes = np.atleast_2d(fig.subplots(nrow, ncol, sharex=True, sharey=True))
+    rings = [ring for eta in shown for name in ("no film", "HS film")
+             for ring in results[(force, name, float(eta))].outline_mm]
+    y_lo = min(float(r[:, 1].min()) for r in rings) - 1.5
+    y_hi = max(float(r[:, 1].max()) for r in rings) + 1.5
+    x_hi = max(float(np.abs(r[:, 0]).max()) for r in rings) + 1.0
+    for ax, eta in zip(axes.flat, shown):
+        bare = results[(force, "no film", float(eta))]
+        film = results[(force, "HS film", float(eta))]
+        for y in _rail_joints_track_y(bare):
+            ax.axvline(y, color="0.6", lw=0.8, ls="-.")
+        for res, style, label in ((bare, "-", "no film"), (film, "--", "HS film")):
+            for k, ring in enumerate(res.outline_mm):
+                ax.plot(ring[:, 1], ring[:, 0], style, color="k" if res is bare else "tab:orange",
+                        lw=1.2, label=label if k == 0 else None)
+        point = bare.placement.contact
+        ax.plot(point.y_mm, 0.0, "+", color="tab:red", ms=8)
+        ax.set_title(f"$\\eta$ = {eta:+g} mm\nA = {bare.area_mm2:.0f} / {film.area_mm2:.0f} mm$^2$",
+                     fontsize=8)
+        ax.set_xlim(y_lo, y_hi)
+        ax.set_ylim(-x_hi, x_hi)
+        ax.set_aspect("equal")
+        ax.grid(True, lw=0.3)
+    for ax in axes.flat[len(shown):]:
+        ax.set_visible(False)
+    for ax in axes[-1]:
+        ax.set_xlabel("y (mm), field side $\\rightarrow$")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("x (mm), along the rail")
+    axes.flat[0].legend(fontsize=7, loc="lower left")
+    fig.suptitle(f"Contact outlines at F = {force:g} kN without (solid) and with HS film (dashed); "
+                 "+ first contact point, dash-dotted: rail profile joints (R200 | R70)", fontsize=10)
+    fig.savefig(path, dpi=150)
+
+
+def plot_hertz(results: dict, offsets: np.ndarray, path: Path) -> None:
+    """Area without film against the local Hertz solution."""
+    fig = Figure(figsize=(8, 4.5), layout="constrained")
+    ax = fig.add_subplot()
+    for force, color in zip(FORCES_KN, ("tab:blue", "tab:red")):
+        res = [results[(force, "no film", float(e))] for e in offsets]
+        ax.plot(offsets, [r.area_mm2 for r in res], "-o", color=color, ms=4,
+                label=f"{force:g} kN, half-space solution")
+        hertz = np.array([r.hertz.area_mm2 if r.hertz is not None else np.nan for r in res])
+        like = np.array([r.hertz_like for r in res])
+        ax.plot(offsets, hertz, ":", color=color, lw=1.0, label=f"{force:g} kN, local Hertz")
+        ax.plot(offsets[like], hertz[like], "x", color=color, ms=7,
+                label=f"{force:g} kN, Hertz-like cases")
+    ax.set_xlabel("lateral offset $\\eta$ (mm)")
+    ax.set_ylabel("contact area without film (mm$^2$)")
+    ax.set_title("Local Hertz applies on the crown (one point, relative curvature within x2);\n"
+                 "near-conformal at eta -1.5 ... -0.5, two points merge at eta = 0, "
+                 "the R200 | R70 joint for eta > 0", fontsize=9)
+    ax.grid(True, lw=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    fig.savefig(path, dpi=150)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--out-dir", default="out/wheelrail_figures", help="output folder")
+    parser.add_argument("--step-mm", type=float, default=0.5, choices=(0.5, 1.0),
+                        help="offset step (mm): 0.5 (default) or 1 (the paper's)")
+    parser.add_argument("--rail", default="60E2", choices=("60E2", "60E1"), help="rail profile")
+    args = parser.parse_args()
+    out = Path(args.out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    offsets = np.round(np.arange(-7.0, 2.0 + 1e-9, args.step_mm), 6)
+    start = time.perf_counter()
+    results = solve_all(WheelRailModel(rail=args.rail), offsets)
+    write_csv(results, out / "wheelrail_area_curves.csv")
+    plot_area_curves(results, offsets, out / "fig6_area_vs_offset.png")
+    plot_outlines(results, offsets, 50.0, out / "fig7_outlines_50kN.png")
+    plot_hertz(results, offsets, out / "hertz_comparison.png")
+    print(f"{len(results)} cases in {time.perf_counter() - start:.1f} s; wrote {out}/")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

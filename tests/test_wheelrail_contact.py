@@ -1,0 +1,153 @@
+"""Wheel-rail contact problem: geometry, Hertz limits, balance, symmetry, film, roughness, patches."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, contact_modulus_mpa
+from filmcal.wheelrail.hertz import hertz_elliptic
+from filmcal.wheelrail.interface import FilmLayer, GreenwoodWilliamsonLaw
+from filmcal.wheelrail.placement import place_wheel_on_rail
+from filmcal.wheelrail.profiles import PolynomialSection, Profile, rail_head
+from filmcal.wheelrail.wheelrail import (ContactPlane, ContactRegion, WheelRailCase, WheelRailModel,
+                                         solve_wheel_rail, solve_wheel_rail_many)
+
+HS = FilmLayer(2800.0, 0.33, 0.09)
+E_STAR = contact_modulus_mpa()
+
+
+@pytest.fixture(scope="module")
+def model():
+    return WheelRailModel()
+
+
+def _cylinder_wheel() -> Profile:
+    """A wheel without lateral curvature (z = 0): a cylinder of radius R0."""
+    return Profile("cylinder", "wheel", (PolynomialSection("flat", -80.0, 80.0, (0.0, 0.0)),))
+
+
+def test_gap_in_an_untilted_plane_is_the_placement_gap(model):
+    """For theta = 0 the plane gap is the placement's vertical gap (an independent formula)."""
+    geo = model.geometry(-3.0)
+    point = geo.placement.contact
+    curves = geo.curves(ContactPlane(point.y_mm, point.z_mm, 0.0))
+    x, y = np.meshgrid(np.linspace(-9.0, 9.0, 19), point.y_mm + np.linspace(-7.0, 7.0, 15),
+                       indexing="ij")
+    assert np.abs(curves.gap(x, y - point.y_mm) - geo.placement.gap(x, y)).max() < 1e-6
+
+
+def test_cylinder_on_crown_matches_hertz():
+    """Cylindrical wheel (R 460) on an upright R300 crown: exactly A x^2 + B y^2 near the
+    contact, so the area and peak pressure are Hertz's (Johnson ch. 4)."""
+    rail = rail_head("crown300", (300.0, 80.0, 13.0), (20.456, 52.053))
+    res = solve_wheel_rail(0.0, 100e3, wheel=_cylinder_wheel(), rail=rail, rail_inclination=0.0)
+    hz = hertz_elliptic(1.0 / 920.0, 1.0 / 600.0, 100e3, E_STAR)
+    assert res.n_patches == 1 and res.hertz_like
+    assert res.area_mm2 == pytest.approx(hz.area_mm2, rel=0.005)
+    assert res.max_pressure_mpa == pytest.approx(hz.max_pressure_mpa, rel=0.01)
+    assert res.approach_mm == pytest.approx(hz.approach_mm, rel=0.01)
+    assert res.hertz.area_mm2 == pytest.approx(hz.area_mm2, rel=1e-9)
+
+
+@pytest.mark.parametrize("offset_mm, force_n", [(-6.0, 50e3), (-4.0, 100e3)])
+def test_s1002_on_60e2_crown_within_3_percent_of_local_hertz(model, offset_mm, force_n):
+    """On the R200 crown the patch is a single near-Hertzian ellipse: the local Hertz area
+    (relative curvatures at the contact point, computed here from the placement) is within 3 %."""
+    res = model.solve(offset_mm, force_n)
+    point = place_wheel_on_rail("S1002", "60E2", offset_mm=offset_mm).contact
+    c = math.cos(point.contact_angle_rad)
+    hz = hertz_elliptic(0.5 * c / point.rolling_radius_mm,
+                        0.5 * (point.wheel_curvature_per_mm + point.rail_curvature_per_mm),
+                        force_n / c, E_STAR)
+    assert res.hertz_like
+    assert abs(res.area_mm2 / hz.area_mm2 - 1.0) < 0.03
+    assert abs(res.max_pressure_mpa / hz.max_pressure_mpa - 1.0) < 0.03
+
+
+def test_force_balance_and_symmetry_in_x(model):
+    """sum p dA cos(theta) equals the vertical load; the gap is even in x, so is the pressure."""
+    res = model.solve(2.0, 100e3, film=HS)
+    grid = res.grid
+    vertical = res.pressure_mpa.sum() * grid.cell_area_mm2 * math.cos(res.contact_angle_rad)
+    assert vertical == pytest.approx(100e3, rel=1e-9)
+    assert grid.x_mm == pytest.approx(-grid.x_mm[::-1], abs=1e-12)
+    p = res.pressure_mpa
+    assert np.abs(p - p[::-1]).max() < 1e-5 * p.max()
+    assert abs(res.centroid_x_mm) < 1e-9
+
+
+def test_film_enlarges_the_area_at_every_offset(model):
+    """The film is a compliance in series: at the same load the patch grows, the peak drops."""
+    for offset in range(-7, 3):
+        bare = model.solve(float(offset), 50e3)
+        film = model.solve(float(offset), 50e3, film=HS)
+        assert film.area_mm2 > 1.2 * bare.area_mm2, offset
+        assert film.max_pressure_mpa < bare.max_pressure_mpa, offset
+
+
+def test_rough_wheel_enlarges_the_loaded_area(model):
+    """A rough film-wheel interface adds closure at low pressure: the area carrying pressure grows."""
+    law = GreenwoodWilliamsonLaw(1.5, contact_modulus_mpa(2800.0, 0.33, STEEL_MODULUS_MPA,
+                                                          STEEL_POISSON))
+    smooth = model.solve(-3.0, 50e3, film=HS)
+    rough = model.solve(-3.0, 50e3, film=HS, roughness=law)
+    assert rough.support_area_mm2 > 1.05 * smooth.support_area_mm2
+    assert rough.converged and rough.contact.newton_iterations > 0
+
+
+def test_two_point_contact_gives_two_patches():
+    """60E1 at eta = +2 mm: tread (R80) and gauge corner (R13) both touch; two patches form,
+    each around its contact point, sharing the load."""
+    placement = place_wheel_on_rail("S1002", "60E1", offset_mm=2.0, tolerance_mm=0.05)
+    assert len(placement.contact_points) == 2
+    res = solve_wheel_rail(2.0, 50e3, rail="60E1")
+    assert res.n_patches == 2
+    found = sorted(p.centroid_y_mm for p in res.patches)
+    expected = sorted(p.y_mm for p in placement.contact_points)
+    assert found == pytest.approx(expected, abs=1.5)
+    assert sum(p.force_fraction for p in res.patches) == pytest.approx(1.0)
+    assert min(p.force_fraction for p in res.patches) > 0.05
+    assert sum(p.area_mm2 for p in res.patches) == pytest.approx(res.area_mm2, rel=1e-9)
+    assert not res.hertz_like
+
+
+def test_repeated_solves_reuse_caches_and_batch_matches(model):
+    """The batch function gives the single solves' results; a given region gives the same answer."""
+    single = model.solve(-5.0, 50e3, film=HS)
+    batch = solve_wheel_rail_many([WheelRailCase(-5.0, 50e3, HS), (-5.0, 50e3, None)])
+    assert batch[0].area_mm2 == pytest.approx(single.area_mm2, rel=1e-6)
+    assert batch[1].area_mm2 < batch[0].area_mm2
+    grid = single.grid
+    region = ContactRegion(0.5 * (grid.nx - 1) * grid.dx_mm, grid.y0_mm,
+                           grid.y0_mm + (grid.ny - 1) * grid.dy_mm)
+    again = model.solve(-5.0, 50e3, film=HS, region=region)
+    assert again.area_mm2 == pytest.approx(single.area_mm2, rel=1e-6)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"offset_mm": 50.0, "force_n": 50e3}, "offset_mm"),
+    ({"offset_mm": -3.0, "force_n": -5.0}, "force_n"),
+    ({"offset_mm": -3.0, "force_n": 0.0}, "force_n"),
+    ({"offset_mm": float("nan"), "force_n": 50e3}, "offset_mm"),
+    ({"offset_mm": -3.0, "force_n": 50e3, "rail": "61E1"}, "unknown profile"),
+    ({"offset_mm": -3.0, "force_n": 50e3, "rail": "S1002"}, "rail"),
+    ({"offset_mm": -3.0, "force_n": 50e3, "grid_mm": 0.0}, "grid_mm"),
+    ({"offset_mm": -3.0, "force_n": 2e3, "grid_mm": 1.0}, "too coarse"),
+    ({"offset_mm": -3.0, "force_n": 50e3, "film": 2800.0}, "film"),
+    ({"offset_mm": -3.0, "force_n": 50e3, "rail_inclination": -0.1}, "rail_inclination"),
+])
+def test_bad_input_raises_value_error(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        solve_wheel_rail(**kwargs)
+
+
+def test_too_small_region_is_rejected(model):
+    with pytest.raises(ValueError, match="region"):
+        model.solve(-3.0, 100e3, region=ContactRegion(2.0, -2.0, 2.0))
+
+
+def test_batch_checks_all_cases_before_solving(model):
+    with pytest.raises(ValueError, match="force_n"):
+        model.solve_many([(-3.0, 50e3), (-3.0, -1.0)])
