@@ -30,7 +30,7 @@ _EXPORTS = {
     "filmcal.study": ["build_radius_surrogate", "SurrogateRadiusModel", "FERadiusModel", "SurrogateDomain"],
     "filmcal.wheelrail": ["get_profile", "load_profile_csv", "place_wheel_on_rail", "solve_wheel_rail",
                           "solve_wheel_rail_many", "WheelRailModel", "HalfSpaceContactSolver", "FilmLayer"],
-    "filmcal.correction": ["SphereCorrector", "CorrectedArea"],
+    "filmcal.correction": ["SphereCorrector", "WheelRailCorrector", "CorrectedArea"],
 }
 _WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
 

@@ -20,7 +20,8 @@ from filmcal.surrogate import GPSurrogate, load_surrogate, save_surrogate, valid
 
 __all__ = ["SurrogateDomain", "SurrogateValidation", "fe_design_points", "run_fe_points",
            "fit_radius_surrogate", "validate_radius_surrogate", "build_radius_surrogate",
-           "SurrogateRadiusModel", "FERadiusModel", "INPUTS"]
+           "SurrogateRadiusModel", "FERadiusModel", "INPUTS", "calibrate_from_study", "posterior_tag",
+           "options_tag", "surrogate_path"]
 
 INPUTS = ("modulus_mpa", "poisson", "radius_mm", "force_kn")
 LOG_INPUTS = ("modulus_mpa", "radius_mm", "force_kn")
@@ -170,13 +171,18 @@ def build_radius_surrogate(study_dir: str | Path, options: ContactOptions | None
     n_tr = len(train)
     Xtr = {k: v[:n_tr][ok[:n_tr]] for k, v in X.items()}
     Xte = {k: v[n_tr:][ok[n_tr:]] for k, v in X.items()}
-    path = study_dir / f"surrogate-{tag}"
+    path = surrogate_path(study_dir, options) if tag is None or tag == _tag(options) else study_dir / f"surrogate-{tag}"
     if path.with_suffix(".json").exists():
         surrogate = load_surrogate(path)
     else:
         surrogate = fit_radius_surrogate(Xtr, radius[:n_tr][ok[:n_tr]], domain, seed)
         save_surrogate(surrogate, path)
     return surrogate, validate_radius_surrogate(surrogate, Xte, radius[n_tr:][ok[n_tr:]])
+
+
+def surrogate_path(study_dir: str | Path, options: ContactOptions) -> Path:
+    """Where a study keeps the radius surrogate of these FE options (without suffix)."""
+    return Path(study_dir) / f"surrogate-{_tag(options)}"
 
 
 def _tag(options: ContactOptions) -> str:
@@ -227,3 +233,41 @@ class FERadiusModel:
             res = get_model(float(r[idx])).solve(Film(float(e[idx]), float(nu[idx])), float(f[idx]), self.options)
             out[idx] = res.contact_radius_mm if res.converged else np.nan
         return out, np.zeros(e.shape)
+
+
+def options_tag(options: ContactOptions) -> str:
+    """A file-name tag of the FE options."""
+    return (f"{options.sphere_contact}-{options.flat_contact}-mu{options.friction_coefficient:g}-"
+            f"{'large' if options.large_strain else 'small'}")
+
+
+def calibrate_from_study(study_dir: str | Path, film: str, loads: str | None = None,
+                         options: ContactOptions | None = None, poisson: str = "fixed",
+                         discrepancy: str | None = None, seed: int = 0, n_train: int = 200, n_test: int = 100,
+                         workers: int | None = None, max_steps: int | None = None, progress: bool = False):
+    """Calibrate one film type on the study's FE surrogate; save the posterior as JSON.
+
+    Returns ``(result, validation, radius_model, posterior_path)``. Everything
+    (FE runs, surrogate, chain, posterior) is kept in `study_dir` and reused.
+    """
+    from filmcal.calibration import Priors, calibrate_film, load_table1, save_result
+
+    load_table1(film, loads)  # check film and loads before any FE work
+    options = options or ContactOptions()
+    domain = SurrogateDomain()
+    study = Path(study_dir)
+    surrogate, validation = build_radius_surrogate(study, options, domain, n_train, n_test, seed, workers, progress)
+    model = SurrogateRadiusModel(surrogate, domain)
+    tag = posterior_tag(film, loads, options, poisson, discrepancy, seed)
+    result = calibrate_film(film, model, loads, poisson=poisson, discrepancy=discrepancy,
+                            priors=Priors(modulus_range_mpa=domain.modulus_mpa), seed=seed,
+                            backend_path=study / f"chain-{tag}.h5", max_steps=max_steps, progress=progress)
+    path = save_result(result, study / f"posterior-{tag}.json")
+    return result, validation, model, path
+
+
+def posterior_tag(film: str, loads: str | None, options: ContactOptions, poisson: str = "fixed",
+                  discrepancy: str | None = None, seed: int = 0) -> str:
+    """The file-name tag of a calibration in a study folder."""
+    return (f"{film.upper()}-{(loads or 'all').replace(' ', '')}-{poisson}-{discrepancy or 'none'}-seed{seed}-"
+            f"{options_tag(options)}")

@@ -43,32 +43,26 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from filmcal.calibration import Priors, calibrate_film, load_table1
     from filmcal.fem import ContactOptions
-    from filmcal.study import SurrogateDomain, SurrogateRadiusModel, build_radius_surrogate
+    from filmcal.study import SurrogateDomain, calibrate_from_study, posterior_tag
 
-    load_table1(args.film, args.loads)  # validate the film and loads before any FE work
     options = ContactOptions(sphere_contact=args.sphere_contact, flat_contact=args.flat_contact,
                              friction_coefficient=args.friction_coefficient, large_strain=args.large_strain)
     if args.train_runs < 20 or args.test_runs < 5:
         raise ValueError("train_runs must be >= 20 and test_runs >= 5")
-    domain = SurrogateDomain()
-    study = Path(args.study_dir)
-    surrogate, validation = build_radius_surrogate(study, options, domain, args.train_runs, args.test_runs,
-                                                   args.seed, args.workers, progress=not args.json)
-    priors = Priors(modulus_range_mpa=domain.modulus_mpa)
-    tag = f"{args.film.upper()}-{args.loads or 'all'}-{args.poisson}-{args.discrepancy}-seed{args.seed}"
-    result = calibrate_film(args.film, SurrogateRadiusModel(surrogate, domain), args.loads, poisson=args.poisson,
-                            discrepancy=None if args.discrepancy == "none" else args.discrepancy, priors=priors,
-                            seed=args.seed, backend_path=study / f"chain-{tag}-{_options_tag(options)}.h5",
-                            max_steps=args.max_steps, progress=not args.json)
+    discrepancy = None if args.discrepancy == "none" else args.discrepancy
+    result, validation, _, path = calibrate_from_study(
+        args.study_dir, args.film, args.loads, options, args.poisson, discrepancy, args.seed, args.train_runs,
+        args.test_runs, args.workers, args.max_steps, progress=not args.json)
     if args.plots:
-        _plots(result, Path(args.plots), tag)
+        _plots(result, Path(args.plots), posterior_tag(args.film, args.loads, options, args.poisson, discrepancy,
+                                                        args.seed))
     out = result.to_dict()
     out["surrogate_validation"] = validation.to_dict()
     out["fe_options"] = {"sphere_contact": options.sphere_contact, "flat_contact": options.flat_contact,
                          "friction_coefficient": options.friction_coefficient, "large_strain": options.large_strain}
-    out["prior_modulus_range_mpa"] = list(domain.modulus_mpa)
+    out["prior_modulus_range_mpa"] = list(SurrogateDomain().modulus_mpa)
+    out["posterior_file"] = str(path)
     if args.json:
         print_json(out)
     else:
@@ -81,11 +75,8 @@ def run(args: argparse.Namespace) -> int:
               f"diagnostics {'ok' if out.get('diagnostics_ok', True) else 'NOT ok'}")
         print(f"surrogate: held-out area error RMS {100 * validation.area_rms_relative_error:.3f} %, "
               f"max {100 * validation.area_max_relative_error:.3f} %, 90 % coverage {validation.coverage90:.2f}")
+        print(f"posterior saved to {path}")
     return 0
-
-
-def _options_tag(o) -> str:
-    return f"{o.sphere_contact}-{o.flat_contact}-mu{o.friction_coefficient:g}-{'large' if o.large_strain else 'small'}"
 
 
 def _plots(result, folder: Path, tag: str) -> None:

@@ -1,4 +1,7 @@
-"""Corrections of contact areas measured with film, with their uncertainty."""
+"""Corrections of contact areas measured with film, with their uncertainty:
+sphere-on-flat imprints (`SphereCorrector`) and wheel-rail imprints
+(`WheelRailCorrector`)."""
 from filmcal.correction.sphere import CorrectedArea, SphereCorrector
+from filmcal.correction.wheelrail import WheelRailCorrector
 
-__all__ = ["CorrectedArea", "SphereCorrector"]
+__all__ = ["CorrectedArea", "SphereCorrector", "WheelRailCorrector"]
