@@ -21,7 +21,7 @@ from filmcal.surrogate import GPSurrogate, load_surrogate, save_surrogate, valid
 __all__ = ["SurrogateDomain", "SurrogateValidation", "fe_design_points", "run_fe_points",
            "fit_radius_surrogate", "validate_radius_surrogate", "build_radius_surrogate",
            "SurrogateRadiusModel", "FERadiusModel", "INPUTS", "calibrate_from_study", "posterior_tag",
-           "options_tag", "surrogate_path"]
+           "options_tag", "surrogate_path", "refine_radius_surrogate"]
 
 INPUTS = ("modulus_mpa", "poisson", "radius_mm", "force_kn")
 LOG_INPUTS = ("modulus_mpa", "radius_mm", "force_kn")
@@ -271,3 +271,42 @@ def posterior_tag(film: str, loads: str | None, options: ContactOptions, poisson
     """The file-name tag of a calibration in a study folder."""
     return (f"{film.upper()}-{(loads or 'all').replace(' ', '')}-{poisson}-{discrepancy or 'none'}-seed{seed}-"
             f"{options_tag(options)}")
+
+
+def refine_radius_surrogate(study_dir: str | Path, surrogate: GPSurrogate, options: ContactOptions | None = None,
+                            domain: SurrogateDomain | None = None, target: float = 0.002,
+                            max_evaluations: int = 64, batch_size: int = 8, seed: int = 0,
+                            workers: int | None = None, experiments_radii_mm=(300.0, 450.0, 600.0),
+                            experiments_force_kn=(25.0, 100.0)):
+    """Add FE runs where the surrogate is least certain, in the region that matters for calibration.
+
+    Candidates are drawn over the experiments' sphere radii and force range
+    with every film modulus and Poisson's ratio of the domain; the batch with
+    the largest relative predictive std of the radius excess is run through
+    the study's campaign store (resumable), the surrogate is refitted on all
+    runs, until the largest relative std is below `target` or `max_evaluations`
+    runs were spent. Returns `filmcal.surrogate.RefinementResult`.
+    """
+    from filmcal.surrogate import refine
+
+    options = options or ContactOptions()
+    domain = domain or SurrogateDomain()
+    store = Path(study_dir) / "runs.sqlite"
+    cols = _option_columns(options)
+    radii = np.asarray(experiments_radii_mm, dtype=float)
+
+    def sampler(n: int, rng: np.random.Generator) -> dict:
+        lo_e, hi_e = np.log(domain.modulus_mpa)
+        return {"modulus_mpa": np.exp(rng.uniform(lo_e, hi_e, n)),
+                "poisson": rng.uniform(*domain.poisson, n),
+                "radius_mm": rng.choice(radii, n),
+                "force_kn": rng.uniform(*experiments_force_kn, n)}
+
+    def evaluate(points: dict) -> np.ndarray:
+        design = [dict({k: float(points[k][i]) for k in INPUTS}, **cols) for i in range(len(points["radius_mm"]))]
+        X, radius, ok = run_fe_points(design, store, workers, progress=False)
+        return np.where(ok, _excess(X, radius), np.nan)
+
+    X = {k: np.asarray(v, dtype=float) for k, v in zip(INPUTS, surrogate.X_train_.T)}
+    return refine(surrogate, X, surrogate.y_train_, evaluate, sampler, target=target,
+                  max_evaluations=max_evaluations, batch_size=batch_size, random_state=seed)

@@ -51,3 +51,16 @@ def test_second_build_reuses_runs_and_surrogate(built):
          "force_kn": np.array([75.0])}
     assert again.predict(X)[0] == surrogate.predict(X)[0]
     assert validation2.area_rms_relative_error == validation.area_rms_relative_error
+
+
+def test_refinement_runs_fe_where_the_surrogate_is_least_certain(built):
+    from filmcal.study import refine_radius_surrogate
+    study, surrogate, _ = built
+    result = refine_radius_surrogate(study, surrogate, domain=DOMAIN, target=1e-9, max_evaluations=8,
+                                     batch_size=4, workers=1, experiments_radii_mm=(450.0, 600.0),
+                                     experiments_force_kn=(50.0, 100.0))
+    refined = result.surrogate
+    assert len(refined.y_train_) == len(surrogate.y_train_) + 8
+    # the new runs came from the FE model: they are stored in the study's campaign
+    from filmcal.campaign import RunStore
+    assert RunStore(study / "runs.sqlite").counts().ok >= 30 + 12 + 8
