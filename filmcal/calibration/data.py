@@ -22,6 +22,7 @@ from importlib import resources
 
 import numpy as np
 
+from filmcal.films import FILM_TYPES
 from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, hertz_radius_mm
 
 __all__ = [
@@ -33,8 +34,7 @@ __all__ = [
     "parse_load_range",
 ]
 
-#: Prescale film types of Table 1, from the softest to the stiffest range.
-FILM_TYPES: tuple[str, ...] = ("MS", "HS", "HHS")
+
 
 _TABLE1_RESOURCE = "data/table1_radius_errors.csv"
 _LOAD_RANGE = re.compile(r"^\s*(\d+(?:\.\d*)?)\s*(?:-\s*(\d+(?:\.\d*)?)\s*)?$")

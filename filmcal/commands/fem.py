@@ -5,7 +5,7 @@ import argparse
 
 from filmcal.commands._common import print_json
 
-ACTIVATION_MPA = {"MS": 10.0, "HS": 50.0, "HHS": 130.0}
+from filmcal.films import ACTIVATION_PRESSURE_MPA as ACTIVATION_MPA
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

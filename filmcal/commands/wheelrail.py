@@ -9,7 +9,7 @@ from pathlib import Path
 from filmcal._validation import check_positive, check_range
 from filmcal.commands._common import print_json
 
-ACTIVATION_MPA = {"MS": 10.0, "HS": 50.0, "HHS": 130.0}
+from filmcal.films import ACTIVATION_PRESSURE_MPA as ACTIVATION_MPA
 
 
 def add_parser(subparsers) -> None:
