@@ -51,8 +51,6 @@ from typing import Any
 
 import numpy as np
 from numpy.polynomial import polynomial as npoly
-from scipy.interpolate import BSpline, make_smoothing_spline
-from scipy.optimize import brentq, minimize_scalar
 
 from filmcal._validation import as_finite, check_choice, check_positive, check_range
 
@@ -213,7 +211,7 @@ class SplineSection(ProfileSection):
     label: str
     y_start_mm: float
     y_end_mm: float
-    spline: BSpline = field(repr=False)
+    spline: Any = field(repr=False)  # a scipy.interpolate.BSpline
 
     def __post_init__(self) -> None:
         self._check_bounds()
@@ -593,6 +591,8 @@ def load_profile_csv(path: str | Path, kind: str = "rail", name: str | None = No
         raise ValueError(f"{path}: y must be strictly monotone; it stops being so at point {bad + 2} "
                          f"(y = {y[bad + 1]:g} after {y[bad]:g})")
     lam = None if smoothing is None else check_range("smoothing", smoothing, 0.0, math.inf, low_open=False)
+    from scipy.interpolate import make_smoothing_spline  # imported here: the CLI starts faster
+
     spline = make_smoothing_spline(y, z, lam=lam)
     label = name or path.stem
     return Profile(label, kind, (SplineSection("spline", float(y[0]), float(y[-1]), spline),),
@@ -616,6 +616,8 @@ def _flange_tip(wheel: Profile) -> tuple[float, float]:
     y = np.linspace(lo, 0.0, 4001)
     i = int(np.argmax(wheel.z(y)))
     a, b = y[max(i - 1, 0)], y[min(i + 1, len(y) - 1)]
+    from scipy.optimize import minimize_scalar
+
     res = minimize_scalar(lambda t: -wheel.z(t), bounds=(a, b), method="bounded",
                           options={"xatol": 1e-10})
     return float(res.x), float(-res.fun)
@@ -639,6 +641,8 @@ def flange_thickness_mm(wheel: Profile, height_mm: float = FLANGE_THICKNESS_HEIG
     target = wheel.z(0.0) + as_finite("height_mm", height_mm)
     if not wheel.z(0.0) < target < z_tip:
         raise ValueError(f"height_mm must lie between the tread datum and the flange tip, got {height_mm:g}")
+    from scipy.optimize import brentq
+
     y_face = brentq(lambda t: wheel.z(t) - target, y_tip, 0.0, xtol=1e-12)
     return y_face - INNER_FACE_Y_MM
 
@@ -657,6 +661,8 @@ def head_width_mm(rail: Profile, depth_mm: float | None = None) -> float:
     top = rail.z(0.0)
     depth = check_range("depth_mm", depth_mm, 0.0, top - max(rail.z(lo), rail.z(hi)))
     target = top - depth
+    from scipy.optimize import brentq
+
     left = brentq(lambda t: rail.z(t) - target, lo, 0.0, xtol=1e-12)
     right = brentq(lambda t: rail.z(t) - target, 0.0, hi, xtol=1e-12)
     return right - left
