@@ -49,10 +49,14 @@ def main() -> None:
     out.mkdir(parents=True, exist_ok=True)
     variants = [("smooth wheel", None)]
     if args.rough_ra_um:
+        from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, contact_modulus_mpa
         from filmcal.wheelrail import GreenwoodWilliamsonLaw
-        from filmcal.hertz import contact_modulus_mpa
-        variants.append((f"rough wheel, Ra {args.rough_ra_um:g} um",
-                         GreenwoodWilliamsonLaw(args.rough_ra_um, contact_modulus_mpa())))
+
+        def rough_law(modulus_mpa: float, ra_um: float = args.rough_ra_um) -> GreenwoodWilliamsonLaw:
+            # the wheel's asperities press into the film: film-steel contact modulus
+            return GreenwoodWilliamsonLaw(ra_um, contact_modulus_mpa(modulus_mpa, 0.33, STEEL_MODULUS_MPA,
+                                                                     STEEL_POISSON))
+        variants.append((f"rough wheel, Ra {args.rough_ra_um:g} um", rough_law))
     rows = []
     for film in args.films.split(","):
         e = posterior_modulus(Path(args.study_dir), film, args.loads)

@@ -62,8 +62,11 @@ def correction_curves(modulus_samples_mpa, offsets_mm, forces_n, *, poisson: flo
         The grid (lateral offsets eta in mm, forces in N).
     poisson, film_thickness_mm : float
         The film's Poisson's ratio (fixed, as calibrated) and thickness.
-    roughness : InterfaceLaw, optional
-        Film-wheel interface law (rough wheel), applied with the film.
+    roughness : InterfaceLaw or callable, optional
+        Film-wheel interface law (rough wheel), applied with the film; a
+        callable ``roughness(modulus_mpa) -> InterfaceLaw`` builds it for each
+        film modulus (a Greenwood-Williamson law depends on the film's
+        stiffness, as the asperities press into the film).
     **wheel_rail
         Passed to `filmcal.wheelrail.solve_wheel_rail` (wheel, rail, rail_inclination, ...).
     """
@@ -85,7 +88,8 @@ def correction_curves(modulus_samples_mpa, offsets_mm, forces_n, *, poisson: flo
 
     def film_area(modulus, eta, force):
         layer = FilmLayer(float(modulus), poisson, film_thickness_mm)
-        return solve_wheel_rail(eta, force, film=layer, roughness=roughness, **wheel_rail).area_mm2
+        law = roughness(float(modulus)) if callable(roughness) else roughness
+        return solve_wheel_rail(eta, force, film=layer, roughness=law, **wheel_rail).area_mm2
 
     for i, force in enumerate(forces):
         for j, eta in enumerate(offsets):
