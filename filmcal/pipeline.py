@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from filmcal._json import json_safe
 from filmcal.films import FILM_TYPES
 
 __all__ = ["PipelineSettings", "run_pipeline"]
@@ -65,7 +66,7 @@ def run_pipeline(study_dir: str | Path, settings: PipelineSettings | None = None
         summary["films"][film]["posterior_file"] = str(path)
         summary["films"][film]["curves_file"] = str(curves_csv)
     summary["elapsed_s"] = time.perf_counter() - t0
-    (study / "summary.json").write_text(json.dumps(_plain(summary), indent=2) + "\n")
+    (study / "summary.json").write_text(json.dumps(json_safe(summary), indent=2) + "\n")
     return summary
 
 
@@ -82,7 +83,3 @@ def _write_curves(path: Path, c) -> None:
                             c.interpolation_error_rel[i, j]])
     tmp.replace(path)  # written whole or not at all
 
-
-def _plain(obj):
-    from filmcal._json import json_safe
-    return json_safe(obj)

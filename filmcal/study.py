@@ -164,14 +164,13 @@ def build_radius_surrogate(study_dir: str | Path, options: ContactOptions | None
     domain = domain or SurrogateDomain()
     study_dir = Path(study_dir)
     study_dir.mkdir(parents=True, exist_ok=True)
-    tag = tag or _tag(options)
     train = fe_design_points(domain, n_train, seed, options)
     test = fe_design_points(domain, n_test, seed + 1000, options)
     X, radius, ok = run_fe_points(train + test, study_dir / "runs.sqlite", workers, progress)
     n_tr = len(train)
     Xtr = {k: v[:n_tr][ok[:n_tr]] for k, v in X.items()}
     Xte = {k: v[n_tr:][ok[n_tr:]] for k, v in X.items()}
-    path = surrogate_path(study_dir, options) if tag is None or tag == _tag(options) else study_dir / f"surrogate-{tag}"
+    path = surrogate_path(study_dir, options) if tag is None else study_dir / f"surrogate-{tag}"
     if path.with_suffix(".json").exists():
         surrogate = load_surrogate(path)
     else:
@@ -182,14 +181,7 @@ def build_radius_surrogate(study_dir: str | Path, options: ContactOptions | None
 
 def surrogate_path(study_dir: str | Path, options: ContactOptions) -> Path:
     """Where a study keeps the radius surrogate of these FE options (without suffix)."""
-    return Path(study_dir) / f"surrogate-{_tag(options)}"
-
-
-def _tag(options: ContactOptions) -> str:
-    tag = f"{options.sphere_contact}-{options.flat_contact}"
-    if "friction" in (options.sphere_contact, options.flat_contact):
-        tag += f"-mu{options.friction_coefficient:g}"
-    return tag + ("-large" if options.large_strain else "-small")
+    return Path(study_dir) / f"surrogate-{options_tag(options)}"
 
 
 class SurrogateRadiusModel:
