@@ -1,85 +1,334 @@
-"""The whole job on the embedded default: FE designs -> campaign -> surrogate ->
-calibration of MS, HS and HHS -> wheel-rail correction curves, in one study folder.
+"""The whole job on the embedded default, in one study folder.
 
-Every stage keeps its results in the folder (campaign store, surrogate arrays +
-JSON, HDF5 chains, posterior JSON, curve CSVs) and reuses them, so an
-interrupted run loses no finished work and a second run only reads.
+Stages, each kept in the folder and reused when present, so that an
+interrupted run loses no finished work and a second run only reads:
+
+``design``        quality of the optimal Latin hypercubes (``design.json``)
+``calibration``   FE campaign (``runs.sqlite``) -> validated surrogate
+                  (``surrogate-*.npz/json``, ``surrogate-validation.json``) ->
+                  posterior of each film (``posterior-*.json``, chains ``*.h5``)
+``verification``  FE against Hertz without film and FE against the surrogate at
+                  the posterior medians (``fe-verification.json``)
+``curves``        wheel-rail correction curves with 90 % bands, smooth and rough
+                  wheel (``curves-<film>.csv``)
+``outlines``      wheel-rail contact outlines with and without film
+                  (``wheelrail-outlines.json``)
+``report``        HTML and PDF report (``report/``)
+
+The settings are written to ``settings.json`` on the first run; a later run
+with other settings in the same folder is refused rather than mixed.
 """
 from __future__ import annotations
 
 import csv
+import hashlib
 import json
+import os
 import time
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
 
 from filmcal._json import json_safe
-from filmcal.films import FILM_TYPES
+from filmcal.films import FILM_TYPES, FILM_THICKNESS_MM
 
-__all__ = ["PipelineSettings", "run_pipeline"]
+__all__ = ["PipelineSettings", "run_pipeline", "settings_hash", "CURVE_COLUMNS", "read_curves_csv"]
+
+#: Sphere and force of the pressure profiles shown in the report (the DESIGN's Hertz example).
+PROFILE_CASE = (450.0, 75_000.0)
+FILM_POISSON = 0.33
+
+CURVE_COLUMNS = ("film", "wheel", "force_kn", "offset_mm", "area_no_film_mm2", "area_film_median_mm2",
+                 "delta_area_median_mm2", "delta_area_lo_mm2", "delta_area_hi_mm2", "ratio_median", "ratio_lo",
+                 "ratio_hi", "interpolation_error_rel")
 
 
 @dataclass(frozen=True)
 class PipelineSettings:
-    """Sizes of the pipeline's stages (`quick` is a small version for tests)."""
+    """Sizes of the pipeline's stages (`quick` is a small version for tests).
+
+    Attributes
+    ----------
+    train_runs, test_runs : int
+        FE runs of the surrogate's training design and of its held-out design.
+    offsets_mm, forces_kn : tuple of float
+        Grid of the wheel-rail correction curves.
+    rough_ra_um : float or None
+        Roughness Ra of the rough-wheel curves (None: smooth wheel only).
+    outline_force_kn : float
+        Load of the contact outlines (the paper's Fig. 7 uses 50 kN).
+    max_steps : int or None
+        Cap of the MCMC steps per walker (None: until converged).
+    """
 
     train_runs: int = 200
     test_runs: int = 100
-    offsets_mm: tuple[float, ...] = tuple(np.arange(-7.0, 2.01, 1.0))
+    offsets_mm: tuple[float, ...] = tuple(float(x) for x in np.arange(-7.0, 2.01, 1.0))
     forces_kn: tuple[float, ...] = (50.0, 100.0)
+    rough_ra_um: float | None = 1.5
+    outline_force_kn: float = 50.0
     max_steps: int | None = None
 
     @classmethod
     def quick(cls) -> "PipelineSettings":
+        """Few FE runs, three offsets at 50 kN, short chains: a minute or two."""
         return cls(train_runs=40, test_runs=12, offsets_mm=(-6.0, -3.0, 0.0), forces_kn=(50.0,), max_steps=3000)
 
 
-def run_pipeline(study_dir: str | Path, settings: PipelineSettings | None = None, films=FILM_TYPES,
-                 seed: int = 0, workers: int | None = None, log=print) -> dict:
-    """Run (or resume) the pipeline; returns the summary also written to ``summary.json``."""
-    from filmcal.correction import correction_curves
-    from filmcal.study import calibrate_from_study
+def settings_hash(settings: PipelineSettings, films, seed: int) -> str:
+    """SHA-256 (first 16 hex digits) of the settings, films and seed as canonical JSON."""
+    text = json.dumps(json_safe({"settings": asdict(settings), "films": list(films), "seed": seed}), sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
 
+
+def _write_json(path: Path, obj) -> None:
+    """Write whole or not at all."""
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(json_safe(obj), indent=1) + "\n", encoding="utf-8")
+    tmp.replace(path)
+
+
+def _check_settings(study: Path, record: dict) -> None:
+    path = study / "settings.json"
+    if path.exists():
+        old = json.loads(path.read_text(encoding="utf-8"))
+        if old.get("hash") != record["hash"]:
+            raise ValueError(f"study_dir {study} holds a study made with other settings (hash {old.get('hash')}, "
+                             f"now {record['hash']}); use another --study-dir")
+    else:
+        _write_json(path, record)
+
+
+def run_pipeline(study_dir: str | Path, settings: PipelineSettings | None = None, films=FILM_TYPES,
+                 seed: int = 0, workers: int | None = None, log=print, report: bool = True) -> dict:
+    """Run (or resume) the pipeline; returns the summary also written to ``summary.json``.
+
+    Parameters
+    ----------
+    study_dir : str or Path
+        The study folder (created if missing).
+    settings : PipelineSettings, optional
+        Stage sizes (default: the full study).
+    films : sequence of str
+        Film types to calibrate and propagate.
+    seed : int
+        Seed of the designs, the surrogate and the chains.
+    workers : int, optional
+        FE worker processes (default: all cores).
+    log : callable
+        Progress messages.
+    report : bool
+        Write the HTML and PDF report at the end.
+    """
     settings = settings or PipelineSettings()
+    films = [f.upper() for f in films]
     study = Path(study_dir)
     study.mkdir(parents=True, exist_ok=True)
+    record = {"settings": asdict(settings), "films": films, "seed": seed,
+              "hash": settings_hash(settings, films, seed)}
+    _check_settings(study, record)
     t0 = time.perf_counter()
-    summary: dict = {"study_dir": str(study), "settings": settings.__dict__, "seed": seed, "films": {}}
-    for film in films:
-        log(f"[{film}] surrogate and calibration")
-        result, validation, _, path = calibrate_from_study(study, film, None, seed=seed, n_train=settings.train_runs,
-                                                           n_test=settings.test_runs, workers=workers,
-                                                           max_steps=settings.max_steps)
-        summary["surrogate_validation"] = validation.to_dict()
-        curves_csv = study / f"curves-{film}.csv"
-        if not curves_csv.exists():
-            log(f"[{film}] wheel-rail correction curves")
-            samples = np.asarray(result.samples["modulus_mpa"], dtype=float)
-            c = correction_curves(samples, settings.offsets_mm, np.asarray(settings.forces_kn) * 1e3)
-            _write_curves(curves_csv, c)
+    summary: dict = {"study_dir": str(study), **record, "films": {}, "stages_s": {}}
+
+    def stage(name: str, fn, *args):
+        t = time.perf_counter()
+        out = fn(*args)
+        summary["stages_s"][name] = time.perf_counter() - t
+        return out
+
+    stage("design", _design_stage, study, settings, seed, log)
+    results = stage("calibration", _calibration_stage, study, settings, films, seed, workers, log)
+    medians = {film: float(r.modulus_mpa["median"]) for film, (r, _) in results.items()}
+    stage("verification", _verification_stage, study, medians, log)
+    stage("curves", _curves_stage, study, settings, results, log)
+    stage("outlines", _outlines_stage, study, settings, medians, log)
+    for film, (result, path) in results.items():
         d = result.to_dict()
-        summary["films"][film] = {k: d[k] for k in ("modulus_mpa", "oedometric_modulus_mpa", "sigma_mm", "rhat",
-                                                    "ess", "n_data")}
-        summary["films"][film]["diagnostics_ok"] = bool(result.diagnostics_ok)
-        summary["films"][film]["posterior_file"] = str(path)
-        summary["films"][film]["curves_file"] = str(curves_csv)
+        s = {k: d[k] for k in ("modulus_mpa", "oedometric_modulus_mpa", "sigma_mm", "rhat", "ess", "n_data")}
+        s.update(diagnostics_ok=bool(result.diagnostics_ok), posterior_file=str(path),
+                 curves_file=str(study / f"curves-{film}.csv"),
+                 predictive_hits=int(np.sum(~result.predictive.outside)), n_cases=int(len(result.predictive.outside)))
+        summary["films"][film] = s
+    summary["surrogate_validation"] = json.loads((study / "surrogate-validation.json").read_text())["summary"]
+    if report:
+        summary["report"] = stage("report", _report_stage, study, log)
     summary["elapsed_s"] = time.perf_counter() - t0
-    (study / "summary.json").write_text(json.dumps(json_safe(summary), indent=2) + "\n")
+    _write_json(study / "summary.json", summary)
     return summary
 
 
-def _write_curves(path: Path, c) -> None:
-    tmp = path.with_suffix(".tmp")
-    with open(tmp, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["force_kn", "offset_mm", "area_no_film_mm2", "delta_area_median_mm2", "delta_area_lo_mm2",
-                    "delta_area_hi_mm2", "ratio_median", "ratio_lo", "ratio_hi", "interpolation_error_rel"])
-        for i, force in enumerate(c.forces_n):
-            for j, eta in enumerate(c.offsets_mm):
-                w.writerow([force / 1e3, eta, c.area_no_film_mm2[i, j], c.delta_area_median_mm2[i, j],
-                            *c.delta_area_ci90_mm2[i, j], c.ratio_median[i, j], *c.ratio_ci90[i, j],
-                            c.interpolation_error_rel[i, j]])
-    tmp.replace(path)  # written whole or not at all
+# ------------------------------------------------------------------ stages
+def _design_stage(study: Path, settings: PipelineSettings, seed: int, log) -> None:
+    path = study / "design.json"
+    if path.exists():
+        return
+    from scipy.stats import qmc
 
+    from filmcal.doe import design_quality, latin_design
+    from filmcal.study import SurrogateDomain
+
+    log("[design] optimal Latin hypercubes and their quality")
+    space = SurrogateDomain().space()
+    out = {"names": list(space.names)}
+    for name, n, s in (("train", settings.train_runs, seed), ("test", settings.test_runs, seed + 1000)):
+        design = latin_design(space, n, seed=s)
+        # reference: plain random Latin hypercubes of the same size, realised on the same discrete levels
+        rng = np.random.default_rng(s)
+        ref = [design_quality(space.to_unit(space.to_physical(qmc.LatinHypercube(d=space.d, seed=rng).random(n))))
+               .as_dict() for _ in range(10)]
+        out[name] = {"n": n, "seed": s, "quality": design.quality.as_dict(), "unit": design.unit,
+                     "random_lhs_median": {k: float(np.median([r[k] for r in ref])) for k in ref[0]
+                                           if k != "latin"}}
+    _write_json(path, out)
+
+
+def _calibration_stage(study: Path, settings: PipelineSettings, films, seed: int, workers, log) -> dict:
+    from filmcal.calibration import load_result
+    from filmcal.fem import ContactOptions
+    from filmcal.study import calibrate_from_study, posterior_tag
+
+    results = {}
+    for film in films:
+        path = study / f"posterior-{posterior_tag(film, None, ContactOptions(), seed=seed)}.json"
+        if path.exists() and (study / "surrogate-validation.json").exists():
+            results[film] = (load_result(path), path)
+            continue
+        log(f"[calibration] {film}: FE campaign, surrogate and posterior")
+        result, validation, _, path = calibrate_from_study(
+            study, film, None, seed=seed, n_train=settings.train_runs, n_test=settings.test_runs, workers=workers,
+            max_steps=settings.max_steps, progress=True)
+        results[film] = (result, path)
+        vpath = study / "surrogate-validation.json"
+        if not vpath.exists():
+            _write_json(vpath, {"summary": validation.to_dict(), "points": validation.details["points"]})
+    return results
+
+
+def _verification_stage(study: Path, medians: dict, log) -> None:
+    path = study / "fe-verification.json"
+    if path.exists() and set(json.loads(path.read_text())["films"]) >= set(medians):
+        return
+    from filmcal.calibration import load_table1
+    from filmcal.fem import ContactOptions, Film, get_model
+    from filmcal.study import SurrogateDomain, SurrogateRadiusModel, surrogate_path
+    from filmcal.surrogate import load_surrogate
+
+    log("[verification] FE without film against Hertz; FE against the surrogate at the posterior medians")
+    data = load_table1("HS")  # the ten (R, F) cases (the same for every film)
+    cases = [(float(r), float(f)) for r, f in zip(data.sphere_radius_mm, data.force_n)]
+    hertz = []
+    for r, f in cases:
+        res = get_model(r).solve(None, f)
+        hertz.append({"radius_mm": r, "force_n": f, "fe_radius_mm": res.contact_radius_mm,
+                      "hertz_radius_mm": res.hertz_radius_mm, "fe_max_pressure_mpa": res.max_pressure_mpa,
+                      "converged": res.converged})
+    options = ContactOptions()
+    model = SurrogateRadiusModel(load_surrogate(surrogate_path(study, options)), SurrogateDomain())
+    films = {}
+    for film, e in medians.items():
+        rows = []
+        for r, f in cases:
+            res = get_model(r).solve(Film(e, FILM_POISSON), f, options)
+            mean, std = model.predict(e, FILM_POISSON, r, f)
+            rows.append({"radius_mm": r, "force_n": f, "fe_radius_mm": res.contact_radius_mm,
+                         "surrogate_mean_mm": float(mean), "surrogate_std_mm": float(std), "converged": res.converged})
+        films[film] = {"modulus_mpa": e, "cases": rows}
+    r, f = PROFILE_CASE
+    profiles = {"no film": _profile(get_model(r).solve(None, f))}
+    for film, e in medians.items():
+        profiles[f"{film} film, E = {e:.0f} MPa"] = _profile(get_model(r).solve(Film(e, FILM_POISSON), f, options))
+    _write_json(path, {"hertz": hertz, "films": films, "profile_case": {"radius_mm": r, "force_n": f},
+                       "profiles": profiles})
+
+
+def _profile(res) -> dict:
+    return {"r_mm": res.r_mm, "pressure_mpa": res.pressure_mpa, "contact_radius_mm": res.contact_radius_mm,
+            "hertz_radius_mm": res.hertz_radius_mm}
+
+
+def rough_law(ra_um: float):
+    """Film-wheel interface of a rough wheel: a Greenwood-Williamson law per film modulus.
+
+    The wheel's asperities press into the film, so the law's contact modulus
+    is that of film against steel.
+    """
+    from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, contact_modulus_mpa
+    from filmcal.wheelrail import GreenwoodWilliamsonLaw
+
+    def law(modulus_mpa: float):
+        return GreenwoodWilliamsonLaw(ra_um, contact_modulus_mpa(modulus_mpa, FILM_POISSON, STEEL_MODULUS_MPA,
+                                                                 STEEL_POISSON))
+    return law
+
+
+def _curves_stage(study: Path, settings: PipelineSettings, results: dict, log) -> None:
+    from filmcal.correction import correction_curves
+
+    wheels = [("smooth", None)]
+    if settings.rough_ra_um:
+        wheels.append((f"rough Ra {settings.rough_ra_um:g} um", rough_law(settings.rough_ra_um)))
+    for film, (result, _) in results.items():
+        path = study / f"curves-{film}.csv"
+        if path.exists():
+            continue
+        samples = np.asarray(result.samples["modulus_mpa"], dtype=float)
+        rows = []
+        for wheel, law in wheels:
+            log(f"[curves] {film}, {wheel} wheel: {len(settings.forces_kn)} loads x {len(settings.offsets_mm)} "
+                "offsets")
+            c = correction_curves(samples, settings.offsets_mm, np.asarray(settings.forces_kn) * 1e3,
+                                  poisson=FILM_POISSON, film_thickness_mm=FILM_THICKNESS_MM, roughness=law)
+            for i, force in enumerate(c.forces_n):
+                for j, eta in enumerate(c.offsets_mm):
+                    rows.append([film, wheel, force / 1e3, eta, c.area_no_film_mm2[i, j],
+                                 c.area_film_median_mm2[i, j], c.delta_area_median_mm2[i, j],
+                                 *c.delta_area_ci90_mm2[i, j], c.ratio_median[i, j], *c.ratio_ci90[i, j],
+                                 c.interpolation_error_rel[i, j]])
+        tmp = path.with_name(path.name + ".tmp")
+        with open(tmp, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(CURVE_COLUMNS)
+            w.writerows(rows)
+        tmp.replace(path)  # written whole or not at all
+
+
+def read_curves_csv(path: str | Path) -> list[dict]:
+    """Rows of a ``curves-<film>.csv`` with numbers as floats."""
+    with open(path, newline="") as fh:
+        return [{k: (v if k in ("film", "wheel") else float(v)) for k, v in row.items()} for row in csv.DictReader(fh)]
+
+
+def _outlines_stage(study: Path, settings: PipelineSettings, medians: dict, log) -> None:
+    path = study / "wheelrail-outlines.json"
+    if path.exists() and set(json.loads(path.read_text())["films"]) >= set(medians):
+        return
+    from filmcal.wheelrail import FilmLayer, solve_wheel_rail
+
+    force = settings.outline_force_kn * 1e3
+    log(f"[outlines] wheel-rail contact outlines at {settings.outline_force_kn:g} kN")
+    cases = []
+    for eta in settings.offsets_mm:
+        bare = solve_wheel_rail(eta, force)
+        case = {"offset_mm": eta, "contact_y_mm": bare.placement.contact.y_mm,
+                "no film": {"area_mm2": bare.area_mm2, "outline_mm": bare.outline_mm}}
+        for film, e in medians.items():
+            res = solve_wheel_rail(eta, force, film=FilmLayer(e, FILM_POISSON, FILM_THICKNESS_MM))
+            case[film] = {"area_mm2": res.area_mm2, "outline_mm": res.outline_mm}
+        cases.append(case)
+    _write_json(path, {"force_n": force, "films": medians, "cases": cases})
+
+
+def _report_stage(study: Path, log) -> dict:
+    from filmcal.report import write_report
+
+    out = study / "report"
+    html = out / "report.html"
+    inputs = [p for p in study.iterdir() if p.is_file() and p.suffix in (".json", ".csv", ".npz")
+              and p.name != "summary.json"]
+    if html.exists() and (out / "report.pdf").exists() and all(
+            os.path.getmtime(p) <= os.path.getmtime(html) for p in inputs):
+        return {"html": str(html), "pdf": str(out / "report.pdf")}
+    log("[report] HTML and PDF")
+    paths = write_report(study, out)
+    return {"html": str(paths["html"]), "pdf": str(paths["pdf"]), "figures": paths["figures"]}

@@ -125,7 +125,11 @@ def fit_radius_surrogate(X: dict, radius_mm: np.ndarray, domain: SurrogateDomain
 
 @dataclass
 class SurrogateValidation:
-    """Held-out accuracy of a radius surrogate, in radius and in area."""
+    """Held-out accuracy of a radius surrogate, in radius and in area.
+
+    ``details["points"]`` holds the held-out inputs with the FE radius and the
+    surrogate's mean and predictive std (incl. FE noise) at each.
+    """
 
     n: int
     radius_rms_error_mm: float
@@ -143,12 +147,15 @@ class SurrogateValidation:
 def validate_radius_surrogate(surrogate: GPSurrogate, X: dict, radius_mm: np.ndarray) -> SurrogateValidation:
     """Accuracy on held-out FE runs; intervals include the fitted FE noise (a new FE run's jitter)."""
     v = validate(surrogate, X, _excess(X, radius_mm), noise=True)
-    mean = surrogate.predict(X) + hertz_radius_mm(X["radius_mm"], X["force_kn"] * 1e3)
+    excess, std = surrogate.predict(X, return_std=True, noise=True)
+    mean = excess + hertz_radius_mm(X["radius_mm"], X["force_kn"] * 1e3)
     area_rel = (mean / radius_mm) ** 2 - 1.0
     err = mean - radius_mm
+    points = {**{k: np.asarray(X[k], dtype=float) for k in INPUTS}, "radius_fe_mm": np.asarray(radius_mm, float),
+              "radius_mean_mm": mean, "radius_std_mm": std}
     return SurrogateValidation(int(len(radius_mm)), float(np.sqrt(np.mean(err**2))), float(np.max(np.abs(err))),
                                float(np.sqrt(np.mean(area_rel**2))), float(np.max(np.abs(area_rel))),
-                               float(v.coverage90), float(v.q2), {"excess": v.__dict__})
+                               float(v.coverage90), float(v.q2), {"excess": v.__dict__, "points": points})
 
 
 def build_radius_surrogate(study_dir: str | Path, options: ContactOptions | None = None,
@@ -171,7 +178,7 @@ def build_radius_surrogate(study_dir: str | Path, options: ContactOptions | None
     Xtr = {k: v[:n_tr][ok[:n_tr]] for k, v in X.items()}
     Xte = {k: v[n_tr:][ok[n_tr:]] for k, v in X.items()}
     path = surrogate_path(study_dir, options) if tag is None else study_dir / f"surrogate-{tag}"
-    if path.with_suffix(".json").exists():
+    if path.with_name(path.name + ".json").exists():
         surrogate = load_surrogate(path)
     else:
         surrogate = fit_radius_surrogate(Xtr, radius[:n_tr][ok[:n_tr]], domain, seed)

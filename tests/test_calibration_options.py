@@ -100,6 +100,7 @@ def test_result_saves_and_loads_as_json(with_discrepancy, tmp_path):
 
 def test_plots_write_png_files(with_discrepancy, tmp_path):
     for plot in (plot_trace, plot_corner, plot_case_intervals, plot_predictive):
-        path = plot(with_discrepancy, tmp_path / f"{plot.__name__}.png")
-        assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 10_000
+        path = tmp_path / f"{plot.__name__}.png"
+        fig = plot(with_discrepancy, path)
+        assert fig.axes and path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 10_000
     assert math.isfinite(with_discrepancy.case_intervals.tolerance_mm)

@@ -3,35 +3,57 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 import subprocess
 import sys
 
+from filmcal.hertz import hertz_radius_mm
 
-def test_quick_pipeline_runs_and_resumes(tmp_path):
-    cmd = [sys.executable, "-m", "filmcal.cli", "pipeline", "--quick", "--films", "HS", "--workers", "2",
-           "--study-dir", str(tmp_path), "--json"]
-    first = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
-    assert first.returncode == 0, first.stderr[-2000:]
-    summary = json.loads(first.stdout)
+
+def test_quick_pipeline_writes_every_stage(quick_study):
+    study, summary, _ = quick_study
     hs = summary["films"]["HS"]
     assert 1500 < hs["modulus_mpa"]["median"] < 5000  # HS near the paper's 2800 MPa
     assert hs["modulus_mpa"]["ci90"][0] < hs["modulus_mpa"]["median"] < hs["modulus_mpa"]["ci90"][1]
     with open(hs["curves_file"]) as fh:
         rows = list(csv.DictReader(fh))
-    assert len(rows) == 3  # three offsets at 50 kN
+    assert {r["wheel"] for r in rows} == {"smooth", "rough Ra 1.5 um"}
+    assert len(rows) == 2 * 3  # three offsets at 50 kN, smooth and rough wheel
     for row in rows:  # the film enlarges the patch, the band contains its median
         assert float(row["delta_area_lo_mm2"]) <= float(row["delta_area_median_mm2"]) <= float(row["delta_area_hi_mm2"])
         assert 0 < float(row["ratio_median"]) < 1
-    assert (tmp_path / "summary.json").exists()
+    for name in ("settings.json", "design.json", "surrogate-validation.json", "fe-verification.json",
+                 "wheelrail-outlines.json", "summary.json", "report/report.html", "report/report.pdf"):
+        assert (study / name).exists(), name
+    verification = json.loads((study / "fe-verification.json").read_text())
+    for case in verification["hertz"]:  # no film: the FE model reproduces Hertz (DESIGN: R450/75 kN 6.031 mm)
+        a = hertz_radius_mm(case["radius_mm"], case["force_n"])
+        assert abs(case["fe_radius_mm"] / a - 1) < 2e-3
+    design = json.loads((study / "design.json").read_text())
+    for part in ("train", "test"):  # the optimised designs beat plain random Latin hypercubes
+        assert design[part]["quality"]["min_distance"] > design[part]["random_lhs_median"]["min_distance"]
+        assert design[part]["quality"]["phi_p"] < design[part]["random_lhs_median"]["phi_p"]
 
-    second = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
-    assert second.returncode == 0, second.stderr[-2000:]
-    again = json.loads(second.stdout)
-    assert again["films"]["HS"]["modulus_mpa"] == hs["modulus_mpa"]
-    assert again["elapsed_s"] < summary["elapsed_s"]
+
+def test_quick_pipeline_resumes_by_reading(quick_study):
+    _, summary, cmd = quick_study
+    again = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert again.returncode == 0, again.stderr[-2000:]
+    second = json.loads(again.stdout)
+    assert second["films"]["HS"]["modulus_mpa"] == summary["films"]["HS"]["modulus_mpa"]
+    assert second["elapsed_s"] < summary["elapsed_s"] / 2
+    assert not re.search(r"\[(design|calibration|verification|curves|outlines|report)\]", again.stderr), again.stderr
 
 
-def test_bad_film_exits_2(tmp_path):
-    p = subprocess.run([sys.executable, "-m", "filmcal.cli", "pipeline", "--films", "XX", "--study-dir",
-                        str(tmp_path)], capture_output=True, text=True)
-    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1
+def test_other_settings_in_the_same_folder_are_refused(quick_study):
+    study, _, _ = quick_study
+    p = subprocess.run([sys.executable, "-m", "filmcal.cli", "pipeline", "--quick", "--seed", "1", "--films", "HS",
+                        "--study-dir", str(study)], capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and "other settings" in p.stderr
+
+
+def test_bad_input_exits_2(tmp_path):
+    for extra in (["--films", "XX"], ["--films", "HS,HS"], ["--workers", "0"]):
+        p = subprocess.run([sys.executable, "-m", "filmcal.cli", "pipeline", "--study-dir", str(tmp_path), *extra],
+                           capture_output=True, text=True, timeout=120)
+        assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, (extra, p.stderr)

@@ -1,4 +1,4 @@
-"""Figures of a calibration result, written as PNG files (matplotlib, no pyplot state).
+"""Figures of a calibration result (matplotlib, no pyplot state), returned and optionally written as PNG.
 
 `plot_trace`        kept samples of every parameter per walker, with their histogram
 `plot_corner`       pairwise scatter plots and marginal histograms of the parameters
@@ -25,10 +25,11 @@ def case_labels(sphere_radius_mm: np.ndarray, force_n: np.ndarray) -> list[str]:
     return [f"R{r:g} / {f / 1000.0:g} kN" for r, f in zip(sphere_radius_mm, force_n)]
 
 
-def _save(fig: Figure, path: str | Path, dpi: int) -> Path:
-    path = Path(path)
-    fig.savefig(path, dpi=dpi)
-    return path
+def _save(fig: Figure, path: str | Path | None, dpi: int) -> Figure:
+    """Write ``fig`` as PNG when a path is given; return the figure."""
+    if path is not None:
+        fig.savefig(Path(path), dpi=dpi)
+    return fig
 
 
 def _varying(result: CalibrationResult) -> list[str]:
@@ -37,13 +38,13 @@ def _varying(result: CalibrationResult) -> list[str]:
     return [k for k, v in result.samples.items() if k not in skip and np.ptp(np.asarray(v)) > 0]
 
 
-def plot_trace(result: CalibrationResult, path: str | Path, dpi: int = 120) -> Path:
+def plot_trace(result: CalibrationResult, path: str | Path | None = None, dpi: int = 120) -> Figure:
     """Trace of the kept samples of each parameter (one line per walker) and their histogram.
 
     Returns
     -------
-    Path
-        The PNG written.
+    matplotlib.figure.Figure
+        The figure, also written as PNG to ``path`` when given.
     """
     names = _varying(result)
     fig = Figure(figsize=(10, 2.2 * len(names)))
@@ -66,7 +67,7 @@ def plot_trace(result: CalibrationResult, path: str | Path, dpi: int = 120) -> P
     return _save(fig, path, dpi)
 
 
-def plot_corner(result: CalibrationResult, path: str | Path, max_points: int = 4000, dpi: int = 120) -> Path:
+def plot_corner(result: CalibrationResult, path: str | Path | None = None, max_points: int = 4000, dpi: int = 120) -> Figure:
     """Pairwise scatter plots (lower triangle) and marginal histograms (diagonal).
 
     E and M are shown as log10 values.
@@ -80,7 +81,8 @@ def plot_corner(result: CalibrationResult, path: str | Path, max_points: int = 4
 
     Returns
     -------
-    Path
+    matplotlib.figure.Figure
+        The figure, also written as PNG to ``path`` when given.
     """
     names = _varying(result)
     flat = {k: np.asarray(result.samples[k]).ravel() for k in names}
@@ -110,7 +112,7 @@ def plot_corner(result: CalibrationResult, path: str | Path, max_points: int = 4
     return _save(fig, path, dpi)
 
 
-def plot_case_intervals(result: CalibrationResult, path: str | Path, dpi: int = 120) -> Path:
+def plot_case_intervals(result: CalibrationResult, path: str | Path | None = None, dpi: int = 120) -> Figure:
     """The paper's Fig. 3 analogue: for each (R, F) case, the E range reproducing it alone.
 
     Bars span the E for which the model radius is within +/- the posterior
@@ -120,7 +122,8 @@ def plot_case_intervals(result: CalibrationResult, path: str | Path, dpi: int = 
 
     Returns
     -------
-    Path
+    matplotlib.figure.Figure
+        The figure, also written as PNG to ``path`` when given.
     """
     ci = result.case_intervals
     e_lo, e_hi = ci.modulus_range_mpa
@@ -150,7 +153,7 @@ def plot_case_intervals(result: CalibrationResult, path: str | Path, dpi: int = 
     return _save(fig, path, dpi)
 
 
-def plot_predictive(result: CalibrationResult, path: str | Path, dpi: int = 120) -> Path:
+def plot_predictive(result: CalibrationResult, path: str | Path | None = None, dpi: int = 120) -> Figure:
     """Measured radius error vs the posterior predictive mean and 90 % interval, per case.
 
     Errors are radii minus the Hertz radius (Table 1's quantity). Cases
@@ -158,7 +161,8 @@ def plot_predictive(result: CalibrationResult, path: str | Path, dpi: int = 120)
 
     Returns
     -------
-    Path
+    matplotlib.figure.Figure
+        The figure, also written as PNG to ``path`` when given.
     """
     pc = result.predictive
     order = np.lexsort((pc.sphere_radius_mm, pc.force_n))
