@@ -21,7 +21,7 @@ from filmcal.surrogate import GPSurrogate, load_surrogate, save_surrogate, valid
 __all__ = ["SurrogateDomain", "SurrogateValidation", "fe_design_points", "run_fe_points",
            "fit_radius_surrogate", "validate_radius_surrogate", "build_radius_surrogate",
            "SurrogateRadiusModel", "FERadiusModel", "INPUTS", "calibrate_from_study", "posterior_tag",
-           "options_tag", "surrogate_path", "refine_radius_surrogate"]
+           "options_tag", "surrogate_path", "refine_radius_surrogate", "load_posterior_samples"]
 
 INPUTS = ("modulus_mpa", "poisson", "radius_mm", "force_kn")
 LOG_INPUTS = ("modulus_mpa", "radius_mm", "force_kn")
@@ -270,6 +270,25 @@ def posterior_tag(film: str, loads: str | None, options: ContactOptions, poisson
     """The file-name tag of a calibration in a study folder."""
     return (f"{film.upper()}-{(loads or 'all').replace(' ', '')}-{poisson}-{discrepancy or 'none'}-seed{seed}-"
             f"{options_tag(options)}")
+
+
+def load_posterior_samples(study_dir: str | Path, film: str, loads: str | None = None,
+                           options: ContactOptions | None = None, seed: int = 0) -> tuple[dict, Path]:
+    """Posterior samples (name -> ndarray) of a film's calibration saved in a study, and the file.
+
+    Raises
+    ------
+    FileNotFoundError
+        When the study holds no such posterior (run ``filmcal pipeline`` or ``filmcal calibrate``).
+    """
+    import json
+
+    path = Path(study_dir) / f"posterior-{posterior_tag(film, loads, options or ContactOptions(), seed=seed)}.json"
+    if not path.exists():
+        raise FileNotFoundError(f"no posterior of {film.upper()} in {study_dir} ({path.name}): run `filmcal pipeline` "
+                                "or `filmcal calibrate` first")
+    samples = json.loads(path.read_text(encoding="utf-8"))["samples"]
+    return {k: np.asarray(v, dtype=float) for k, v in samples.items()}, path
 
 
 def refine_radius_surrogate(study_dir: str | Path, surrogate: GPSurrogate, options: ContactOptions | None = None,

@@ -7,6 +7,8 @@ import re
 import subprocess
 import sys
 
+import numpy as np
+
 from filmcal.hertz import hertz_radius_mm
 
 
@@ -57,3 +59,26 @@ def test_bad_input_exits_2(tmp_path):
         p = subprocess.run([sys.executable, "-m", "filmcal.cli", "pipeline", "--study-dir", str(tmp_path), *extra],
                            capture_output=True, text=True, timeout=120)
         assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, (extra, p.stderr)
+
+
+def test_correctors_from_the_study(quick_study, tmp_path):
+    import pytest
+
+    from filmcal.calibration import load_table1
+    from filmcal.correction import SphereCorrector, WheelRailCorrector
+    from filmcal.pipeline import read_curves_csv
+
+    study, _, _ = quick_study
+    data = load_table1("HS")
+    sphere = SphereCorrector.from_study(study, "HS").correct(data.measured_radius_mm, data.sphere_radius_mm,
+                                                             data.force_n)
+    hertz_area = np.pi * data.hertz_radius_mm**2  # the truth of the Hertzian experiments
+    inside = (sphere.area_ci90_mm2[:, 0] <= hertz_area) & (hertz_area <= sphere.area_ci90_mm2[:, 1])
+    assert inside.sum() >= 8
+    # the corrector and the correction curves are two propagations of the same posterior
+    row = next(r for r in read_curves_csv(study / "curves-HS.csv") if r["wheel"] == "smooth")
+    corrected = WheelRailCorrector.from_study(study, "HS").correct(row["area_film_median_mm2"], row["offset_mm"],
+                                                                   row["force_kn"] * 1e3)
+    assert abs(np.median(corrected.samples_mm2) / row["area_no_film_mm2"] - 1) < 0.01
+    with pytest.raises(FileNotFoundError, match="no posterior of MS"):
+        WheelRailCorrector.from_study(study, "MS")

@@ -91,6 +91,32 @@ class SphereCorrector:
         self.sigma_mm_ = np.asarray(posterior["sigma_mm"], dtype=float).ravel()[take]
         self.random_state = random_state
 
+    @classmethod
+    def from_study(cls, study_dir, film: str, loads: str | None = None, seed: int = 0, **kwargs) -> "SphereCorrector":
+        """The corrector of a film type from a study folder's saved posterior and radius surrogate.
+
+        Parameters
+        ----------
+        study_dir : str or Path
+            Study folder (``filmcal pipeline`` or ``filmcal calibrate`` wrote it).
+        film : str
+            MS, HS or HHS.
+        loads : str, optional
+            Load range of the calibration (default: all loads).
+        seed : int
+            Seed of the calibration, and of the corrector's scatter draws.
+        **kwargs
+            Passed to the constructor (``max_samples``).
+        """
+        from filmcal.fem import ContactOptions
+        from filmcal.study import SurrogateDomain, SurrogateRadiusModel, load_posterior_samples, surrogate_path
+        from filmcal.surrogate import load_surrogate
+
+        options = ContactOptions()
+        samples, _ = load_posterior_samples(study_dir, film, loads, options, seed)
+        model = SurrogateRadiusModel(load_surrogate(surrogate_path(study_dir, options)), SurrogateDomain())
+        return cls(model, samples, random_state=seed, **kwargs)
+
     def correct(self, measured_radius_mm, sphere_radius_mm, force_n, measurement_std_mm=0.0) -> CorrectedArea:
         """The contact area without film behind measured imprint radii (vectorised).
 

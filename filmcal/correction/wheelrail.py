@@ -60,6 +60,29 @@ class WheelRailCorrector:
         self.model_radius_std_mm = model_radius_std_mm
         self.random_state = random_state
 
+    @classmethod
+    def from_study(cls, study_dir, film: str, loads: str | None = None, seed: int = 0,
+                   **kwargs) -> "WheelRailCorrector":
+        """The corrector of a film type from a study folder's saved posterior.
+
+        Parameters
+        ----------
+        study_dir : str or Path
+            Study folder (``filmcal pipeline`` or ``filmcal calibrate`` wrote it).
+        film : str
+            MS, HS or HHS.
+        loads : str, optional
+            Load range of the calibration (default: all loads).
+        seed : int
+            Seed of the calibration, and of the corrector's scatter draws.
+        **kwargs
+            Passed to the constructor (profiles, rail inclination, ...).
+        """
+        from filmcal.study import load_posterior_samples
+
+        samples, _ = load_posterior_samples(study_dir, film, loads, seed=seed)
+        return cls(samples, random_state=seed, **kwargs)
+
     def area_ratio(self, offset_mm: float, force_n: float) -> tuple[np.ndarray, dict]:
         """A_0 / A_f(E) for every posterior sample, and the solved support points."""
         a0 = solve_wheel_rail(offset_mm, force_n, film=None, **self.settings).area_mm2
