@@ -27,10 +27,14 @@ _EXPORTS = {
                          "SerialExecutor"],
     "filmcal.calibration": ["load_table1", "RadiusErrorData", "calibrate_film", "CalibrationResult",
                             "RadiusModel", "Priors"],
-    "filmcal.study": ["build_radius_surrogate", "SurrogateRadiusModel", "FERadiusModel", "SurrogateDomain"],
+    "filmcal.study": ["build_radius_surrogate", "SurrogateRadiusModel", "FERadiusModel", "SurrogateDomain",
+                      "calibrate_from_study", "load_posterior_samples"],
     "filmcal.wheelrail": ["get_profile", "load_profile_csv", "place_wheel_on_rail", "solve_wheel_rail",
                           "solve_wheel_rail_many", "WheelRailModel", "HalfSpaceContactSolver", "FilmLayer"],
-    "filmcal.correction": ["SphereCorrector", "WheelRailCorrector", "CorrectedArea"],
+    "filmcal.correction": ["SphereCorrector", "WheelRailCorrector", "CorrectedArea", "correction_curves",
+                           "CorrectionCurves"],
+    "filmcal.pipeline": ["run_pipeline", "PipelineSettings"],
+    "filmcal.report": ["build_report", "write_report"],
 }
 _WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
 

@@ -20,7 +20,6 @@ with other settings in the same folder is refused rather than mixed.
 """
 from __future__ import annotations
 
-import csv
 import hashlib
 import json
 import os
@@ -33,15 +32,11 @@ import numpy as np
 from filmcal._json import json_safe
 from filmcal.films import FILM_TYPES, FILM_THICKNESS_MM
 
-__all__ = ["PipelineSettings", "run_pipeline", "settings_hash", "CURVE_COLUMNS", "read_curves_csv"]
+__all__ = ["PipelineSettings", "run_pipeline", "settings_hash"]
 
 #: Sphere and force of the pressure profiles shown in the report (the DESIGN's Hertz example).
 PROFILE_CASE = (450.0, 75_000.0)
 FILM_POISSON = 0.33
-
-CURVE_COLUMNS = ("film", "wheel", "force_kn", "offset_mm", "area_no_film_mm2", "area_film_median_mm2",
-                 "delta_area_median_mm2", "delta_area_lo_mm2", "delta_area_hi_mm2", "ratio_median", "ratio_lo",
-                 "ratio_hi", "interpolation_error_rel")
 
 
 @dataclass(frozen=True)
@@ -247,56 +242,15 @@ def _profile(res) -> dict:
             "hertz_radius_mm": res.hertz_radius_mm}
 
 
-def rough_law(ra_um: float):
-    """Film-wheel interface of a rough wheel: a Greenwood-Williamson law per film modulus.
-
-    The wheel's asperities press into the film, so the law's contact modulus
-    is that of film against steel.
-    """
-    from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, contact_modulus_mpa
-    from filmcal.wheelrail import GreenwoodWilliamsonLaw
-
-    def law(modulus_mpa: float):
-        return GreenwoodWilliamsonLaw(ra_um, contact_modulus_mpa(modulus_mpa, FILM_POISSON, STEEL_MODULUS_MPA,
-                                                                 STEEL_POISSON))
-    return law
-
-
 def _curves_stage(study: Path, settings: PipelineSettings, results: dict, log) -> None:
-    from filmcal.correction import correction_curves
+    from filmcal.correction import curve_rows, write_curves_csv
 
-    wheels = [("smooth", None)]
-    if settings.rough_ra_um:
-        wheels.append((f"rough Ra {settings.rough_ra_um:g} um", rough_law(settings.rough_ra_um)))
     for film, (result, _) in results.items():
         path = study / f"curves-{film}.csv"
-        if path.exists():
-            continue
-        samples = np.asarray(result.samples["modulus_mpa"], dtype=float)
-        rows = []
-        for wheel, law in wheels:
-            log(f"[curves] {film}, {wheel} wheel: {len(settings.forces_kn)} loads x {len(settings.offsets_mm)} "
-                "offsets")
-            c = correction_curves(samples, settings.offsets_mm, np.asarray(settings.forces_kn) * 1e3,
-                                  poisson=FILM_POISSON, film_thickness_mm=FILM_THICKNESS_MM, roughness=law)
-            for i, force in enumerate(c.forces_n):
-                for j, eta in enumerate(c.offsets_mm):
-                    rows.append([film, wheel, force / 1e3, eta, c.area_no_film_mm2[i, j],
-                                 c.area_film_median_mm2[i, j], c.delta_area_median_mm2[i, j],
-                                 *c.delta_area_ci90_mm2[i, j], c.ratio_median[i, j], *c.ratio_ci90[i, j],
-                                 c.interpolation_error_rel[i, j]])
-        tmp = path.with_name(path.name + ".tmp")
-        with open(tmp, "w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(CURVE_COLUMNS)
-            w.writerows(rows)
-        tmp.replace(path)  # written whole or not at all
-
-
-def read_curves_csv(path: str | Path) -> list[dict]:
-    """Rows of a ``curves-<film>.csv`` with numbers as floats."""
-    with open(path, newline="") as fh:
-        return [{k: (v if k in ("film", "wheel") else float(v)) for k, v in row.items()} for row in csv.DictReader(fh)]
+        if not path.exists():
+            samples = np.asarray(result.samples["modulus_mpa"], dtype=float)
+            write_curves_csv(path, curve_rows(film, samples, settings.offsets_mm, settings.forces_kn,
+                                              settings.rough_ra_um, log))
 
 
 def _outlines_stage(study: Path, settings: PipelineSettings, medians: dict, log) -> None:

@@ -66,7 +66,7 @@ def test_correctors_from_the_study(quick_study, tmp_path):
 
     from filmcal.calibration import load_table1
     from filmcal.correction import SphereCorrector, WheelRailCorrector
-    from filmcal.pipeline import read_curves_csv
+    from filmcal.correction import read_curves_csv
 
     study, _, _ = quick_study
     data = load_table1("HS")
@@ -82,3 +82,26 @@ def test_correctors_from_the_study(quick_study, tmp_path):
     assert abs(np.median(corrected.samples_mm2) / row["area_no_film_mm2"] - 1) < 0.01
     with pytest.raises(FileNotFoundError, match="no posterior of MS"):
         WheelRailCorrector.from_study(study, "MS")
+
+
+def test_curves_command_at_a_load_outside_the_pipeline_grid(quick_study):
+    from filmcal.correction import read_curves_csv
+
+    study, _, _ = quick_study
+    p = subprocess.run([sys.executable, "-m", "filmcal.cli", "curves", "--film", "HS", "--forces-kn", "120",
+                        "--offsets-mm=-3", "--study-dir", str(study), "--json"], capture_output=True, text=True,
+                       timeout=300)
+    assert p.returncode == 0, p.stderr[-2000:]
+    out = json.loads(p.stdout)
+    row = dict(zip(out["columns"], out["rows"][0]))
+    assert row["delta_area_lo_mm2"] <= row["delta_area_median_mm2"] <= row["delta_area_hi_mm2"]
+    assert 0 < row["ratio_lo"] <= row["ratio_median"] <= row["ratio_hi"] < 1
+    at50 = next(r for r in read_curves_csv(study / "curves-HS.csv") if r["wheel"] == "smooth" and r["offset_mm"] == -3)
+    # a rim of nearly constant width around a larger patch: more area added, a smaller share of the whole
+    assert row["delta_area_median_mm2"] > at50["delta_area_median_mm2"]
+    assert row["ratio_median"] > at50["ratio_median"]
+    for bad in (["--film", "XX"], ["--film", "HS", "--forces-kn", "-5"], ["--film", "HS", "--offsets-mm", "1:0:1"],
+                ["--film", "MS"]):  # MS: no posterior in this study
+        q = subprocess.run([sys.executable, "-m", "filmcal.cli", "curves", "--study-dir", str(study), *bad],
+                           capture_output=True, text=True, timeout=120)
+        assert q.returncode == 2 and len(q.stderr.strip().splitlines()) == 1, (bad, q.stderr)

@@ -9,13 +9,16 @@ reported beside the bands.
 """
 from __future__ import annotations
 
+import csv
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from filmcal.wheelrail import FilmLayer, solve_wheel_rail
 
-__all__ = ["CorrectionCurves", "correction_curves"]
+__all__ = ["CorrectionCurves", "correction_curves", "CURVE_COLUMNS", "curve_rows", "write_curves_csv",
+           "read_curves_csv", "rough_law"]
 
 SUPPORT_QUANTILES = (0.001, 0.25, 0.5, 0.75, 0.999)
 CHECK_QUANTILES = (0.1, 0.9)
@@ -105,3 +108,79 @@ def correction_curves(modulus_samples_mpa, offsets_mm, forces_n, *, poisson: flo
             d_ci[i, j] = np.quantile(delta, [0.05, 0.95])
             r_ci[i, j] = np.quantile(ratio, [0.05, 0.95])
     return CorrectionCurves(offsets, forces, a0, a_med, d_med, d_ci, r_med, r_ci, err)
+
+
+CURVE_COLUMNS = ("film", "wheel", "force_kn", "offset_mm", "area_no_film_mm2", "area_film_median_mm2",
+                 "delta_area_median_mm2", "delta_area_lo_mm2", "delta_area_hi_mm2", "ratio_median", "ratio_lo",
+                 "ratio_hi", "interpolation_error_rel")
+
+
+def rough_law(ra_um: float, film_poisson: float = 0.33):
+    """Film-wheel interface of a rough wheel: a Greenwood-Williamson law per film modulus.
+
+    The wheel's asperities press into the film, so the law's contact modulus
+    is that of film against steel.
+    """
+    from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, contact_modulus_mpa
+    from filmcal.wheelrail import GreenwoodWilliamsonLaw
+
+    def law(modulus_mpa: float):
+        return GreenwoodWilliamsonLaw(ra_um, contact_modulus_mpa(modulus_mpa, film_poisson, STEEL_MODULUS_MPA,
+                                                                 STEEL_POISSON))
+    return law
+
+
+def curve_rows(film: str, modulus_samples_mpa, offsets_mm, forces_kn, rough_ra_um: float | None = None,
+               log=None, poisson: float = 0.33, film_thickness_mm: float = 0.09, **wheel_rail) -> list[list]:
+    """Correction curves of one film's posterior as CSV rows (`CURVE_COLUMNS`), smooth and rough wheel.
+
+    Parameters
+    ----------
+    film : str
+        Film type (the rows' label).
+    modulus_samples_mpa : array_like
+        Posterior samples of the film modulus E.
+    offsets_mm, forces_kn : sequence of float
+        The grid: lateral offsets eta (mm) and loads (kN).
+    rough_ra_um : float, optional
+        Also a rough wheel with this Ra (Greenwood-Williamson law, `rough_law`).
+    log : callable, optional
+        Progress messages.
+    poisson, film_thickness_mm : float
+        The film's Poisson's ratio (as calibrated) and thickness.
+    **wheel_rail
+        Passed on to `correction_curves` (profiles, inclination, ...).
+    """
+    wheels = [("smooth", None)]
+    if rough_ra_um:
+        wheels.append((f"rough Ra {rough_ra_um:g} um", rough_law(rough_ra_um, poisson)))
+    rows = []
+    for wheel, law in wheels:
+        if log:
+            log(f"[curves] {film}, {wheel} wheel: {len(forces_kn)} loads x {len(offsets_mm)} offsets")
+        c = correction_curves(modulus_samples_mpa, offsets_mm, np.asarray(forces_kn, dtype=float) * 1e3,
+                              poisson=poisson, film_thickness_mm=film_thickness_mm, roughness=law, **wheel_rail)
+        for i, force in enumerate(c.forces_n):
+            for j, eta in enumerate(c.offsets_mm):
+                rows.append([film, wheel, force / 1e3, eta, c.area_no_film_mm2[i, j], c.area_film_median_mm2[i, j],
+                             c.delta_area_median_mm2[i, j], *c.delta_area_ci90_mm2[i, j], c.ratio_median[i, j],
+                             *c.ratio_ci90[i, j], c.interpolation_error_rel[i, j]])
+    return rows
+
+
+def write_curves_csv(path: str | Path, rows: list[list]) -> Path:
+    """Write curve rows with the `CURVE_COLUMNS` header, whole or not at all."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(CURVE_COLUMNS)
+        w.writerows(rows)
+    tmp.replace(path)
+    return path
+
+
+def read_curves_csv(path: str | Path) -> list[dict]:
+    """Rows of a ``curves-<film>.csv`` with numbers as floats."""
+    with open(path, newline="") as fh:
+        return [{k: (v if k in ("film", "wheel") else float(v)) for k, v in row.items()} for row in csv.DictReader(fh)]

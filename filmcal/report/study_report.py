@@ -290,7 +290,7 @@ def build_report(study_dir: str | Path) -> Report:
     FileNotFoundError
         If the folder has no ``settings.json`` (not made by the pipeline).
     """
-    from filmcal.pipeline import read_curves_csv
+    from filmcal.correction import read_curves_csv
 
     study = Path(study_dir)
     if not study.is_dir():
