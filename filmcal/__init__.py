@@ -32,7 +32,8 @@ _EXPORTS = {
     "filmcal.wheelrail": ["get_profile", "load_profile_csv", "place_wheel_on_rail", "solve_wheel_rail",
                           "solve_wheel_rail_many", "WheelRailModel", "HalfSpaceContactSolver", "FilmLayer"],
     "filmcal.correction": ["SphereCorrector", "WheelRailCorrector", "CorrectedArea", "correction_curves",
-                           "CorrectionCurves"],
+                           "CorrectionCurves", "read_imprint", "measure_imprint", "Imprint", "correct_outline",
+                           "CorrectedOutline", "ModelOutlines", "wheel_rail_outlines"],
     "filmcal.pipeline": ["run_pipeline", "PipelineSettings"],
     "filmcal.report": ["build_report", "write_report"],
 }

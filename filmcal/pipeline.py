@@ -136,7 +136,7 @@ def run_pipeline(study_dir: str | Path, settings: PipelineSettings | None = None
     results = stage("calibration", _calibration_stage, study, settings, films, seed, workers, log)
     medians = {film: float(r.modulus_mpa["median"]) for film, (r, _) in results.items()}
     stage("verification", _verification_stage, study, medians, log)
-    stage("curves", _curves_stage, study, settings, results, log)
+    stage("curves", _curves_stage, study, settings, results, workers, log)
     stage("outlines", _outlines_stage, study, settings, medians, log)
     for film, (result, path) in results.items():
         d = result.to_dict()
@@ -242,15 +242,32 @@ def _profile(res) -> dict:
             "hertz_radius_mm": res.hertz_radius_mm}
 
 
-def _curves_stage(study: Path, settings: PipelineSettings, results: dict, log) -> None:
-    from filmcal.correction import curve_rows, write_curves_csv
+def _curves_stage(study: Path, settings: PipelineSettings, results: dict, workers: int | None, log) -> None:
+    """Curves of the films without a CSV yet: one task per (film, wheel), run on `workers` processes."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    for film, (result, _) in results.items():
-        path = study / f"curves-{film}.csv"
-        if not path.exists():
-            samples = np.asarray(result.samples["modulus_mpa"], dtype=float)
-            write_curves_csv(path, curve_rows(film, samples, settings.offsets_mm, settings.forces_kn,
-                                              settings.rough_ra_um, log))
+    from filmcal.correction import curve_rows, wheel_label, write_curves_csv
+
+    wheels = [None] + ([settings.rough_ra_um] if settings.rough_ra_um else [])
+    todo = [film for film in results if not (study / f"curves-{film}.csv").exists()]
+    tasks = [(film, ra) for film in todo for ra in wheels]
+    if not tasks:
+        return
+    n = max(1, min(len(tasks), workers or os.cpu_count() or 1))
+    log(f"[curves] {len(todo)} film(s) x {len(wheels)} wheel(s), {len(settings.forces_kn)} loads x "
+        f"{len(settings.offsets_mm)} offsets each, on {n} process(es)")
+    rows: dict = {}
+    with ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures = {pool.submit(curve_rows, film, np.asarray(results[film][0].samples["modulus_mpa"], dtype=float),
+                               settings.offsets_mm, settings.forces_kn, ra, FILM_POISSON, FILM_THICKNESS_MM):
+                   (film, ra) for film, ra in tasks}
+        for done, future in enumerate(as_completed(futures), 1):
+            film, ra = futures[future]
+            rows[film, ra] = future.result()
+            log(f"[curves] {film}, {wheel_label(ra)} wheel done ({done}/{len(tasks)})")
+            if all((film, w) in rows for w in wheels):  # a film's CSV as soon as its wheels are done
+                write_curves_csv(study / f"curves-{film}.csv", [r for w in wheels for r in rows[film, w]])
 
 
 def _outlines_stage(study: Path, settings: PipelineSettings, medians: dict, log) -> None:

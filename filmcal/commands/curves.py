@@ -56,13 +56,15 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"offsets_mm must lie in [-20, 10] mm, got {args.offsets_mm!r}")
     if args.rough_ra_um is not None and not args.rough_ra_um > 0:
         raise ValueError(f"rough_ra_um must be > 0, got {args.rough_ra_um}")
-    from filmcal.correction import CURVE_COLUMNS, curve_rows, write_curves_csv
+    from filmcal.correction import CURVE_COLUMNS, curve_rows, wheel_label, write_curves_csv
     from filmcal.study import load_posterior_samples
 
     film = args.film.upper()
     samples, path = load_posterior_samples(args.study_dir, film, args.loads, seed=args.seed)
-    rows = curve_rows(film, samples["modulus_mpa"], offsets, forces, args.rough_ra_um,
-                      log=lambda msg: sys.stderr.write(msg + "\n"))
+    rows = []
+    for ra in [None] + ([args.rough_ra_um] if args.rough_ra_um else []):
+        sys.stderr.write(f"[curves] {film}, {wheel_label(ra)} wheel: {len(forces)} loads x {len(offsets)} offsets\n")
+        rows += curve_rows(film, samples["modulus_mpa"], offsets, forces, ra)
     if args.csv:
         write_curves_csv(args.csv, rows)
     if args.plot:

@@ -18,7 +18,7 @@ import numpy as np
 from filmcal.wheelrail import FilmLayer, solve_wheel_rail
 
 __all__ = ["CorrectionCurves", "correction_curves", "CURVE_COLUMNS", "curve_rows", "write_curves_csv",
-           "read_curves_csv", "rough_law"]
+           "read_curves_csv", "rough_law", "wheel_label"]
 
 SUPPORT_QUANTILES = (0.001, 0.25, 0.5, 0.75, 0.999)
 CHECK_QUANTILES = (0.1, 0.9)
@@ -130,9 +130,14 @@ def rough_law(ra_um: float, film_poisson: float = 0.33):
     return law
 
 
+def wheel_label(rough_ra_um: float | None) -> str:
+    """The ``wheel`` column of curve rows: ``smooth`` or ``rough Ra <x> um``."""
+    return "smooth" if rough_ra_um is None else f"rough Ra {rough_ra_um:g} um"
+
+
 def curve_rows(film: str, modulus_samples_mpa, offsets_mm, forces_kn, rough_ra_um: float | None = None,
-               log=None, poisson: float = 0.33, film_thickness_mm: float = 0.09, **wheel_rail) -> list[list]:
-    """Correction curves of one film's posterior as CSV rows (`CURVE_COLUMNS`), smooth and rough wheel.
+               poisson: float = 0.33, film_thickness_mm: float = 0.09, **wheel_rail) -> list[list]:
+    """Correction curves of one film's posterior as CSV rows (`CURVE_COLUMNS`), for one wheel.
 
     Parameters
     ----------
@@ -143,29 +148,21 @@ def curve_rows(film: str, modulus_samples_mpa, offsets_mm, forces_kn, rough_ra_u
     offsets_mm, forces_kn : sequence of float
         The grid: lateral offsets eta (mm) and loads (kN).
     rough_ra_um : float, optional
-        Also a rough wheel with this Ra (Greenwood-Williamson law, `rough_law`).
-    log : callable, optional
-        Progress messages.
+        A rough wheel with this Ra (Greenwood-Williamson law, `rough_law`);
+        None for a smooth wheel.
     poisson, film_thickness_mm : float
         The film's Poisson's ratio (as calibrated) and thickness.
     **wheel_rail
         Passed on to `correction_curves` (profiles, inclination, ...).
     """
-    wheels = [("smooth", None)]
-    if rough_ra_um:
-        wheels.append((f"rough Ra {rough_ra_um:g} um", rough_law(rough_ra_um, poisson)))
-    rows = []
-    for wheel, law in wheels:
-        if log:
-            log(f"[curves] {film}, {wheel} wheel: {len(forces_kn)} loads x {len(offsets_mm)} offsets")
-        c = correction_curves(modulus_samples_mpa, offsets_mm, np.asarray(forces_kn, dtype=float) * 1e3,
-                              poisson=poisson, film_thickness_mm=film_thickness_mm, roughness=law, **wheel_rail)
-        for i, force in enumerate(c.forces_n):
-            for j, eta in enumerate(c.offsets_mm):
-                rows.append([film, wheel, force / 1e3, eta, c.area_no_film_mm2[i, j], c.area_film_median_mm2[i, j],
-                             c.delta_area_median_mm2[i, j], *c.delta_area_ci90_mm2[i, j], c.ratio_median[i, j],
-                             *c.ratio_ci90[i, j], c.interpolation_error_rel[i, j]])
-    return rows
+    law = None if rough_ra_um is None else rough_law(rough_ra_um, poisson)
+    c = correction_curves(modulus_samples_mpa, offsets_mm, np.asarray(forces_kn, dtype=float) * 1e3,
+                          poisson=poisson, film_thickness_mm=film_thickness_mm, roughness=law, **wheel_rail)
+    wheel = wheel_label(rough_ra_um)
+    return [[film, wheel, force / 1e3, eta, c.area_no_film_mm2[i, j], c.area_film_median_mm2[i, j],
+             c.delta_area_median_mm2[i, j], *c.delta_area_ci90_mm2[i, j], c.ratio_median[i, j], *c.ratio_ci90[i, j],
+             c.interpolation_error_rel[i, j]]
+            for i, force in enumerate(c.forces_n) for j, eta in enumerate(c.offsets_mm)]
 
 
 def write_curves_csv(path: str | Path, rows: list[list]) -> Path:

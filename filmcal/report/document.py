@@ -114,6 +114,7 @@ def render_html(report: Report) -> str:
 _PAGE_IN = (8.27, 11.69)  # A4 portrait
 _LINE = 0.0155  # line height as a fraction of the page height (9 pt text)
 _WRAP = 100  # characters per line of body text
+_TABLE_CHARS = 118  # monospace characters of 7 pt across the text width
 
 
 def _table_lines(table: Table) -> list[str]:
@@ -174,8 +175,10 @@ def write_pdf(report: Report, path: str | Path) -> Path:
                         pages.line(text)
                     pages.line("", gap=0.5)
                 elif isinstance(block, Table):
-                    for text in _table_lines(block):
-                        pages.line(text, size=7, mono=True)
+                    lines = _table_lines(block)
+                    size = min(7.0, 7.0 * _TABLE_CHARS / max(len(t) for t in lines))  # fit the page width
+                    for text in lines:
+                        pages.line(text, size=size, mono=True)
                     pages.line("", gap=0.5)
                 else:
                     fig_no += 1

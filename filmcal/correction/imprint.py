@@ -1,0 +1,441 @@
+"""Scanned film imprints: the stained area, its outline and its uncertainty.
+
+A Prescale imprint is scanned (PNG or TIFF) and read as follows:
+
+1. Stain intensity in [0, 1] (0 = paper, 1 = fully stained), see
+   `stain_intensity`: ``1 - G`` (green channel) for colour scans, ``1 - L``
+   for greyscale scans. Prescale develops a red-magenta dye, which absorbs
+   green light (about 500-570 nm) and reflects red: on white paper the green
+   channel carries most of the stain's contrast, the red channel almost none,
+   so the green channel separates stain from paper better than the luminance
+   (which mixes in the red channel's noise without its contrast). A greyscale
+   scan has only the luminance.
+2. Threshold: Otsu's (1979) threshold of the intensity histogram (the level
+   that maximises the variance between the two classes it separates), or one
+   given by the user.
+3. Regions: connected stained pixels (8-connectivity) of at least
+   ``min_region_mm2`` are kept, so that dust and specks drop out while both
+   patches of a two-point wheel-rail contact stay; holes are filled
+   (unstained spots inside the patch belong to the contact).
+4. Outline: the contour of the intensity at the threshold, restricted to the
+   kept regions, with linear interpolation between pixel centres (marching
+   squares): sub-pixel where the scanner blurs the edge over a few pixels.
+   The area is the area the outline encloses.
+
+Coordinates: x to the right, y up, in mm, origin at the lower-left corner of
+the image (the pixel in the last row and first column has its centre at
+``(h/2, h/2)``, ``h`` the pixel size). Outlines are closed polygons (the
+first vertex repeated at the end), counter-clockwise.
+
+Area uncertainty
+----------------
+Two parts, added in quadrature:
+
+* *pixel size*: an edge is located to within a pixel; a shift ``u`` of the
+  whole outline, uniform in ``[-h/2, h/2]``, changes the area by ``P u``
+  (``P`` the perimeter), with standard deviation ``P h / sqrt(12)``. This is
+  the correlated (worst) case; independent errors along the edge would
+  average out further.
+* *threshold*: where the stain ends is a matter of definition when its colour
+  fades towards the edge. The threshold is taken as uncertain by 10 % of the
+  contrast between the stained and the paper class means (the two Otsu
+  classes); half the difference of the areas found at the threshold lowered
+  and raised by that much is the standard uncertainty. A sharp edge gives a
+  small term, a gradually fading one a large term.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from filmcal._validation import as_finite, check_positive, check_range
+from filmcal.correction.outline import _signed_area_mm2, outline_centroid_mm, outline_perimeter_mm
+
+__all__ = ["Imprint", "read_imprint", "measure_imprint", "stain_intensity", "otsu_threshold"]
+
+MM_PER_INCH = 25.4
+MIN_METADATA_DPI = 25.0  # file resolutions below this are placeholders (e.g. 1 dpi in a TIFF without one)
+THRESHOLD_SPREAD = 0.1  # threshold uncertainty as a fraction of the stain-paper contrast
+_EPS = 1e-9
+
+
+@dataclass
+class Imprint:
+    """The stained area of a scanned imprint.
+
+    Attributes
+    ----------
+    area_mm2 : float
+        Area enclosed by the outlines.
+    area_std_mm2 : float
+        Standard uncertainty of the area from the pixel size and the threshold
+        (module notes), the two parts in ``area_std_pixel_mm2`` and
+        ``area_std_threshold_mm2``.
+    outlines_mm : list of ndarray
+        Closed counter-clockwise polygons, ``(n, 2)`` arrays of (x, y) in mm,
+        one per stained region (image frame, module notes).
+    centroid_mm : ndarray, shape (2,)
+        Area centroid of the stained regions.
+    perimeter_mm : float
+        Total length of the outlines.
+    pixel_size_mm : float
+    pixel_size_source : str
+        "dpi", "mm_per_pixel", "file metadata" or "given".
+    threshold : float
+        Stain intensity (0-1) above which a pixel counts as stained.
+    contrast : float
+        Mean intensity of the stained class minus that of the paper class.
+    mask : ndarray of bool
+        Stained pixels after region selection and hole filling, indexed
+        ``[row, column]`` as stored (row 0 at the top of the image).
+    """
+
+    area_mm2: float
+    area_std_mm2: float
+    area_std_pixel_mm2: float
+    area_std_threshold_mm2: float
+    outlines_mm: list[np.ndarray] = field(repr=False)
+    centroid_mm: np.ndarray
+    perimeter_mm: float
+    pixel_size_mm: float
+    pixel_size_source: str
+    threshold: float
+    contrast: float
+    mask: np.ndarray = field(repr=False)
+
+    @property
+    def n_regions(self) -> int:
+        """Number of stained regions (outlines)."""
+        return len(self.outlines_mm)
+
+    @property
+    def equivalent_radius_mm(self) -> float:
+        """Radius of the circle of the same area, ``sqrt(A / pi)``."""
+        return math.sqrt(self.area_mm2 / math.pi)
+
+    def to_dict(self) -> dict:
+        """Scalar summaries for JSON (no outlines, no mask)."""
+        return {"area_mm2": self.area_mm2, "area_std_mm2": self.area_std_mm2,
+                "area_std_pixel_mm2": self.area_std_pixel_mm2,
+                "area_std_threshold_mm2": self.area_std_threshold_mm2,
+                "equivalent_radius_mm": self.equivalent_radius_mm, "n_regions": self.n_regions,
+                "centroid_mm": [float(c) for c in self.centroid_mm], "perimeter_mm": self.perimeter_mm,
+                "pixel_size_mm": self.pixel_size_mm, "pixel_size_source": self.pixel_size_source,
+                "threshold": self.threshold, "contrast": self.contrast}
+
+
+# ---------------------------------------------------------------------------
+# Intensity and threshold
+# ---------------------------------------------------------------------------
+
+def _full_scale(pixels: np.ndarray) -> float:
+    """The value of white for an array of pixel values."""
+    if pixels.dtype == np.uint8:
+        return 255.0
+    if pixels.dtype == np.uint16:
+        return 65535.0
+    if np.issubdtype(pixels.dtype, np.integer):
+        if pixels.min() < 0 or pixels.max() > 65535:
+            raise ValueError("integer pixel values must lie in 0-65535 (8 or 16 bits)")
+        return 65535.0
+    if np.issubdtype(pixels.dtype, np.floating):
+        if not np.all(np.isfinite(pixels)) or pixels.min() < 0.0 or pixels.max() > 1.0:
+            raise ValueError("floating-point pixel values must be finite and lie in [0, 1]")
+        return 1.0
+    raise ValueError(f"unsupported pixel type {pixels.dtype}")
+
+
+def stain_intensity(pixels) -> np.ndarray:
+    """Stain intensity in [0, 1] of scanned pixels (0 = white paper).
+
+    Parameters
+    ----------
+    pixels : array_like
+        ``(rows, columns)`` greyscale, ``(rows, columns, 2)`` greyscale with
+        alpha, ``(rows, columns, 3)`` RGB or ``(rows, columns, 4)`` RGBA;
+        8-bit, 16-bit, float in [0, 1], or bool (True = white).
+
+    Returns
+    -------
+    ndarray of float, shape (rows, columns)
+        ``1 - G`` for colour (the green channel, where the red-magenta
+        Prescale dye has its contrast), ``1 - L`` for greyscale;
+        transparent pixels count as white paper.
+    """
+    pixels = np.asarray(pixels)
+    if pixels.dtype == bool:
+        pixels = pixels.astype(np.uint8) * 255
+    if pixels.ndim == 2:
+        channels = pixels[:, :, None]
+    elif pixels.ndim == 3 and pixels.shape[2] in (2, 3, 4):
+        channels = pixels
+    else:
+        raise ValueError(f"pixels must have shape (rows, columns) or (rows, columns, 2|3|4), got {pixels.shape}")
+    if min(channels.shape[:2]) < 3:
+        raise ValueError(f"the image must be at least 3 x 3 pixels, got {channels.shape[0]} x {channels.shape[1]}")
+    scale = _full_scale(channels)
+    n = channels.shape[2]
+    value = channels[:, :, 1 if n >= 3 else 0].astype(float) / scale
+    if n in (2, 4):  # composite over white paper
+        alpha = channels[:, :, -1].astype(float) / scale
+        value = alpha * value + (1.0 - alpha)
+    return 1.0 - value
+
+
+def otsu_threshold(values, bins: int = 256) -> float:
+    """Otsu's threshold of values in [0, 1]: the level maximising the between-class variance.
+
+    Parameters
+    ----------
+    values : array_like
+        Intensities in [0, 1].
+    bins : int
+        Histogram bins over [0, 1].
+
+    Returns
+    -------
+    float
+        The threshold; values above it form the upper class. Where several
+        levels give the same maximum (an empty gap between two modes), the
+        middle of that run of levels.
+
+    Raises
+    ------
+    ValueError
+        If all values are equal (no two classes to separate).
+    """
+    x = np.asarray(values, dtype=float).ravel()
+    if x.size == 0 or not np.all(np.isfinite(x)) or x.min() < 0.0 or x.max() > 1.0:
+        raise ValueError("values must be finite and lie in [0, 1]")
+    bins = int(check_range("bins", bins, 2, 1 << 16, low_open=False, high_open=False))
+    if x.max() - x.min() <= _EPS:
+        raise ValueError("the image has no contrast: all intensities are equal")
+    counts, edges = np.histogram(x, bins=bins, range=(0.0, 1.0))
+    p = counts / counts.sum()
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    w0 = np.cumsum(p)[:-1]                      # weight of the lower class for a cut after bin k
+    m0 = np.cumsum(p * centres)[:-1]
+    mean = float(np.sum(p * centres))
+    w1 = 1.0 - w0
+    valid = (w0 > 0) & (w1 > 0)
+    between = np.zeros_like(w0)
+    between[valid] = (mean * w0[valid] - m0[valid]) ** 2 / (w0[valid] * w1[valid])
+    best = np.flatnonzero(between >= between.max() * (1.0 - 1e-12))
+    k = 0.5 * (best[0] + best[-1])              # the cut lies after bin k
+    return float((k + 1.0) / bins)
+
+
+# ---------------------------------------------------------------------------
+# Segmentation and outline
+# ---------------------------------------------------------------------------
+
+def _stained_regions(intensity: np.ndarray, threshold: float, min_pixels: float) -> np.ndarray:
+    """Pixels above the threshold in regions of at least ``min_pixels``, holes filled."""
+    from scipy import ndimage
+
+    labels, n = ndimage.label(intensity > threshold, structure=np.ones((3, 3), dtype=int))
+    if n == 0:
+        return np.zeros(intensity.shape, dtype=bool)
+    sizes = np.bincount(labels.ravel())
+    keep = sizes >= min_pixels
+    keep[0] = False
+    return ndimage.binary_fill_holes(keep[labels])
+
+
+def _contour_rings(intensity: np.ndarray, mask: np.ndarray, threshold: float,
+                   pixel_mm: float) -> list[np.ndarray]:
+    """Sub-pixel outline of ``mask`` from the intensity at the threshold (image frame, mm).
+
+    The field is the intensity, lifted just above the threshold inside the
+    mask and lowered just below it outside, so the contour separates exactly
+    the mask from the rest, placed along each pixel-to-pixel step where the
+    intensity crosses the threshold.
+    """
+    import contourpy
+
+    z = np.where(mask, np.maximum(intensity, threshold + _EPS), np.minimum(intensity, threshold - _EPS))
+    z = np.pad(z[::-1], 1, constant_values=min(0.0, threshold - _EPS))  # rows bottom-up, closed by paper
+    x = (np.arange(z.shape[1]) - 0.5) * pixel_mm
+    y = (np.arange(z.shape[0]) - 0.5) * pixel_mm
+    gen = contourpy.contour_generator(x, y, z, line_type=contourpy.LineType.Separate)
+    rings = [np.asarray(r, dtype=float) for r in gen.lines(threshold) if len(r) >= 4]
+    return [r for r in rings if abs(_signed_area_mm2(r)) > 0.0]
+
+
+def _area_at(intensity: np.ndarray, threshold: float, min_pixels: float, pixel_mm: float) -> float:
+    mask = _stained_regions(intensity, threshold, min_pixels)
+    if not mask.any():
+        return 0.0
+    return sum(_signed_area_mm2(r) for r in _contour_rings(intensity, mask, threshold, pixel_mm))
+
+
+def _class_means(intensity: np.ndarray, threshold: float) -> tuple[float, float]:
+    above = intensity > threshold
+    if above.all() or not above.any():
+        raise ValueError(f"no stain found: threshold {threshold:g} leaves no "
+                         f"{'paper' if above.all() else 'stained'} pixels")
+    return float(intensity[~above].mean()), float(intensity[above].mean())
+
+
+def measure_imprint(intensity, pixel_size_mm: float, *, threshold: float | None = None,
+                    min_region_mm2: float = 1.0, min_contrast: float = 0.1,
+                    pixel_size_source: str = "given") -> Imprint:
+    """The stained area and outline of a stain-intensity image.
+
+    Parameters
+    ----------
+    intensity : array_like, shape (rows, columns)
+        Stain intensity in [0, 1] (`stain_intensity`), row 0 at the top.
+    pixel_size_mm : float
+        Edge length of a (square) pixel, > 0.
+    threshold : float, optional
+        Intensity above which a pixel is stained, in (0, 1); Otsu's by default.
+    min_region_mm2 : float
+        Smallest stained region kept (mm^2, >= 0): specks below it are dust.
+    min_contrast : float
+        Smallest difference of the mean intensities of the stained and the
+        paper class, in [0, 1): below it the image holds no stain (a blank
+        scan's noise split in two).
+    pixel_size_source : str
+        Recorded in the result.
+
+    Returns
+    -------
+    Imprint
+
+    Raises
+    ------
+    ValueError
+        For a bad parameter, an image without stain, no region of at least
+        ``min_region_mm2``, or a stain that touches the image border (the
+        imprint is cut off).
+    """
+    intensity = np.asarray(intensity, dtype=float)
+    if intensity.ndim != 2 or min(intensity.shape) < 3:
+        raise ValueError(f"intensity must be a 2-D image of at least 3 x 3 pixels, got shape {intensity.shape}")
+    if not np.all(np.isfinite(intensity)) or intensity.min() < 0.0 or intensity.max() > 1.0:
+        raise ValueError("intensity must be finite and lie in [0, 1]")
+    h = check_positive("pixel_size_mm", pixel_size_mm)
+    min_region = as_finite("min_region_mm2", min_region_mm2)
+    if min_region < 0.0:
+        raise ValueError(f"min_region_mm2 must be >= 0, got {min_region:g}")
+    min_contrast = check_range("min_contrast", min_contrast, 0.0, 1.0, low_open=False)
+    t = otsu_threshold(intensity) if threshold is None else check_range("threshold", threshold, 0.0, 1.0)
+    paper, stain = _class_means(intensity, t)
+    contrast = stain - paper
+    if contrast < min_contrast:
+        raise ValueError(f"no stain found: the stained class is only {contrast:.3f} darker than the paper "
+                         f"(min_contrast {min_contrast:g})")
+    min_pixels = max(1.0, min_region / h**2)
+    mask = _stained_regions(intensity, t, min_pixels)
+    if not mask.any():
+        raise ValueError(f"no stained region of at least min_region_mm2 = {min_region:g} mm2 at threshold {t:.3f}")
+    if mask[0].any() or mask[-1].any() or mask[:, 0].any() or mask[:, -1].any():
+        raise ValueError("the stain touches the image border: the imprint is cut off; scan it with a margin "
+                         "of paper around it")
+    rings = _contour_rings(intensity, mask, t, h)
+    area = sum(_signed_area_mm2(r) for r in rings)
+    perimeter = outline_perimeter_mm(rings)
+    spread = THRESHOLD_SPREAD * contrast
+    lower = _area_at(intensity, max(t - spread, _EPS), min_pixels, h)
+    upper = _area_at(intensity, min(t + spread, 1.0 - _EPS), min_pixels, h)
+    std_threshold = 0.5 * abs(lower - upper)
+    std_pixel = perimeter * h / math.sqrt(12.0)
+    return Imprint(
+        area_mm2=float(area), area_std_mm2=float(math.hypot(std_pixel, std_threshold)),
+        area_std_pixel_mm2=float(std_pixel), area_std_threshold_mm2=float(std_threshold),
+        outlines_mm=[np.vstack([r, r[:1]]) if not np.array_equal(r[0], r[-1]) else r for r in rings],
+        centroid_mm=outline_centroid_mm(rings), perimeter_mm=perimeter, pixel_size_mm=h,
+        pixel_size_source=pixel_size_source, threshold=float(t), contrast=float(contrast), mask=mask)
+
+
+# ---------------------------------------------------------------------------
+# Files
+# ---------------------------------------------------------------------------
+
+def _pixel_size(dpi, mm_per_pixel, info: dict, path: Path) -> tuple[float, str]:
+    """Pixel size (mm) from exactly one of dpi, mm_per_pixel, or the file's resolution."""
+    if dpi is not None and mm_per_pixel is not None:
+        raise ValueError("give either dpi or mm_per_pixel, not both")
+    if dpi is not None:
+        return MM_PER_INCH / check_positive("dpi", dpi), "dpi"
+    if mm_per_pixel is not None:
+        return check_positive("mm_per_pixel", mm_per_pixel), "mm_per_pixel"
+    meta = info.get("dpi")
+    if meta is not None:
+        try:
+            xd, yd = (float(v) for v in meta)
+        except (TypeError, ValueError):
+            xd = yd = float("nan")
+        if math.isfinite(xd) and math.isfinite(yd) and min(xd, yd) >= MIN_METADATA_DPI:
+            if abs(xd - yd) > 1e-3 * max(xd, yd):
+                raise ValueError(f"{path.name} has non-square pixels ({xd:g} x {yd:g} dpi): resample it to "
+                                 "square pixels, or give dpi or mm_per_pixel")
+            return MM_PER_INCH / (0.5 * (xd + yd)), "file metadata"
+    raise ValueError(f"{path.name} has no resolution metadata: give the pixel size as dpi or mm_per_pixel")
+
+
+def _image_pixels(image) -> np.ndarray:
+    """Pixel values of a Pillow image as an array `stain_intensity` takes."""
+    mode = image.mode
+    if mode in ("1", "L", "LA", "RGB", "RGBA", "I;16", "I;16L", "I;16B", "I", "F"):
+        pixels = np.asarray(image)
+    elif mode in ("P", "PA"):
+        pixels = np.asarray(image.convert("RGBA"))
+    else:  # CMYK, YCbCr, LAB, HSV, ...
+        pixels = np.asarray(image.convert("RGB"))
+    if mode in ("I;16", "I;16L", "I;16B"):
+        pixels = pixels.astype(np.uint16)
+    return pixels
+
+
+def read_imprint(path, *, dpi: float | None = None, mm_per_pixel: float | None = None,
+                 threshold: float | None = None, min_region_mm2: float = 1.0,
+                 min_contrast: float = 0.1) -> Imprint:
+    """Read a scanned imprint (PNG or TIFF) into its stained area and outline.
+
+    Parameters
+    ----------
+    path : str or Path
+        The scan.
+    dpi, mm_per_pixel : float, optional
+        The scan's resolution: at most one of them. Without either, the
+        file's own resolution metadata is used; a ValueError if it has none
+        (or less than 25 dpi, a placeholder such as the 1 dpi of a TIFF
+        written without a resolution). Software other than a scanner may
+        write a default (72 or 96 dpi): give the resolution when in doubt.
+    threshold, min_region_mm2, min_contrast
+        See `measure_imprint`.
+
+    Returns
+    -------
+    Imprint
+        In the image frame: x to the right, y up, mm, origin at the image's
+        lower-left corner.
+
+    Raises
+    ------
+    FileNotFoundError
+        If the file does not exist.
+    ValueError
+        For a file that is not an image, a missing or doubly given pixel
+        size, or an image without a usable stain (`measure_imprint`).
+    """
+    from PIL import Image, UnidentifiedImageError
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"imprint file not found: {path}")
+    try:
+        with Image.open(path) as image:
+            image.load()
+            info = dict(image.info)
+            pixels = _image_pixels(image)
+    except UnidentifiedImageError:
+        raise ValueError(f"{path.name} is not an image Pillow can read (PNG or TIFF expected)") from None
+    pixel_mm, source = _pixel_size(dpi, mm_per_pixel, info, path)
+    return measure_imprint(stain_intensity(pixels), pixel_mm, threshold=threshold,
+                           min_region_mm2=min_region_mm2, min_contrast=min_contrast, pixel_size_source=source)
