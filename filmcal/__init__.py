@@ -10,7 +10,7 @@ The public API is re-exported here and imported on first use, so that
 """
 from __future__ import annotations
 
-import importlib
+from filmcal._lazy import lazy_exports
 
 __version__ = "0.1.0"
 
@@ -37,18 +37,5 @@ _EXPORTS = {
     "filmcal.pipeline": ["run_pipeline", "PipelineSettings"],
     "filmcal.report": ["build_report", "write_report"],
 }
-_WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
-
-__all__ = ["__version__", *sorted(_WHERE)]
-
-
-def __getattr__(name: str):
-    if name in _WHERE:
-        value = getattr(importlib.import_module(_WHERE[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'filmcal' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return list(__all__)
+__all__, __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
+__all__ = ["__version__", *__all__]

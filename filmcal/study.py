@@ -10,13 +10,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from filmcal.campaign import Campaign, LocalPoolExecutor
-from filmcal.doe import DesignSpace, Parameter, latin_design
 from filmcal.fem import ContactOptions, Film, evaluate_point, get_model, hertz_radius_mm
-from filmcal.surrogate import GPSurrogate, load_surrogate, save_surrogate, validate
+
+# The campaign, design and surrogate stages are imported where they are used:
+# reading a study's files (``filmcal correct``) then starts fast.
+if TYPE_CHECKING:
+    from filmcal.surrogate import GPSurrogate
 
 __all__ = ["SurrogateDomain", "SurrogateValidation", "fe_design_points", "run_fe_points",
            "fit_radius_surrogate", "validate_radius_surrogate", "build_radius_surrogate",
@@ -42,7 +45,10 @@ class SurrogateDomain:
     radius_levels_mm: tuple[float, ...] = (300.0, 375.0, 450.0, 525.0, 600.0)
     force_kn: tuple[float, float] = (20.0, 110.0)
 
-    def space(self) -> DesignSpace:
+    def space(self):
+        """The `filmcal.doe.DesignSpace` of the domain (log E, nu, discrete R levels, F)."""
+        from filmcal.doe import DesignSpace, Parameter
+
         return DesignSpace((Parameter("modulus_mpa", *self.modulus_mpa, unit="MPa", scale="log"),
                             Parameter("poisson", *self.poisson),
                             Parameter("radius_mm", levels=tuple(self.radius_levels_mm), unit="mm"),
@@ -71,6 +77,8 @@ def _option_columns(options: ContactOptions) -> dict:
 def fe_design_points(domain: SurrogateDomain, samples: int, seed: int,
                      options: ContactOptions | None = None) -> list[dict]:
     """An optimal Latin hypercube over the domain as FE campaign points."""
+    from filmcal.doe import latin_design
+
     design = latin_design(domain.space(), samples, seed=seed)
     cols = _option_columns(options or ContactOptions())
     return [dict(zip(INPUTS, map(float, row)), **cols) for row in design.points]
@@ -79,6 +87,8 @@ def fe_design_points(domain: SurrogateDomain, samples: int, seed: int,
 def run_fe_points(points: list[dict], store_path: str | Path, workers: int | None = None,
                   progress: bool = True):
     """Run FE points as a resumable campaign; return the stored results of these points."""
+    from filmcal.campaign import Campaign, LocalPoolExecutor
+
     executor = LocalPoolExecutor(workers)
     try:
         campaign = Campaign(evaluate_point, store_path, model_name="filmcal.fem:evaluate_point", executor=executor)
@@ -118,6 +128,8 @@ def _excess(X: dict, radius: np.ndarray) -> np.ndarray:
 def fit_radius_surrogate(X: dict, radius_mm: np.ndarray, domain: SurrogateDomain, seed: int = 0,
                          n_restarts: int = 8) -> GPSurrogate:
     """GP of the film's radius excess over Hertz, log output, over (log E, nu, log R, log F)."""
+    from filmcal.surrogate import GPSurrogate
+
     return GPSurrogate(list(INPUTS), output="radius_excess_mm", log_inputs=list(LOG_INPUTS),
                        output_transform="log", input_bounds=domain.bounds(), n_restarts=n_restarts,
                        random_state=seed).fit(X, _excess(X, radius_mm))
@@ -146,6 +158,8 @@ class SurrogateValidation:
 
 def validate_radius_surrogate(surrogate: GPSurrogate, X: dict, radius_mm: np.ndarray) -> SurrogateValidation:
     """Accuracy on held-out FE runs; intervals include the fitted FE noise (a new FE run's jitter)."""
+    from filmcal.surrogate import validate
+
     v = validate(surrogate, X, _excess(X, radius_mm), noise=True)
     excess, std = surrogate.predict(X, return_std=True, noise=True)
     mean = excess + hertz_radius_mm(X["radius_mm"], X["force_kn"] * 1e3)
@@ -178,6 +192,8 @@ def build_radius_surrogate(study_dir: str | Path, options: ContactOptions | None
     Xtr = {k: v[:n_tr][ok[:n_tr]] for k, v in X.items()}
     Xte = {k: v[n_tr:][ok[n_tr:]] for k, v in X.items()}
     path = surrogate_path(study_dir, options) if tag is None else study_dir / f"surrogate-{tag}"
+    from filmcal.surrogate import load_surrogate, save_surrogate
+
     if path.with_name(path.name + ".json").exists():
         surrogate = load_surrogate(path)
     else:

@@ -4,10 +4,10 @@ compliant layer in series (plus roughness laws), and the wheel-rail problem
 (`solve_wheel_rail`) with the FE's edge reading for areas."""
 from __future__ import annotations
 
-import importlib
+from filmcal._lazy import lazy_exports
 
 # imported on first use, so that the command line starts fast
-_EXPORTS = {
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {
     'filmcal.wheelrail.edge': ['EdgeReading', 'EdgeWindow', 'patch_ring_areas_mm2', 'read_contact_edge', 'read_fitted_outline', 'read_radial_edge_mm'],
     'filmcal.wheelrail.halfspace': ['ContactResult', 'HalfSpaceContactSolver', 'SurfaceGrid', 'rectangle_influence_mm', 'sphere_on_flat_contact'],
     'filmcal.wheelrail.hertz': ['HertzContact', 'hertz_elliptic'],
@@ -15,19 +15,4 @@ _EXPORTS = {
     'filmcal.wheelrail.placement': ['ContactPoint', 'WheelRailPlacement', 'offset_range_mm', 'place_wheel_on_rail'],
     'filmcal.wheelrail.wheelrail': ['ContactPatch', 'ContactPlane', 'ContactRegion', 'WheelRailCase', 'WheelRailGeometry', 'WheelRailModel', 'WheelRailResult', 'get_wheel_rail_model', 'local_hertz', 'solve_wheel_rail', 'solve_wheel_rail_many'],
     'filmcal.wheelrail.profiles': ['PROFILE_NAMES', 'Profile', 'flange_height_mm', 'flange_thickness_mm', 'get_profile', 'head_width_mm', 'load_profile_csv', 'profile_dimensions'],
-}
-_WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
-
-__all__ = sorted(_WHERE)
-
-
-def __getattr__(name: str):
-    if name in _WHERE:
-        value = getattr(importlib.import_module(_WHERE[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'filmcal.wheelrail' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return list(__all__)
+}, globals())
