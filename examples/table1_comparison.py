@@ -25,22 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from filmcal.calibration import FILM_TYPES, CalibrationResult, load_result
+from filmcal.calibration import FILM_TYPES, CalibrationResult
 from filmcal.calibration.plots import plot_predictive
-from filmcal.fem import ContactOptions
-from filmcal.study import calibrate_from_study, posterior_tag
-
-
-def load_or_calibrate(study_dir: Path, film: str, loads: str | None) -> CalibrationResult:
-    """The study's posterior of `film` (default FE options), calibrated first when missing."""
-    path = study_dir / f"posterior-{posterior_tag(film, loads, ContactOptions())}.json"
-    if path.exists():
-        print(f"{film}: reading {path}", flush=True)
-        return load_result(path)
-    print(f"{film}: no posterior in {study_dir}, calibrating on the FE surrogate ...", flush=True)
-    result, _, _, written = calibrate_from_study(study_dir, film, loads, progress=True)
-    print(f"{film}: wrote {written} ({result.elapsed_s:.0f} s)", flush=True)
-    return result
+from filmcal.study import load_or_calibrate
 
 
 def comparison_rows(result: CalibrationResult) -> list[dict]:

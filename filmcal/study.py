@@ -24,7 +24,7 @@ if TYPE_CHECKING:
 __all__ = ["SurrogateDomain", "SurrogateValidation", "fe_design_points", "run_fe_points",
            "fit_radius_surrogate", "validate_radius_surrogate", "build_radius_surrogate",
            "SurrogateRadiusModel", "FERadiusModel", "INPUTS", "calibrate_from_study", "posterior_tag",
-           "options_tag", "surrogate_path", "refine_radius_surrogate", "load_posterior_samples"]
+           "options_tag", "surrogate_path", "refine_radius_surrogate", "load_posterior_samples", "load_or_calibrate"]
 
 INPUTS = ("modulus_mpa", "poisson", "radius_mm", "force_kn")
 LOG_INPUTS = ("modulus_mpa", "radius_mm", "force_kn")
@@ -305,6 +305,20 @@ def load_posterior_samples(study_dir: str | Path, film: str, loads: str | None =
                                 "or `filmcal calibrate` first")
     samples = json.loads(path.read_text(encoding="utf-8"))["samples"]
     return {k: np.asarray(v, dtype=float) for k, v in samples.items()}, path
+
+
+def load_or_calibrate(study_dir: str | Path, film: str, loads: str | None = None, seed: int = 0, log=print):
+    """The study's `CalibrationResult` of a film (default FE options), calibrated first when missing."""
+    from filmcal.calibration import load_result
+
+    path = Path(study_dir) / f"posterior-{posterior_tag(film, loads, ContactOptions(), seed=seed)}.json"
+    if path.exists():
+        log(f"{film}: reading {path}")
+        return load_result(path)
+    log(f"{film}: no posterior in {study_dir}, calibrating on the FE surrogate ...")
+    result, _, _, written = calibrate_from_study(study_dir, film, loads, seed=seed, progress=True)
+    log(f"{film}: wrote {written} ({result.elapsed_s:.0f} s)")
+    return result
 
 
 def refine_radius_surrogate(study_dir: str | Path, surrogate: GPSurrogate, options: ContactOptions | None = None,

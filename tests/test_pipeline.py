@@ -105,3 +105,36 @@ def test_curves_command_at_a_load_outside_the_pipeline_grid(quick_study):
         q = subprocess.run([sys.executable, "-m", "filmcal.cli", "curves", "--study-dir", str(study), *bad],
                            capture_output=True, text=True, timeout=120)
         assert q.returncode == 2 and len(q.stderr.strip().splitlines()) == 1, (bad, q.stderr)
+
+
+def test_killed_pipeline_resumes_without_losing_finished_work(tmp_path):
+    import signal
+    import sqlite3
+    import time
+
+    cmd = [sys.executable, "-m", "filmcal.cli", "pipeline", "--quick", "--films", "HS", "--workers", "2",
+           "--study-dir", str(tmp_path), "--no-report"]
+    with open(tmp_path.parent / "killed.err", "w") as err:
+        first = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=err)
+        deadline = time.monotonic() + 600
+        posterior = []
+        while not posterior and first.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.2)
+            posterior = list(tmp_path.glob("posterior-HS-*.json"))
+        first.send_signal(signal.SIGKILL)  # as hard as a power cut: after calibration, inside the curves stage
+        first.wait(timeout=60)
+    assert posterior and first.returncode == -signal.SIGKILL
+    assert not (tmp_path / "curves-HS.csv").exists()
+
+    def finished_runs():
+        with sqlite3.connect(tmp_path / "runs.sqlite") as db:
+            return dict(db.execute("SELECT point_id, finished_at FROM runs WHERE status = 'ok'").fetchall())
+
+    runs_before, posterior_before = finished_runs(), posterior[0].read_bytes()
+    assert len(runs_before) == 40 + 12
+    second = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert second.returncode == 0, second.stderr[-2000:]
+    assert finished_runs() == runs_before  # no FE run was recomputed
+    assert posterior[0].read_bytes() == posterior_before  # nor the calibration
+    assert "[calibration]" not in second.stdout and "[curves]" in second.stdout
+    assert (tmp_path / "curves-HS.csv").exists()

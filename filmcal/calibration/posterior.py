@@ -207,7 +207,9 @@ def save_result(result: CalibrationResult, path: str | Path) -> Path:
     """
     path = Path(path)
     payload = {"format": FORMAT, "version": FORMAT_VERSION, **result.to_dict(include_samples=True)}
-    path.write_text(json.dumps(payload, allow_nan=False) + "\n", encoding="utf-8")
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(payload, allow_nan=False) + "\n", encoding="utf-8")
+    tmp.replace(path)  # whole or not at all: an interrupted save leaves no truncated result
     return path
 
 

@@ -113,7 +113,10 @@ def save_surrogate(surrogate: GPSurrogate, path: str | Path) -> tuple[Path, Path
     json_path.parent.mkdir(parents=True, exist_ok=True)
     np.savez(npz_path, X_train=np.asarray(surrogate.X_train_, dtype=np.float64),
              y_train=np.asarray(surrogate.y_train_, dtype=np.float64))
-    json_path.write_text(json.dumps(meta, indent=2, allow_nan=False) + "\n", encoding="utf-8")
+    # the JSON last and whole: its presence means both files are complete
+    tmp = json_path.with_name(json_path.name + ".tmp")
+    tmp.write_text(json.dumps(meta, indent=2, allow_nan=False) + "\n", encoding="utf-8")
+    tmp.replace(json_path)
     return json_path, npz_path
 
 
