@@ -15,8 +15,9 @@ interrupted run loses no finished work and a second run only reads:
                   (``wheelrail-outlines.json``)
 ``report``        HTML and PDF report (``report/``)
 
-The settings are written to ``settings.json`` on the first run; a later run
-with other settings in the same folder is refused rather than mixed.
+The settings and seed are written to ``settings.json`` (with their hash) on
+the first run; a later run with other settings in the same folder is refused
+rather than mixed, while films may be added.
 """
 from __future__ import annotations
 
@@ -71,9 +72,9 @@ class PipelineSettings:
         return cls(train_runs=40, test_runs=12, offsets_mm=(-6.0, -3.0, 0.0), forces_kn=(50.0,), max_steps=3000)
 
 
-def settings_hash(settings: PipelineSettings, films, seed: int) -> str:
-    """SHA-256 (first 16 hex digits) of the settings, films and seed as canonical JSON."""
-    text = json.dumps(json_safe({"settings": asdict(settings), "films": list(films), "seed": seed}), sort_keys=True)
+def settings_hash(settings: PipelineSettings, seed: int) -> str:
+    """SHA-256 (first 16 hex digits) of the settings and the seed as canonical JSON."""
+    text = json.dumps(json_safe({"settings": asdict(settings), "seed": seed}), sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -84,15 +85,20 @@ def _write_json(path: Path, obj) -> None:
     tmp.replace(path)
 
 
-def _check_settings(study: Path, record: dict) -> None:
+def _check_settings(study: Path, record: dict) -> dict:
+    """The folder's record: its settings must be these; films add up over runs."""
     path = study / "settings.json"
     if path.exists():
         old = json.loads(path.read_text(encoding="utf-8"))
         if old.get("hash") != record["hash"]:
             raise ValueError(f"study_dir {study} holds a study made with other settings (hash {old.get('hash')}, "
                              f"now {record['hash']}); use another --study-dir")
-    else:
-        _write_json(path, record)
+        films = set(old["films"]) | set(record["films"])
+        record = {**record, "films": [f for f in FILM_TYPES if f in films]}
+        if record["films"] == old["films"]:
+            return record  # unchanged: keep the file (and its time stamp, which the report stage reads)
+    _write_json(path, record)
+    return record
 
 
 def run_pipeline(study_dir: str | Path, settings: PipelineSettings | None = None, films=FILM_TYPES,
@@ -106,7 +112,8 @@ def run_pipeline(study_dir: str | Path, settings: PipelineSettings | None = None
     settings : PipelineSettings, optional
         Stage sizes (default: the full study).
     films : sequence of str
-        Film types to calibrate and propagate.
+        Film types to calibrate and propagate (with those of earlier runs in
+        the same folder).
     seed : int
         Seed of the designs, the surrogate and the chains.
     workers : int, optional
@@ -120,9 +127,9 @@ def run_pipeline(study_dir: str | Path, settings: PipelineSettings | None = None
     films = [f.upper() for f in films]
     study = Path(study_dir)
     study.mkdir(parents=True, exist_ok=True)
-    record = {"settings": asdict(settings), "films": films, "seed": seed,
-              "hash": settings_hash(settings, films, seed)}
-    _check_settings(study, record)
+    record = _check_settings(study, {"settings": asdict(settings), "films": films, "seed": seed,
+                                     "hash": settings_hash(settings, seed)})
+    films = record["films"]  # with those of earlier runs in this folder, which are reused
     t0 = time.perf_counter()
     summary: dict = {"study_dir": str(study), **record, "films": {}, "stages_s": {}}
 
@@ -161,12 +168,12 @@ def _design_stage(study: Path, settings: PipelineSettings, seed: int, log) -> No
     from scipy.stats import qmc
 
     from filmcal.doe import design_quality, latin_design
-    from filmcal.study import SurrogateDomain
+    from filmcal.study import TEST_SEED_OFFSET, SurrogateDomain
 
     log("[design] optimal Latin hypercubes and their quality")
     space = SurrogateDomain().space()
     out = {"names": list(space.names)}
-    for name, n, s in (("train", settings.train_runs, seed), ("test", settings.test_runs, seed + 1000)):
+    for name, n, s in (("train", settings.train_runs, seed), ("test", settings.test_runs, seed + TEST_SEED_OFFSET)):
         design = latin_design(space, n, seed=s)
         # reference: plain random Latin hypercubes of the same size, realised on the same discrete levels
         rng = np.random.default_rng(s)

@@ -27,6 +27,8 @@ __all__ = ["SurrogateDomain", "SurrogateValidation", "fe_design_points", "run_fe
            "options_tag", "surrogate_path", "refine_radius_surrogate", "load_posterior_samples", "load_or_calibrate"]
 
 INPUTS = ("modulus_mpa", "poisson", "radius_mm", "force_kn")
+#: The held-out design of a study uses seed + TEST_SEED_OFFSET (the training design uses seed).
+TEST_SEED_OFFSET = 1000
 LOG_INPUTS = ("modulus_mpa", "radius_mm", "force_kn")
 
 
@@ -186,7 +188,7 @@ def build_radius_surrogate(study_dir: str | Path, options: ContactOptions | None
     study_dir = Path(study_dir)
     study_dir.mkdir(parents=True, exist_ok=True)
     train = fe_design_points(domain, n_train, seed, options)
-    test = fe_design_points(domain, n_test, seed + 1000, options)
+    test = fe_design_points(domain, n_test, seed + TEST_SEED_OFFSET, options)
     X, radius, ok = run_fe_points(train + test, study_dir / "runs.sqlite", workers, progress)
     n_tr = len(train)
     Xtr = {k: v[:n_tr][ok[:n_tr]] for k, v in X.items()}

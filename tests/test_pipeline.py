@@ -138,3 +138,23 @@ def test_killed_pipeline_resumes_without_losing_finished_work(tmp_path):
     assert posterior[0].read_bytes() == posterior_before  # nor the calibration
     assert "[calibration]" not in second.stdout and "[curves]" in second.stdout
     assert (tmp_path / "curves-HS.csv").exists()
+
+
+def test_a_study_folder_keeps_its_settings_and_gathers_films(tmp_path):
+    import pytest
+
+    from dataclasses import asdict
+
+    from filmcal.pipeline import PipelineSettings, _check_settings, settings_hash
+
+    quick = PipelineSettings.quick()
+
+    def record(films, settings=quick, seed=0):
+        return {"settings": asdict(settings), "films": films, "seed": seed, "hash": settings_hash(settings, seed)}
+
+    assert _check_settings(tmp_path, record(["HS"]))["films"] == ["HS"]
+    assert _check_settings(tmp_path, record(["HHS", "MS"]))["films"] == ["MS", "HS", "HHS"]
+    assert json.loads((tmp_path / "settings.json").read_text())["films"] == ["MS", "HS", "HHS"]
+    assert settings_hash(quick, 0) != settings_hash(PipelineSettings(), 0) != settings_hash(PipelineSettings(), 1)
+    with pytest.raises(ValueError, match="other settings"):
+        _check_settings(tmp_path, record(["HS"], PipelineSettings()))
