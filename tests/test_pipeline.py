@@ -158,3 +158,37 @@ def test_a_study_folder_keeps_its_settings_and_gathers_films(tmp_path):
     assert settings_hash(quick, 0) != settings_hash(PipelineSettings(), 0) != settings_hash(PipelineSettings(), 1)
     with pytest.raises(ValueError, match="other settings"):
         _check_settings(tmp_path, record(["HS"], PipelineSettings()))
+
+
+def test_correct_a_scanned_sphere_imprint(quick_study, tmp_path):
+    """A scan of Table 1's HS imprint at R450 / 75 kN: the Hertz area lies in the corrected 90 % interval,
+    and the outline without film is a circle of the corrected radius."""
+    from PIL import Image
+
+    from filmcal.calibration import load_table1
+
+    study, _, _ = quick_study
+    data = load_table1("HS")
+    k = int(np.flatnonzero((data.sphere_radius_mm == 450) & (data.force_n == 75e3))[0])
+    r_mm, dpi = float(data.measured_radius_mm[k]), 600.0
+    px = 25.4 / dpi
+    n = int(2 * r_mm / px) + 80
+    y, x = (np.mgrid[0:n, 0:n] + 0.5 - n / 2) * px
+    sub = np.linspace(-0.375, 0.375, 4) * px  # 4 x 4 supersampling: an anti-aliased edge, as a scanner gives
+    cover = np.mean([(x + dx) ** 2 + (y + dy) ** 2 <= r_mm**2 for dx in sub for dy in sub], axis=0)
+    rgb = np.stack([250 - 40 * cover, 250 - 200 * cover, 250 - 150 * cover], axis=-1).astype(np.uint8)
+    Image.fromarray(rgb).save(tmp_path / "scan.png", dpi=(dpi, dpi))
+    p = subprocess.run([sys.executable, "-m", "filmcal.cli", "correct", "--film", "HS", "--imprint",
+                        str(tmp_path / "scan.png"), "--sphere-radius-mm", "450", "--force-kn", "75", "--study-dir",
+                        str(study), "--outline-out", str(tmp_path / "outline.csv"), "--json"],
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr[-2000:]
+    out = json.loads(p.stdout)
+    assert abs(out["measured_area_mm2"] / (np.pi * r_mm**2) - 1) < 0.005
+    lo, hi = out["area_ci90_mm2"]
+    assert lo <= np.pi * data.hertz_radius_mm[k] ** 2 <= hi
+    with open(tmp_path / "outline.csv") as fh:
+        mean = [(float(r["x_mm"]), float(r["y_mm"])) for r in csv.DictReader(fh) if r["part"] == "mean"]
+    xy = np.asarray(mean)
+    radius = np.hypot(*(xy - xy.mean(axis=0)).T)
+    assert np.ptp(radius) < 0.05 and abs(np.pi * radius.mean() ** 2 / out["area_mm2"] - 1) < 0.01

@@ -225,8 +225,13 @@ def _wheel_rail(study: Path, curves: dict, posteriors: dict) -> Section:
     s.add("Each film's posterior of E is propagated through the wheel-rail model (boundary elements on "
           "half-spaces, the film as springs in series, areas read as in the FE calibration model): the film "
           "area is interpolated in log E from solves at five posterior quantiles and checked by two more; the "
-          "largest relative error of that interpolation is printed beside the bands. Rough wheel: a "
-          "Greenwood-Williamson law at the film-wheel interface.")
+          "largest relative error of that interpolation is printed beside the bands (it includes the area "
+          "reading's own numerical jitter of a few tenths of a percent between neighbouring E). Rough wheel: a "
+          "Greenwood-Williamson law from Ra at the film-wheel interface. At Ra 1.5 um it changes the area by "
+          "well under 1 %, whereas the paper's rough-wheel simulations, with an experimentally obtained "
+          "pressure-overclosure law, found a considerable increase: the rough-wheel curves here are not a "
+          "substitute for that measured law, and a rough wheel should be corrected only after its roughness "
+          "law has been measured.")
     for film, rows in curves.items():
         s.add(FigureBlock(F.plot_area_curves(rows, film), f"{film}: contact area over the lateral offset without "
                           "film and with film (posterior median, 90 % band), smooth and rough wheel."))
