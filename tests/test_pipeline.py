@@ -192,3 +192,23 @@ def test_correct_a_scanned_sphere_imprint(quick_study, tmp_path):
     xy = np.asarray(mean)
     radius = np.hypot(*(xy - xy.mean(axis=0)).T)
     assert np.ptp(radius) < 0.05 and abs(np.pi * radius.mean() ** 2 / out["area_mm2"] - 1) < 0.01
+
+
+def test_curves_with_a_measured_roughness_law(quick_study, tmp_path):
+    """A compliant film-wheel law in series with the film spreads the load: larger film area, same bare area."""
+    study, _, _ = quick_study
+    law = tmp_path / "law.csv"
+    law.write_text("closure_um,pressure_mpa\n0,0\n5,50\n12,200\n20,500\n30,1000\n")
+    p = subprocess.run([sys.executable, "-m", "filmcal.cli", "curves", "--film", "HS", "--forces-kn", "50",
+                        "--offsets-mm=-3", "--roughness-law", str(law), "--study-dir", str(study), "--json"],
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr[-2000:]
+    out = json.loads(p.stdout)
+    smooth, rough = (dict(zip(out["columns"], r)) for r in out["rows"])
+    assert (smooth["wheel"], rough["wheel"]) == ("smooth", "rough, measured law")
+    assert rough["area_no_film_mm2"] == smooth["area_no_film_mm2"]
+    assert rough["delta_area_median_mm2"] > smooth["delta_area_median_mm2"] + 2.0
+    law.write_text("closure_um,pressure_mpa\n0,0\n5,-1\n")
+    bad = subprocess.run([sys.executable, "-m", "filmcal.cli", "curves", "--film", "HS", "--roughness-law", str(law),
+                          "--study-dir", str(study)], capture_output=True, text=True, timeout=120)
+    assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1

@@ -22,6 +22,22 @@ def _floats(text: str, name: str) -> list[float]:
         raise ValueError(f"{name} must be a comma-separated list or start:stop:step (step > 0), got {text!r}") from None
 
 
+def _measured_law(path: str):
+    """A `TabularLaw` from a CSV of closure_um, pressure_mpa."""
+    import csv
+
+    from filmcal.wheelrail import TabularLaw
+
+    with open(path, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    try:
+        closure = [float(r["closure_um"]) * 1e-3 for r in rows]
+        pressure = [float(r["pressure_mpa"]) for r in rows]
+    except (KeyError, TypeError, ValueError):
+        raise ValueError(f"roughness_law {path}: needs numeric columns closure_um,pressure_mpa") from None
+    return TabularLaw(closure, pressure)
+
+
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "curves", help="wheel-rail correction curves with 90 % credible bands at any loads and offsets",
@@ -34,7 +50,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--film", required=True, help="film type: MS, HS or HHS")
     p.add_argument("--forces-kn", default="50,100", help="loads in kN: list or start:stop:step (default 50,100)")
     p.add_argument("--offsets-mm", default="-7:2:1", help="lateral offsets eta in mm (default -7:2:1)")
-    p.add_argument("--rough-ra-um", type=float, default=None, help="also a rough wheel of this Ra (um)")
+    p.add_argument("--rough-ra-um", type=float, default=None,
+                   help="also a rough wheel of this Ra (um), as a Greenwood-Williamson law")
+    p.add_argument("--roughness-law", metavar="CSV",
+                   help="also a rough wheel with this measured film-wheel pressure-overclosure law: a CSV with "
+                        "columns closure_um,pressure_mpa, both strictly increasing from pressure 0")
     p.add_argument("--loads", help="calibration data: load range in kN, e.g. 50-100 (default: all loads)")
     p.add_argument("--study-dir", default="filmcal-study", help="study folder with the posterior")
     p.add_argument("--seed", type=int, default=0, help="seed of the calibration (default 0)")
@@ -61,10 +81,14 @@ def run(args: argparse.Namespace) -> int:
 
     film = args.film.upper()
     samples, path = load_posterior_samples(args.study_dir, film, args.loads, seed=args.seed)
+    wheels = [None] + ([args.rough_ra_um] if args.rough_ra_um else [])
+    if args.roughness_law:
+        wheels.append(_measured_law(args.roughness_law))
     rows = []
-    for ra in [None] + ([args.rough_ra_um] if args.rough_ra_um else []):
-        sys.stderr.write(f"[curves] {film}, {wheel_label(ra)} wheel: {len(forces)} loads x {len(offsets)} offsets\n")
-        rows += curve_rows(film, samples["modulus_mpa"], offsets, forces, ra)
+    for wheel in wheels:
+        sys.stderr.write(f"[curves] {film}, {wheel_label(wheel)} wheel: {len(forces)} loads x {len(offsets)} "
+                         "offsets\n")
+        rows += curve_rows(film, samples["modulus_mpa"], offsets, forces, wheel)
     if args.csv:
         write_curves_csv(args.csv, rows)
     if args.plot:

@@ -130,13 +130,17 @@ def rough_law(ra_um: float, film_poisson: float = 0.33):
     return law
 
 
-def wheel_label(rough_ra_um: float | None) -> str:
-    """The ``wheel`` column of curve rows: ``smooth`` or ``rough Ra <x> um``."""
-    return "smooth" if rough_ra_um is None else f"rough Ra {rough_ra_um:g} um"
+def wheel_label(roughness=None) -> str:
+    """The ``wheel`` column of curve rows: ``smooth``, ``rough Ra <x> um`` or ``rough, measured law``."""
+    if roughness is None:
+        return "smooth"
+    if isinstance(roughness, (int, float)):
+        return f"rough Ra {roughness:g} um"
+    return "rough, measured law"
 
 
-def curve_rows(film: str, modulus_samples_mpa, offsets_mm, forces_kn, rough_ra_um: float | None = None,
-               poisson: float = 0.33, film_thickness_mm: float = 0.09, **wheel_rail) -> list[list]:
+def curve_rows(film: str, modulus_samples_mpa, offsets_mm, forces_kn, roughness=None, poisson: float = 0.33,
+               film_thickness_mm: float = 0.09, **wheel_rail) -> list[list]:
     """Correction curves of one film's posterior as CSV rows (`CURVE_COLUMNS`), for one wheel.
 
     Parameters
@@ -147,18 +151,19 @@ def curve_rows(film: str, modulus_samples_mpa, offsets_mm, forces_kn, rough_ra_u
         Posterior samples of the film modulus E.
     offsets_mm, forces_kn : sequence of float
         The grid: lateral offsets eta (mm) and loads (kN).
-    rough_ra_um : float, optional
-        A rough wheel with this Ra (Greenwood-Williamson law, `rough_law`);
-        None for a smooth wheel.
+    roughness : None, float or InterfaceLaw
+        The wheel: smooth (None), rough with this Ra in um (Greenwood-Williamson
+        law per film modulus, `rough_law`), or a measured film-wheel
+        pressure-overclosure law (e.g. `filmcal.wheelrail.TabularLaw`).
     poisson, film_thickness_mm : float
         The film's Poisson's ratio (as calibrated) and thickness.
     **wheel_rail
         Passed on to `correction_curves` (profiles, inclination, ...).
     """
-    law = None if rough_ra_um is None else rough_law(rough_ra_um, poisson)
+    law = rough_law(float(roughness), poisson) if isinstance(roughness, (int, float)) else roughness
     c = correction_curves(modulus_samples_mpa, offsets_mm, np.asarray(forces_kn, dtype=float) * 1e3,
                           poisson=poisson, film_thickness_mm=film_thickness_mm, roughness=law, **wheel_rail)
-    wheel = wheel_label(rough_ra_um)
+    wheel = wheel_label(roughness)
     return [[film, wheel, force / 1e3, eta, c.area_no_film_mm2[i, j], c.area_film_median_mm2[i, j],
              c.delta_area_median_mm2[i, j], *c.delta_area_ci90_mm2[i, j], c.ratio_median[i, j], *c.ratio_ci90[i, j],
              c.interpolation_error_rel[i, j]]
