@@ -4,7 +4,8 @@ For each film type and each of its 10 (R, F) cases: calibrate the film modulus
 without that case (FE surrogate, emcee), correct the case's measured radius
 (Hertz + Table 1 error) into a contact area without film with its 90 %
 interval, and check whether the Hertz area (the truth of these experiments)
-falls inside. Prints one table per film and the count of hits.
+falls inside. Prints one table per film and the count of hits. (`filmcal
+pipeline` runs the same folds in parallel and puts them in its report.)
 
     python examples/loo_sphere_correction.py [--study-dir filmcal-study] [--films MS,HS,HHS] [--out out/loo.md]
 """
@@ -13,11 +14,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import numpy as np
-
-from filmcal.calibration import Priors, calibrate, load_table1
-from filmcal.correction import SphereCorrector
-from filmcal.hertz import hertz_radius_mm
+from filmcal.calibration import Priors
+from filmcal.correction import leave_one_case_out
 from filmcal.study import SurrogateDomain, SurrogateRadiusModel, build_radius_surrogate
 
 
@@ -32,31 +30,21 @@ def main() -> None:
     model = SurrogateRadiusModel(surrogate, domain)
     lines = []
     for film in args.films.split(","):
-        data = load_table1(film)
-        hits = 0
+        cv = leave_one_case_out(model, film, priors=Priors(modulus_range_mpa=domain.modulus_mpa),
+                                log=lambda msg: print(msg, flush=True))
         lines += [f"### {film}", "", "| R (mm) | F (kN) | measured r (mm) | corrected area (mm2) | 90 % interval | "
                   "Hertz area | inside |", "|---|---|---|---|---|---|---|"]
-        for i in range(len(data)):
-            keep = np.ones(len(data), bool)
-            keep[i] = False
-            result = calibrate(data.select(keep), model, film=film,
-                               priors=Priors(modulus_range_mpa=domain.modulus_mpa), seed=i)
-            corrected = SphereCorrector(model, result.samples, random_state=i).correct(
-                data.measured_radius_mm[i], data.sphere_radius_mm[i], data.force_n[i])
-            truth = np.pi * hertz_radius_mm(data.sphere_radius_mm[i], data.force_n[i]) ** 2
-            lo, hi = corrected.area_ci90_mm2
-            inside = lo <= truth <= hi
-            hits += inside
-            line = (f"| {data.sphere_radius_mm[i]:g} | {data.force_n[i] / 1e3:g} | {data.measured_radius_mm[i]:.3f} | "
-                    f"{corrected.area_mm2:.1f} +/- {corrected.area_std_mm2:.1f} | [{lo:.1f}, {hi:.1f}] | {truth:.1f} | "
-                    f"{'yes' if inside else 'NO'} |")
-            print(film, line, flush=True)
-            lines.append(line)
-        lines += ["", f"{film}: Hertz area inside the 90 % interval in {hits} of {len(data)} cases", ""]
-        print(f"{film}: {hits}/{len(data)} inside", flush=True)
+        for r, f, m, a, sd, (lo, hi), h, ok in zip(cv.sphere_radius_mm, cv.force_n, cv.measured_radius_mm,
+                                                    cv.area_mm2, cv.area_std_mm2, cv.area_ci90_mm2,
+                                                    cv.hertz_area_mm2, cv.inside):
+            lines.append(f"| {r:g} | {f / 1e3:g} | {m:.3f} | {a:.1f} +/- {sd:.1f} | [{lo:.1f}, {hi:.1f}] | {h:.1f} | "
+                         f"{'yes' if ok else 'NO'} |")
+        lines += ["", f"{film}: Hertz area inside the 90 % interval in {cv.hits} of {len(cv.inside)} cases", ""]
+        print(f"{film}: {cv.hits}/{len(cv.inside)} inside", flush=True)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
 
 
 if __name__ == "__main__":

@@ -13,6 +13,8 @@ interrupted run loses no finished work and a second run only reads:
                   wheel (``curves-<film>.csv``)
 ``outlines``      wheel-rail contact outlines with and without film
                   (``wheelrail-outlines.json``)
+``crossval``      leave-one-case-out cross-validation of the sphere-on-flat
+                  correction on Table 1 (``crossval-<film>.json``)
 ``report``        HTML and PDF report (``report/``)
 
 The settings and seed are written to ``settings.json`` (with their hash) on
@@ -21,6 +23,7 @@ rather than mixed, while films may be added.
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -54,6 +57,9 @@ class PipelineSettings:
         Roughness Ra of the rough-wheel curves (None: smooth wheel only).
     outline_force_kn : float
         Load of the contact outlines (the paper's Fig. 7 uses 50 kN).
+    crossval_films : tuple of str
+        Film types cross-validated leave-one-case-out on Table 1 (ten
+        calibrations each).
     max_steps : int or None
         Cap of the MCMC steps per walker (None: until converged).
     """
@@ -64,12 +70,14 @@ class PipelineSettings:
     forces_kn: tuple[float, ...] = (50.0, 100.0)
     rough_ra_um: float | None = 1.5
     outline_force_kn: float = 50.0
+    crossval_films: tuple[str, ...] = FILM_TYPES
     max_steps: int | None = None
 
     @classmethod
     def quick(cls) -> "PipelineSettings":
         """Few FE runs, three offsets at 50 kN, short chains: a minute or two."""
-        return cls(train_runs=40, test_runs=12, offsets_mm=(-6.0, -3.0, 0.0), forces_kn=(50.0,), max_steps=3000)
+        return cls(train_runs=40, test_runs=12, offsets_mm=(-6.0, -3.0, 0.0), forces_kn=(50.0,),
+                   crossval_films=("HS",), max_steps=3000)
 
 
 def settings_hash(settings: PipelineSettings, seed: int) -> str:
@@ -145,12 +153,18 @@ def run_pipeline(study_dir: str | Path, settings: PipelineSettings | None = None
     stage("verification", _verification_stage, study, medians, log)
     stage("curves", _curves_stage, study, settings, results, workers, log)
     stage("outlines", _outlines_stage, study, settings, medians, log)
+    stage("crossval", _crossval_stage, study, settings, films, seed, workers, log)
     for film, (result, path) in results.items():
         d = result.to_dict()
         s = {k: d[k] for k in ("modulus_mpa", "oedometric_modulus_mpa", "sigma_mm", "rhat", "ess", "n_data")}
         s.update(diagnostics_ok=bool(result.diagnostics_ok), posterior_file=str(path),
                  curves_file=str(study / f"curves-{film}.csv"),
                  predictive_hits=int(np.sum(~result.predictive.outside)), n_cases=int(len(result.predictive.outside)))
+        crossval = study / f"crossval-{film}.json"
+        if crossval.exists():
+            from filmcal.correction.crossval import CaseCrossValidation
+
+            s["crossval_hits"] = CaseCrossValidation.from_dict(json.loads(crossval.read_text())).hits
         summary["films"][film] = s
     summary["surrogate_validation"] = json.loads((study / "surrogate-validation.json").read_text())["summary"]
     if report:
@@ -249,32 +263,90 @@ def _profile(res) -> dict:
             "hertz_radius_mm": res.hertz_radius_mm}
 
 
-def _curves_stage(study: Path, settings: PipelineSettings, results: dict, workers: int | None, log) -> None:
-    """Curves of the films without a CSV yet: one task per (film, wheel), run on `workers` processes."""
+def _parallel(tasks: dict, workers: int | None, on_done) -> None:
+    """Run ``{key: (function, args)}`` on spawned processes with one BLAS thread each; ``on_done(key, result, k)``
+    as each finishes (in the parent, so that finished work is written at once)."""
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
+    from filmcal.campaign.pool import limit_native_threads
+
+    n = max(1, min(len(tasks), workers or os.cpu_count() or 1))
+    with ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("spawn"),
+                             initializer=limit_native_threads) as pool:
+        futures = {pool.submit(fn, *args): key for key, (fn, args) in tasks.items()}
+        for k, future in enumerate(as_completed(futures), 1):
+            on_done(futures[future], future.result(), k)
+
+
+def _curves_stage(study: Path, settings: PipelineSettings, results: dict, workers: int | None, log) -> None:
+    """Curves of the films without a CSV yet: one task per (film, wheel)."""
     from filmcal.correction import curve_rows, wheel_label, write_curves_csv
 
     wheels = [None] + ([settings.rough_ra_um] if settings.rough_ra_um else [])
     todo = [film for film in results if not (study / f"curves-{film}.csv").exists()]
-    tasks = [(film, ra) for film in todo for ra in wheels]
+    tasks = {(film, ra): (curve_rows, (film, np.asarray(results[film][0].samples["modulus_mpa"], dtype=float),
+                                       settings.offsets_mm, settings.forces_kn, ra, FILM_POISSON, FILM_THICKNESS_MM))
+             for film in todo for ra in wheels}
     if not tasks:
         return
-    n = max(1, min(len(tasks), workers or os.cpu_count() or 1))
     log(f"[curves] {len(todo)} film(s) x {len(wheels)} wheel(s), {len(settings.forces_kn)} loads x "
-        f"{len(settings.offsets_mm)} offsets each, on {n} process(es)")
+        f"{len(settings.offsets_mm)} offsets each")
     rows: dict = {}
-    with ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("spawn")) as pool:
-        futures = {pool.submit(curve_rows, film, np.asarray(results[film][0].samples["modulus_mpa"], dtype=float),
-                               settings.offsets_mm, settings.forces_kn, ra, FILM_POISSON, FILM_THICKNESS_MM):
-                   (film, ra) for film, ra in tasks}
-        for done, future in enumerate(as_completed(futures), 1):
-            film, ra = futures[future]
-            rows[film, ra] = future.result()
-            log(f"[curves] {film}, {wheel_label(ra)} wheel done ({done}/{len(tasks)})")
-            if all((film, w) in rows for w in wheels):  # a film's CSV as soon as its wheels are done
-                write_curves_csv(study / f"curves-{film}.csv", [r for w in wheels for r in rows[film, w]])
+
+    def done(key, result, k):
+        film, ra = key
+        rows[key] = result
+        log(f"[curves] {film}, {wheel_label(ra)} wheel done ({k}/{len(tasks)})")
+        if all((film, w) in rows for w in wheels):  # a film's CSV as soon as its wheels are done
+            write_curves_csv(study / f"curves-{film}.csv", [r for w in wheels for r in rows[film, w]])
+
+    _parallel(tasks, workers, done)
+
+
+@functools.lru_cache(maxsize=2)
+def _study_radius_model(study: str):
+    """The study's radius surrogate as a calibration model, loaded once per process."""
+    from filmcal.fem import ContactOptions
+    from filmcal.study import SurrogateDomain, SurrogateRadiusModel, surrogate_path
+    from filmcal.surrogate import load_surrogate
+
+    return SurrogateRadiusModel(load_surrogate(surrogate_path(study, ContactOptions())), SurrogateDomain())
+
+
+def _crossval_fold(study: str, film: str, case: int, seed: int) -> dict:
+    from filmcal.calibration import Priors
+    from filmcal.correction.crossval import cross_validate_case
+    from filmcal.study import SurrogateDomain
+
+    priors = Priors(modulus_range_mpa=SurrogateDomain().modulus_mpa)
+    return cross_validate_case(_study_radius_model(study), film, case, priors=priors, seed=seed)
+
+
+def _crossval_stage(study: Path, settings: PipelineSettings, films, seed: int, workers: int | None, log) -> None:
+    """Leave-one-case-out cross-validation on Table 1 (``crossval-<film>.json``): one task per fold."""
+    from filmcal.calibration import load_table1
+    from filmcal.correction.crossval import CaseCrossValidation
+
+    todo = [f for f in films if f in settings.crossval_films and not (study / f"crossval-{f}.json").exists()]
+    n_cases = {film: len(load_table1(film)) for film in todo}
+    tasks = {(film, case): (_crossval_fold, (str(study), film, case, seed))
+             for film in todo for case in range(n_cases[film])}
+    if not tasks:
+        return
+    log(f"[crossval] leave-one-case-out on Table 1: {len(tasks)} calibrations ({', '.join(todo)})")
+    folds: dict = {}
+
+    def done(key, result, k):
+        film = key[0]
+        folds[key] = result
+        if all((film, c) in folds for c in range(n_cases[film])):
+            cv = CaseCrossValidation.from_folds(film, [folds[film, c] for c in range(n_cases[film])])
+            _write_json(study / f"crossval-{film}.json", cv.to_dict())
+            log(f"[crossval] {film}: Hertz area inside the corrected 90 % interval in {cv.hits}/{n_cases[film]} "
+                f"cases ({k}/{len(tasks)} calibrations done)")
+
+    _parallel(tasks, workers, done)
 
 
 def _outlines_stage(study: Path, settings: PipelineSettings, medians: dict, log) -> None:

@@ -81,8 +81,9 @@ def test_report_opens_in_chromium_with_every_figure(quick_study, tmp_path):
     study, summary, _ = quick_study
     html = Path(summary["report"]["html"])
     n_figures = summary["report"]["figures"]
-    # summary 0, FE verification 3, Fig. 2 1, design 1, surrogate 1, HS calibration 4, wheel-rail 2 + 1 outline
-    assert n_figures == 13
+    # summary 0, FE verification 3, Fig. 2 1, design 1, surrogate 1, HS calibration 4, cross-validation 1,
+    # wheel-rail 2 + 1 outline
+    assert n_figures == 14
     loaded, total = images_loaded_in_chromium(html, tmp_path)
     assert total == n_figures and loaded == total
     text = html.read_text(encoding="utf-8")

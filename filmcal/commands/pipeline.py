@@ -16,7 +16,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "surrogate, the Bayesian calibration of MS, HS and HHS against Table 1, checks of the FE model "
                     "against Hertz and of the surrogate against FE, wheel-rail correction curves (S1002/60E2, 50 "
                     "and 100 kN, eta -7..2 mm, smooth and rough wheel) with 90 %% credible bands, contact outlines, "
-                    "and the HTML + PDF report (STUDY_DIR/report). Finished work is kept and reused: an interrupted "
+                    "leave-one-case-out cross-validation of the correction on Table 1, and the HTML + PDF report (STUDY_DIR/report). Finished work is kept and reused: an interrupted "
                     "run resumes where it stopped, and a second run only reads (under a minute). A folder keeps "
                     "the settings it was made with; other settings need another folder.")
     p.add_argument("--study-dir", default=None,
@@ -52,7 +52,9 @@ def run(args: argparse.Namespace) -> int:
         for film, s in summary["films"].items():
             m, ci = s["modulus_mpa"]["median"], s["modulus_mpa"]["ci90"]
             print(f"{film}: E = {m:.0f} MPa [{ci[0]:.0f}, {ci[1]:.0f}], R-hat {s['rhat']:.4f}, ESS {s['ess']:.0f}, "
-                  f"Table 1 cases in 90 % PPI {s['predictive_hits']}/{s['n_cases']}, curves {s['curves_file']}")
+                  f"Table 1 cases in 90 % PPI {s['predictive_hits']}/{s['n_cases']}"
+                  + (f", leave-one-case-out {s['crossval_hits']}/{s['n_cases']}" if "crossval_hits" in s else "")
+                  + f", curves {s['curves_file']}")
         if "report" in summary:
             print(f"report: {summary['report']['html']} and {summary['report']['pdf']}")
         print(f"summary: {study_dir}/summary.json ({summary['elapsed_s']:.0f} s)")

@@ -11,7 +11,7 @@ from matplotlib.figure import Figure
 
 __all__ = ["plot_pressure_profile", "plot_pressure_profiles", "plot_hertz_verification",
            "plot_surrogate_at_medians", "plot_preliminary_study", "plot_design", "plot_surrogate_validation",
-           "plot_area_curves", "plot_correction_factor", "plot_outlines"]
+           "plot_area_curves", "plot_correction_factor", "plot_outlines", "plot_crossval"]
 
 Z90 = 1.6448536269514722  # standard normal 95 % quantile: a central 90 % interval is mean +/- Z90 std
 
@@ -274,4 +274,29 @@ def plot_outlines(outlines: dict, film: str) -> Figure:
     for ax in axes[:, 0]:
         ax.set_ylabel("x (mm), along the rail", fontsize=8)
     axes.flat[0].legend(fontsize=7, loc="lower left")
+    return fig
+
+
+def plot_crossval(results: dict) -> Figure:
+    """Leave-one-case-out: each held-out case's corrected area (90 % interval) relative to the Hertz area."""
+    fig = _figure(figsize=(9, 3.9))
+    ax = fig.subplots()
+    for k, (film, cv) in enumerate(results.items()):
+        n = len(cv.hertz_area_mm2)
+        x = np.arange(n) + (k - (len(results) - 1) / 2) * 0.22
+        rel = 100 * (cv.area_mm2 / cv.hertz_area_mm2 - 1)
+        lo = 100 * (cv.area_ci90_mm2[:, 0] / cv.hertz_area_mm2 - 1)
+        hi = 100 * (cv.area_ci90_mm2[:, 1] / cv.hertz_area_mm2 - 1)
+        ax.errorbar(x, rel, yerr=[rel - lo, hi - rel], fmt="o", ms=4, capsize=2, color=f"C{k}",
+                    label=f"{film}: {cv.hits}/{n} inside")
+        out = ~cv.inside
+        ax.plot(x[out], rel[out], "x", color="red", ms=9)
+    ax.axhline(0, color="k", lw=0.8)
+    labels = [f"R{r:g}\n{f / 1e3:g} kN" for r, f in zip(cv.sphere_radius_mm, cv.force_n)]
+    ax.set_xticks(np.arange(len(labels)), labels, fontsize=8)
+    ax.set_ylabel("corrected area / Hertz area - 1 (%)")
+    ax.set_title("Each case corrected by a calibration without it (90 % intervals; x: Hertz area outside)",
+                 fontsize=10)
+    ax.legend(fontsize=8)
+    ax.grid(axis="y", lw=0.3)
     return fig

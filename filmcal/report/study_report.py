@@ -218,6 +218,32 @@ def _calibration(film: str, result, path: Path) -> Section:
     return s
 
 
+def _crossval(study: Path, films: list[str]) -> Section:
+    from filmcal.correction.crossval import CaseCrossValidation
+
+    s = Section("Leave-one-case-out cross-validation on Table 1")
+    results = {film: CaseCrossValidation.from_dict(_read_json(study / f"crossval-{film}.json")) for film in films
+               if (study / f"crossval-{film}.json").exists()}
+    if not results:
+        return _missing(s, "crossval-<film>.json")
+    s.add("Can the correction be trusted on a case it has not seen? Each (R, F) case of Table 1 is held out in "
+          "turn: the film is calibrated on the other cases, the held-out case's measured radius is corrected, "
+          "and the Hertz area (the truth of these experiments) should lie in the corrected 90 % interval in "
+          "about 9 of 10 cases.",
+          FigureBlock(F.plot_crossval(results), "Corrected area of each held-out case relative to the Hertz area, "
+                      "with its 90 % interval."))
+    for film, cv in results.items():
+        s.add(Table(["sphere", "F (kN)", "measured r (mm)", "E of fold (MPa)", "corrected A (mm2)", "90 % interval",
+                     "Hertz A (mm2)", "inside"],
+                    [[f"R{r:g}", f"{f / 1e3:g}", f"{m:.3f}", f"{e:.0f}", f"{a:.1f} +/- {sd:.1f}",
+                      f"[{ci[0]:.1f}, {ci[1]:.1f}]", f"{h:.1f}", "yes" if ok else "NO"]
+                     for r, f, m, e, a, sd, ci, h, ok in zip(cv.sphere_radius_mm, cv.force_n, cv.measured_radius_mm,
+                                                             cv.modulus_median_mpa, cv.area_mm2, cv.area_std_mm2,
+                                                             cv.area_ci90_mm2, cv.hertz_area_mm2, cv.inside)],
+                    f"{film}: Hertz area inside the corrected 90 % interval in {cv.hits} of {len(cv.inside)} cases"))
+    return s
+
+
 def _wheel_rail(study: Path, curves: dict, posteriors: dict) -> Section:
     s = Section("Wheel-rail correction curves (Figs. 6 and 7)")
     if not curves:
@@ -311,7 +337,8 @@ def build_report(study_dir: str | Path) -> Report:
             sections.append(_calibration(film, *posteriors[film]))
         else:
             sections.append(_missing(Section(f"Calibration of {film} film"), f"posterior of {film}"))
-    sections += [_wheel_rail(study, curves, posteriors), _provenance(study, config)]
+    sections += [_crossval(study, config["films"]), _wheel_rail(study, curves, posteriors),
+                 _provenance(study, config)]
     stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     return Report("Film calibration and wheel-rail correction report",
                   f"Study {study.resolve()}, settings hash {config['hash']}, generated {stamp}.", sections)
