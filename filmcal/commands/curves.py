@@ -40,7 +40,7 @@ def _measured_law(path: str):
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "curves", help="wheel-rail correction curves with 90 % credible bands at any loads and offsets",
+        "curves", help="wheel-rail correction curves with 90 %% credible bands at any loads and offsets",
         description="Propagate a film type's calibrated posterior (from the study folder) through the S1002/60E2 "
                     "wheel-rail model: contact area without film, with film (posterior median and 90 %% band), "
                     "Delta A = A_film - A_0 and the correction factor A_0 / A_film at each (load, offset), smooth "
