@@ -15,24 +15,15 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 from pathlib import Path
 
 import numpy as np
 
 from filmcal.correction import correction_curves
-from filmcal.fem import ContactOptions
-from filmcal.study import calibrate_from_study, posterior_tag
+from filmcal.study import load_or_calibrate
 
 OFFSETS_MM = np.arange(-7.0, 2.01, 1.0)
 FORCES_N = (50e3, 100e3)
-
-
-def posterior_modulus(study_dir: Path, film: str, loads: str | None) -> np.ndarray:
-    path = study_dir / f"posterior-{posterior_tag(film, loads, ContactOptions())}.json"
-    if not path.exists():
-        calibrate_from_study(study_dir, film, loads)
-    return np.asarray(json.loads(path.read_text())["samples"]["modulus_mpa"], dtype=float)
 
 
 def main() -> None:
@@ -59,7 +50,7 @@ def main() -> None:
         variants.append((f"rough wheel, Ra {args.rough_ra_um:g} um", rough_law))
     rows = []
     for film in args.films.split(","):
-        e = posterior_modulus(Path(args.study_dir), film, args.loads)
+        e = np.asarray(load_or_calibrate(args.study_dir, film, args.loads).samples["modulus_mpa"], dtype=float)
         fig = Figure(figsize=(11, 7.5), layout="constrained")
         axes = fig.subplots(2, len(FORCES_N), sharex=True)
         for label, law in variants:

@@ -201,12 +201,11 @@ def _design_stage(study: Path, settings: PipelineSettings, seed: int, log) -> No
 
 def _calibration_stage(study: Path, settings: PipelineSettings, films, seed: int, workers, log) -> dict:
     from filmcal.calibration import load_result
-    from filmcal.fem import ContactOptions
-    from filmcal.study import calibrate_from_study, posterior_tag
+    from filmcal.study import calibrate_from_study, posterior_path
 
     results = {}
     for film in films:
-        path = study / f"posterior-{posterior_tag(film, None, ContactOptions(), seed=seed)}.json"
+        path = posterior_path(study, film, seed=seed)
         if path.exists() and (study / "surrogate-validation.json").exists():
             results[film] = (load_result(path), path)
             continue

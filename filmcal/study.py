@@ -24,7 +24,7 @@ if TYPE_CHECKING:
 __all__ = ["SurrogateDomain", "SurrogateValidation", "fe_design_points", "run_fe_points",
            "fit_radius_surrogate", "validate_radius_surrogate", "build_radius_surrogate",
            "SurrogateRadiusModel", "FERadiusModel", "INPUTS", "calibrate_from_study", "posterior_tag",
-           "options_tag", "surrogate_path", "refine_radius_surrogate", "load_posterior_samples", "load_or_calibrate"]
+           "options_tag", "surrogate_path", "refine_radius_surrogate", "load_posterior_samples", "load_or_calibrate", "posterior_path"]
 
 INPUTS = ("modulus_mpa", "poisson", "radius_mm", "force_kn")
 #: The held-out design of a study uses seed + TEST_SEED_OFFSET (the training design uses seed).
@@ -209,6 +209,12 @@ def surrogate_path(study_dir: str | Path, options: ContactOptions) -> Path:
     return Path(study_dir) / f"surrogate-{options_tag(options)}"
 
 
+def posterior_path(study_dir: str | Path, film: str, loads: str | None = None, options: ContactOptions | None = None,
+                   seed: int = 0) -> Path:
+    """Where a study keeps the posterior of a film's calibration (default: all loads, default FE options)."""
+    return Path(study_dir) / f"posterior-{posterior_tag(film, loads, options or ContactOptions(), seed=seed)}.json"
+
+
 class SurrogateRadiusModel:
     """A radius surrogate seen by the calibration: ``predict(E, nu, R, F) -> (mean, std)``.
 
@@ -301,7 +307,7 @@ def load_posterior_samples(study_dir: str | Path, film: str, loads: str | None =
     """
     import json
 
-    path = Path(study_dir) / f"posterior-{posterior_tag(film, loads, options or ContactOptions(), seed=seed)}.json"
+    path = posterior_path(study_dir, film, loads, options, seed)
     if not path.exists():
         raise FileNotFoundError(f"no posterior of {film.upper()} in {study_dir} ({path.name}): run `filmcal pipeline` "
                                 "or `filmcal calibrate` first")
@@ -313,7 +319,7 @@ def load_or_calibrate(study_dir: str | Path, film: str, loads: str | None = None
     """The study's `CalibrationResult` of a film (default FE options), calibrated first when missing."""
     from filmcal.calibration import load_result
 
-    path = Path(study_dir) / f"posterior-{posterior_tag(film, loads, ContactOptions(), seed=seed)}.json"
+    path = posterior_path(study_dir, film, loads, seed=seed)
     if path.exists():
         log(f"{film}: reading {path}")
         return load_result(path)

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 from pathlib import Path
@@ -66,15 +65,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _posterior(args, options) -> tuple[dict, Path]:
-    from filmcal.study import posterior_tag
+    """The study's posterior samples of the film, calibrated once first when missing."""
+    from filmcal.study import calibrate_from_study, load_posterior_samples
 
-    path = Path(args.study_dir) / f"posterior-{posterior_tag(args.film, args.loads, options, seed=args.seed)}.json"
-    if not path.exists():
-        from filmcal.study import calibrate_from_study
+    try:
+        return load_posterior_samples(args.study_dir, args.film, args.loads, options, args.seed)
+    except FileNotFoundError:
         sys.stderr.write(f"no posterior for {args.film.upper()} in {args.study_dir}: calibrating (once)\n")
         calibrate_from_study(args.study_dir, args.film, args.loads, options, seed=args.seed)
-    samples = json.loads(path.read_text(encoding="utf-8"))["samples"]
-    return samples, path
+        return load_posterior_samples(args.study_dir, args.film, args.loads, options, args.seed)
 
 
 def _check_imprint_options(args: argparse.Namespace) -> None:

@@ -47,12 +47,11 @@ def _study_config(study: Path) -> dict:
 
 def _posteriors(study: Path, films: list[str], seed: int) -> dict:
     from filmcal.calibration import load_result
-    from filmcal.fem import ContactOptions
-    from filmcal.study import posterior_tag
+    from filmcal.study import posterior_path
 
     out = {}
     for film in films:
-        path = study / f"posterior-{posterior_tag(film, None, ContactOptions(), seed=seed)}.json"
+        path = posterior_path(study, film, seed=seed)
         if path.exists():
             out[film] = (load_result(path), path)
     return out
