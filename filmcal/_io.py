@@ -1,0 +1,244 @@
+"""File input and output shared by the whole package.
+
+- Atomic writes: the data go to a temporary file in the destination's folder,
+  are flushed to disk (``fsync``) and then renamed over the destination, so a
+  reader sees the old file or the new one, never a truncated one, and a kill
+  in the middle leaves no partial file under the final name.
+- `read_json`: a JSON file whose damage is reported with the file's name.
+- `sha256_file`: the hash of a file, read in blocks.
+- Path checks to run before any work starts: an output file that is not a
+  folder and whose folder exists and is writable, an input file that exists,
+  an output folder that is not a file.
+
+Errors are `filmcal._errors.InputError` (a path option that cannot work) and
+`filmcal._errors.DamagedFileError` (a file that cannot be read as JSON).
+"""
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import Any, Iterator
+
+from filmcal._errors import InputError, damaged
+from filmcal._json import json_safe
+
+__all__ = [
+    "atomic_path", "atomic_write_bytes", "atomic_write_text", "atomic_write_json",
+    "read_json", "sha256_file",
+    "check_output_file", "check_output_dir", "check_input_file",
+]
+
+def _fsync_dir(folder: Path) -> None:
+    """Flush a folder's entry table (the rename) to disk where the OS allows it."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield a temporary path beside `path`; on success move it over `path`.
+
+    For writers that need a file name (``numpy.savez``, ``savefig``, h5py):
+    write to the yielded path inside the ``with`` block. The temporary name
+    keeps `path`'s suffix, so libraries that add or check a suffix behave.
+    On an exception (or Ctrl-C) the temporary file is removed and `path` is
+    left as it was.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The final file name.
+
+    Yields
+    ------
+    pathlib.Path
+        Where to write.
+    """
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{path.suffix}", dir=folder)
+    os.close(fd)
+    tmp = Path(tmp_name)
+    try:
+        yield tmp
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+    _fsync_dir(folder)
+
+
+def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
+    """Write `data` to `path` atomically (temporary file, fsync, rename); return the path."""
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+    return Path(path)
+
+
+def atomic_write_text(path: str | os.PathLike[str], text: str, encoding: str = "utf-8") -> Path:
+    """Write `text` to `path` atomically (temporary file, fsync, rename); return the path."""
+    return atomic_write_bytes(path, text.encode(encoding))
+
+
+def atomic_write_json(path: str | os.PathLike[str], obj: Any, indent: int | None = 2) -> Path:
+    """Write `obj` as strict JSON (numpy values converted, non-finite floats as null) atomically."""
+    text = json.dumps(json_safe(obj), indent=indent, allow_nan=False)
+    return atomic_write_text(path, text + "\n")
+
+
+def read_json(path: str | os.PathLike[str], recomputable: bool = True) -> Any:
+    """Read a JSON file; a damaged one raises a `DamagedFileError` naming it.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    recomputable : bool, optional
+        True (default) for a file the package wrote: the message then says
+        that deleting it recomputes it. False for a user's own file.
+
+    Raises
+    ------
+    FileNotFoundError
+        If the file does not exist.
+    filmcal._errors.DamagedFileError
+        If it cannot be decoded as UTF-8 JSON.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise damaged(path, exc, recomputable) from exc
+    try:
+        return json.loads(text)
+    except (json.JSONDecodeError, RecursionError) as exc:
+        raise damaged(path, exc, recomputable) from exc
+
+
+def sha256_file(path: str | os.PathLike[str], block_bytes: int = 1 << 20) -> str:
+    """Return the SHA-256 hex digest of a file's contents, read in blocks."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(block_bytes), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _can_create_in(folder: Path) -> bool:
+    """True if a file can be created in `folder` (probed: permissions alone mislead root and /proc)."""
+    try:
+        fd, name = tempfile.mkstemp(prefix=".filmcal-probe-", dir=folder)
+    except OSError:
+        return False
+    os.close(fd)
+    with contextlib.suppress(OSError):
+        os.unlink(name)
+    return True
+
+
+def check_output_file(path: str | os.PathLike[str], option: str = "--out") -> Path:
+    """Check, before any work, that `path` can be written as a file.
+
+    The path must not be a folder, its folder must exist and be writable, and
+    an existing file there must be writable. Nothing is left behind (the
+    folder is probed by creating and removing an empty temporary file).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The output file.
+    option : str, optional
+        The option that gave it, for the message.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    filmcal._errors.InputError
+        Naming `option` and the path.
+    """
+    p = Path(path)
+    if str(path) == "" or p.name == "":
+        raise InputError(f"{option} must be a file name, got {str(path)!r}")
+    if p.is_dir():
+        raise InputError(f"{option} {str(p)!r} is a folder; give a file name")
+    folder = p.parent if str(p.parent) else Path(".")
+    if not folder.exists():
+        raise InputError(f"{option} {str(p)!r}: folder {str(folder)!r} does not exist; create it first")
+    if not folder.is_dir():
+        raise InputError(f"{option} {str(p)!r}: {str(folder)!r} is not a folder")
+    if p.exists() and not os.access(p, os.W_OK):
+        raise InputError(f"{option} {str(p)!r} is not writable")
+    if not _can_create_in(folder):
+        raise InputError(f"{option} {str(p)!r}: folder {str(folder)!r} is not writable")
+    return p
+
+
+def check_output_dir(path: str | os.PathLike[str], option: str = "--study-dir",
+                     must_exist: bool = False) -> Path:
+    """Check, before any work, that `path` can be used as an output folder.
+
+    It must not be an existing file; if it exists it must be writable; if it
+    does not exist, `must_exist` must be False and its parent must be an
+    existing writable folder (so that one ``mkdir`` makes it). Nothing is
+    created.
+
+    Raises
+    ------
+    filmcal._errors.InputError
+        Naming `option` and the path.
+    """
+    p = Path(path)
+    if str(path) == "":
+        raise InputError(f"{option} must be a folder name, got ''")
+    if p.exists():
+        if not p.is_dir():
+            raise InputError(f"{option} {str(p)!r} is a file, not a folder")
+        if not _can_create_in(p):
+            raise InputError(f"{option} {str(p)!r} is not writable")
+        return p
+    if must_exist:
+        raise InputError(f"{option} {str(p)!r} does not exist")
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.is_dir():
+        raise InputError(f"{option} {str(p)!r}: parent folder {str(parent)!r} does not exist")
+    if not _can_create_in(parent):
+        raise InputError(f"{option} {str(p)!r}: parent folder {str(parent)!r} is not writable")
+    return p
+
+
+def check_input_file(path: str | os.PathLike[str], option: str) -> Path:
+    """Check that `path` is an existing, readable file (not a folder).
+
+    Raises
+    ------
+    filmcal._errors.InputError
+        Naming `option` and the path.
+    """
+    p = Path(path)
+    if not p.exists():
+        raise InputError(f"{option} {str(p)!r} does not exist")
+    if p.is_dir():
+        raise InputError(f"{option} {str(p)!r} is a folder; give a file")
+    if not os.access(p, os.R_OK):
+        raise InputError(f"{option} {str(p)!r} is not readable")
+    return p
