@@ -2,7 +2,7 @@
 
 `predictive_check`
     Posterior predictive distribution of each measured radius: a mixture over
-    posterior samples of N(model + delta_F, sigma^2 + s^2). Its mean, std, 90 %
+    posterior samples of N(model + delta_F, sigma^2 + u^2 + s^2 + tau^2). Its mean, std, 90 %
     interval (exact mixture quantiles), the standardised residual and the PIT
     value ``P(r_rep <= r_measured)`` of each case; cases with a PIT outside
     (0.05, 0.95) fall outside their 90 % interval.
@@ -51,7 +51,8 @@ class PredictiveCheck:
     Attributes
     ----------
     sphere_radius_mm, force_n, measured_radius_mm, hertz_radius_mm : ndarray of shape (n,)
-        The cases.
+        The cases (for bodies other than steel, the radius compared with the
+        model and the steel Hertz radius: see ``RadiusErrorData.target_radius_mm``).
     mean_mm, std_mm : ndarray of shape (n,)
         Mean and std of the posterior predictive distribution of the radius.
     lower_mm, upper_mm : ndarray of shape (n,)
@@ -128,11 +129,8 @@ def predictive_check(problem: CalibrationProblem, theta: np.ndarray, level: floa
     if not 0.0 < level < 1.0:
         raise ValueError(f"level must lie in (0, 1), got {level!r}")
     theta = thin_evenly(np.asarray(theta, dtype=float).reshape(-1, problem.ndim), max_samples)
-    p = problem.unpack(theta)
-    model_mean, model_std = problem.model_radius(p["modulus_mpa"], p["poisson"])
-    mu = model_mean + p["delta_mm"][:, problem.level_index]
-    sd = np.sqrt(p["sigma_mm"][:, None] ** 2 + model_std**2)
-    y = problem.data.measured_radius_mm
+    mu, sd = problem.predictive_moments(theta)
+    y = problem.target_radius_mm
     mean = mu.mean(axis=0)
     std = np.sqrt(np.mean(sd**2 + mu**2, axis=0) - mean**2)
     pit = np.mean(ndtr((y[None, :] - mu) / sd), axis=0)
@@ -141,7 +139,7 @@ def predictive_check(problem: CalibrationProblem, theta: np.ndarray, level: floa
     upper = np.array([_mixture_quantile(1.0 - tail, mu[:, i], sd[:, i]) for i in range(y.size)])
     return PredictiveCheck(
         sphere_radius_mm=problem.data.sphere_radius_mm.copy(), force_n=problem.data.force_n.copy(),
-        measured_radius_mm=y.copy(), hertz_radius_mm=problem.data.hertz_radius_mm.copy(),
+        measured_radius_mm=y.copy(), hertz_radius_mm=problem.data.steel_hertz_radius_mm.copy(),
         mean_mm=mean, std_mm=std, lower_mm=lower, upper_mm=upper,
         standardized_residual=(y - mean) / std, pit=pit, outside=(y < lower) | (y > upper),
         level=float(level), n_samples=int(theta.shape[0]))
@@ -298,9 +296,9 @@ def case_modulus_intervals(problem: CalibrationProblem, tolerance_mm: float, poi
         def radius_at(t: float, R=R, F=F) -> float:
             return float(problem.model_radius(np.array([math.exp(t)]), np.array([nu]), R, F)[0][0, 0])
 
-        out.append(_invert_case(radius_at, x, table[:, i], float(data.measured_radius_mm[i]), tolerance_mm))
+        out.append(_invert_case(radius_at, x, table[:, i], float(problem.target_radius_mm[i]), tolerance_mm))
     point, lower, upper, status = zip(*out)
     return CaseIntervals(sphere_radius_mm=data.sphere_radius_mm.copy(), force_n=data.force_n.copy(),
-                         measured_radius_mm=data.measured_radius_mm.copy(), modulus_mpa=np.array(point),
+                         measured_radius_mm=problem.target_radius_mm.copy(), modulus_mpa=np.array(point),
                          lower_mpa=np.array(lower), upper_mpa=np.array(upper), tolerance_mm=tolerance_mm,
                          poisson=nu, modulus_range_mpa=(math.exp(lo), math.exp(hi)), status=list(status))

@@ -1,15 +1,37 @@
 """Statistical model of the film calibration: priors, likelihood, posterior density.
 
-For one film type, the radius of the patch printed on the film in case i
-(sphere radius R_i, force F_i) is modelled as::
+For one film type, the radius of imprint j of case i (sphere radius R_i,
+force F_i; a case's imprints are its repeats) is modelled as::
 
-    r_i = model_radius(E, nu, R_i, F_i) + delta_{F_i} + eps_i,
-    eps_i ~ N(0, sigma^2 + s_i^2)
+    r_ij = model_radius(E, nu, R_i, F_i) + delta_{F_i} + g_i + b_i + eps_ij,
+    eps_ij ~ N(0, sigma^2 + u_ij^2),   g_i ~ N(0, s_i^2),   b_i ~ N(0, tau^2)
 
 where ``s_i`` is the predictive std of the model (a Gaussian-process surrogate's
-own uncertainty; 0 for an exact model), ``sigma`` is the scatter of the
-experiments (inferred, never fixed to 0: Table 1 repeats disagree by 0.1-0.3 mm)
-and ``delta_F`` an optional model-discrepancy offset per load level.
+own uncertainty; 0 for an exact model), ``u_ij`` the measurement uncertainty
+stated in the dataset (0 when not stated), ``sigma`` the scatter of one imprint
+(inferred, never fixed to 0: Table 1 repeats disagree by 0.1-0.3 mm),
+``delta_F`` an optional model-discrepancy offset per load level and ``b_i`` an
+optional case-level scatter. The model's error g_i is shared by the repeats of
+a case (they have the same R and F), and so is b_i; both are integrated out
+analytically, so that a case's imprints are jointly normal with covariance
+``diag(sigma^2 + u_ij^2) + (s_i^2 + tau^2) 1 1^T``. For one imprint per case
+this is the independent likelihood with variance ``sigma^2 + u_i^2 + s_i^2
+(+ tau^2)``.
+
+Repeats and identifiability: the spread of a case's repeats about their mean
+informs sigma alone; the spread of the case means about the model informs
+``sigma^2 / n_i + tau^2``. tau is therefore identified only when some case has
+at least two imprints, and the default (``case_scatter="auto"``) adds it only
+then. It is what a day-to-day or sphere-to-sphere effect looks like: without
+it, repeats that agree with each other but not with the model would make the
+posterior of E too narrow.
+
+Pointwise log-likelihood (for PSIS-LOO and model comparison): the joint
+density of a case is split by the chain rule into one term per imprint,
+``log p(r_ij | r_i1 .. r_i(j-1), theta)``, so that the terms of a case add up to
+its joint density and those of all cases to the likelihood. With one imprint
+per case (Table 1) the terms are the independent row densities; with repeats
+the meaningful unit to leave out is the case (`CalibrationProblem.case_log_likelihood`).
 
 Priors (stated in `Priors`):
 
@@ -21,6 +43,7 @@ Priors (stated in `Priors`):
   decide larger values, as recommended for scale parameters estimated from few
   groups by Gelman, Bayesian Analysis 1(3), 2006), or log-uniform over
   0.001-2 mm. The sampler works in ``log sigma``.
+- tau (case-level scatter): half-Cauchy with scale 0.1 mm, sampled in ``log tau``.
 - delta_F (discrepancy option ``"load"``): independent N(0, 0.2 mm) per load
   level. A Kennedy-O'Hagan Gaussian-process discrepancy over (R, F) is not
   implemented.
@@ -42,6 +65,7 @@ import numpy as np
 from filmcal.elastic import oedometric_ratio
 from filmcal._validation import check_choice, check_positive
 from filmcal.calibration.data import RadiusErrorData
+from filmcal.films import FILM_POISSON, FilmType
 
 __all__ = [
     "RadiusModel",
@@ -50,12 +74,14 @@ __all__ = [
     "POISSON_MODES",
     "SIGMA_PRIORS",
     "DISCREPANCY_MODES",
+    "CASE_SCATTER_MODES",
     "oedometric_ratio",
 ]
 
 POISSON_MODES = ("fixed", "free")
 SIGMA_PRIORS = ("half-cauchy", "log-uniform")
 DISCREPANCY_MODES = ("none", "load")
+CASE_SCATTER_MODES = ("auto", "none", "case")
 
 
 @runtime_checkable
@@ -80,8 +106,9 @@ class Priors:
     ----------
     modulus_range_mpa : (float, float), default (50, 20000)
         Support of the log-uniform prior of Young's modulus E (MPa).
-    poisson : float, default 0.33
-        Poisson's ratio when it is fixed (the paper's value).
+    poisson : float, default `filmcal.films.FILM_POISSON` (0.33)
+        Poisson's ratio when it is fixed (the paper's value; `for_film` takes
+        a film type's nominal value).
     poisson_range : (float, float), default (0.29, 0.37)
         Support of the uniform prior of nu when it is free (thin PET films).
     sigma_prior : {"half-cauchy", "log-uniform"}, default "half-cauchy"
@@ -92,15 +119,25 @@ class Priors:
         Support of the log-uniform prior (mm).
     discrepancy_scale_mm : float, default 0.2
         Std of the normal prior of each per-load offset delta_F (mm).
+    case_scale_mm : float, default 0.1
+        Scale of the half-Cauchy prior of the case-level scatter tau (mm).
     """
 
     modulus_range_mpa: tuple[float, float] = (50.0, 20000.0)
-    poisson: float = 0.33
+    poisson: float = FILM_POISSON
     poisson_range: tuple[float, float] = (0.29, 0.37)
     sigma_prior: str = "half-cauchy"
     sigma_scale_mm: float = 0.2
     sigma_range_mm: tuple[float, float] = (0.001, 2.0)
     discrepancy_scale_mm: float = 0.2
+    case_scale_mm: float = 0.1
+
+    @classmethod
+    def for_film(cls, film: FilmType, **kwargs) -> Priors:
+        """Default priors with nu fixed at the film type's nominal Poisson's ratio."""
+        if not isinstance(film, FilmType):
+            raise ValueError(f"film must be a filmcal.films.FilmType, got {type(film).__name__}")
+        return cls(**{"poisson": film.poisson, **kwargs})
 
     def __post_init__(self) -> None:
         _check_interval("modulus_range_mpa", self.modulus_range_mpa, 0.0, math.inf)
@@ -111,6 +148,7 @@ class Priors:
         check_choice("sigma_prior", self.sigma_prior, SIGMA_PRIORS)
         check_positive("sigma_scale_mm", self.sigma_scale_mm)
         check_positive("discrepancy_scale_mm", self.discrepancy_scale_mm)
+        check_positive("case_scale_mm", self.case_scale_mm)
 
     def to_dict(self) -> dict:
         """The priors as plain JSON values."""
@@ -122,6 +160,7 @@ class Priors:
                          if self.sigma_prior == "half-cauchy" else
                          {"distribution": "log-uniform", "range": list(self.sigma_range_mm)}),
             "delta_mm": {"distribution": "normal", "scale": self.discrepancy_scale_mm},
+            "case_sigma_mm": {"distribution": "half-cauchy", "scale": self.case_scale_mm},
         }
 
     @classmethod
@@ -135,7 +174,8 @@ class Priors:
                    sigma_prior=sigma["distribution"],
                    sigma_scale_mm=sigma["scale"] if half_cauchy else cls.sigma_scale_mm,
                    sigma_range_mm=cls.sigma_range_mm if half_cauchy else tuple(sigma["range"]),
-                   discrepancy_scale_mm=d["delta_mm"]["scale"])
+                   discrepancy_scale_mm=d["delta_mm"]["scale"],
+                   case_scale_mm=d.get("case_sigma_mm", {}).get("scale", cls.case_scale_mm))
 
 
 def _check_interval(name: str, value: object, low: float, high: float) -> None:
@@ -152,9 +192,9 @@ class CalibrationProblem:
 
     Sampled coordinates, in this order: ``log_modulus`` (ln E, E in MPa) when
     nu is fixed, or ``log_oedometric_modulus`` (ln M) and ``poisson`` when nu
-    is free; then ``log_sigma`` (ln sigma, mm) and, with
-    ``discrepancy="load"``, one ``delta_<F>kn`` (mm) per load level present in
-    the data. See the module docstring for the model and priors.
+    is free; then ``log_sigma`` (ln sigma, mm), ``log_case_sigma`` (ln tau, mm)
+    with the case-level scatter and, with ``discrepancy="load"``, one
+    ``delta_<F>kn`` (mm) per load level present in the data. See the module docstring for the model and priors.
 
     With nu free the sampler works in (ln M, nu): the data constrain M, so the
     posterior is close to a product of an M factor and the nu prior, whereas
@@ -165,7 +205,8 @@ class CalibrationProblem:
     Parameters
     ----------
     data : RadiusErrorData
-        Rows of Table 1 for one film type (at least 2).
+        Measured radii of one film type (at least 2), e.g. rows of Table 1 or
+        ``load_dataset(path).select(film)``.
     model : RadiusModel
         Model of the printed radius.
     priors : Priors, optional
@@ -174,10 +215,27 @@ class CalibrationProblem:
         identified by sphere-on-flat radii (module docstring).
     discrepancy : {"none", "load"}, default "none"
         ``"load"`` adds an offset delta_F per load level.
+    case_scatter : {"auto", "none", "case"}, default "auto"
+        Case-level scatter tau: ``"auto"`` adds it when some case has
+        repeats (only then is it identified), ``"case"`` always, ``"none"``
+        never.
+    film : FilmType, optional
+        The film calibrated; the data must hold only this film. Its nominal
+        nu is used when `priors` is not given.
     """
 
     def __init__(self, data: RadiusErrorData, model: RadiusModel, priors: Priors | None = None,
-                 poisson: str = "fixed", discrepancy: str = "none") -> None:
+                 poisson: str = "fixed", discrepancy: str = "none", case_scatter: str = "auto",
+                 film: FilmType | None = None) -> None:
+        if film is not None:
+            if not isinstance(film, FilmType):
+                raise ValueError(f"film must be a filmcal.films.FilmType, got {type(film).__name__}")
+            others = sorted(set(np.asarray(data.film).tolist()) - {film.name})
+            if others:
+                raise ValueError(f"data hold film(s) {', '.join(others)} besides {film.name}; select one film")
+            if priors is None:
+                priors = Priors.for_film(film)
+        self.film = film
         if len(data) < 2:
             raise ValueError(f"the calibration needs at least 2 measured radii, got {len(data)}")
         if not callable(getattr(model, "predict", None)):
@@ -189,6 +247,18 @@ class CalibrationProblem:
         self.discrepancy = check_choice("discrepancy", discrepancy, DISCREPANCY_MODES)
         self.load_levels_n = np.unique(data.force_n)
         self.level_index = np.searchsorted(self.load_levels_n, data.force_n)
+        mode = check_choice("case_scatter", case_scatter, CASE_SCATTER_MODES)
+        self.case_scatter = mode == "case" or (mode == "auto" and data.has_repeats)
+        self.case_index = np.asarray(data.case_index)
+        self.n_cases = int(data.n_cases)
+        # position of each row within its case (0 for the first imprint), for the sequential likelihood
+        self._position = np.zeros(len(data), dtype=int)
+        counts: dict[int, int] = {}
+        for i, c in enumerate(self.case_index):
+            self._position[i] = counts.get(int(c), 0)
+            counts[int(c)] = self._position[i] + 1
+        self._measurement_var = np.asarray(data.measurement_std_mm, dtype=float) ** 2
+        self.target_radius_mm = np.asarray(data.target_radius_mm, dtype=float)
         self.parameter_names = self._names()
         self.ndim = len(self.parameter_names)
 
@@ -203,6 +273,8 @@ class CalibrationProblem:
     def _names(self) -> list[str]:
         names = ["log_oedometric_modulus", "poisson"] if self.poisson_mode == "free" else ["log_modulus"]
         names.append("log_sigma")
+        if self.case_scatter:
+            names.append("log_case_sigma")
         return names + self.delta_names
 
     @property
@@ -222,7 +294,8 @@ class CalibrationProblem:
         -------
         dict
             ``modulus_mpa``, ``poisson``, ``oedometric_modulus_mpa``,
-            ``sigma_mm`` (each of shape ``theta.shape[:-1]``) and ``delta_mm``
+            ``sigma_mm``, ``case_sigma_mm`` (zero without the case-level
+            scatter; each of shape ``theta.shape[:-1]``) and ``delta_mm``
             of shape ``theta.shape[:-1] + (n_levels,)`` (zeros without discrepancy).
         """
         theta = np.asarray(theta, dtype=float)
@@ -246,6 +319,8 @@ class CalibrationProblem:
             "poisson": nu,
             "oedometric_modulus_mpa": oedometric,
             "sigma_mm": np.exp(theta[..., col["log_sigma"]]),
+            "case_sigma_mm": (np.exp(theta[..., col["log_case_sigma"]]) if self.case_scatter
+                              else np.zeros(modulus.shape)),
             "delta_mm": delta,
         }
 
@@ -253,8 +328,9 @@ class CalibrationProblem:
         """Reported quantities of sampled coordinates, by name.
 
         ``modulus_mpa``, ``poisson`` (only when free), ``oedometric_modulus_mpa``,
-        ``sigma_mm`` and ``delta_<F>kn_mm`` per load level (with discrepancy),
-        each of shape ``theta.shape[:-1]``.
+        ``sigma_mm``, ``case_sigma_mm`` (with the case-level scatter) and
+        ``delta_<F>kn_mm`` per load level (with discrepancy), each of shape
+        ``theta.shape[:-1]``. `theta_from_named` is the inverse.
         """
         p = self.unpack(theta)
         out = {"modulus_mpa": p["modulus_mpa"]}
@@ -262,9 +338,44 @@ class CalibrationProblem:
             out["poisson"] = p["poisson"]
         out["oedometric_modulus_mpa"] = p["oedometric_modulus_mpa"]
         out["sigma_mm"] = p["sigma_mm"]
+        if self.case_scatter:
+            out["case_sigma_mm"] = p["case_sigma_mm"]
         for j, name in enumerate(self.delta_names):
             out[f"{name}_mm"] = p["delta_mm"][..., j]
         return out
+
+    def theta_from_named(self, named: dict[str, np.ndarray]) -> np.ndarray:
+        """Sampled coordinates of reported samples (the inverse of `named_samples`).
+
+        Parameters
+        ----------
+        named : dict of str -> ndarray
+            E.g. ``CalibrationResult.samples`` of a calibration of this problem.
+
+        Returns
+        -------
+        ndarray of shape ``named["modulus_mpa"].shape + (ndim,)``
+        """
+        def get(key: str) -> np.ndarray:
+            if key not in named:
+                raise ValueError(f"samples lack {key!r}, needed by the parameters {self.parameter_names}")
+            return np.asarray(named[key], dtype=float)
+
+        columns = []
+        for name in self.parameter_names:
+            if name == "log_modulus":
+                columns.append(np.log(get("modulus_mpa")))
+            elif name == "log_oedometric_modulus":
+                columns.append(np.log(get("oedometric_modulus_mpa")))
+            elif name == "poisson":
+                columns.append(get("poisson"))
+            elif name == "log_sigma":
+                columns.append(np.log(get("sigma_mm")))
+            elif name == "log_case_sigma":
+                columns.append(np.log(get("case_sigma_mm")))
+            else:
+                columns.append(get(f"{name}_mm"))
+        return np.stack(np.broadcast_arrays(*columns), axis=-1)
 
     # ---------------------------------------------------------------- model
     def model_radius(self, modulus_mpa: np.ndarray, poisson: np.ndarray,
@@ -332,6 +443,8 @@ class CalibrationProblem:
             nu = p["poisson"]
             lp = lp + np.where((nu >= nlo) & (nu <= nhi), -math.log(nhi - nlo), -np.inf)
         lp = lp + self._log_prior_log_sigma(np.log(p["sigma_mm"]))
+        if self.case_scatter:
+            lp = lp + _log_half_cauchy_log(np.log(p["case_sigma_mm"]), self.priors.case_scale_mm)
         if self.discrepancy == "load":
             s = self.priors.discrepancy_scale_mm
             d = p["delta_mm"]
@@ -342,13 +455,85 @@ class CalibrationProblem:
         if self.priors.sigma_prior == "log-uniform":
             lo, hi = (math.log(v) for v in self.priors.sigma_range_mm)
             return np.where((log_sigma >= lo) & (log_sigma <= hi), -math.log(hi - lo), -np.inf)
-        # half-Cauchy density of sigma times the Jacobian d sigma / d log sigma = sigma
-        g = self.priors.sigma_scale_mm
-        sigma = np.exp(log_sigma)
-        return math.log(2.0 / (math.pi * g)) - np.log1p((sigma / g) ** 2) + log_sigma
+        return _log_half_cauchy_log(log_sigma, self.priors.sigma_scale_mm)
+
+    def _moments(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Mean of each imprint, its own variance and the variance its case shares, shape (k, n)."""
+        p = self.unpack(theta)
+        mean, std = self.model_radius(p["modulus_mpa"], p["poisson"])
+        mu = mean + p["delta_mm"][:, self.level_index]
+        own = p["sigma_mm"][:, None] ** 2 + self._measurement_var[None, :]
+        shared = std**2 + p["case_sigma_mm"][:, None] ** 2
+        return mu, own, shared
+
+    def predictive_moments(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Mean and std of a new imprint of each row's case, given the parameters.
+
+        The marginal of one imprint, ``N(model + delta_F, sigma^2 + u^2 + s^2 + tau^2)``
+        (no conditioning on the case's other repeats): what a posterior
+        predictive check compares each measured radius with.
+
+        Parameters
+        ----------
+        theta : ndarray of shape (k, ndim)
+
+        Returns
+        -------
+        mean_mm, std_mm : ndarray of shape (k, n)
+        """
+        theta = np.atleast_2d(np.asarray(theta, dtype=float))
+        mu, own, shared = self._moments(theta)
+        return mu, np.sqrt(own + shared)
+
+    def pointwise_log_likelihood(self, theta: np.ndarray) -> np.ndarray:
+        """Log likelihood of each measured radius: one term per data row.
+
+        Row j of case i contributes ``log p(r_ij | r_i1 .. r_i(j-1), theta)``
+        (module docstring): the terms add up to `log_likelihood`, and with one
+        imprint per case they are the independent row densities.
+
+        Parameters
+        ----------
+        theta : ndarray of shape (k, ndim)
+
+        Returns
+        -------
+        ndarray of shape (k, n)
+        """
+        theta = np.atleast_2d(np.asarray(theta, dtype=float))
+        mu, own, shared = self._moments(theta)
+        resid = self.target_radius_mm[None, :] - mu
+        k = theta.shape[0]
+        out = np.empty_like(resid)
+        # running sums of the earlier repeats of each case: sum 1/d and sum r/d
+        acc_precision = np.zeros((k, self.n_cases))
+        acc_weighted = np.zeros((k, self.n_cases))
+        for position in range(int(self._position.max()) + 1 if len(self._position) else 0):
+            rows = np.flatnonzero(self._position == position)
+            cases = self.case_index[rows]
+            c = shared[:, rows]
+            a = acc_precision[:, cases]
+            # the shared effect given the earlier repeats: mean c B / (1 + c A), variance c / (1 + c A)
+            cond_mean = c * acc_weighted[:, cases] / (1.0 + c * a)
+            var = own[:, rows] + c / (1.0 + c * a)
+            r = resid[:, rows]
+            out[:, rows] = -0.5 * ((r - cond_mean) ** 2 / var + np.log(2.0 * math.pi * var))
+            acc_precision[:, cases] += 1.0 / own[:, rows]
+            acc_weighted[:, cases] += r / own[:, rows]
+        return out
+
+    def case_log_likelihood(self, theta: np.ndarray) -> np.ndarray:
+        """Joint log likelihood of each case's imprints, shape (k, n_cases).
+
+        The unit to leave out in cross-validation when cases have repeats.
+        """
+        pointwise = self.pointwise_log_likelihood(theta)
+        out = np.zeros((pointwise.shape[0], self.n_cases))
+        np.add.at(out.T, self.case_index, pointwise.T)
+        return out
 
     def log_likelihood(self, theta: np.ndarray) -> np.ndarray:
-        """Gaussian log likelihood of the measured radii (surrogate std added to sigma).
+        """Gaussian log likelihood of the measured radii (module docstring).
 
         Parameters
         ----------
@@ -358,12 +543,7 @@ class CalibrationProblem:
         -------
         ndarray of shape (k,)
         """
-        theta = np.atleast_2d(np.asarray(theta, dtype=float))
-        p = self.unpack(theta)
-        mean, std = self.model_radius(p["modulus_mpa"], p["poisson"])
-        var = p["sigma_mm"][:, None] ** 2 + std**2
-        resid = self.data.measured_radius_mm[None, :] - mean - p["delta_mm"][:, self.level_index]
-        return -0.5 * np.sum(resid**2 / var + np.log(2.0 * math.pi * var), axis=1)
+        return self.pointwise_log_likelihood(theta).sum(axis=1)
 
     def log_posterior(self, theta: np.ndarray) -> np.ndarray:
         """Unnormalised log posterior; the model is only called inside the prior support.
@@ -385,14 +565,33 @@ class CalibrationProblem:
 
 
     def describe(self) -> dict:
-        """The configuration as plain JSON values (stored with chains, checked on resume)."""
-        return {
+        """The configuration as plain JSON values (stored with chains, checked on resume).
+
+        Keys of the dataset extensions (measurement uncertainty, body
+        materials, repeats) appear only when they are used, so that chains of
+        Table 1 stored before them still match.
+        """
+        priors = self.priors.to_dict()
+        if not self.case_scatter:
+            priors.pop("case_sigma_mm")
+        d = {
             "film": sorted(set(self.data.film.tolist())),
             "sphere_radius_mm": self.data.sphere_radius_mm.tolist(),
             "force_n": self.data.force_n.tolist(),
-            "measured_radius_mm": self.data.measured_radius_mm.tolist(),
+            "measured_radius_mm": self.target_radius_mm.tolist(),
             "poisson": self.poisson_mode,
             "discrepancy": self.discrepancy,
-            "priors": self.priors.to_dict(),
+            "priors": priors,
             "parameter_names": list(self.parameter_names),
         }
+        if np.any(self._measurement_var > 0):
+            d["measurement_std_mm"] = np.sqrt(self._measurement_var).tolist()
+        if self.data.has_repeats:
+            d["case_index"] = self.case_index.tolist()
+        return d
+
+
+def _log_half_cauchy_log(log_scale: np.ndarray, g: float) -> np.ndarray:
+    """Log density of ln(s) when s is half-Cauchy with scale g (Jacobian ds/dln s = s included)."""
+    s = np.exp(log_scale)
+    return math.log(2.0 / (math.pi * g)) - np.log1p((s / g) ** 2) + log_scale

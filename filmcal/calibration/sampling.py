@@ -176,7 +176,8 @@ def initial_positions(problem: CalibrationProblem, n_walkers: int, rng: np.rando
     On 97 values of log E over the prior range (nu at its fixed value or the
     middle of its range, no discrepancy), sigma is profiled out
     (``sigma^2 = mean squared residual``); the walkers start around the best
-    grid point with std 0.1 in ln E (or ln M) and 0.3 in ln sigma, nu drawn from its
+    grid point with std 0.1 in ln E (or ln M) and 0.3 in ln sigma (and ln tau, around a quarter
+    of its prior scale), nu drawn from its
     prior and each delta from N(0, (scale/4)^2), all inside the prior support
     (with nu free the ball is in ln M around the best point's M).
 
@@ -189,7 +190,7 @@ def initial_positions(problem: CalibrationProblem, n_walkers: int, rng: np.rando
     pri = problem.priors
     nu0 = pri.poisson if problem.poisson_mode == "fixed" else 0.5 * sum(pri.poisson_range)
     mean, std = problem.model_radius(np.exp(grid), np.full(grid.size, nu0))
-    resid2 = (problem.data.measured_radius_mm[None, :] - mean) ** 2 + std**2
+    resid2 = (problem.target_radius_mm[None, :] - mean) ** 2 + std**2
     s2 = np.maximum(resid2.mean(axis=1), 1e-4)
     best = int(np.argmin(s2))
     margin = 1e-6
@@ -208,6 +209,8 @@ def initial_positions(problem: CalibrationProblem, n_walkers: int, rng: np.rando
         slo, shi = (math.log(v) for v in pri.sigma_range_mm)
         log_sigma = np.clip(log_sigma, slo + margin, shi - margin)
     columns.append(log_sigma)
+    if problem.case_scatter:  # start small: the repeats' spread goes to sigma first
+        columns.append(rng.normal(math.log(0.25 * problem.priors.case_scale_mm), 0.3, n_walkers))
     for _ in problem.delta_names:
         columns.append(rng.normal(0.0, 0.25 * pri.discrepancy_scale_mm, n_walkers))
     return np.column_stack(columns)
