@@ -2,21 +2,79 @@
 
 A thin dispatcher: each subcommand lives in `filmcal.commands.<name>` with an
 ``add_parser(subparsers)`` that registers its options and sets
-``func(args) -> int``. No science lives here. Errors in the user's input
-(`ValueError`, a missing file) become one line on stderr and exit status 2.
+``func(args) -> int``. No science lives here.
+
+This module is the command line's one error boundary:
+
+- Before any work, every option is checked: numbers are finite and size
+  options lie in their bounds (`SIZE_BOUNDS`, stated in ``--help``), output
+  files are not folders and their folder exists and is writable, study
+  folders are not files (`preflight`). A bad option ends the command before
+  anything is computed or written.
+- A failure that is the user's input or the user's files (`ValueError` and its
+  subclasses `filmcal._errors.InputError` and `DamagedFileError`, operating
+  system errors on a path, a file that cannot be decoded as JSON, SQLite, npz,
+  HDF5 or an image, a size that exhausts memory) ends with exit status 2 and
+  exactly one line on stderr that names the option or the file and what to
+  do.
+- Ctrl-C ends with one line and status 130.
+- Anything else is an internal error (a bug): its traceback stays visible,
+  followed by one line, and the status is 70 (``EX_SOFTWARE`` of BSD's
+  sysexits).
 """
 from __future__ import annotations
 
 import argparse
 import importlib
+import math
+import os
 import pkgutil
+import re
 import sys
+import traceback
+from pathlib import Path
+from typing import Any, Callable
 
 import filmcal.commands
+from filmcal._errors import DamagedFileError
+
+__all__ = ["main", "build_parser", "preflight", "SIZE_BOUNDS",
+           "EXIT_OK", "EXIT_USER", "EXIT_INTERNAL", "EXIT_INTERRUPTED"]
+
+EXIT_OK = 0
+EXIT_USER = 2          # bad option, bad or damaged file: one line on stderr
+EXIT_INTERNAL = 70     # a bug: traceback on stderr
+EXIT_INTERRUPTED = 130  # Ctrl-C (128 + SIGINT)
 
 # The order in which `--help` lists the subcommands; any other module in
 # `filmcal.commands` (not starting with "_") follows in alphabetical order.
 ORDER = ["pipeline", "fem", "doe", "campaign", "calibrate", "profile", "wheelrail", "correct", "report"]
+
+# Bounds of the size options of every command, by option destination
+# (inclusive). They keep a mistyped size from exhausting memory or running
+# for days; they are checked when the options are parsed, before any work,
+# and stated in each option's help. A command may set its own (tighter) check.
+SIZE_BOUNDS: dict[str, tuple[float, float]] = {
+    "workers": (1, 256),
+    "seed": (0, 2**32 - 1),
+    "samples": (1, 2000),
+    "iterations": (1, 10_000),
+    "element_size_mm": (0.02, 5.0),
+    "film_layers": (1, 8),
+    "grid_mm": (0.02, 2.0),
+    "step_mm": (0.001, 50.0),
+    "train_runs": (20, 5000),
+    "test_runs": (5, 5000),
+    "max_steps": (1, 1_000_000),
+    "timeout_s": (0.001, 7 * 24 * 3600.0),
+}
+
+# Path options by destination: files that a command writes, folders it
+# writes into, and files it only reads. Checked before any work.
+OUTPUT_FILE_DESTS = ("out", "csv", "plot", "pressure_csv", "outline_out")
+OUTPUT_DIR_DESTS = ("study_dir", "out_dir", "plots")
+INPUT_FILE_DESTS = ("design", "augment", "imprint", "roughness_law", "data", "films_file")
+PLOT_SUFFIXES = (".png", ".pdf", ".svg")
 
 
 def command_modules() -> list[str]:
@@ -29,8 +87,74 @@ class OneLineParser(argparse.ArgumentParser):
     """An `ArgumentParser` whose usage errors are one line on stderr, exit 2."""
 
     def error(self, message: str) -> None:  # noqa: D401 - argparse API
-        sys.stderr.write(f"{self.prog}: error: {message}\n")
-        raise SystemExit(2)
+        sys.stderr.write(f"{self.prog}: error: {_one_line(message)}\n")
+        raise SystemExit(EXIT_USER)
+
+
+# --- option types: finite numbers and bounded sizes -------------------------
+
+def _finite(convert: Callable[[str], Any]) -> Callable[[str], Any]:
+    """Wrap an argparse ``type=float`` so that nan and inf are refused."""
+    def parse(text: str) -> Any:
+        value = convert(text)
+        if isinstance(value, float) and not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+        return value
+    parse.filmcal_checked = True  # type: ignore[attr-defined]
+    return parse
+
+
+def _bounded(convert: Callable[[str], Any], low: float, high: float) -> Callable[[str], Any]:
+    """Wrap an argparse type with an inclusive range check."""
+    integer = convert is int
+
+    def parse(text: str) -> Any:
+        kind = "an integer" if integer else "a number"
+        try:
+            value = convert(text)
+        except argparse.ArgumentTypeError:
+            raise
+        except (TypeError, ValueError):
+            raise argparse.ArgumentTypeError(f"must be {kind} in [{low:g}, {high:g}], got {text!r}") from None
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and low <= value <= high):
+            raise argparse.ArgumentTypeError(f"must be {kind} in [{low:g}, {high:g}], got {text!r}")
+        return value
+    parse.filmcal_checked = True  # type: ignore[attr-defined]
+    parse.__name__ = getattr(convert, "__name__", "value")
+    return parse
+
+
+def _subparsers(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            return dict(action.choices)
+    return {}
+
+
+def _harden(parser: argparse.ArgumentParser) -> None:
+    """Bounds and finite checks on a parser's options, recursively; help without '%%'.
+
+    argparse %-formats help strings but not descriptions, so a description
+    written with '90 %%' would show both signs: it is shown with one.
+    """
+    if parser.description and "%%" in parser.description:
+        parser.description = parser.description.replace("%%", "%")
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                _harden(sub)
+            continue
+        convert = action.type
+        if convert is None or getattr(convert, "filmcal_checked", False):
+            continue
+        if action.dest in SIZE_BOUNDS and convert in (int, float):
+            low, high = SIZE_BOUNDS[action.dest]
+            action.type = _bounded(convert, low, high)
+            if action.help and action.help is not argparse.SUPPRESS:
+                shown = f"{low:g}-{high:g}" if low >= 0 else f"{low:g} to {high:g}"
+                action.help = f"{action.help} [allowed {shown}]"
+        elif convert is float:
+            action.type = _finite(float)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -40,34 +164,249 @@ def build_parser() -> argparse.ArgumentParser:
         description="Calibrate a finite-element model of Prescale film against "
                     "sphere-on-flat experiments and correct wheel-rail contact areas "
                     "measured with film, with their uncertainty.",
+        epilog="Exit status: 0 done, 1 a result that did not converge, 2 a bad option or "
+               "a bad or damaged file (one line on stderr), 70 an internal error (traceback), "
+               "130 interrupted.",
     )
     from filmcal import __version__
     parser.add_argument("--version", action="version", version=f"filmcal {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
     for name in command_modules():
         importlib.import_module(f"filmcal.commands.{name}").add_parser(sub)
+    _harden(parser)
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Run the `filmcal` command line; return the exit status."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if not getattr(args, "func", None):
-        parser.print_help()
-        return 2
+# --- checks of path options before any work ------------------------------------
+
+def _option_strings(parser: argparse.ArgumentParser, command: list[str]) -> dict[str, str]:
+    """Destination -> long option string of the (sub)command named by `command`."""
+    current = parser
+    for name in command:
+        current = _subparsers(current).get(name, current)
+    options: dict[str, str] = {}
+    for action in current._actions:
+        if action.option_strings:
+            longs = [s for s in action.option_strings if s.startswith("--")]
+            options[action.dest] = (longs or action.option_strings)[0]
+    return options
+
+
+def preflight(args: argparse.Namespace, options: dict[str, str]) -> None:
+    """Check the path options of a parsed command line before any work.
+
+    Output files must not be folders and their folder must exist and be
+    writable; plots must end in .png, .pdf or .svg; output folders must not be
+    files; read-only inputs must be existing files.
+
+    Raises
+    ------
+    filmcal._errors.InputError
+        Naming the option.
+    """
+    from filmcal._errors import InputError
+    from filmcal._io import check_input_file, check_output_dir, check_output_file
+
+    def opt(dest: str) -> str:
+        return options.get(dest, "--" + dest.replace("_", "-"))
+
+    for dest in OUTPUT_FILE_DESTS:
+        value = getattr(args, dest, None)
+        if isinstance(value, str):
+            check_output_file(value, opt(dest))
+            if dest == "plot" and Path(value).suffix.lower() not in PLOT_SUFFIXES:
+                raise InputError(f"{opt(dest)} must end in {', '.join(PLOT_SUFFIXES)}, got {value!r}")
+    for dest in OUTPUT_DIR_DESTS:
+        value = getattr(args, dest, None)
+        if isinstance(value, str):
+            check_output_dir(value, opt(dest))
+    for dest in INPUT_FILE_DESTS:
+        value = getattr(args, dest, None)
+        if isinstance(value, str):
+            check_input_file(value, opt(dest))
+    store = getattr(args, "store", None)
+    if isinstance(store, str):
+        if getattr(args, "action", None) == "run":
+            check_output_file(store, opt("store"))
+        else:
+            check_input_file(store, opt("store"))
+
+
+# --- the error boundary ---------------------------------------------------------
+
+def _one_line(text: str) -> str:
+    """Collapse a message to one line."""
+    parts = [" ".join(line.split()) for line in str(text).splitlines()]
+    return "; ".join(p for p in parts if p)
+
+
+def _name_option(message: str, options: dict[str, str]) -> str:
+    """Write a parameter named by its destination (``force_kn``) as its option (``--force-kn``)."""
+    if "--" in message:
+        return message
+    for dest in sorted(options, key=len, reverse=True):
+        opt = options[dest]
+        if not opt.startswith("--") or dest in ("help", "json"):
+            continue
+        if message.startswith(dest + " "):
+            return opt + message[len(dest):]
+        if "_" in dest:
+            new, n = re.subn(rf"(?<![\w-]){re.escape(dest)}(?![\w-])", opt, message, count=1)
+            if n:
+                return new
+    return message
+
+
+_DECODE_ERRORS = ("JSONDecodeError", "DatabaseError", "OperationalError", "IntegrityError", "BadZipFile",
+                  "UnidentifiedImageError", "DecompressionBombError", "UnicodeDecodeError", "EOFError")
+_PATH_LOCALS = re.compile(r"(^|_)(path|file|filename|fname|store)$")
+
+
+def _file_of(exc: BaseException) -> str | None:
+    """The file a decode error was reading: its attribute, its message or the reading frame's locals."""
+    for attr in ("path", "filename"):
+        value = getattr(exc, attr, None)
+        if isinstance(value, (str, os.PathLike)) and str(value):
+            return str(value)
+    match = re.search(r"name = '([^']+)'", str(exc))  # h5py's messages
+    if match:
+        return match.group(1)
+    seen: list[BaseException] = []
+    current: BaseException | None = exc
+    while current is not None and current not in seen:
+        seen.append(current)
+        current = current.__cause__ or current.__context__
+    for err in seen:
+        frames = [f for f, _ in traceback.walk_tb(err.__traceback__)]
+        for frame in reversed(frames):  # innermost first
+            candidates = [v for k, v in frame.f_locals.items() if _PATH_LOCALS.search(k)]
+            owner = frame.f_locals.get("self")
+            if owner is not None:
+                candidates += [getattr(owner, a, None) for a in ("path", "filename", "_path")]
+            for value in candidates:
+                if isinstance(value, (str, os.PathLike)) and str(value) and os.path.isfile(value):
+                    return str(value)
+    return None
+
+
+def _given_by(path: str, args: argparse.Namespace, options: dict[str, str]) -> str | None:
+    """The option whose value is `path`, if the user named this file directly."""
     try:
-        return int(args.func(args) or 0)
-    except (ValueError, FileNotFoundError, KeyError) as exc:
-        msg = str(exc).strip().strip("'\"").splitlines()
-        sys.stderr.write(f"filmcal {args.command}: error: {msg[0] if msg else type(exc).__name__}\n")
-        return 2
+        target = os.path.realpath(path)
+    except (OSError, ValueError):
+        return None
+    for dest, value in vars(args).items():
+        if isinstance(value, str) and value:
+            try:
+                if os.path.realpath(value) == target:
+                    return options.get(dest, "--" + dest.replace("_", "-"))
+            except (OSError, ValueError):
+                continue
+    return None
+
+
+def _damaged_message(exc: BaseException, args: argparse.Namespace, options: dict[str, str]) -> str:
+    path = _file_of(exc)
+    reason = _one_line(f"{type(exc).__name__}: {exc}") if str(exc) else type(exc).__name__
+    if path is None:
+        return f"a file could not be read ({reason}); check the files given and the study folder"
+    option = _given_by(path, args, options)
+    if option is not None:
+        return f"{option} {path!r} is damaged or not the expected kind of file ({reason}); check it or give another"
+    return str(DamagedFileError(path, reason, recomputable=True))
+
+
+def _os_message(exc: OSError, args: argparse.Namespace, options: dict[str, str]) -> str:
+    name = exc.filename
+    what = exc.strerror or _one_line(str(exc)) or type(exc).__name__
+    if name is None:
+        return _one_line(str(exc)) or type(exc).__name__
+    option = _given_by(str(name), args, options)
+    label = f"{option} {str(name)!r}" if option else repr(str(name))
+    advice = {
+        FileNotFoundError: "check the name",
+        IsADirectoryError: "give a file, not a folder",
+        NotADirectoryError: "a part of the path is a file, not a folder",
+        PermissionError: "choose a place you may write to, or change its permissions",
+        FileExistsError: "remove it or choose another name",
+    }.get(type(exc), "check the path")
+    return f"{label}: {what}; {advice}"
+
+
+def user_error_message(exc: BaseException, args: argparse.Namespace, options: dict[str, str]) -> str | None:
+    """One line for a failure that is the user's input or files; None for an internal error."""
+    name = type(exc).__name__
+    if isinstance(exc, DamagedFileError):
+        return _one_line(str(exc))
+    if name in _DECODE_ERRORS or any(c.__name__ in _DECODE_ERRORS for c in type(exc).__mro__):
+        if name == "OperationalError" and "locked" in str(exc):
+            return f"{_one_line(str(exc))}: another filmcal is writing the same file; wait for it to finish"
+        if name == "OperationalError" and "unable to open" in str(exc):
+            return f"cannot open the store ({_one_line(str(exc))}); check --store"
+        return _damaged_message(exc, args, options)
+    if isinstance(exc, ValueError):
+        text = exc.args[0] if len(exc.args) == 1 and isinstance(exc.args[0], str) else str(exc)
+        if "pickled data" in text or "allow_pickle" in text:
+            return _damaged_message(exc, args, options)
+        return _name_option(_one_line(text), options) or name
+    if isinstance(exc, OSError):
+        if exc.filename is None and _file_of(exc) is not None and not isinstance(exc, ConnectionError):
+            return _damaged_message(exc, args, options)
+        return _os_message(exc, args, options)
+    if isinstance(exc, MemoryError):
+        return "not enough memory for these sizes; choose smaller sizes (see --help for the bounds)"
+    return None
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the `filmcal` command line; return the exit status.
+
+    Returns
+    -------
+    int
+        0 done; 1 a result that did not converge (where a command says so);
+        2 a bad option or file (one line on stderr); 70 an internal error
+        (traceback on stderr); 130 interrupted.
+    """
+    argv = sys.argv[1:] if argv is None else list(argv)
+    try:
+        parser = build_parser()
+        if not argv:
+            parser.print_usage(sys.stderr)
+            sys.stderr.write("filmcal: error: a command is required (filmcal --help lists them)\n")
+            return EXIT_USER
+        args = parser.parse_args(argv)
     except KeyboardInterrupt:
         sys.stderr.write("filmcal: interrupted\n")
-        return 130
+        return EXIT_INTERRUPTED
+    if not getattr(args, "func", None):
+        parser.print_usage(sys.stderr)
+        sys.stderr.write("filmcal: error: a command is required (filmcal --help lists them)\n")
+        return EXIT_USER
+    path = [args.command] + ([args.action] if isinstance(getattr(args, "action", None), str) else [])
+    prog = "filmcal " + " ".join(path)
+    options = _option_strings(parser, path)
+    try:
+        preflight(args, options)
+        return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        sys.stderr.write(f"{prog}: interrupted\n")
+        return EXIT_INTERRUPTED
     except BrokenPipeError:  # output piped into e.g. `head`
-        sys.stderr.close()
-        return 0
+        try:
+            sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - no flush error at exit
+        except OSError:
+            pass
+        return EXIT_OK
+    except Exception as exc:  # noqa: BLE001 - this is the boundary
+        message = user_error_message(exc, args, options)
+        if message is None:
+            traceback.print_exc(file=sys.stderr)
+            sys.stderr.write(f"{prog}: internal error ({type(exc).__name__}); this is a bug in filmcal, "
+                             "please report it with the traceback above\n")
+            return EXIT_INTERNAL
+        sys.stderr.write(f"{prog}: error: {message}\n")
+        return EXIT_USER
 
 
 if __name__ == "__main__":
