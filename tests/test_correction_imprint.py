@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from filmcal._errors import DamagedFileError
 from filmcal.correction import measure_imprint, otsu_threshold, read_imprint, stain_intensity
 
 REPO = Path(__file__).resolve().parents[1]
@@ -218,3 +219,59 @@ def test_command_rejects_bad_imprint_input(tmp_path):
         assert p.returncode == 2, (args, p.stderr)
         assert len(p.stderr.strip().splitlines()) == 1, (args, p.stderr)
         assert not p.stdout
+
+
+def _scan_png(path: Path) -> bytes:
+    stained = red_on_white(coverage((120, 120), ellipse(60, 60, 30, 30)), noise=0)
+    Image.fromarray(stained).save(path, dpi=(600, 600))
+    return path.read_bytes()
+
+
+@pytest.mark.parametrize("cut", [0.3, 0.6, 0.9])
+def test_truncated_scan_names_the_file(tmp_path, cut):
+    data = _scan_png(tmp_path / "whole.png")
+    truncated = tmp_path / "truncated.png"
+    truncated.write_bytes(data[: int(cut * len(data))])
+    with pytest.raises(DamagedFileError, match="truncated.png") as info:
+        read_imprint(truncated)
+    assert "\n" not in str(info.value)
+
+
+def test_garbled_scan_names_the_file(tmp_path):
+    data = bytearray(_scan_png(tmp_path / "whole.png"))
+    rng = np.random.default_rng(3)
+    for i in rng.integers(60, len(data) - 20, size=40):  # past the header: the pixel data are garbled
+        data[i] ^= 0xFF
+    garbled = tmp_path / "garbled.png"
+    garbled.write_bytes(bytes(data))
+    with pytest.raises(DamagedFileError, match="garbled.png"):
+        read_imprint(garbled)
+
+
+def test_decompression_bomb_refused_before_decoding(tmp_path):
+    from filmcal.correction.imprint import MAX_IMPRINT_PIXELS
+
+    # a 1-bit image: small on disk, far more pixels than an imprint scan
+    side = int(math.isqrt(MAX_IMPRINT_PIXELS)) + 100
+    big = tmp_path / "big.png"
+    Image.new("1", (side, side)).save(big, dpi=(600, 600))
+    assert big.stat().st_size < 2_000_000
+    with pytest.raises(DamagedFileError, match="big.png.*million pixels"):
+        read_imprint(big)
+    # beyond Pillow's own bomb limit: its error is reported with the file's name
+    huge = tmp_path / "huge.png"
+    side = int(math.isqrt(2 * Image.MAX_IMAGE_PIXELS)) + 100
+    Image.new("1", (side, side)).save(huge)
+    with pytest.raises(DamagedFileError, match="huge.png"):
+        read_imprint(huge)
+
+
+def test_command_names_damaged_scan(tmp_path):
+    data = _scan_png(tmp_path / "whole.png")
+    (tmp_path / "cut.png").write_bytes(data[: len(data) // 2])
+    p = run_cli("--imprint", str(tmp_path / "cut.png"), "--offset-mm=-3", "--force-kn", "100",
+                "--study-dir", str(tmp_path), "--json")
+    assert p.returncode == 2, p.stderr
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in p.stderr, p.stderr
+    assert not p.stdout

@@ -46,17 +46,24 @@ Two parts, added in quadrature:
 from __future__ import annotations
 
 import math
+import struct
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from filmcal._errors import DamagedFileError, damaged
 from filmcal._validation import as_finite, check_positive, check_range
 from filmcal.correction.outline import _signed_area_mm2, outline_centroid_mm, outline_perimeter_mm
 
 __all__ = ["Imprint", "read_imprint", "measure_imprint", "stain_intensity", "otsu_threshold"]
 
 MM_PER_INCH = 25.4
+# Largest scan read (pixels): 30 million is a 600 dpi scan of 23 cm x 23 cm or a 1200 dpi scan of
+# 11.6 cm x 11.6 cm. Measuring takes about 45 bytes per pixel (1.4 GB at the limit). Larger files are
+# refused from their header, before they are decoded (decompression bombs, mistaken huge images).
+MAX_IMPRINT_PIXELS = 30_000_000
 MIN_METADATA_DPI = 25.0  # file resolutions below this are placeholders (e.g. 1 dpi in a TIFF without one)
 THRESHOLD_SPREAD = 0.1  # threshold uncertainty as a fraction of the stain-paper contrast
 _EPS = 1e-9
@@ -420,22 +427,45 @@ def read_imprint(path, *, dpi: float | None = None, mm_per_pixel: float | None =
     ------
     FileNotFoundError
         If the file does not exist.
+    filmcal._errors.DamagedFileError
+        (a `ValueError`) for a file that is not an image, is truncated or
+        damaged, or has more than `MAX_IMPRINT_PIXELS` pixels (refused
+        before it is decoded).
     ValueError
-        For a file that is not an image, a missing or doubly given pixel
-        size, or an image without a usable stain (`measure_imprint`).
+        For a missing or doubly given pixel size, or an image without a
+        usable stain (`measure_imprint`).
     """
-    from PIL import Image, UnidentifiedImageError
+    import warnings
+
+    from PIL import Image
 
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"imprint file not found: {path}")
     try:
-        with Image.open(path) as image:
-            image.load()
-            info = dict(image.info)
-            pixels = _image_pixels(image)
-    except UnidentifiedImageError:
-        raise ValueError(f"{path.name} is not an image Pillow can read (PNG or TIFF expected)") from None
+        with warnings.catch_warnings():
+            # Pillow warns above its own pixel limit; the smaller limit below refuses first
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            with Image.open(path) as image:
+                width, height = image.size
+                if width < 2 or height < 2 or width * height > MAX_IMPRINT_PIXELS:
+                    raise DamagedFileError(
+                        path, f"{width} x {height} pixels; an imprint scan needs 2 x 2 to "
+                              f"{MAX_IMPRINT_PIXELS / 1e6:g} million pixels: crop or downsample it")
+                image.load()
+                info = dict(image.info)
+                pixels = _image_pixels(image)
+    except DamagedFileError:
+        raise
+    except Image.DecompressionBombError as exc:
+        raise damaged(path, exc) from None
+    except MemoryError:
+        raise DamagedFileError(path, "too large to decode in the available memory: crop or downsample it") from None
+    except (OSError, SyntaxError, ValueError, EOFError, struct.error, zlib.error) as exc:
+        # UnidentifiedImageError (not an image), "image file is truncated", broken chunks
+        if "cannot identify image file" in str(exc):
+            raise DamagedFileError(path, "not an image Pillow can read (PNG or TIFF expected)") from None
+        raise damaged(path, exc) from None
     pixel_mm, source = _pixel_size(dpi, mm_per_pixel, info, path)
     return measure_imprint(stain_intensity(pixels), pixel_mm, threshold=threshold,
                            min_region_mm2=min_region_mm2, min_contrast=min_contrast, pixel_size_source=source)
