@@ -1,0 +1,735 @@
+"""Rough steel against a Prescale film: a pressure-closure law from contact mechanics.
+
+A rough steel surface (a wheel, a roughened flat) pressed on the film touches
+it only at its asperities. On the scale of the contact grid (0.1 mm) the
+interface behaves as a nonlinear spring in series with the film and the
+bodies: the rough interface closes by ``c(p)`` under a nominal pressure
+``p``. This module computes that law numerically from the surface itself and
+returns it as an :class:`filmcal.wheelrail.interface.TabularLaw`, usable at
+the film-wheel interface of :mod:`filmcal.wheelrail` and at the film-flat
+interface of :func:`filmcal.wheelrail.halfspace.sphere_on_flat_contact`.
+
+Surface
+-------
+:class:`RoughSurface` holds a periodic height map (um on a square pixel grid).
+:meth:`RoughSurface.synthetic` draws a Gaussian, self-affine surface with
+random phases from a seeded ``numpy.random.Generator``: power spectral density
+``C(q)`` flat below the roll-off wave number ``q_r``, ``~ q**(-2(1 + H))``
+between ``q_r`` and the short-wavelength cut-off ``q_s``, zero above (Persson
+et al. 2005, J. Phys.: Condens. Matter 17:R1; Jacobs, Junge & Pastewka 2017,
+Surf. Topogr.: Metrol. Prop. 5:013001), scaled to the RMS height (from ``Ra``
+as ``sqrt(pi/2) Ra``, exact for Gaussian heights); giving an RMS slope sets
+``q_s``. :meth:`RoughSurface.from_csv` and :meth:`RoughSurface.from_image`
+read measured height maps (a mean plane is removed; the map is used as one
+period of a periodic surface).
+
+Contact solve
+-------------
+The film is an elastic layer of thickness ``t`` on a rigid base (the steel
+body under it is 30-300 times stiffer than the film), touched by the rough
+steel half-space. For a surface pressure ``p(q) exp(i q.x)`` the layer's
+surface moves by ``2 S(q t) p / (E*_f q)`` with ``E*_f = E_f / (1 - nu_f**2)``
+and (plane-strain Airy solution per wave vector, traction-free shear at the
+top, bonded at the base)::
+
+    S(k) = ((3 - 4 nu)/2 sinh 2k - k) / ((3 - 4 nu) sinh(k)**2 + k**2 + 4 (1 - nu)**2)
+
+``S -> 1`` for wavelengths short against the film (a half-space of film) and
+``S -> k (1 - 2 nu) / (2 (1 - nu)**2)`` for long ones, the oedometric
+compression ``t/M`` of the film. The rough steel adds ``2 p / (E*_s q)``. The
+uniform mode ``q = 0`` (the film's own compression under the nominal
+pressure) is left out: it is the film law's part of the closure.
+
+Asperity pressures are capped by the film's indentation hardness ``H``
+(elastic-perfectly-plastic surface, Almqvist et al. 2007, Wear 262:1020):
+``0 <= p <= H``, the gap is zero where ``0 < p``. Default ``H = 300 MPa``:
+Tabor's ``H ~ 3 Y`` with the yield stress of biaxially oriented PET film,
+``Y ~ 100 MPa`` (typical BOPET data-sheet values 90-110 MPa), consistent with
+nanoindentation hardness of PET films of 0.2-0.4 GPa. The effective film
+moduli of the calibration describe the film with its capsule coating; the
+hardness of the PET carrier is an upper bound for the coating's.
+
+The problem (minimum complementary energy with ``mean(p) = p_nominal`` and the
+bounds) is solved by the conjugate-gradient method of Polonsky & Keer (1999,
+Wear 231:206) on the periodic grid with FFT convolutions, with the bound
+``p <= H`` handled like the bound ``p >= 0`` (cells at a bound leave the
+active set, and return when their gap says so). Load steps from a small
+nominal pressure upwards, each started from the previous solution, give the
+mean approach (closure) ``c(p)`` measured from the first touch. The law ends
+where the real contact covers ``saturation_fraction`` of the area (default
+0.9, or at ``0.9 H``): above, the interface is taken as hard (its closure
+stays constant), since an elastic-perfectly-plastic *surface* model would let
+a confined film sink without limit as the nominal pressure approaches ``H``.
+
+What the film records
+---------------------
+The same solves give the distribution of local pressures at each nominal
+pressure: :meth:`RoughContactLaw.fraction_above` is the fraction of the
+nominal area where the local pressure exceeds a level (the film's activation
+pressure): a rough surface colours spots of a film where the nominal pressure
+is below its activation pressure, and leaves spots uncoloured above it.
+
+Cross-checks
+------------
+:func:`bearing_area_closure_mm` (fully plastic limit: the Abbott-Firestone
+truncation, ``A/A0 = p/H``) and :func:`persson_contact_fraction` (Persson's
+elastic theory, ``erf(p / (E* h'_rms / sqrt 2))``) are analytic models the
+numerical law is tested against where each holds.
+"""
+from __future__ import annotations
+
+import hashlib
+import math
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import scipy.fft as sfft
+from scipy.special import erf
+
+from filmcal._validation import check_poisson, check_positive, check_range
+from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON
+from filmcal.wheelrail.interface import TabularLaw
+
+__all__ = [
+    "RoughSurface",
+    "RoughContactLaw",
+    "PET_HARDNESS_MPA",
+    "rough_contact_law",
+    "layer_compliance_factor",
+    "bearing_area_closure_mm",
+    "persson_contact_fraction",
+    "solve_periodic_contact",
+    "PeriodicContact",
+    "WHEEL_SURFACE_DEFAULTS",
+]
+
+#: Indentation hardness of the PET carrier (MPa): Tabor's 3 Y with Y ~ 100 MPa (BOPET).
+PET_HARDNESS_MPA = 300.0
+
+#: The synthetic surface used for a wheel or flat given only by its Ra, with sources.
+WHEEL_SURFACE_DEFAULTS: dict[str, object] = {
+    "hurst": 0.8,
+    "rolloff_wavelength_um": 50.0,
+    "size_um": 200.0,
+    "n": 256,
+    "rms_slope": None,
+    "cutoff_wavelength_um": None,
+    "sources": (
+        "Hurst exponent 0.8: typical of machined and worn steel (Persson et al. 2005, "
+        "J. Phys.: Condens. Matter 17:R1; Jacobs, Junge & Pastewka 2017, Surf. Topogr. 5:013001); "
+        "roll-off wavelength 50 um: about the mean profile-element spacing RSm of turned "
+        "and ground steel at Ra 1-2 um; short cut-off 4 pixels (0.8 um pixels), the "
+        "resolution of a stylus tip of 2 um radius; RMS height sqrt(pi/2) Ra (Gaussian heights)."),
+}
+
+
+# ---------------------------------------------------------------------------
+# surface
+# ---------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class RoughSurface:
+    """A periodic height map.
+
+    Parameters
+    ----------
+    heights_um : ndarray, shape (n, m)
+        Heights (um) on a square pixel grid, positive towards the film; the
+        mean is removed.
+    pixel_um : float
+        Pixel size (um), > 0.
+    description : str
+        Where the surface comes from (recorded with the law).
+    """
+
+    heights_um: np.ndarray = field(repr=False)
+    pixel_um: float
+    description: str = ""
+
+    def __post_init__(self) -> None:
+        h = np.asarray(self.heights_um, dtype=float)
+        if h.ndim != 2 or min(h.shape) < 8:
+            raise ValueError(f"heights_um must be a 2-D map of at least 8 x 8 pixels, got shape {h.shape}")
+        if not np.all(np.isfinite(h)):
+            raise ValueError("heights_um must be finite everywhere (found NaN or inf)")
+        check_positive("pixel_um", self.pixel_um)
+        h = h - h.mean()
+        if not np.any(h != 0.0):
+            raise ValueError("heights_um is flat: a rough surface needs height variations")
+        h.setflags(write=False)
+        object.__setattr__(self, "heights_um", h)
+        object.__setattr__(self, "pixel_um", float(self.pixel_um))
+
+    # -- constructors --------------------------------------------------------
+    @classmethod
+    def synthetic(cls, *, ra_um: float | None = None, rms_um: float | None = None,
+                  hurst: float = 0.8, rolloff_wavelength_um: float = 50.0,
+                  cutoff_wavelength_um: float | None = None, rms_slope: float | None = None,
+                  size_um: float = 200.0, n: int = 256,
+                  seed: int | np.random.Generator = 0) -> "RoughSurface":
+        """A Gaussian self-affine surface with random phases.
+
+        Parameters
+        ----------
+        ra_um, rms_um : float
+            Arithmetic mean roughness Ra (um) or RMS height (um); give one.
+            Ra is converted as ``rms = sqrt(pi/2) Ra``.
+        hurst : float
+            Hurst exponent H, 0 < H < 1 (PSD ``~ q**(-2(1+H))`` above the roll-off).
+        rolloff_wavelength_um : float
+            Roll-off wavelength (um): the PSD is flat at longer wavelengths.
+            Must not exceed ``size_um``.
+        cutoff_wavelength_um : float, optional
+            Shortest wavelength (um), at least 2 pixels; default 4 pixels.
+        rms_slope : float, optional
+            RMS slope of the surface; when given, the short cut-off is chosen
+            to give it (do not give ``cutoff_wavelength_um`` then).
+        size_um : float
+            Side of the periodic square (um).
+        n : int
+            Pixels per side (even, 16-2048).
+        seed : int or numpy.random.Generator
+            Random phases and amplitudes (same seed, same surface).
+        """
+        if (ra_um is None) == (rms_um is None):
+            raise ValueError("give exactly one of ra_um and rms_um")
+        if ra_um is not None:
+            rms = math.sqrt(0.5 * math.pi) * check_range("ra_um", ra_um, 0.0, 100.0)
+        else:
+            rms = check_range("rms_um", rms_um, 0.0, 125.0)
+        hurst = check_range("hurst", hurst, 0.0, 1.0)
+        size = check_positive("size_um", size_um)
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 16 <= n <= 2048 or n % 2:
+            raise ValueError(f"n must be an even integer in [16, 2048], got {n!r}")
+        pixel = size / n
+        lam_r = check_range("rolloff_wavelength_um", rolloff_wavelength_um, 0.0, size,
+                            high_open=False)
+        if rms_slope is not None and cutoff_wavelength_um is not None:
+            raise ValueError("give rms_slope or cutoff_wavelength_um, not both")
+        rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+        fx = sfft.fftfreq(n, d=pixel)
+        fy = sfft.rfftfreq(n, d=pixel)
+        q = 2.0 * math.pi * np.hypot(fx[:, None], fy[None, :])
+        q_r = 2.0 * math.pi / lam_r
+        shape = (np.maximum(q, q_r) / q_r) ** (-2.0 * (1.0 + hurst))
+        shape[0, 0] = 0.0
+        spectrum = (rng.standard_normal(q.shape) + 1j * rng.standard_normal(q.shape))
+
+        def make(q_s: float) -> np.ndarray:
+            amp = np.sqrt(np.where(q <= q_s, shape, 0.0))
+            h = sfft.irfft2(amp * spectrum, s=(n, n))
+            return h * (rms / h.std())
+
+        q_max = 2.0 * math.pi / (2.0 * pixel)
+        if rms_slope is not None:
+            target = check_range("rms_slope", rms_slope, 0.0, 10.0)
+            lo, hi = 1.01 * q_r, q_max
+            if _rms_slope(make(lo), pixel) > target or _rms_slope(make(hi), pixel) < target:
+                raise ValueError(
+                    f"rms_slope {target:g} cannot be reached with this RMS height, roll-off "
+                    f"({lam_r:g} um) and pixel size ({pixel:g} um): achievable "
+                    f"{_rms_slope(make(lo), pixel):.3g}-{_rms_slope(make(hi), pixel):.3g}")
+            for _ in range(40):
+                mid = math.sqrt(lo * hi)
+                lo, hi = (mid, hi) if _rms_slope(make(mid), pixel) < target else (lo, mid)
+            q_s = math.sqrt(lo * hi)
+        else:
+            lam_s = 4.0 * pixel if cutoff_wavelength_um is None else check_range(
+                "cutoff_wavelength_um", cutoff_wavelength_um, 2.0 * pixel, lam_r, low_open=False)
+            q_s = 2.0 * math.pi / lam_s
+        heights = make(q_s)
+        text = (f"synthetic self-affine: rms {rms:.3g} um, H {hurst:g}, roll-off {lam_r:g} um, "
+                f"cut-off {2 * math.pi / q_s:.3g} um, {size:g} um square, {n} px")
+        return cls(heights, pixel, text)
+
+    @classmethod
+    def from_csv(cls, path: str | Path, pixel_um: float, height_scale: float = 1.0) -> "RoughSurface":
+        """A measured height map from a CSV (or whitespace-separated) file of heights.
+
+        Parameters
+        ----------
+        path : path
+            One row per line of pixels; a non-numeric header line is skipped.
+        pixel_um : float
+            Pixel size (um).
+        height_scale : float
+            Multiplies the numbers to give um (1 for heights in um, 1000 for mm).
+        """
+        path = Path(path)
+        check_positive("pixel_um", pixel_um)
+        check_positive("height_scale", height_scale)
+        try:
+            text = path.read_text()
+        except FileNotFoundError:
+            raise ValueError(f"height map {path}: not found") from None
+        except (IsADirectoryError, UnicodeDecodeError) as exc:
+            raise ValueError(f"height map {path}: not a text file of heights ({exc})") from None
+        rows = []
+        for k, line in enumerate(text.splitlines()):
+            items = [s for s in line.replace(",", " ").replace(";", " ").split() if s]
+            if not items:
+                continue
+            try:
+                rows.append([float(s) for s in items])
+            except ValueError:
+                if rows or k > 0:
+                    raise ValueError(f"height map {path}: line {k + 1} is not numeric") from None
+        if not rows or len({len(r) for r in rows}) != 1:
+            raise ValueError(f"height map {path}: needs rows of equal length")
+        return cls(np.array(rows) * height_scale, pixel_um, f"height map {path.name}")
+
+    @classmethod
+    def from_image(cls, path: str | Path, pixel_um: float, height_range_um: float) -> "RoughSurface":
+        """A measured height map from a greyscale image (PNG, TIFF).
+
+        Parameters
+        ----------
+        path : path
+        pixel_um : float
+            Pixel size (um).
+        height_range_um : float
+            Height difference (um) between the darkest (0) and brightest
+            (full-scale) grey level; 8- and 16-bit images are read.
+        """
+        from PIL import Image, UnidentifiedImageError
+
+        path = Path(path)
+        check_positive("pixel_um", pixel_um)
+        check_positive("height_range_um", height_range_um)
+        try:
+            with Image.open(path) as img:
+                mode = img.mode
+                data = np.asarray(img.convert("I") if mode not in ("L", "I;16", "I", "F")
+                                  else img, dtype=float)
+        except FileNotFoundError:
+            raise ValueError(f"height image {path}: not found") from None
+        except (UnidentifiedImageError, OSError) as exc:
+            raise ValueError(f"height image {path}: not a readable image ({exc})") from None
+        full = 65535.0 if mode.startswith("I;16") or data.max() > 255 else 255.0
+        if data.ndim != 2:
+            raise ValueError(f"height image {path}: must be greyscale")
+        return cls(data / full * height_range_um, pixel_um, f"height image {path.name}")
+
+    # -- statistics ----------------------------------------------------------
+    @property
+    def rms_um(self) -> float:
+        """RMS height (um)."""
+        return float(np.sqrt(np.mean(self.heights_um ** 2)))
+
+    @property
+    def ra_um(self) -> float:
+        """Arithmetic mean roughness Ra (um), over the whole map."""
+        return float(np.mean(np.abs(self.heights_um)))
+
+    @property
+    def rms_slope(self) -> float:
+        """RMS slope (spectral derivative)."""
+        return _rms_slope(self.heights_um, self.pixel_um)
+
+    @property
+    def size_um(self) -> tuple[float, float]:
+        """Side lengths (um)."""
+        return (self.heights_um.shape[0] * self.pixel_um, self.heights_um.shape[1] * self.pixel_um)
+
+    def fingerprint(self) -> str:
+        """A hash of the heights and pixel size (the cache key)."""
+        digest = hashlib.sha256(np.ascontiguousarray(self.heights_um).tobytes())
+        digest.update(repr((self.heights_um.shape, self.pixel_um)).encode())
+        return digest.hexdigest()[:16]
+
+
+def _rms_slope(heights_um: np.ndarray, pixel_um: float) -> float:
+    n, m = heights_um.shape
+    qx = 2.0 * math.pi * sfft.fftfreq(n, d=pixel_um)
+    qy = 2.0 * math.pi * sfft.rfftfreq(m, d=pixel_um)
+    spec = sfft.rfft2(heights_um)
+    power = np.abs(spec) ** 2 * (qx[:, None] ** 2 + qy[None, :] ** 2)
+    weight = np.full(qy.shape, 2.0)
+    weight[0] = 1.0
+    if m % 2 == 0:
+        weight[-1] = 1.0
+    return float(np.sqrt((power * weight[None, :]).sum()) / (n * m))
+
+
+# ---------------------------------------------------------------------------
+# the periodic contact problem
+# ---------------------------------------------------------------------------
+def layer_compliance_factor(qt: np.ndarray, poisson: float) -> np.ndarray:
+    """``S(q t)``: surface compliance of a layer bonded to a rigid base, relative
+    to a half-space of the same material (see the module notes).
+
+    ``S -> 1`` for ``q t -> inf``; ``S ~ q t (1 - 2 nu) / (2 (1 - nu)**2)`` for
+    ``q t -> 0`` (oedometric compression).
+    """
+    nu = check_poisson("poisson", poisson)
+    k = np.asarray(qt, dtype=float)
+    a = 3.0 - 4.0 * nu
+    out = np.ones_like(k)
+    small = k < 20.0
+    ks = k[small]
+    sh = np.sinh(ks)
+    out[small] = (0.5 * a * np.sinh(2.0 * ks) - ks) / (a * sh * sh + ks * ks + 4.0 * (1.0 - nu) ** 2)
+    return out
+
+
+@dataclass
+class PeriodicContact:
+    """One solved load step of the periodic rough contact.
+
+    Attributes
+    ----------
+    nominal_pressure_mpa : float
+    closure_mm : float
+        Approach of the rough surface's mean plane beyond the first touch.
+    contact_fraction : float
+        Fraction of the area in contact (``p > 0``).
+    plastic_fraction : float
+        Fraction at the hardness.
+    pressure_mpa : ndarray
+        Local pressures (float32 map).
+    iterations : int
+    converged : bool
+    """
+
+    nominal_pressure_mpa: float
+    closure_mm: float
+    contact_fraction: float
+    plastic_fraction: float
+    pressure_mpa: np.ndarray = field(repr=False)
+    iterations: int
+    converged: bool
+
+
+class _PeriodicKernel:
+    def __init__(self, shape: tuple[int, int], pixel_um: float, film_modulus_mpa: float,
+                 film_poisson: float, film_thickness_um: float, steel_modulus_mpa: float,
+                 steel_poisson: float) -> None:
+        n, m = shape
+        qx = 2.0 * math.pi * sfft.fftfreq(n, d=pixel_um)
+        qy = 2.0 * math.pi * sfft.rfftfreq(m, d=pixel_um)
+        q = np.hypot(qx[:, None], qy[None, :])
+        q[0, 0] = 1.0
+        e_film = film_modulus_mpa / (1.0 - film_poisson ** 2)
+        e_steel = steel_modulus_mpa / (1.0 - steel_poisson ** 2)
+        s = layer_compliance_factor(q * film_thickness_um, film_poisson)
+        comp = 2.0 * s / (e_film * q) + 2.0 / (e_steel * q)  # um per MPa
+        comp[0, 0] = 0.0
+        self.spectrum = comp
+        self.shape = shape
+
+    def __call__(self, p: np.ndarray) -> np.ndarray:
+        return sfft.irfft2(sfft.rfft2(p) * self.spectrum, s=self.shape)
+
+
+def _balance(p: np.ndarray, total: float, hardness: float) -> None:
+    """Scale the cells below the cap (in place) until ``sum(p) = total``."""
+    for _ in range(100):
+        deficit = total - p.sum()
+        if abs(deficit) <= 1e-12 * total:
+            return
+        room = (p > 0.0) & (p < hardness)
+        if not room.any():
+            room = p < hardness
+        base = p[room].sum()
+        if base <= 0.0:
+            p[room] += deficit / room.sum()
+        else:
+            p[room] *= 1.0 + deficit / base
+        np.clip(p, 0.0, hardness, out=p)
+
+
+def _solve_step(kernel: _PeriodicKernel, heights_um: np.ndarray, mean_p: float, hardness: float,
+                p: np.ndarray, tol: float, max_iter: int) -> tuple[np.ndarray, float, int, bool]:
+    """Polonsky-Keer CG with ``mean(p) = mean_p`` and ``0 <= p <= hardness``.
+
+    Returns the pressure, the approach of the rough mean plane measured from
+    the highest summit (um), the iterations and convergence.
+    """
+    total = mean_p * p.size
+    p = p.copy()
+    t = np.zeros_like(p)
+    g_old, restart, converged = 1.0, True, False
+    it = 0
+    for it in range(1, max_iter + 1):
+        free = (p > 0.0) & (p < hardness)
+        if not free.any():
+            free = p > 0.0
+        g = kernel(p) - heights_um
+        g -= g[free].mean()
+        gg = float(np.sum(g[free] ** 2))
+        beta = 0.0 if restart else gg / g_old
+        t[free] = g[free] + beta * t[free]
+        t[~free] = 0.0
+        g_old = gg
+        r = kernel(t)
+        r -= r[free].mean()
+        curv = float(np.sum(r[free] * t[free]))
+        if curv <= 0.0:
+            converged = True
+            break
+        tau = float(np.sum(g[free] * t[free])) / curv
+        p_prev = p.copy()
+        p[free] -= tau * t[free]
+        np.clip(p, 0.0, hardness, out=p)
+        join = (p == 0.0) & (g < 0.0)
+        leave = (p == hardness) & (g > 0.0) & ~free
+        restart = bool(join.any() or leave.any())
+        p[join] = -tau * g[join]
+        p[leave] = hardness - tau * g[leave]
+        np.clip(p, 0.0, hardness, out=p)
+        _balance(p, total, hardness)
+        change = float(np.abs(p - p_prev).sum() / total)
+        if change < tol:
+            converged = True
+            break
+    free = (p > 0.0) & (p < hardness)
+    loaded = free if free.any() else p > 0.0
+    raw = kernel(p) - heights_um
+    # gap = raw + h_max - delta = 0 on the free cells
+    approach = float(heights_um.max() + raw[loaded].mean())
+    return p, approach, it, converged
+
+
+def solve_periodic_contact(surface: RoughSurface, nominal_pressures_mpa: np.ndarray, *,
+                           film_modulus_mpa: float, film_poisson: float,
+                           film_thickness_mm: float, hardness_mpa: float = PET_HARDNESS_MPA,
+                           steel_modulus_mpa: float = STEEL_MODULUS_MPA,
+                           steel_poisson: float = STEEL_POISSON, tol: float = 1e-6,
+                           max_iter: int = 500,
+                           stop_fraction: float = 1.0) -> list[PeriodicContact]:
+    """Solve the periodic rough contact at increasing nominal pressures.
+
+    Parameters
+    ----------
+    surface : RoughSurface
+    nominal_pressures_mpa : array_like
+        Increasing nominal pressures (MPa), each below ``hardness_mpa``.
+    film_modulus_mpa, film_poisson, film_thickness_mm : float
+        The film layer (on a rigid base); ``film_thickness_mm = inf`` gives
+        a half-space of film material.
+    hardness_mpa : float
+        Cap on the local pressure (``inf``: elastic).
+    steel_modulus_mpa, steel_poisson : float
+        The rough steel body (elastic half-space).
+    tol, max_iter : float, int
+        Relative pressure change per CG step; iterations per load step.
+    stop_fraction : float
+        Stop after the first step whose real contact fraction reaches this.
+
+    Returns
+    -------
+    list of PeriodicContact
+    """
+    e_f = check_positive("film_modulus_mpa", film_modulus_mpa)
+    nu_f = check_poisson("film_poisson", film_poisson)
+    t_um = 1e3 * float(film_thickness_mm)
+    if not t_um > 0.0:
+        raise ValueError(f"film_thickness_mm must be > 0, got {film_thickness_mm!r}")
+    hard = float(hardness_mpa)
+    if not hard > 0.0:
+        raise ValueError(f"hardness_mpa must be > 0, got {hardness_mpa!r}")
+    loads = np.asarray(nominal_pressures_mpa, dtype=float)
+    if loads.ndim != 1 or loads.size == 0 or np.any(~np.isfinite(loads)) or np.any(loads <= 0.0) \
+            or np.any(np.diff(loads) <= 0.0) or loads[-1] >= hard:
+        raise ValueError("nominal_pressures_mpa must be increasing, > 0 and below hardness_mpa")
+    h = surface.heights_um
+    kernel = _PeriodicKernel(h.shape, surface.pixel_um, e_f, nu_f, t_um,
+                             check_positive("steel_modulus_mpa", steel_modulus_mpa),
+                             check_poisson("steel_poisson", steel_poisson))
+    # start: the highest part of the surface carries the first load
+    p = np.where(h >= np.quantile(h, 0.99), 1.0, 0.0)
+    out = []
+    for load in loads:
+        p = np.minimum(p * (load / p.mean()), hard)
+        _balance(p, load * p.size, hard)
+        p, approach_um, its, ok = _solve_step(kernel, h, float(load), hard, p, tol, max_iter)
+        out.append(PeriodicContact(
+            nominal_pressure_mpa=float(load), closure_mm=1e-3 * approach_um,
+            contact_fraction=float(np.mean(p > 0.0)),
+            plastic_fraction=float(np.mean(p >= hard * (1.0 - 1e-12))),
+            pressure_mpa=p.astype(np.float32), iterations=its, converged=ok))
+        if out[-1].contact_fraction >= stop_fraction:
+            break
+    return out
+
+
+# ---------------------------------------------------------------------------
+# the law
+# ---------------------------------------------------------------------------
+class RoughContactLaw(TabularLaw):
+    """Pressure-closure law of a rough steel surface on the film, from the BEM.
+
+    A :class:`~filmcal.wheelrail.interface.TabularLaw` (closure as a monotone
+    function of the nominal pressure; hard above the last tabulated pressure)
+    that also keeps the local pressure distributions.
+
+    Attributes
+    ----------
+    surface : RoughSurface
+    film_modulus_mpa, film_poisson, film_thickness_mm, hardness_mpa : float
+    steps : list of PeriodicContact
+    """
+
+    #: the closure added per MPa above the table (practically hard)
+    _HARD_SLOPE_MM_PER_MPA = 1e-9
+
+    def __init__(self, surface: RoughSurface, steps: list[PeriodicContact], *,
+                 film_modulus_mpa: float, film_poisson: float, film_thickness_mm: float,
+                 hardness_mpa: float) -> None:
+        pressures = np.array([0.0] + [s.nominal_pressure_mpa for s in steps])
+        closures = np.array([0.0] + [s.closure_mm for s in steps])
+        closures = np.maximum.accumulate(closures)
+        # strictly increasing for the interpolant (numerically flat steps nudged)
+        closures = closures + 1e-12 * np.arange(closures.size)
+        top = pressures[-1]
+        pressures = np.append(pressures, top + 1e4)
+        closures = np.append(closures, closures[-1] + 1e4 * self._HARD_SLOPE_MM_PER_MPA)
+        super().__init__(closures, pressures)
+        self.surface = surface
+        self.steps = steps
+        self.film_modulus_mpa = film_modulus_mpa
+        self.film_poisson = film_poisson
+        self.film_thickness_mm = film_thickness_mm
+        self.hardness_mpa = hardness_mpa
+        self.saturation_pressure_mpa = float(top)
+        self._sorted = [np.sort(s.pressure_mpa.ravel()).astype(float) for s in steps]
+
+    def contact_fraction(self, nominal_pressure_mpa: np.ndarray) -> np.ndarray:
+        """Real contact fraction at nominal pressures (linear in between steps)."""
+        p = np.asarray(nominal_pressure_mpa, dtype=float)
+        xs = np.array([0.0] + [s.nominal_pressure_mpa for s in self.steps])
+        ys = np.array([0.0] + [s.contact_fraction for s in self.steps])
+        return np.interp(p, xs, ys)
+
+    def fraction_above(self, level_mpa: float, nominal_pressure_mpa: np.ndarray) -> np.ndarray:
+        """Fraction of the nominal area whose local pressure exceeds ``level_mpa``.
+
+        Interpolated linearly in the nominal pressure between the solved
+        steps (zero at zero pressure); above the last step the local
+        distribution of the last step is shifted by the extra nominal
+        pressure (full contact carries it uniformly).
+        """
+        level = check_positive("level_mpa", level_mpa)
+        p = np.asarray(nominal_pressure_mpa, dtype=float)
+        xs = np.array([0.0] + [s.nominal_pressure_mpa for s in self.steps])
+        fr = np.array([0.0] + [1.0 - np.searchsorted(a, level, side="right") / a.size
+                               for a in self._sorted])
+        out = np.interp(p, xs, fr)
+        top = xs[-1]
+        above = p > top
+        if np.any(above):
+            last = self._sorted[-1]
+            extra = p[above] - top
+            out[above] = 1.0 - np.searchsorted(last, level - extra, side="right") / last.size
+        return out
+
+    def table(self) -> list[dict[str, float]]:
+        """The solved steps as rows (pressure, closure, contact and plastic fractions)."""
+        return [{"nominal_pressure_mpa": s.nominal_pressure_mpa, "closure_um": 1e3 * s.closure_mm,
+                 "contact_fraction": s.contact_fraction, "plastic_fraction": s.plastic_fraction}
+                for s in self.steps]
+
+    def describe(self) -> dict[str, object]:
+        """The law's parameters and their sources (JSON-ready)."""
+        return {
+            "surface": self.surface.description,
+            "rms_um": self.surface.rms_um, "ra_um": self.surface.ra_um,
+            "rms_slope": self.surface.rms_slope, "pixel_um": self.surface.pixel_um,
+            "film_modulus_mpa": self.film_modulus_mpa, "film_poisson": self.film_poisson,
+            "film_thickness_mm": self.film_thickness_mm, "hardness_mpa": self.hardness_mpa,
+            "saturation_pressure_mpa": self.saturation_pressure_mpa,
+            "closure_at_saturation_um": 1e3 * self.steps[-1].closure_mm,
+            "hardness_source": "Tabor H = 3 Y, Y = 100 MPa (biaxially oriented PET)",
+        }
+
+    def __repr__(self) -> str:
+        return (f"RoughContactLaw(rms {self.surface.rms_um:.3g} um, slope "
+                f"{self.surface.rms_slope:.3g}, E_film {self.film_modulus_mpa:g} MPa, "
+                f"H {self.hardness_mpa:g} MPa, up to {self.saturation_pressure_mpa:.3g} MPa)")
+
+
+_CACHE: "OrderedDict[tuple, RoughContactLaw]" = OrderedDict()
+_CACHE_SIZE = 32
+
+
+def rough_contact_law(surface: RoughSurface, film_modulus_mpa: float, film_poisson: float,
+                      film_thickness_mm: float, *, hardness_mpa: float = PET_HARDNESS_MPA,
+                      saturation_fraction: float = 0.9, n_steps: int = 32,
+                      first_pressure_mpa: float = 0.05) -> RoughContactLaw:
+    """The pressure-closure law of ``surface`` on a film (cached per process).
+
+    Parameters
+    ----------
+    surface : RoughSurface
+    film_modulus_mpa, film_poisson, film_thickness_mm : float
+        The film (its calibrated modulus; thickness from the film registry).
+    hardness_mpa : float
+        Cap on asperity pressures (default :data:`PET_HARDNESS_MPA`).
+    saturation_fraction : float
+        The law ends where the real contact covers this fraction (0.5-0.99)
+        or at 0.9 ``hardness_mpa``; above, the interface is hard.
+    n_steps : int
+        Load steps (geometric) from ``first_pressure_mpa`` to ``0.9 H``.
+    first_pressure_mpa : float
+        First nominal pressure (MPa).
+
+    Returns
+    -------
+    RoughContactLaw
+    """
+    e_f = check_positive("film_modulus_mpa", film_modulus_mpa)
+    nu_f = check_poisson("film_poisson", film_poisson)
+    t = check_positive("film_thickness_mm", film_thickness_mm)
+    hard = check_positive("hardness_mpa", hardness_mpa)
+    sat = check_range("saturation_fraction", saturation_fraction, 0.5, 0.99, low_open=False,
+                      high_open=False)
+    steps_n = int(check_range("n_steps", n_steps, 4, 200, low_open=False, high_open=False))
+    p_first = check_range("first_pressure_mpa", first_pressure_mpa, 0.0, 0.1 * hard)
+    key = (surface.fingerprint(), e_f, nu_f, t, hard, sat, steps_n, p_first)
+    law = _CACHE.get(key)
+    if law is not None:
+        _CACHE.move_to_end(key)
+        return law
+    loads = np.geomspace(p_first, 0.9 * hard, steps_n)
+    kept = solve_periodic_contact(surface, loads, film_modulus_mpa=e_f, film_poisson=nu_f,
+                                  film_thickness_mm=t, hardness_mpa=hard, stop_fraction=sat)
+    law = RoughContactLaw(surface, kept, film_modulus_mpa=e_f, film_poisson=nu_f,
+                          film_thickness_mm=t, hardness_mpa=hard)
+    _CACHE[key] = law
+    while len(_CACHE) > _CACHE_SIZE:
+        _CACHE.popitem(last=False)
+    return law
+
+
+# ---------------------------------------------------------------------------
+# analytic cross-checks
+# ---------------------------------------------------------------------------
+def bearing_area_closure_mm(surface: RoughSurface, nominal_pressure_mpa: np.ndarray,
+                            hardness_mpa: float) -> np.ndarray:
+    """Closure of a fully plastic contact: the surface truncated where ``A/A0 = p/H``.
+
+    The rigid-plastic limit (Bowden & Tabor; Abbott-Firestone bearing
+    curve): every contact spot carries the hardness, so the real area is
+    ``p/H`` and the approach is the height from the highest summit to the
+    level above which that fraction of the surface lies.
+    """
+    hard = check_positive("hardness_mpa", hardness_mpa)
+    p = np.asarray(nominal_pressure_mpa, dtype=float)
+    h = np.sort(surface.heights_um.ravel())[::-1]
+    frac = np.clip(p / hard, 0.0, 1.0)
+    k = np.clip(np.ceil(frac * h.size).astype(int) - 1, 0, h.size - 1)
+    return 1e-3 * (h[0] - h[k])
+
+
+def persson_contact_fraction(nominal_pressure_mpa: np.ndarray, contact_modulus_mpa: float,
+                             rms_slope: float) -> np.ndarray:
+    """Persson's (2001) elastic real contact fraction ``erf(sqrt 2 p / (E* h'))``.
+
+    ``h'`` is the RMS slope of the surface; at small pressures this is
+    ``A/A0 = sqrt(8/pi) p / (E* h')``.
+    """
+    e = check_positive("contact_modulus_mpa", contact_modulus_mpa)
+    s = check_positive("rms_slope", rms_slope)
+    p = np.asarray(nominal_pressure_mpa, dtype=float)
+    return erf(math.sqrt(2.0) * p / (e * s))
