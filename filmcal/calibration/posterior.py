@@ -4,6 +4,10 @@ A `CalibrationResult` is saved as one JSON file (summaries, diagnostics,
 checks, settings and the kept posterior samples); the full chain, burn-in
 included, stays in the emcee HDF5 file named by ``backend_path`` (read it with
 `filmcal.calibration.read_chain`). Loading parses JSON only: no pickle, no code.
+
+For model comparison a posterior is also kept as ArviZ InferenceData with its
+pointwise log-likelihood (`posterior_inference_data`), stored as NetCDF
+(`save_posterior_netcdf`, `load_posterior_netcdf`).
 """
 from __future__ import annotations
 
@@ -20,7 +24,8 @@ from filmcal.calibration.diagnostics import Diagnostics
 from filmcal.calibration.likelihood import Priors
 from filmcal.calibration.sampling import SamplerSettings
 
-__all__ = ["CalibrationResult", "summarize", "save_result", "load_result"]
+__all__ = ["CalibrationResult", "summarize", "save_result", "load_result", "posterior_inference_data",
+           "save_posterior_netcdf", "load_posterior_netcdf", "LOG_LIKELIHOOD_ROW", "LOG_LIKELIHOOD_CASE"]
 
 FORMAT = "filmcal-calibration-result"
 FORMAT_VERSION = 1
@@ -144,6 +149,13 @@ class CalibrationResult:
         """Worst (smallest) bulk ESS over the parameters."""
         return self.diagnostics.worst_ess
 
+    @property
+    def case_sigma_mm(self) -> dict | None:
+        """Summary of the case-level scatter tau (mm); None when the calibration had none."""
+        if "case_sigma_mm" not in self.samples:
+            return None
+        return summarize(self.samples["case_sigma_mm"])
+
     # ----------------------------------------------------------------- I/O
     def to_dict(self, include_samples: bool = False) -> dict:
         """JSON-ready dict (non-finite numbers as None).
@@ -172,6 +184,8 @@ class CalibrationResult:
             "priors": self.priors.to_dict(), "settings": self.settings.to_dict(),
             "backend_path": self.backend_path, "notes": list(self.notes),
         }
+        if self.case_sigma_mm is not None:
+            d["case_sigma_mm"] = self.case_sigma_mm
         if include_samples:
             d["samples"] = {k: np.asarray(v).tolist() for k, v in self.samples.items()}
         return json_safe(d)
@@ -222,3 +236,119 @@ def load_result(path: str | Path) -> CalibrationResult:
     if payload.get("version") != FORMAT_VERSION:
         raise ValueError(f"unsupported calibration result version {payload.get('version')!r} in {str(path)!r}")
     return CalibrationResult.from_dict(payload)
+
+
+# ------------------------------------------------------------------ InferenceData (NetCDF)
+#: Log-likelihood variables kept with a posterior: one term per data row, and the joint per case.
+LOG_LIKELIHOOD_ROW = "radius"
+LOG_LIKELIHOOD_CASE = "case"
+
+
+def posterior_inference_data(problem, samples: dict | np.ndarray, model_name: str = "model",
+                             max_draws: int | None = None, attrs: dict | None = None):
+    """A posterior with its pointwise log-likelihood as ArviZ InferenceData.
+
+    Groups: ``posterior`` (every reported parameter, with ``poisson`` also when
+    fixed, so that a corrector finds it), ``log_likelihood`` (``radius``: one
+    term per data row, ``case``: the joint of each case; see
+    `filmcal.calibration.likelihood`), ``observed_data`` (the radius compared
+    with the model) and ``constant_data`` (R, F, case of each row, stated
+    measurement uncertainty).
+
+    Parameters
+    ----------
+    problem : CalibrationProblem
+        The problem the samples belong to.
+    samples : dict of str -> ndarray of shape (chains, draws), or ndarray of shape (chains, draws, ndim)
+        Reported samples (``CalibrationResult.samples``; emcee's walkers count
+        as chains) or sampled coordinates.
+    model_name : str
+        Label of the radius model (kept in the attributes).
+    max_draws : int, optional
+        Keep at most this many draws per chain (evenly spaced).
+    attrs : dict, optional
+        Extra attributes (JSON-serialisable values; stored as text).
+
+    Returns
+    -------
+    arviz.InferenceData
+    """
+    import arviz as az
+
+    if isinstance(samples, dict):
+        theta = problem.theta_from_named(samples)
+    else:
+        theta = np.asarray(samples, dtype=float)
+    if theta.ndim == 2:
+        theta = theta[None]
+    if theta.ndim != 3 or theta.shape[-1] != problem.ndim:
+        raise ValueError(f"samples must have shape (chains, draws, {problem.ndim}), got {theta.shape}")
+    if max_draws is not None and theta.shape[1] > max_draws:
+        if max_draws < 1:
+            raise ValueError(f"max_draws must be >= 1, got {max_draws}")
+        theta = theta[:, np.linspace(0, theta.shape[1] - 1, max_draws).round().astype(int)]
+    n_chain, n_draw, _ = theta.shape
+    flat = theta.reshape(-1, problem.ndim)
+    named = problem.named_samples(theta)
+    named.setdefault("poisson", np.full((n_chain, n_draw), float(problem.priors.poisson)))
+    pointwise = problem.pointwise_log_likelihood(flat).reshape(n_chain, n_draw, -1)
+    per_case = np.zeros((n_chain, n_draw, problem.n_cases))
+    np.add.at(np.moveaxis(per_case, -1, 0), problem.case_index, np.moveaxis(pointwise, -1, 0))
+    data = problem.data
+    info = {"model": model_name, "film": ",".join(sorted(set(data.film.tolist()))),
+            "poisson_mode": problem.poisson_mode, "discrepancy": problem.discrepancy,
+            "case_scatter": int(problem.case_scatter), "parameter_names": json.dumps(problem.parameter_names),
+            "problem": json.dumps(json_safe(problem.describe())), "format": "filmcal-posterior", "version": 1}
+    for key, value in (attrs or {}).items():
+        info[key] = value if isinstance(value, (str, int, float)) else json.dumps(json_safe(value))
+    return az.from_dict(
+        posterior={k: np.asarray(v, dtype=float) for k, v in named.items()},
+        log_likelihood={LOG_LIKELIHOOD_ROW: pointwise, LOG_LIKELIHOOD_CASE: per_case},
+        observed_data={LOG_LIKELIHOOD_ROW: problem.target_radius_mm},
+        constant_data={"sphere_radius_mm": data.sphere_radius_mm, "force_n": data.force_n,
+                       "case_index": problem.case_index.astype(np.int64),
+                       "measurement_std_mm": data.measurement_std_mm},
+        dims={LOG_LIKELIHOOD_ROW: ["row"], LOG_LIKELIHOOD_CASE: ["case"], "sphere_radius_mm": ["row"],
+              "force_n": ["row"], "case_index": ["row"], "measurement_std_mm": ["row"]},
+        attrs=info)
+
+
+def save_posterior_netcdf(idata, path: str | Path) -> Path:
+    """Write an InferenceData to NetCDF (HDF5 via h5netcdf), whole or not at all.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp.nc")
+    try:
+        idata.to_netcdf(str(tmp), engine="h5netcdf")
+        tmp.replace(path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
+
+
+def load_posterior_netcdf(path: str | Path):
+    """Read a posterior written by `save_posterior_netcdf` (data only, nothing executed).
+
+    Raises
+    ------
+    ValueError
+        When the file is missing or is not a filmcal posterior.
+    """
+    import arviz as az
+
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"no posterior file at {str(path)!r}")
+    try:
+        idata = az.from_netcdf(str(path), engine="h5netcdf")
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{str(path)!r} is not a readable NetCDF posterior ({exc})") from None
+    if "posterior" not in idata.groups() or idata.posterior.attrs.get("format") != "filmcal-posterior":
+        raise ValueError(f"{str(path)!r} is not a filmcal posterior")
+    return idata

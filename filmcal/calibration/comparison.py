@@ -1,0 +1,422 @@
+"""Model comparison and model-form uncertainty: which radius model the data prefer, and their mixture.
+
+A *model* here is any radius model calibrated on the same data: the same
+film under another imprint reading (``edge``, ``activation``, ``capsule``),
+other film kinematics (small or large strain), or any other callable. Each
+calibrated model is a posterior with its pointwise log-likelihood
+(`filmcal.calibration.posterior.posterior_inference_data`).
+
+Per model, `assess_model` reports
+
+- ``rms_residual_mm``: RMS of measured radius minus posterior predictive mean;
+- ``ppc_inside_90``: rows inside their central 90 % posterior predictive
+  interval (`filmcal.calibration.checks.predictive_check`), of ``n_data``;
+- ``elpd_loo`` with its standard error, ``p_loo`` and the Pareto k of each
+  left-out unit: Pareto-smoothed importance-sampling leave-one-out (ArviZ
+  `loo`; Vehtari, Gelman & Gabry, Stat. Comput. 27, 2017). The unit left out
+  is the case (the joint of its repeats); with one imprint per case, as in
+  Table 1, that is the row.
+
+Across models, `compare_models` gives ArviZ's ``compare`` table and the
+stacking weights (Yao, Vehtari, Simpson & Gelman, Bayesian Analysis 13,
+2018): the weights of the mixture of predictive distributions that
+maximises the leave-one-out log score.
+
+Stacking alone does not keep a band as wide as the models the data cannot
+tell apart: for two models with the same predictive densities its objective
+is flat and the optimiser returns a corner (weight 1 and 0, measured on two
+such toy models), so the combination would inherit one model's band only.
+The combination weights (``ModelComparison.weights``) therefore pool the
+stacking weight of models whose leave-one-out difference is small, ``|elpd
+difference| < max(4, 2 se of the difference)`` (the scale below which
+differences are not reliable, Sivula, Magnusson, Matamoros & Vehtari,
+"Uncertainty in Bayesian leave-one-out cross-validation based model
+comparison", 2022), and share it evenly within such a group; the raw
+stacking weights and pseudo-BMA+ weights are reported beside them.
+
+`combine_posteriors` then draws the mixture: each sample carries the label
+of its model, so that a corrector evaluates every sample with its own radius
+model and pools the answers; the pooled band then spans what separates the
+models that share the weight.
+"""
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field
+from typing import Mapping
+
+import numpy as np
+
+from filmcal.calibration.checks import predictive_check
+from filmcal.calibration.likelihood import CalibrationProblem
+from filmcal.calibration.posterior import LOG_LIKELIHOOD_CASE, posterior_inference_data
+
+__all__ = ["ModelAssessment", "ModelComparison", "MixturePosterior", "assess_model", "compare_models",
+           "combine_posteriors"]
+
+#: Pareto k above which an importance-sampling leave-one-out estimate is unreliable.
+PARETO_K_THRESHOLD = 0.7
+
+
+def _quiet_arviz():
+    """ArviZ, imported without its refactoring notice."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)
+        import arviz as az
+    return az
+
+
+@dataclass(frozen=True)
+class ModelAssessment:
+    """Fit and out-of-sample predictive performance of one calibrated model.
+
+    Attributes
+    ----------
+    name : str
+    n_data : int
+        Data rows.
+    n_cases : int
+        Units left out by the leave-one-out (cases).
+    rms_residual_mm : float
+        RMS of (measured radius - posterior predictive mean) over the rows.
+    ppc_inside_90 : int
+        Rows inside their central 90 % posterior predictive interval.
+    elpd_loo, elpd_loo_se, p_loo : float
+        PSIS-LOO expected log pointwise predictive density, its standard
+        error and the effective number of parameters.
+    pareto_k : ndarray of shape (n_cases,)
+        Pareto shape of each left-out case's importance weights.
+    modulus_mpa : dict
+        Median and 90 % interval of E under this model.
+    """
+
+    name: str
+    n_data: int
+    n_cases: int
+    rms_residual_mm: float
+    ppc_inside_90: int
+    elpd_loo: float
+    elpd_loo_se: float
+    p_loo: float
+    pareto_k: np.ndarray
+    modulus_mpa: dict
+
+    @property
+    def pareto_k_max(self) -> float:
+        """Largest Pareto k."""
+        return float(np.max(self.pareto_k))
+
+    @property
+    def n_pareto_k_high(self) -> int:
+        """Cases whose leave-one-out estimate is unreliable (k > 0.7)."""
+        return int(np.sum(self.pareto_k > PARETO_K_THRESHOLD))
+
+    def to_dict(self) -> dict:
+        """Plain JSON values."""
+        return {"name": self.name, "n_data": self.n_data, "n_cases": self.n_cases,
+                "rms_residual_mm": self.rms_residual_mm, "ppc_inside_90": self.ppc_inside_90,
+                "elpd_loo": self.elpd_loo, "elpd_loo_se": self.elpd_loo_se, "p_loo": self.p_loo,
+                "pareto_k": self.pareto_k.tolist(), "pareto_k_max": self.pareto_k_max,
+                "n_pareto_k_high": self.n_pareto_k_high, "modulus_mpa": self.modulus_mpa}
+
+
+def _posterior_draws(idata) -> tuple[int, int]:
+    post = idata.posterior
+    return int(post.sizes["chain"]), int(post.sizes["draw"])
+
+
+def assess_model(problem: CalibrationProblem, idata, name: str | None = None,
+                 max_samples: int = 2000) -> ModelAssessment:
+    """Fit and PSIS-LOO of one calibrated model.
+
+    Parameters
+    ----------
+    problem : CalibrationProblem
+        The model's calibration problem (data, radius model, options).
+    idata : arviz.InferenceData
+        Its posterior (`posterior_inference_data`).
+    name : str, optional
+        Label; default the ``model`` attribute of `idata`.
+    max_samples : int, default 2000
+        Posterior samples pushed through the model for the predictive check.
+    """
+    az = _quiet_arviz()
+    label = name if name is not None else str(idata.posterior.attrs.get("model", "model"))
+    named = {k: idata.posterior[k].values for k in idata.posterior.data_vars}
+    theta = problem.theta_from_named(named).reshape(-1, problem.ndim)
+    check = predictive_check(problem, theta, level=0.9, max_samples=max_samples)
+    rms = float(np.sqrt(np.mean((check.measured_radius_mm - check.mean_mm) ** 2)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # high-k warnings are reported through pareto_k
+        loo = az.loo(idata, pointwise=True, var_name=LOG_LIKELIHOOD_CASE)
+    modulus = np.asarray(named["modulus_mpa"]).ravel()
+    lo, med, hi = np.quantile(modulus, [0.05, 0.5, 0.95])
+    return ModelAssessment(
+        name=label, n_data=len(problem.data), n_cases=problem.n_cases, rms_residual_mm=rms,
+        ppc_inside_90=int(np.sum(~check.outside)), elpd_loo=float(loo.elpd_loo), elpd_loo_se=float(loo.se),
+        p_loo=float(loo.p_loo), pareto_k=np.asarray(loo.pareto_k.values, dtype=float),
+        modulus_mpa={"median": float(med), "ci90": [float(lo), float(hi)]})
+
+
+@dataclass(frozen=True)
+class ModelComparison:
+    """Models of the same data, side by side.
+
+    Attributes
+    ----------
+    assessments : dict of str -> ModelAssessment
+    weights : dict of str -> float
+        Combination weights (sum 1): the stacking weights, pooled and shared
+        evenly within each group of indistinguishable models.
+    stacking_weights : dict of str -> float
+        ArviZ's stacking weights.
+    pseudo_bma_weights : dict of str -> float
+        Pseudo-BMA+ weights (Bayesian bootstrap), for comparison.
+    groups : list of list of str
+        Models the data cannot tell apart (each group shares its weight).
+    table : list of dict
+        ArviZ's ``compare`` rows, best first: ``name``, ``rank``,
+        ``elpd_loo``, ``p_loo``, ``elpd_diff``, ``weight``, ``se``, ``dse``.
+    preferred : str
+        The model of largest weight.
+    """
+
+    assessments: dict
+    weights: dict
+    stacking_weights: dict
+    pseudo_bma_weights: dict
+    groups: list
+    table: list
+    preferred: str
+
+    def to_dict(self) -> dict:
+        """Plain JSON values."""
+        return {"models": {k: a.to_dict() for k, a in self.assessments.items()}, "weights": dict(self.weights),
+                "stacking_weights": dict(self.stacking_weights), "pseudo_bma_weights": dict(self.pseudo_bma_weights),
+                "groups": [list(g) for g in self.groups], "table": list(self.table), "preferred": self.preferred}
+
+
+def _indistinguishable_groups(names: list[str], pointwise: dict[str, np.ndarray], elpd: dict[str, float],
+                              min_elpd: float) -> list[list[str]]:
+    """Connected groups of models whose pairwise |elpd difference| < max(min_elpd, 2 se)."""
+    parent = {n: n for n in names}
+
+    def root(n: str) -> str:
+        while parent[n] != n:
+            n = parent[n]
+        return n
+
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            diff = pointwise[a] - pointwise[b]
+            se = math.sqrt(diff.size * float(np.var(diff)))
+            if abs(elpd[a] - elpd[b]) < max(min_elpd, 2.0 * se):
+                parent[root(b)] = root(a)
+    groups: dict[str, list[str]] = {}
+    for n in names:
+        groups.setdefault(root(n), []).append(n)
+    return list(groups.values())
+
+
+def compare_models(models: Mapping[str, tuple[CalibrationProblem, object]], max_samples: int = 2000,
+                   indistinguishable_elpd: float = 4.0, random_state: int = 0) -> ModelComparison:
+    """Assess every model and weigh them by stacking of their leave-one-case-out predictive densities.
+
+    Parameters
+    ----------
+    models : mapping of name -> (CalibrationProblem, InferenceData)
+        At least two models calibrated on the same measured radii.
+    max_samples : int
+        As in `assess_model`.
+    indistinguishable_elpd : float, default 4
+        Models closer than this in ELPD-LOO (or than twice the standard error
+        of their difference) share their weight (module docstring); 0 keeps
+        the stacking weights as they are.
+    random_state : int
+        Seed of the Bayesian bootstrap of the pseudo-BMA+ weights.
+
+    Raises
+    ------
+    ValueError
+        With fewer than two models, or models of different data.
+    """
+    az = _quiet_arviz()
+    if len(models) < 2:
+        raise ValueError(f"models must hold at least 2 calibrated models, got {len(models)}")
+    names = list(models)
+    ref_problem = models[names[0]][0]
+    for name in names[1:]:
+        problem = models[name][0]
+        same = (len(problem.data) == len(ref_problem.data)
+                and np.array_equal(problem.target_radius_mm, ref_problem.target_radius_mm)
+                and np.array_equal(problem.case_index, ref_problem.case_index))
+        if not same:
+            raise ValueError(f"model {name!r} was calibrated on other data than {names[0]!r}; "
+                             "models are compared on the same measured radii only")
+    assessments = {name: assess_model(problem, idata, name, max_samples) for name, (problem, idata) in
+                   models.items()}
+    if not (math.isfinite(indistinguishable_elpd) and indistinguishable_elpd >= 0):
+        raise ValueError(f"indistinguishable_elpd must be finite and >= 0, got {indistinguishable_elpd!r}")
+    idatas = {name: idata for name, (_, idata) in models.items()}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        frame = az.compare(idatas, ic="loo", method="stacking", var_name=LOG_LIKELIHOOD_CASE)
+        bma = az.compare(idatas, ic="loo", method="BB-pseudo-BMA", var_name=LOG_LIKELIHOOD_CASE,
+                         seed=random_state)
+        pointwise = {name: np.asarray(az.loo(idata, pointwise=True, var_name=LOG_LIKELIHOOD_CASE).loo_i.values)
+                     for name, idata in idatas.items()}
+
+    def normalised(column) -> dict[str, float]:
+        w = {name: max(float(column.loc[name]), 0.0) for name in names}
+        total = sum(w.values())
+        return {k: v / total for k, v in w.items()}
+
+    stacking = normalised(frame["weight"])
+    pseudo_bma = normalised(bma["weight"])
+    elpd = {name: float(frame.loc[name, "elpd_loo"]) for name in names}
+    groups = (_indistinguishable_groups(names, pointwise, elpd, indistinguishable_elpd)
+              if indistinguishable_elpd > 0 else [[n] for n in names])
+    weights = {}
+    for group in groups:
+        share = sum(stacking[n] for n in group) / len(group)
+        weights.update({n: share for n in group})
+    weights = {n: weights[n] for n in names}
+    table = []
+    for name, row in frame.iterrows():
+        table.append({"name": str(name), "rank": int(row["rank"]), "elpd_loo": float(row["elpd_loo"]),
+                      "p_loo": float(row["p_loo"]), "elpd_diff": float(row["elpd_diff"]),
+                      "weight": weights[str(name)], "se": float(row["se"]), "dse": float(row["dse"])})
+    preferred = max(weights, key=weights.get)
+    return ModelComparison(assessments=assessments, weights=weights, stacking_weights=stacking,
+                           pseudo_bma_weights=pseudo_bma, groups=groups, table=table, preferred=preferred)
+
+
+@dataclass(frozen=True)
+class MixturePosterior:
+    """Samples of a mixture of model posteriors, each labelled with its model.
+
+    Attributes
+    ----------
+    model : ndarray of str, shape (n,)
+        The model each sample belongs to.
+    samples : dict of str -> ndarray of shape (n,)
+        The parameters every model has (``modulus_mpa``, ``poisson``,
+        ``sigma_mm``, ...).
+    weights : dict of str -> float
+        The mixture weights.
+    counts : dict of str -> int
+        Samples drawn from each model.
+    """
+
+    model: np.ndarray
+    samples: dict
+    weights: dict
+    counts: dict = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return int(self.model.size)
+
+    def by_model(self) -> dict[str, dict[str, np.ndarray]]:
+        """The samples of each model that has any, as posterior dicts a corrector takes."""
+        out = {}
+        for name in self.weights:
+            mask = self.model == name
+            if np.any(mask):
+                out[name] = {k: v[mask] for k, v in self.samples.items()}
+        return out
+
+    def to_dict(self) -> dict:
+        """Plain JSON values (samples included)."""
+        return {"model": self.model.tolist(), "samples": {k: v.tolist() for k, v in self.samples.items()},
+                "weights": dict(self.weights), "counts": dict(self.counts)}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> MixturePosterior:
+        """Inverse of `to_dict`."""
+        return cls(model=np.asarray(d["model"], dtype=str),
+                   samples={k: np.asarray(v, dtype=float) for k, v in d["samples"].items()},
+                   weights={k: float(v) for k, v in d["weights"].items()},
+                   counts={k: int(v) for k, v in d.get("counts", {}).items()})
+
+
+def _flat_samples(posterior) -> dict[str, np.ndarray]:
+    """Samples of one model as flat arrays: from InferenceData or a dict of arrays."""
+    if hasattr(posterior, "posterior"):
+        post = posterior.posterior
+        return {k: np.asarray(post[k].values, dtype=float).ravel() for k in post.data_vars}
+    if isinstance(posterior, Mapping):
+        return {k: np.asarray(v, dtype=float).ravel() for k, v in posterior.items()}
+    raise ValueError("each posterior must be an InferenceData or a dict of sample arrays")
+
+
+def _allocate(weights: np.ndarray, n: int) -> np.ndarray:
+    """Integer counts summing to n, proportional to the weights (largest remainders)."""
+    exact = weights * n
+    counts = np.floor(exact).astype(int)
+    short = n - int(counts.sum())
+    if short > 0:
+        counts[np.argsort(-(exact - counts), kind="stable")[:short]] += 1
+    return counts
+
+
+def combine_posteriors(results: Mapping[str, object], weights: Mapping[str, float],
+                       random_state: int | np.random.Generator | None = 0,
+                       n_samples: int | None = None) -> MixturePosterior:
+    """Draw the weighted mixture of several model posteriors.
+
+    Parameters
+    ----------
+    results : mapping of name -> InferenceData or dict of arrays
+        Each model's posterior samples (`posterior_inference_data`, or
+        ``CalibrationResult.samples``). A model without ``poisson`` samples
+        must have it fixed: give it in the dict.
+    weights : mapping of name -> float
+        Mixture weights (e.g. ``compare_models(...).weights``); >= 0, not all
+        0; normalised here. Models with weight 0 contribute no sample.
+    random_state : int or numpy.random.Generator, optional
+        Seed of the draws: the same seed gives the same mixture.
+    n_samples : int, optional
+        Size of the mixture; default the number of samples of the smallest
+        posterior with a positive weight.
+
+    Returns
+    -------
+    MixturePosterior
+        ``round(w_m n)`` samples from model m (largest remainders), drawn
+        without replacement where the posterior has enough, each labelled.
+    """
+    if set(results) != set(weights):
+        raise ValueError(f"weights must name the same models as results: {sorted(results)} vs {sorted(weights)}")
+    names = list(results)
+    w = np.array([float(weights[n]) for n in names])
+    if not np.all(np.isfinite(w)) or np.any(w < 0) or w.sum() <= 0:
+        raise ValueError(f"weights must be finite, >= 0 and not all 0, got {dict(weights)}")
+    w = w / w.sum()
+    flat = {name: _flat_samples(results[name]) for name in names}
+    for name, s in flat.items():
+        if "modulus_mpa" not in s:
+            raise ValueError(f"posterior of model {name!r} has no modulus_mpa samples")
+    common = set.intersection(*(set(s) for s in flat.values()))
+    sizes = {name: flat[name]["modulus_mpa"].size for name in names}
+    if n_samples is None:
+        n_samples = min(sizes[name] for name, wi in zip(names, w) if wi > 0)
+    if isinstance(n_samples, bool) or not isinstance(n_samples, (int, np.integer)) or n_samples < 1:
+        raise ValueError(f"n_samples must be an integer >= 1, got {n_samples!r}")
+    rng = np.random.default_rng(random_state)
+    counts = _allocate(w, int(n_samples))
+    labels, columns = [], {k: [] for k in sorted(common)}
+    for name, count in zip(names, counts):
+        if count == 0:
+            continue
+        size = sizes[name]
+        take = rng.choice(size, size=count, replace=count > size)
+        labels.append(np.full(count, name))
+        for k in columns:
+            columns[k].append(flat[name][k][take])
+    order = rng.permutation(int(counts.sum()))
+    model = np.concatenate(labels)[order]
+    samples = {k: np.concatenate(v)[order] for k, v in columns.items()}
+    return MixturePosterior(model=model, samples=samples, weights=dict(zip(names, map(float, w))),
+                            counts={n: int(c) for n, c in zip(names, counts)})
+
