@@ -6,14 +6,19 @@ str). A run fails, with its reason recorded, when the model raises, runs past
 the deadline, returns a non-finite number, or reports ``converged=False``
 (then its ``reason`` output is the reason). Running a campaign again resumes
 it: finished points are not recomputed, failed ones only on request.
+
+A run holds the store's lock (`StoreLock`) from start to end, so a second
+campaign on the same store is refused at once; points are evaluated with the
+package's one executor abstraction (`filmcal._parallel`), each outcome stored
+as soon as it arrives.
 """
 from __future__ import annotations
 
+import functools
 import math
 import sys
 import time
 from collections.abc import Callable, Iterable, Mapping
-from concurrent.futures import FIRST_COMPLETED, Future, wait
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -21,14 +26,17 @@ from typing import Any, Literal
 import numpy as np
 from tqdm import tqdm
 
+from filmcal._parallel import Executor, TaskOutcome, TaskTimeoutError, open_executor
+from filmcal._validation import check_positive
+from filmcal.campaign.command import ModelFailure
 from filmcal.campaign.design import DesignValue, as_design_points, canonical_json, point_id, settings_hash
-from filmcal.campaign.executors import PointExecutor, TaskTimeoutError, check_timeout
-from filmcal.campaign.pool import LocalPoolExecutor
+from filmcal.campaign.lock import StoreLock
 from filmcal.campaign.store import STATUSES, RunCounts, RunRecord, RunStatus, RunStore
 
 __all__ = ["PointOutcome", "evaluate_safely", "outcome_from_outputs", "CampaignSummary", "CampaignResults", "Campaign"]
 
 Model = Callable[[dict[str, DesignValue]], Mapping[str, Any]]
+_BACKSTOP_S = 10.0  # extra executor deadline for models that enforce their own
 
 
 @dataclass(frozen=True)
@@ -105,19 +113,23 @@ def outcome_from_outputs(raw: Any, elapsed_s: float | None) -> PointOutcome:
     return PointOutcome("ok", outputs, None, elapsed_s)
 
 
-def evaluate_safely(model: Model, params: Mapping[str, DesignValue]) -> PointOutcome:
+def evaluate_safely(model: Model, params: Mapping[str, DesignValue], point_id: str | None = None) -> PointOutcome:
     """Evaluate ``model(params)`` and classify the result; an exception becomes a failed run.
 
-    This is the function the executors run for every design point. A
-    `TaskTimeoutError` raised into the model by a deadline passes through, so
-    that the executor reports the timeout.
+    A `TaskTimeoutError` raised into the model by a deadline passes through, so
+    that the executor reports the timeout. A `ModelFailure` becomes a failed
+    run whose reason is its message as is.
 
     Parameters
     ----------
     model : callable
-        ``model(params) -> dict`` of scalar outputs.
+        ``model(params) -> dict`` of scalar outputs; a model whose class sets
+        ``takes_point_id = True`` (e.g. `CommandModel`) is called as
+        ``model(params, point_id=...)``.
     params : mapping
         The design point (a copy is passed to the model).
+    point_id : str, optional
+        The point's id in the store.
 
     Returns
     -------
@@ -125,22 +137,33 @@ def evaluate_safely(model: Model, params: Mapping[str, DesignValue]) -> PointOut
     """
     start = time.perf_counter()
     try:
-        raw = model(dict(params))
+        if getattr(model, "takes_point_id", False):
+            raw = model(dict(params), point_id=point_id)
+        else:
+            raw = model(dict(params))
     except TaskTimeoutError:
         raise
+    except ModelFailure as exc:
+        return PointOutcome("failed", {}, str(exc), time.perf_counter() - start)
     except Exception as exc:
         return PointOutcome("failed", {}, f"{type(exc).__name__}: {exc}", time.perf_counter() - start)
     return outcome_from_outputs(raw, time.perf_counter() - start)
 
 
-def _outcome_of(future: Future, timeout_s: float | None) -> PointOutcome:
-    """The outcome of a finished future, turning executor errors into failed runs."""
-    try:
-        return future.result()
-    except TaskTimeoutError as exc:
-        return PointOutcome("failed", {}, str(exc), timeout_s)
-    except Exception as exc:
-        return PointOutcome("failed", {}, f"{type(exc).__name__}: {exc}", None)
+def evaluate_point_task(model: Model, item: tuple[str, Mapping[str, DesignValue]]) -> PointOutcome:
+    """The task the executor runs for one point: ``item = (point_id, params)``."""
+    pid, params = item
+    return evaluate_safely(model, params, pid)
+
+
+def _point_outcome(outcome: TaskOutcome, timeout_s: float | None) -> PointOutcome:
+    """A finished task as a run outcome, turning executor errors into failed runs."""
+    if outcome.ok:
+        return outcome.value
+    error = outcome.error
+    if isinstance(error, TaskTimeoutError):
+        return PointOutcome("failed", {}, str(error), error.timeout_s)
+    return PointOutcome("failed", {}, f"{type(error).__name__}: {error}", None)
 
 
 @dataclass(frozen=True)
@@ -250,8 +273,9 @@ class Campaign:
     Parameters
     ----------
     model : callable
-        ``model(params: dict) -> dict`` of scalar outputs. With a process
-        pool or Dask it must be picklable (a module-level function).
+        ``model(params: dict) -> dict`` of scalar outputs, or a `CommandModel`
+        (an external command). With a process pool or Dask it must be
+        picklable (a module-level function or class instance).
     store_path : path-like
         SQLite file of the runs; created by the first `run`.
     settings : mapping, optional
@@ -259,17 +283,21 @@ class Campaign:
         change the outputs (mesh options, solver tolerances...). Together with
         `model_name` they form the settings hash: points run with other
         settings are other runs.
-    executor : PointExecutor, optional
-        Where to evaluate points. By default each `run` starts a
-        `LocalPoolExecutor` with ``os.cpu_count()`` workers and shuts it down
-        at the end; an executor passed here is used as is and left running.
+    executor : filmcal._parallel.Executor, optional
+        Where to evaluate points; used as is and left running. By default
+        each `run` opens one from `workers` or `dask` (`open_executor`), never
+        with more processes than points to run, and closes it at the end.
+    workers : int, optional
+        Local worker processes when no executor is given (default: CPUs).
+    dask : str, optional
+        Dask scheduler address when no executor is given.
     group_by : sequence of str
         Design columns by which points are sorted before they are submitted,
         so that a worker meets points with equal values consecutively and can
         reuse per-value setup (e.g. a mesh per sphere radius).
     model_name : str, optional
         Name of the model in the settings hash; defaults to the model's
-        ``module:qualname``.
+        ``model_name`` attribute or its ``module:qualname``.
 
     Examples
     --------
@@ -280,23 +308,32 @@ class Campaign:
     """
 
     def __init__(self, model: Model, store_path: str | Path, *, settings: Mapping[str, Any] | None = None,
-                 executor: PointExecutor | None = None, group_by: Iterable[str] = ("radius_mm",),
-                 model_name: str | None = None) -> None:
+                 executor: Executor | None = None, workers: int | None = None, dask: Any = None,
+                 group_by: Iterable[str] = ("radius_mm",), model_name: str | None = None) -> None:
         if not callable(model):
             raise ValueError(f"model must be callable, got {type(model).__name__}")
-        if executor is not None and not isinstance(executor, PointExecutor):
-            raise ValueError(f"executor must be a PointExecutor, got {type(executor).__name__}")
+        if executor is not None and not isinstance(executor, Executor):
+            raise ValueError(f"executor must be a filmcal._parallel.Executor, got {type(executor).__name__}")
+        if executor is not None and (workers is not None or dask is not None):
+            raise ValueError("give an executor, or workers/dask to open one, not both")
+        if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+            raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
         self.model = model
         self.store_path = Path(store_path)
         self.settings = dict(settings or {})
         self.executor = executor
+        self.workers = workers
+        self.dask = dask
         self.group_by = tuple(group_by)
-        self.model_name = model_name or _qualified_name(model)
+        self.model_name = model_name or getattr(model, "model_name", None) or _qualified_name(model)
         self.settings_hash = settings_hash(self.model_name, self.settings)
 
     def run(self, design: Any, *, retry_failed: bool = False, timeout_s: float | None = None,
-            progress: bool = True) -> CampaignSummary:
+            progress: bool = True, lock_command: str | None = None) -> CampaignSummary:
         """Evaluate the design points that have no finished run yet.
+
+        The store's lock is held for the whole run: a second campaign on the
+        same store is refused at once with `StoreBusyError`.
 
         Parameters
         ----------
@@ -306,20 +343,30 @@ class Campaign:
             Evaluate again the points whose last run failed.
         timeout_s : float, optional
             Deadline of each evaluation; a run past it fails with reason
-            ``"timeout after <timeout_s> s"``.
+            ``"timeout after <timeout_s> s"``. A model that enforces its own
+            deadline (``enforces_timeout = True``, e.g. `CommandModel`) gets
+            a few seconds more from the executor as a backstop.
         progress : bool
             Show a progress bar on stderr (only when stderr is a terminal and
             the run lasts more than a moment).
+        lock_command : str, optional
+            What to show a process refused by the lock (default: this
+            process's command line).
 
         Returns
         -------
         CampaignSummary
+
+        Raises
+        ------
+        StoreBusyError
+            If another process is running a campaign on the store.
         """
         points = as_design_points(design)
-        timeout_s = check_timeout(timeout_s)
+        timeout_s = None if timeout_s is None else check_positive("timeout_s", timeout_s)
         start = time.perf_counter()
         unique = {point_id(point, self.settings_hash): point for point in points}
-        with RunStore(self.store_path) as store:
+        with StoreLock(self.store_path, lock_command), RunStore(self.store_path) as store:
             store.add_points(unique, self.settings_hash, self._settings_record())
             stored = store.statuses(self.settings_hash)
             wanted = ("pending", "failed") if retry_failed else ("pending",)
@@ -339,49 +386,40 @@ class Campaign:
 
     def _evaluate(self, store: RunStore, todo: list[tuple[str, dict[str, DesignValue]]],
                   timeout_s: float | None, progress: bool) -> tuple[int, int]:
-        """Submit the points, a bounded number at a time; store each outcome as it arrives."""
+        """Evaluate the points; store each outcome as soon as it arrives."""
         if not todo:
             return 0, 0
-        executor = self.executor if self.executor is not None else LocalPoolExecutor()
-        window = 2 * executor.max_workers
-        queue = iter(todo)
-        in_flight: dict[Future, str] = {}
+        executor = self.executor
+        if executor is None:
+            executor = open_executor(self.workers, dask=self.dask, n_tasks=len(todo))
+        deadline = timeout_s
+        if timeout_s is not None and getattr(self.model, "enforces_timeout", False):
+            deadline = timeout_s + _BACKSTOP_S
         counts = {"ok": 0, "failed": 0}
         bar = tqdm(total=len(todo), desc="campaign", unit="pt", file=sys.stderr, delay=1.0,
                    disable=not (progress and sys.stderr.isatty()))
         finished = False
-
-        def top_up() -> None:
-            while len(in_flight) < window:
-                item = next(queue, None)
-                if item is None:
-                    return
-                pid, params = item
-                in_flight[executor.submit(evaluate_safely, self.model, params, timeout_s=timeout_s)] = pid
-
         try:
-            top_up()
-            while in_flight:
-                done, _ = wait(in_flight, return_when=FIRST_COMPLETED)
-                for future in done:
-                    outcome = _outcome_of(future, timeout_s)
-                    store.record_outcome(in_flight.pop(future), outcome.status, outcome.outputs,
-                                         outcome.reason, outcome.elapsed_s)
-                    counts[outcome.status] += 1
-                    bar.update(1)
-                    bar.set_postfix(failed=counts["failed"], refresh=False)
-                top_up()
+            task = functools.partial(evaluate_point_task, self.model)
+            for outcome in executor.map_unordered(task, todo, timeout_s=deadline):
+                result = _point_outcome(outcome, timeout_s)
+                pid = outcome.task[0]
+                store.record_outcome(pid, result.status, result.outputs, result.reason, result.elapsed_s)
+                counts[result.status] += 1
+                bar.update(1)
+                bar.set_postfix(failed=counts["failed"], refresh=False)
             finished = True
         finally:
             bar.close()
-            for future in in_flight:
-                future.cancel()
             if self.executor is None:
-                executor.shutdown(wait=finished, cancel_futures=True)
+                if finished:
+                    executor.shutdown(wait=True)
+                else:
+                    executor.abort()
         return counts["ok"], counts["failed"]
 
     def _open_store(self) -> RunStore:
-        return RunStore(self.store_path, create=False)
+        return RunStore(self.store_path, readonly=True)
 
     def status(self) -> RunCounts:
         """Number of ok, failed and pending runs of this model and settings in the store."""

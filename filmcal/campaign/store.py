@@ -2,11 +2,17 @@
 
 The store is plain data: inputs and outputs as JSON text, status, failure
 reason, timings and provenance (model settings hash, package version,
-timestamps). Opening it runs no code from it. One process writes (the one
-running the campaign); each finished run is committed in its own
-transaction, in write-ahead-log mode, so that killing the campaign at any
-moment loses at most the runs in flight, and other processes can read the
-store while it is being written.
+timestamps). Opening it runs no code from it. One campaign writes at a time
+(`filmcal.campaign.StoreLock`, taken by `Campaign.run`); each finished run is
+committed in its own transaction, in write-ahead-log mode, so that killing
+the campaign at any moment loses at most the runs in flight, and other
+processes can read the store while it is being written. A run that finished
+``ok`` is never downgraded: the update is guarded in the query and by a
+trigger in the database itself.
+
+Any output column of any store can feed a surrogate or a calibration:
+`load_output_column` returns the ok runs' values of one output with their
+inputs.
 """
 from __future__ import annotations
 
@@ -15,6 +21,7 @@ import json
 import math
 import os
 import sqlite3
+import urllib.parse
 from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
@@ -22,10 +29,14 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Literal
 
+import numpy as np
+
+from filmcal._errors import DamagedFileError, InputError
+from filmcal._io import atomic_path
 from filmcal._validation import check_choice
 from filmcal.campaign.design import DesignValue, canonical_json
 
-__all__ = ["RunStatus", "STATUSES", "RunRecord", "RunCounts", "RunStore"]
+__all__ = ["RunStatus", "STATUSES", "RunRecord", "RunCounts", "RunStore", "OutputColumn", "load_output_column"]
 
 SCHEMA_VERSION = 1
 STATUSES = ("ok", "failed", "pending")
@@ -54,6 +65,12 @@ CREATE TABLE IF NOT EXISTS runs (
     finished_at     TEXT
 );
 CREATE INDEX IF NOT EXISTS runs_by_settings ON runs (settings_hash, status);
+"""
+# A finished ok run is never downgraded, whoever writes to the store.
+_KEEP_OK_TRIGGER = """
+CREATE TRIGGER IF NOT EXISTS runs_keep_ok BEFORE UPDATE OF status ON runs
+WHEN OLD.status = 'ok' AND NEW.status <> 'ok'
+BEGIN SELECT RAISE(IGNORE); END
 """
 
 # Bookkeeping columns of an exported CSV, after the inputs and outputs.
@@ -151,41 +168,64 @@ class RunStore:
         The SQLite file.
     create : bool
         Create the file if it does not exist. With False, a missing file
-        raises `FileNotFoundError` (for commands that only read a store).
+        raises `FileNotFoundError`.
+    readonly : bool
+        Open for reading only (status, export, output columns): the file is
+        never changed, and an empty or foreign file is never turned into a
+        store.
 
     Raises
     ------
     FileNotFoundError
-        If `create` is False and the file does not exist.
-    ValueError
-        If the file is not a campaign store (or not an SQLite database), or
-        was written with another store schema version.
+        If the file does not exist and may not be created.
+    filmcal._errors.InputError
+        If the path is a folder or an empty file, the file is an SQLite
+        database but not a campaign store, or was written with another store
+        schema version.
+    filmcal._errors.DamagedFileError
+        If the file is not an SQLite database (garbled).
     """
 
-    def __init__(self, path: str | os.PathLike, *, create: bool = True) -> None:
+    def __init__(self, path: str | os.PathLike, *, create: bool = True, readonly: bool = False) -> None:
         self.path = Path(path)
-        if not create and not self.path.is_file():
+        self.readonly = bool(readonly)
+        if (readonly or not create) and not self.path.exists():
             raise FileNotFoundError(f"campaign store not found: {self.path}")
-        self._conn = sqlite3.connect(self.path, timeout=30.0, isolation_level=None)
+        if self.path.exists() and not self.path.is_file():
+            raise InputError(f"campaign store {self.path} is a folder, not a file")
+        if (readonly or not create) and self.path.stat().st_size == 0:
+            raise InputError(f"{self.path} is an empty file, not a campaign store")
+        try:
+            if readonly:
+                uri = f"file:{urllib.parse.quote(str(self.path.resolve()))}?mode=ro"
+                self._conn = sqlite3.connect(uri, uri=True, timeout=30.0, isolation_level=None)
+            else:
+                self._conn = sqlite3.connect(self.path, timeout=30.0, isolation_level=None)
+        except sqlite3.Error as exc:
+            raise InputError(f"cannot open the campaign store {self.path}: {exc}") from None
         try:
             self._prepare()
         except sqlite3.DatabaseError as exc:
             self._conn.close()
-            raise ValueError(f"{self.path} is not a campaign store ({exc})") from None
+            # a garbled store and a file that never was one look alike: never advise deleting it
+            raise DamagedFileError(self.path, f"not a campaign store, or a garbled one: {exc}") from None
         except ValueError:
             self._conn.close()
             raise
 
     def _prepare(self) -> None:
         conn = self._conn
-        conn.execute("PRAGMA journal_mode=WAL")
-        # NORMAL in WAL mode: a committed transaction survives a killed
-        # process; only a power failure can lose the last ones.
-        conn.execute("PRAGMA synchronous=NORMAL")
-        conn.execute("PRAGMA foreign_keys=ON")
         tables = {row[0] for row in conn.execute("SELECT name FROM sqlite_master WHERE type='table'")}
         if tables and "store_info" not in tables:
-            raise ValueError(f"{self.path} is an SQLite database but not a campaign store")
+            raise InputError(f"{self.path} is an SQLite database but not a campaign store")
+        if not tables and self.readonly:
+            raise InputError(f"{self.path} is not a campaign store (it holds no runs table)")
+        if not self.readonly:
+            conn.execute("PRAGMA journal_mode=WAL")
+            # NORMAL in WAL mode: a committed transaction survives a killed
+            # process; only a power failure can lose the last ones.
+            conn.execute("PRAGMA synchronous=NORMAL")
+            conn.execute("PRAGMA foreign_keys=ON")
         if not tables:
             with self._transaction():
                 for statement in _SCHEMA.split(";"):
@@ -194,7 +234,9 @@ class RunStore:
         row = conn.execute("SELECT value FROM store_info WHERE key='schema_version'").fetchone()
         if row is None or row[0] != str(SCHEMA_VERSION):
             found = None if row is None else row[0]
-            raise ValueError(f"{self.path} has store schema version {found}, expected {SCHEMA_VERSION}")
+            raise InputError(f"{self.path} has store schema version {found}, expected {SCHEMA_VERSION}")
+        if not self.readonly:
+            conn.execute(_KEEP_OK_TRIGGER)
 
     @contextmanager
     def _transaction(self) -> Iterator[sqlite3.Connection]:
@@ -244,8 +286,11 @@ class RunStore:
             )
 
     def record_outcome(self, point_id: str, status: RunStatus, outputs: Mapping[str, Any],
-                       reason: str | None, elapsed_s: float | None) -> None:
+                       reason: str | None, elapsed_s: float | None) -> bool:
         """Store the outcome of one finished run, in its own transaction.
+
+        A run already stored as ok is left as it is (it is never downgraded
+        nor overwritten); the method then returns False.
 
         Parameters
         ----------
@@ -259,16 +304,24 @@ class RunStore:
             Why the run failed.
         elapsed_s : float or None
             Wall-clock time of the run.
+
+        Returns
+        -------
+        bool
+            True if the outcome was stored, False if the run was already ok.
         """
         check_choice("status", status, ("ok", "failed"))
         with self._transaction() as conn:
             cursor = conn.execute(
                 "UPDATE runs SET status=?, outputs_json=?, reason=?, elapsed_s=?, attempts=attempts+1, "
-                "package_version=?, finished_at=? WHERE point_id=?",
+                "package_version=?, finished_at=? WHERE point_id=? AND status<>'ok'",
                 (status, _json_outputs(outputs), reason, elapsed_s, _package_version(), _now(), point_id),
             )
-            if cursor.rowcount != 1:
+            if cursor.rowcount == 1:
+                return True
+            if conn.execute("SELECT 1 FROM runs WHERE point_id=?", (point_id,)).fetchone() is None:
                 raise KeyError(f"no run with point_id {point_id} in {self.path}")
+            return False
 
     # -- reading
 
@@ -323,7 +376,7 @@ class RunStore:
         output_names = _union(record.outputs for record in records)
         output_columns = {name: f"output_{name}" if name in taken else name for name in output_names}
         header = ["point_id", *input_names, *output_columns.values(), *RUN_COLUMNS]
-        with Path(path).open("w", newline="") as stream:
+        with atomic_path(path) as tmp, Path(tmp).open("w", newline="") as stream:
             writer = csv.writer(stream)
             writer.writerow(header)
             for record in records:
@@ -333,6 +386,106 @@ class RunStore:
                 row += [_cell(getattr(record, name)) for name in RUN_COLUMNS]
                 writer.writerow(row)
         return len(records)
+
+    def settings_hashes(self) -> dict[str, dict[str, Any]]:
+        """``{settings_hash: {"model": ..., "settings": ...}}`` of every model setting in the store."""
+        return {h: json.loads(text) for h, text in
+                self._conn.execute("SELECT settings_hash, settings_json FROM model_settings ORDER BY rowid")}
+
+    def output_column(self, output: str, inputs: Iterable[str] | None = None,
+                      settings_hash: str | None = None) -> "OutputColumn":
+        """One output of the ok runs, with their inputs: training data for a surrogate.
+
+        Parameters
+        ----------
+        output : str
+            Name of the output (e.g. ``"contact_radius_mm"``, or any numeric
+            key printed by an external command).
+        inputs : iterable of str, optional
+            Input columns to return (default: all inputs of those runs); every
+            returned run must have all of them.
+        settings_hash : str, optional
+            Model settings whose runs to use. Required when the store holds
+            that output for runs of more than one model setting.
+
+        Returns
+        -------
+        OutputColumn
+
+        Raises
+        ------
+        filmcal._errors.InputError
+            If no ok run has a finite value of `output` (the message lists the
+            outputs there are), a requested input is missing, or the runs span
+            several model settings and `settings_hash` was not given.
+        """
+        records = [r for r in self.records(settings_hash, "ok")
+                   if isinstance(r.outputs.get(output), (int, float)) and not isinstance(r.outputs[output], bool)
+                   and math.isfinite(r.outputs[output])]
+        if not records:
+            names = _union(r.outputs for r in self.records(settings_hash, "ok"))
+            raise InputError(f"output {output!r}: no ok run in {self.path} has a finite value of it; "
+                             f"outputs there: {', '.join(names) or 'none'}")
+        hashes = list(dict.fromkeys(r.settings_hash for r in records))
+        if len(hashes) > 1:
+            raise InputError(f"output {output!r} comes from {len(hashes)} model settings in {self.path}; "
+                             f"choose one with settings_hash (one of {', '.join(hashes)})")
+        names = list(inputs) if inputs is not None else _union(r.inputs for r in records)
+        missing = [name for name in names if any(name not in r.inputs for r in records)]
+        if missing:
+            raise InputError(f"inputs {', '.join(missing)} are missing from some runs in {self.path}")
+        return OutputColumn(
+            name=output,
+            settings_hash=hashes[0],
+            point_id=np.array([r.point_id for r in records], dtype=str),
+            inputs={name: _array([r.inputs[name] for r in records]) for name in names},
+            values=np.array([float(r.outputs[output]) for r in records]),
+        )
+
+
+@dataclass(frozen=True)
+class OutputColumn:
+    """The ok runs' values of one output, with the inputs that produced them.
+
+    Attributes
+    ----------
+    name : str
+        The output.
+    settings_hash : str
+        Model settings of these runs.
+    point_id : ndarray of str
+    inputs : dict of str to ndarray
+        One array per input column (float where all values are numbers).
+    values : ndarray of float
+        The output, one value per run.
+    """
+
+    name: str
+    settings_hash: str
+    point_id: np.ndarray
+    inputs: dict[str, np.ndarray]
+    values: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.values)
+
+    def input_matrix(self, names: Iterable[str] | None = None) -> np.ndarray:
+        """Inputs as an ``(n_runs, n_inputs)`` float array, columns in the order of `names`."""
+        names = list(names) if names is not None else list(self.inputs)
+        return np.column_stack([np.asarray(self.inputs[name], dtype=float) for name in names])
+
+
+def load_output_column(store_path: str | os.PathLike, output: str, inputs: Iterable[str] | None = None,
+                       settings_hash: str | None = None) -> OutputColumn:
+    """Read one output column of a campaign store (read-only); see `RunStore.output_column`."""
+    with RunStore(store_path, readonly=True) as store:
+        return store.output_column(output, inputs, settings_hash)
+
+
+def _array(values: list[Any]) -> np.ndarray:
+    if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
+        return np.array(values, dtype=float)
+    return np.array(values, dtype=object)
 
 
 def _union(mappings: Iterable[Mapping[str, Any]]) -> list[str]:

@@ -1,16 +1,19 @@
-"""`filmcal campaign`: run a design through the FE model into an SQLite store.
+"""`filmcal campaign`: run a design through a model into an SQLite store.
 
 ``run`` evaluates every design point that has no finished run yet (a second
-``run`` resumes an interrupted one), ``status`` counts the runs, ``export``
-writes them to CSV.
+``run`` resumes an interrupted one) with the FE model, a Python model
+(``--model module:function``) or any external command (``--command``);
+``status`` counts the runs, ``export`` writes them to CSV. One ``run`` writes
+to a store at a time: a second one is refused at once (exit 2) with a line
+that says who holds the store.
 """
 from __future__ import annotations
 
 import argparse
 import importlib
-import math
-import os
 import re
+import shlex
+from pathlib import Path
 from typing import Any, Callable
 
 from filmcal._validation import check_choice, check_poisson, check_positive, check_range
@@ -99,39 +102,54 @@ def import_model(spec: str) -> Callable[[dict], dict]:
     return model
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {value}")
-    return value
+def default_work_dir(store: str | Path) -> Path:
+    """Working folders of an external command: ``<store stem>.work`` beside the store."""
+    store = Path(store)
+    return store.with_name(store.stem + ".work")
 
 
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a number > 0, got {text!r}") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
-    return value
+def _lock_command(args: argparse.Namespace) -> str:
+    """The holder's command as shown to a campaign refused by the store lock."""
+    words = ["filmcal", "campaign", "run", "--design", str(args.design), "--store", str(args.store)]
+    if args.command_template is not None:
+        words += ["--command", args.command_template]
+    elif args.model != DEFAULT_MODEL:
+        words += ["--model", args.model]
+    return " ".join(shlex.quote(word) for word in words)
 
 
 def _run(args: argparse.Namespace) -> int:
-    from filmcal.campaign import Campaign, DaskExecutor, LocalPoolExecutor, read_design_csv
+    from filmcal._errors import InputError
+    from filmcal._io import check_output_dir
+    from filmcal._parallel import check_dask_address
+    from filmcal.campaign import Campaign, CommandModel, read_design_csv
 
-    points = check_fe_design(read_design_csv(args.design))
-    model = import_model(args.model)
-    if args.dask:
-        executor = DaskExecutor(args.dask)
+    # every option is checked before any work or any file is written
+    if args.dask is not None:
+        args.dask = check_dask_address(args.dask)
+    if args.template_file and args.command_template is None:
+        raise InputError("--template-file needs --command")
+    if args.work_dir is not None and args.command_template is None:
+        raise InputError("--work-dir needs --command")
+    points = read_design_csv(args.design)
+    if args.command_template is not None:
+        work_dir = Path(args.work_dir) if args.work_dir else default_work_dir(args.store)
+        check_output_dir(work_dir, "--work-dir")
+        model = CommandModel.from_files(args.command_template, work_dir, args.template_file or (), args.timeout_s)
+        model.check_design(points)
+        campaign = Campaign(model, args.store, settings=model.settings(), workers=args.workers, dask=args.dask,
+                            group_by=())
     else:
-        executor = LocalPoolExecutor(args.workers or os.cpu_count() or 1)
-    with executor:
-        campaign = Campaign(model, args.store, executor=executor, group_by=FE_SETUP_COLUMNS, model_name=args.model)
-        summary = campaign.run(points, retry_failed=args.retry_failed, timeout_s=args.timeout_s,
-                               progress=not args.no_progress)
+        if args.model == DEFAULT_MODEL:
+            points = check_fe_design(points)
+            group_by: tuple[str, ...] = FE_SETUP_COLUMNS
+        else:
+            group_by = ()
+        model = import_model(args.model)
+        campaign = Campaign(model, args.store, workers=args.workers, dask=args.dask, group_by=group_by,
+                            model_name=args.model)
+    summary = campaign.run(points, retry_failed=args.retry_failed, timeout_s=args.timeout_s,
+                           progress=not args.no_progress, lock_command=_lock_command(args))
     if args.json:
         print_json({"store": str(args.store), "settings_hash": campaign.settings_hash, **summary.as_dict()})
     else:
@@ -145,7 +163,7 @@ def _run(args: argparse.Namespace) -> int:
 def _status(args: argparse.Namespace) -> int:
     from filmcal.campaign import RunStore
 
-    with RunStore(args.store, create=False) as store:
+    with RunStore(args.store, readonly=True) as store:
         counts = store.counts()
     if args.json:
         print_json(counts.as_dict())
@@ -158,7 +176,7 @@ def _status(args: argparse.Namespace) -> int:
 def _export(args: argparse.Namespace) -> int:
     from filmcal.campaign import RunStore
 
-    with RunStore(args.store, create=False) as store:
+    with RunStore(args.store, readonly=True) as store:
         n_rows = store.export_csv(args.out)
     if args.json:
         print_json({"out": str(args.out), "rows": n_rows})
@@ -188,24 +206,40 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
     run_parser = actions.add_parser(
         "run", help="evaluate the design points that have no finished run yet",
-        description="Evaluate every design point without a finished run in the store. Design columns: "
-                    f"{', '.join(REQUIRED_COLUMNS)} (required; force in kN); optional "
-                    f"{', '.join(name for name in COLUMN_CHECKS if name not in REQUIRED_COLUMNS)}. "
-                    "A point whose model raises, does not converge, returns NaN or runs past --timeout-s "
-                    "is stored as failed with its reason.",
+        description="Evaluate every design point without a finished run in the store, with the FE model "
+                    f"(design columns {', '.join(REQUIRED_COLUMNS)}, force in kN; optional "
+                    f"{', '.join(name for name in COLUMN_CHECKS if name not in REQUIRED_COLUMNS)}), "
+                    "a Python model (--model) or an external command (--command: a shell command template "
+                    "with {column} placeholders, run in a fresh folder per point, printing one JSON object "
+                    "whose numeric values are the outputs, or writing outputs.json). A point whose model "
+                    "raises, does not converge, exits non-zero, prints no JSON, returns NaN or runs past "
+                    "--timeout-s is stored as failed with its reason. One run writes to a store at a time: "
+                    "a second is refused (exit 2).",
     )
     run_parser.add_argument("--design", required=True, help="design CSV file (e.g. from `filmcal doe --out`)")
     run_parser.add_argument("--store", required=True, help="SQLite store of the runs (created if missing)")
     where = run_parser.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=_positive_int, metavar="N",
-                       help="number of local worker processes (default: number of CPUs)")
+    where.add_argument("--workers", type=int, metavar="N",
+                       help="local worker processes (default: number of CPUs; never more than points to run)")
     where.add_argument("--dask", metavar="ADDRESS",
                        help="run on a Dask distributed cluster, given its scheduler address (tcp://host:8786)")
-    run_parser.add_argument("--timeout-s", type=_positive_float, metavar="T",
-                            help="deadline of each point in seconds; a point past it fails with 'timeout after T s'")
+    run_parser.add_argument("--timeout-s", type=float, metavar="T",
+                            help="deadline of each point in seconds; a point past it fails with 'timeout after T s' "
+                                 "(an external command's process group is killed)")
     run_parser.add_argument("--retry-failed", action="store_true", help="evaluate again the points that failed")
-    run_parser.add_argument("--model", default=DEFAULT_MODEL, metavar="MODULE:FUNCTION",
-                            help=f"model to evaluate, imported by name (default: {DEFAULT_MODEL})")
+    model = run_parser.add_mutually_exclusive_group()
+    model.add_argument("--model", default=DEFAULT_MODEL, metavar="MODULE:FUNCTION",
+                       help=f"Python model to evaluate, imported by name (default: {DEFAULT_MODEL})")
+    model.add_argument("--command", dest="command_template", metavar="TEMPLATE",
+                       help="external command template, e.g. 'python3 sim.py --e {modulus_mpa} --r {radius_mm}'; "
+                            "placeholders: design columns, {point_id}, {work_dir}; values are shell-quoted, so "
+                            "do not quote placeholders")
+    run_parser.add_argument("--template-file", action="append", metavar="FILE",
+                            help="input file template rendered into each point's folder ({column} placeholders; "
+                                 "NAME.tmpl is written as NAME); repeat for several files")
+    run_parser.add_argument("--work-dir", metavar="DIR",
+                            help="folder of the per-point working folders of --command "
+                                 "(default: <store name without suffix>.work beside the store)")
     run_parser.add_argument("--no-progress", action="store_true", help="do not show a progress bar")
     run_parser.add_argument("--json", action="store_true", help="print the run summary as one JSON object")
 

@@ -1,0 +1,169 @@
+"""One writer per campaign store: an OS file lock beside the store.
+
+`StoreLock` takes an exclusive ``flock`` on ``<store>.lock`` for as long as a
+campaign runs, and writes into that file who holds it (pid, host, command,
+start time). The operating system releases the lock when the holder exits,
+however it exits (SIGKILL included), so a stale lock never blocks a resume.
+A second campaign on the same store is refused at once with
+`StoreBusyError`, whose message says who holds the lock.
+
+``flock`` locks are reliable on local file systems; on network file systems
+(NFS) their behaviour depends on the server, so keep stores on a local disk.
+"""
+from __future__ import annotations
+
+import fcntl
+import json
+import os
+import socket
+import sys
+import time
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+
+from filmcal._errors import InputError
+
+__all__ = ["StoreBusyError", "LockHolder", "StoreLock", "lock_path_for"]
+
+
+class StoreBusyError(InputError):
+    """Another process holds the store's lock (it is running a campaign on it)."""
+
+
+@dataclass(frozen=True)
+class LockHolder:
+    """Who holds a store's lock.
+
+    Attributes
+    ----------
+    pid : int
+    host : str
+    command : str
+        The holder's command line.
+    started_at : str
+        ISO 8601 UTC time at which it took the lock.
+    """
+
+    pid: int
+    host: str
+    command: str
+    started_at: str
+
+    def describe(self) -> str:
+        """One line: ``pid 123 on host since T (command)``."""
+        return f"pid {self.pid} on {self.host} since {self.started_at} ({self.command})"
+
+
+def lock_path_for(store_path: str | os.PathLike) -> Path:
+    """The lock file of a store: ``<store>.lock`` beside it."""
+    path = Path(store_path)
+    return path.with_name(path.name + ".lock")
+
+
+def _read_holder(fd: int) -> LockHolder | None:
+    try:
+        text = os.pread(fd, 65536, 0).decode("utf-8", "replace")
+        data = json.loads(text)
+        return LockHolder(int(data["pid"]), str(data["host"]), str(data["command"]), str(data["started_at"]))
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+class StoreLock:
+    """An exclusive lock on a campaign store, held by one process at a time.
+
+    Parameters
+    ----------
+    store_path : path-like
+        The store; the lock file is ``<store>.lock`` beside it.
+    command : str, optional
+        What the holder is doing, shown to a process that is refused
+        (default: this process's command line).
+
+    Examples
+    --------
+    >>> with StoreLock("runs.sqlite"):  # doctest: +SKIP
+    ...     ...  # the only writer of runs.sqlite
+    """
+
+    def __init__(self, store_path: str | os.PathLike, command: str | None = None) -> None:
+        self.store_path = Path(store_path)
+        self.path = lock_path_for(store_path)
+        self.command = command if command is not None else " ".join([Path(sys.argv[0]).name, *sys.argv[1:]])
+        self._fd: int | None = None
+
+    @property
+    def held(self) -> bool:
+        """True while this object holds the lock."""
+        return self._fd is not None
+
+    def acquire(self) -> "StoreLock":
+        """Take the lock, or refuse at once.
+
+        Raises
+        ------
+        StoreBusyError
+            If another process holds it; the message names that process.
+        filmcal._errors.InputError
+            If the lock file cannot be created (folder missing or read-only).
+        """
+        if self._fd is not None:
+            return self
+        try:
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
+        except OSError as exc:
+            raise InputError(f"--store {self.store_path}: cannot create the lock file {self.path} "
+                             f"({exc.strerror or exc})") from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = None
+            for _ in range(20):  # the holder may be writing its details right now
+                holder = _read_holder(fd)
+                if holder is not None:
+                    break
+                time.sleep(0.01)
+            os.close(fd)
+            who = holder.describe() if holder else "another process"
+            raise StoreBusyError(f"campaign store {self.store_path} is in use by {who}; "
+                                 "wait for it to finish or stop it, then run again") from None
+        except OSError as exc:
+            os.close(fd)
+            raise InputError(f"--store {self.store_path}: cannot lock {self.path} ({exc.strerror or exc})") from None
+        holder = LockHolder(os.getpid(), socket.gethostname(), self.command,
+                            datetime.now(timezone.utc).isoformat(timespec="seconds"))
+        data = json.dumps(holder.__dict__).encode()
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, data, 0)
+        self._fd = fd
+        return self
+
+    def release(self) -> None:
+        """Clear the holder's details and release the lock (the file stays)."""
+        if self._fd is None:
+            return
+        fd, self._fd = self._fd, None
+        try:
+            os.ftruncate(fd, 0)
+        except OSError:
+            pass
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        os.close(fd)
+
+    def holder(self) -> LockHolder | None:
+        """The details written by the current holder, if any (without taking the lock)."""
+        try:
+            fd = os.open(self.path, os.O_RDONLY | os.O_CLOEXEC)
+        except OSError:
+            return None
+        try:
+            return _read_holder(fd)
+        finally:
+            os.close(fd)
+
+    def __enter__(self) -> "StoreLock":
+        return self.acquire()
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.release()
