@@ -273,7 +273,11 @@ def posterior_inference_data(problem, samples: dict | np.ndarray, model_name: st
     -------
     arviz.InferenceData
     """
-    import arviz as az
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)
+        import arviz as az
 
     if isinstance(samples, dict):
         theta = problem.theta_from_named(samples)
@@ -301,7 +305,7 @@ def posterior_inference_data(problem, samples: dict | np.ndarray, model_name: st
             "problem": json.dumps(json_safe(problem.describe())), "format": "filmcal-posterior", "version": 1}
     for key, value in (attrs or {}).items():
         info[key] = value if isinstance(value, (str, int, float)) else json.dumps(json_safe(value))
-    return az.from_dict(
+    idata = az.from_dict(
         posterior={k: np.asarray(v, dtype=float) for k, v in named.items()},
         log_likelihood={LOG_LIKELIHOOD_ROW: pointwise, LOG_LIKELIHOOD_CASE: per_case},
         observed_data={LOG_LIKELIHOOD_ROW: problem.target_radius_mm},
@@ -309,8 +313,10 @@ def posterior_inference_data(problem, samples: dict | np.ndarray, model_name: st
                        "case_index": problem.case_index.astype(np.int64),
                        "measurement_std_mm": data.measurement_std_mm},
         dims={LOG_LIKELIHOOD_ROW: ["row"], LOG_LIKELIHOOD_CASE: ["case"], "sphere_radius_mm": ["row"],
-              "force_n": ["row"], "case_index": ["row"], "measurement_std_mm": ["row"]},
-        attrs=info)
+              "force_n": ["row"], "case_index": ["row"], "measurement_std_mm": ["row"]})
+    for group in idata.groups():
+        idata[group].attrs.update(info)
+    return idata
 
 
 def save_posterior_netcdf(idata, path: str | Path) -> Path:
