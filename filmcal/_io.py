@@ -32,6 +32,20 @@ __all__ = [
     "check_output_file", "check_output_dir", "check_input_file",
 ]
 
+def _current_umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def _final_mode(path: Path) -> int:
+    """Permissions of the replaced file if there is one, else those a plain ``open`` would give."""
+    try:
+        return path.stat().st_mode & 0o7777
+    except OSError:
+        return 0o666 & ~_current_umask()
+
+
 def _fsync_dir(folder: Path) -> None:
     """Flush a folder's entry table (the rename) to disk where the OS allows it."""
     try:
@@ -75,6 +89,7 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         yield tmp
         with open(tmp, "rb+") as fh:
             os.fsync(fh.fileno())
+        os.chmod(tmp, _final_mode(path))  # mkstemp makes 0600 files
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):

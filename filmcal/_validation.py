@@ -6,10 +6,13 @@ The CLI turns that error into one line on stderr and exit status 2.
 """
 from __future__ import annotations
 
+import argparse
 import math
 from numbers import Real
+from typing import Any, Callable
 
-__all__ = ["as_finite", "check_positive", "check_range", "check_poisson", "check_choice"]
+__all__ = ["as_finite", "check_positive", "check_range", "check_poisson", "check_choice",
+           "check_count", "arg_finite", "arg_int_in", "arg_float_in"]
 
 
 def as_finite(name: str, value: object) -> float:
@@ -59,3 +62,70 @@ def check_choice(name: str, value: str, choices: tuple[str, ...] | list[str]) ->
     if value not in choices:
         raise ValueError(f"{name} must be one of {', '.join(choices)}; got {value!r}")
     return value
+
+
+def check_count(name: str, value: object, low: int, high: int) -> int:
+    """Return `value` as an int after checking low <= value <= high (a size, count or seed)."""
+    if isinstance(value, bool):
+        raise ValueError(f"{name} must be an integer in [{low}, {high}], got {value!r}")
+    try:
+        n = int(value)  # type: ignore[call-overload]
+        exact = n == value or (isinstance(value, str) and str(n) == value.strip())
+    except (TypeError, ValueError, OverflowError):
+        exact = False
+    if not exact:
+        raise ValueError(f"{name} must be an integer in [{low}, {high}], got {value!r}")
+    if not low <= n <= high:
+        raise ValueError(f"{name} must be an integer in [{low}, {high}], got {n}")
+    return n
+
+
+# --- argparse types: the check happens while the options are parsed, before any work ---
+
+def _argparse_type(convert: Callable[[str], Any], check: Callable[[Any], None], name: str) -> Callable[[str], Any]:
+    def parse(text: str) -> Any:
+        try:
+            value = convert(text)
+            check(value)
+        except argparse.ArgumentTypeError:
+            raise
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise argparse.ArgumentTypeError(f"{exc}, got {text!r}") from None
+        return value
+    parse.__name__ = name
+    parse.filmcal_checked = True  # type: ignore[attr-defined]
+    return parse
+
+
+def _require(ok: bool, what: str) -> None:
+    if not ok:
+        raise ValueError(what)
+
+
+def arg_finite() -> Callable[[str], float]:
+    """An argparse ``type`` for a finite float (nan and inf refused)."""
+    return _argparse_type(float, lambda x: _require(math.isfinite(x), "must be a finite number"), "float")
+
+
+def arg_int_in(low: int, high: int) -> Callable[[str], int]:
+    """An argparse ``type`` for an integer in [low, high]."""
+    what = f"must be an integer in [{low}, {high}]"
+
+    def convert(text: str) -> int:
+        try:
+            return int(text)
+        except ValueError:
+            raise ValueError(what) from None
+    return _argparse_type(convert, lambda n: _require(low <= n <= high, what), "int")
+
+
+def arg_float_in(low: float, high: float) -> Callable[[str], float]:
+    """An argparse ``type`` for a finite number in [low, high]."""
+    what = f"must be a number in [{low:g}, {high:g}]"
+
+    def convert(text: str) -> float:
+        try:
+            return float(text)
+        except ValueError:
+            raise ValueError(what) from None
+    return _argparse_type(convert, lambda x: _require(math.isfinite(x) and low <= x <= high, what), "float")

@@ -26,17 +26,16 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import math
 import os
 import pkgutil
 import re
 import sys
 import traceback
 from pathlib import Path
-from typing import Any, Callable
 
 import filmcal.commands
 from filmcal._errors import DamagedFileError
+from filmcal._validation import arg_finite, arg_float_in, arg_int_in
 
 __all__ = ["main", "build_parser", "preflight", "SIZE_BOUNDS",
            "EXIT_OK", "EXIT_USER", "EXIT_INTERNAL", "EXIT_INTERRUPTED"]
@@ -62,7 +61,6 @@ SIZE_BOUNDS: dict[str, tuple[float, float]] = {
     "element_size_mm": (0.02, 5.0),
     "film_layers": (1, 8),
     "grid_mm": (0.02, 2.0),
-    "step_mm": (0.001, 50.0),
     "train_runs": (20, 5000),
     "test_runs": (5, 5000),
     "max_steps": (1, 1_000_000),
@@ -91,39 +89,6 @@ class OneLineParser(argparse.ArgumentParser):
         raise SystemExit(EXIT_USER)
 
 
-# --- option types: finite numbers and bounded sizes -------------------------
-
-def _finite(convert: Callable[[str], Any]) -> Callable[[str], Any]:
-    """Wrap an argparse ``type=float`` so that nan and inf are refused."""
-    def parse(text: str) -> Any:
-        value = convert(text)
-        if isinstance(value, float) and not math.isfinite(value):
-            raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
-        return value
-    parse.filmcal_checked = True  # type: ignore[attr-defined]
-    return parse
-
-
-def _bounded(convert: Callable[[str], Any], low: float, high: float) -> Callable[[str], Any]:
-    """Wrap an argparse type with an inclusive range check."""
-    integer = convert is int
-
-    def parse(text: str) -> Any:
-        kind = "an integer" if integer else "a number"
-        try:
-            value = convert(text)
-        except argparse.ArgumentTypeError:
-            raise
-        except (TypeError, ValueError):
-            raise argparse.ArgumentTypeError(f"must be {kind} in [{low:g}, {high:g}], got {text!r}") from None
-        if not (isinstance(value, (int, float)) and math.isfinite(value) and low <= value <= high):
-            raise argparse.ArgumentTypeError(f"must be {kind} in [{low:g}, {high:g}], got {text!r}")
-        return value
-    parse.filmcal_checked = True  # type: ignore[attr-defined]
-    parse.__name__ = getattr(convert, "__name__", "value")
-    return parse
-
-
 def _subparsers(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
     for action in parser._actions:
         if isinstance(action, argparse._SubParsersAction):
@@ -149,12 +114,12 @@ def _harden(parser: argparse.ArgumentParser) -> None:
             continue
         if action.dest in SIZE_BOUNDS and convert in (int, float):
             low, high = SIZE_BOUNDS[action.dest]
-            action.type = _bounded(convert, low, high)
+            action.type = (arg_int_in if convert is int else arg_float_in)(low, high)
             if action.help and action.help is not argparse.SUPPRESS:
-                shown = f"{low:g}-{high:g}" if low >= 0 else f"{low:g} to {high:g}"
+                shown = f"{low}-{high}" if convert is int else f"{low:g}-{high:g}"
                 action.help = f"{action.help} [allowed {shown}]"
         elif convert is float:
-            action.type = _finite(float)
+            action.type = arg_finite()
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -241,19 +206,16 @@ def _one_line(text: str) -> str:
 
 
 def _name_option(message: str, options: dict[str, str]) -> str:
-    """Write a parameter named by its destination (``force_kn``) as its option (``--force-kn``)."""
+    """Prefix the option (``--force-kn: ``) to a message that names its parameter (``force_kn``)."""
     if "--" in message:
         return message
     for dest in sorted(options, key=len, reverse=True):
         opt = options[dest]
         if not opt.startswith("--") or dest in ("help", "json"):
             continue
-        if message.startswith(dest + " "):
-            return opt + message[len(dest):]
-        if "_" in dest:
-            new, n = re.subn(rf"(?<![\w-]){re.escape(dest)}(?![\w-])", opt, message, count=1)
-            if n:
-                return new
+        if message.startswith(dest + " ") or message.startswith(dest + ":") or (
+                "_" in dest and re.search(rf"(?<![\w-]){re.escape(dest)}(?![\w-])", message)):
+            return f"{opt}: {message}"
     return message
 
 

@@ -98,3 +98,15 @@ def test_path_checks(tmp_path):
 def test_unwritable_system_folder_refused():
     with pytest.raises(InputError, match="not writable"):
         check_output_file("/proc/x.sqlite", option="--store")
+
+
+def test_atomic_write_gives_ordinary_permissions(tmp_path):
+    mask = os.umask(0o022)
+    os.umask(mask)
+    new = atomic_write_text(tmp_path / "new.txt", "x")
+    assert new.stat().st_mode & 0o777 == 0o666 & ~mask
+    old = tmp_path / "old.txt"
+    old.write_text("y")
+    old.chmod(0o640)
+    atomic_write_text(old, "z")
+    assert old.stat().st_mode & 0o777 == 0o640 and old.read_text() == "z"

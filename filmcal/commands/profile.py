@@ -8,7 +8,8 @@ from typing import TextIO
 
 import numpy as np
 
-from filmcal._validation import check_range
+from filmcal._io import atomic_path
+from filmcal._validation import arg_finite, check_range
 from filmcal.commands._common import print_json
 from filmcal.wheelrail.profiles import (
     PROFILE_KINDS, PROFILE_NAMES, Profile, get_profile, load_profile_csv, profile_dimensions,
@@ -30,8 +31,8 @@ def add_parser(subparsers) -> None:
     )
     parser.add_argument("name", help=f"profile name ({', '.join(PROFILE_NAMES)}) or a CSV file "
                                      "with columns y_mm,z_mm")
-    parser.add_argument("--step-mm", type=float, default=0.5,
-                        help="spacing of the points along the profile in mm (default 0.5)")
+    parser.add_argument("--step-mm", type=arg_finite(), default=0.5,
+                        help="spacing of the points along the profile in mm, 0.001-50 (default 0.5)")
     parser.add_argument("--kind", choices=PROFILE_KINDS, default="rail",
                         help="for a CSV file: whether it is a wheel or a rail profile (default rail)")
     fmt = parser.add_mutually_exclusive_group()
@@ -85,10 +86,11 @@ def run(args: argparse.Namespace) -> int:
     profile = _load(args.name, args.kind)
     y, z = profile.points(step)
     if args.out:
-        with open(args.out, "w", newline="") as fh:
+        with atomic_path(args.out) as tmp, open(tmp, "w", newline="") as fh:
             write_points_csv(y, z, fh)
     if args.plot:
-        plot_profile(profile, y, z, args.plot)
+        with atomic_path(args.plot) as tmp:
+            plot_profile(profile, y, z, tmp)
     if args.json:
         joints = profile.joints()
         print_json({
