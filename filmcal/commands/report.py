@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 from filmcal.commands._common import print_json
 
@@ -13,8 +14,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "Hertz, the analogues of the paper's Figs. 2, 3, 6 and 7, design quality, surrogate "
                     "validation, posteriors with diagnostics per film type, posterior predictive checks against "
                     "Table 1, wheel-rail correction curves with 90 %% bands, and provenance (versions, seeds, "
-                    "settings hash, file checksums). The HTML embeds its figures (one file to share); the PDF "
-                    "has text pages and one page per figure. Reads the study's files only: takes seconds.")
+                    "settings hash, file checksums), and a glossary. The HTML embeds its figures (one file to "
+                    "share); the PDF is that same page printed on A4 by headless Chromium (a title page with the "
+                    "answer per film, contents with page numbers, each figure with its caption). Without "
+                    "Chromium the PDF holds the figures only, and the command says so. Reads the study's files "
+                    "only: about a minute for a quick study on a busy 2-core machine.")
     p.add_argument("--study-dir", default="filmcal-study", help="study folder (default ./filmcal-study)")
     p.add_argument("--out-dir", default=None, help="output folder (default STUDY_DIR/report)")
     p.add_argument("--json", action="store_true", help="print the written paths as one JSON object")
@@ -25,7 +29,10 @@ def run(args: argparse.Namespace) -> int:
     from filmcal.report import write_report
 
     paths = write_report(args.study_dir, args.out_dir)
-    out = {"html": str(paths["html"]), "pdf": str(paths["pdf"]), "figures": paths["figures"]}
+    out = {"html": str(paths["html"]), "pdf": str(paths["pdf"]), "figures": paths["figures"],
+           "pdf_engine": paths["pdf_engine"]}
+    if paths["pdf_message"]:
+        print(f"report: {paths['pdf_message']}", file=sys.stderr)
     if args.json:
         print_json(out)
     else:

@@ -1,28 +1,44 @@
-"""A report as data (sections of paragraphs, tables and figures) and its two renderings.
+"""A report as data (a title page, sections of paragraphs, tables, figures and definitions) and its renderings.
 
 `render_html` writes one self-contained HTML page (figures embedded as PNG
-data URIs, no scripts, no external files); `write_pdf` writes a PDF with
-matplotlib alone: text pages for paragraphs and tables, one page per figure.
+data URIs, no scripts, no external files) laid out for screen and for A4
+print; `write_pdf` prints that same page to PDF with headless Chromium, fills
+the table of contents with the page numbers it finds in the printed PDF
+(poppler's ``pdftotext``), and falls back to a figures-only matplotlib PDF,
+with a message saying so, where Chromium is not installed.
 """
 from __future__ import annotations
 
 import base64
 import html
 import io
-import textwrap
+import re
+import shutil
+import subprocess
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from matplotlib.figure import Figure
 
-__all__ = ["Table", "FigureBlock", "Section", "Report", "render_html", "write_pdf"]
+__all__ = ["Table", "FigureBlock", "Definitions", "Section", "Report", "PdfResult", "render_html", "write_pdf",
+           "find_chromium", "CHROMIUM_FLAGS", "TEXT_WIDTH_IN", "TEXT_HEIGHT_IN"]
 
-_FIGURE_DPI = 110
+#: Resolution of the embedded figure images (dots per inch at their printed size).
+FIGURE_DPI = 150
+#: Width and height of the printed text area of an A4 page (inches): figures are drawn at most this size.
+TEXT_WIDTH_IN = 6.9
+TEXT_HEIGHT_IN = 9.4
+#: Flags of a headless, offline Chromium that prints a local page.
+CHROMIUM_FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-background-networking",
+                  "--disable-component-update", "--disable-sync", "--disable-quic", "--no-pdf-header-footer",
+                  "--generate-pdf-document-outline", "--virtual-time-budget=20000")
+_A4_IN = (8.27, 11.69)
 
 
 @dataclass
 class Table:
-    """A table of already formatted cells."""
+    """A table of already formatted cells (rendered as an HTML table)."""
 
     header: list[str]
     rows: list[list[str]]
@@ -31,164 +47,301 @@ class Table:
 
 @dataclass
 class FigureBlock:
-    """A matplotlib figure with its caption."""
+    """A matplotlib figure with its caption (printed together on one page) and a short title for the contents."""
 
     figure: Figure
     caption: str
+    title: str = ""
+    _png: str | None = field(default=None, init=False, repr=False, compare=False)
+
+    def png_base64(self) -> str:
+        """The figure as PNG (base64 text), drawn once and kept."""
+        if self._png is None:
+            buf = io.BytesIO()
+            self.figure.savefig(buf, format="png", dpi=FIGURE_DPI)
+            self._png = base64.b64encode(buf.getvalue()).decode("ascii")
+        return self._png
+
+
+@dataclass
+class Definitions:
+    """Terms and their explanations (a glossary), rendered as a definition list."""
+
+    entries: list[tuple[str, str]]
+
+
+Block = str | Table | FigureBlock | Definitions
 
 
 @dataclass
 class Section:
-    """A titled part of the report: blocks (str paragraphs, tables, figures) in order."""
+    """A titled part of the report: blocks (str paragraphs, tables, figures, definitions) in order."""
 
     title: str
-    blocks: list[str | Table | FigureBlock] = field(default_factory=list)
+    blocks: list[Block] = field(default_factory=list)
 
-    def add(self, *blocks: str | Table | FigureBlock) -> "Section":
+    def add(self, *blocks: Block) -> "Section":
         self.blocks.extend(blocks)
         return self
 
 
 @dataclass
 class Report:
-    """Title, sections and a provenance table."""
+    """Title page (title, subtitle, the answer, remarks), then sections.
+
+    Parameters
+    ----------
+    title, subtitle : str
+    sections : list of Section
+    answer : Table, optional
+        The result in one table on the title page.
+    remarks : list of str
+        Short paragraphs under the answer on the title page.
+    """
 
     title: str
     subtitle: str
     sections: list[Section]
+    answer: Table | None = None
+    remarks: list[str] = field(default_factory=list)
 
     @property
     def figures(self) -> list[FigureBlock]:
         return [b for s in self.sections for b in s.blocks if isinstance(b, FigureBlock)]
 
 
-def _png_base64(fig: Figure) -> str:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=_FIGURE_DPI)
-    return base64.b64encode(buf.getvalue()).decode("ascii")
+@dataclass
+class PdfResult:
+    """What `write_pdf` wrote: the file, the engine that typeset it and a remark when it fell back."""
+
+    path: Path
+    engine: str
+    message: str = ""
 
 
+# ------------------------------------------------------------------ HTML
 _CSS = """
-body { font-family: system-ui, sans-serif; max-width: 1100px; margin: 2em auto; padding: 0 1em; color: #222; }
-h1 { margin-bottom: 0.1em; } .subtitle { color: #555; margin-top: 0; }
-h2 { border-bottom: 1px solid #ccc; padding-bottom: 0.2em; margin-top: 2em; }
-table { border-collapse: collapse; margin: 0.8em 0; font-size: 0.9em; }
-th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: right; }
-th { background: #f2f2f2; } td:first-child, th:first-child { text-align: left; }
-caption { caption-side: top; text-align: left; font-style: italic; padding-bottom: 0.3em; }
-figure { margin: 1em 0; } figure img { max-width: 100%; border: 1px solid #eee; }
-figcaption { font-size: 0.9em; color: #444; } nav ol { columns: 2; }
+@page { size: A4; margin: 15mm 16mm 16mm 16mm;
+        @bottom-right { content: counter(page); font: 8pt "DejaVu Sans", sans-serif; color: #666; } }
+@page :first { @bottom-right { content: none; } }
+body { font-family: "DejaVu Sans", "Liberation Sans", Arial, sans-serif; font-size: 10pt; line-height: 1.35;
+       max-width: 182mm; margin: 1.5em auto; padding: 0 1em; color: #1a1a1a; }
+h1 { font-size: 22pt; margin: 0 0 0.3em 0; } .subtitle { color: #555; margin-top: 0; font-size: 9pt; }
+h2 { font-size: 14pt; border-bottom: 1px solid #999; padding-bottom: 0.15em; margin-top: 1.6em;
+     break-after: avoid; }
+p { margin: 0.45em 0; text-align: left; }
+table { border-collapse: collapse; margin: 0.7em 0; font-size: 8.5pt; break-inside: auto; }
+thead { display: table-header-group; } tr { break-inside: avoid; }
+th, td { border: 1px solid #bbb; padding: 0.2em 0.5em; text-align: right; vertical-align: top; }
+td.n { white-space: nowrap; }
+th { background: #eee; font-weight: bold; } td:first-child, th:first-child { text-align: left; }
+caption { caption-side: top; text-align: left; font-style: italic; padding-bottom: 0.25em; break-after: avoid; }
+figure { margin: 1em 0; break-inside: avoid; page-break-inside: avoid; }
+figure img { display: block; max-width: 100%; height: auto; }
+figcaption { font-size: 9pt; color: #333; margin-top: 0.3em; }
+figcaption b { color: #000; }
+dl { margin: 0.5em 0; } dt { font-weight: bold; margin-top: 0.55em; break-after: avoid; }
+dd { margin: 0.1em 0 0 1.6em; }
+.title-page { break-after: page; padding-top: 18mm; }
+.title-page table { font-size: 9.5pt; width: 100%; }
+.remark { font-size: 9.5pt; }
+nav.toc { break-after: page; } nav.toc h2 { margin-top: 0; }
+nav.toc ol { list-style: none; padding: 0; margin: 0; }
+nav.toc li { display: flex; margin: 0.3em 0; }
+nav.toc li a { color: inherit; text-decoration: none; }
+nav.toc li .dots { flex: 1; border-bottom: 1px dotted #999; margin: 0 0.4em 0.3em 0.4em; }
+nav.toc li .page { min-width: 2em; text-align: right; }
+nav.toc li.figure { font-size: 8.5pt; margin: 0.15em 0 0.15em 1.6em; color: #333; }
+section.chapter { break-before: page; }
+section.chapter > h2 { margin-top: 0; }
+@media screen { section.chapter { border-top: 1px solid #ddd; margin-top: 2em; } }
 """
 
 
-def _html_block(block, fig_no: list[int]) -> str:
+def _anchor(i: int) -> str:
+    return f"s{i}"
+
+
+_NOWRAP = ' class="n"'  # short cells (numbers, intervals) are not broken across lines
+
+
+def _table_html(block: Table) -> str:
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in block.header)
+    body = "".join("<tr>" + "".join(f"<td{_NOWRAP if len(str(c)) <= 24 else ''}>{html.escape(str(c))}</td>"
+                                    for c in row) + "</tr>" for row in block.rows)
+    cap = f"<caption>{html.escape(block.caption)}</caption>" if block.caption else ""
+    return f"<table>{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def _figure_html(block: FigureBlock, n: int) -> str:
+    width_in = min(float(block.figure.get_figwidth()), TEXT_WIDTH_IN)
+    return (f'<figure id="fig{n}"><img style="width: {width_in:.2f}in" '
+            f'alt="Figure {n}: {html.escape(block.caption, quote=True)}" '
+            f'src="data:image/png;base64,{block.png_base64()}">'
+            f"<figcaption><b>Figure {n}.</b> {html.escape(block.caption)}</figcaption></figure>")
+
+
+def _block_html(block: Block, fig_no: list[int]) -> str:
     if isinstance(block, str):
         return f"<p>{html.escape(block)}</p>"
     if isinstance(block, Table):
-        head = "".join(f"<th>{html.escape(h)}</th>" for h in block.header)
-        body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in row) + "</tr>"
-                       for row in block.rows)
-        cap = f"<caption>{html.escape(block.caption)}</caption>" if block.caption else ""
-        return f"<table>{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+        return _table_html(block)
+    if isinstance(block, Definitions):
+        return "<dl>" + "".join(f"<dt>{html.escape(t)}</dt><dd>{html.escape(d)}</dd>" for t, d in block.entries) \
+            + "</dl>"
     fig_no[0] += 1
-    n = fig_no[0]
-    return (f'<figure id="fig{n}"><img alt="Figure {n}: {html.escape(block.caption, quote=True)}" '
-            f'src="data:image/png;base64,{_png_base64(block.figure)}">'
-            f"<figcaption>Figure {n}. {html.escape(block.caption)}</figcaption></figure>")
+    return _figure_html(block, fig_no[0])
 
 
-def render_html(report: Report) -> str:
-    """The report as one self-contained HTML page."""
+def _toc_html(report: Report, page_numbers: dict[str, int] | None) -> str:
+    items = []
+    fig_no = 0
+    for i, s in enumerate(report.sections, 1):
+        page = "" if page_numbers is None else str(page_numbers.get(_anchor(i), ""))
+        items.append(f'<li><a href="#{_anchor(i)}">{i}. {html.escape(s.title)}</a><span class="dots"></span>'
+                     f'<span class="page">{page}</span></li>')
+        for b in s.blocks:
+            if isinstance(b, FigureBlock):
+                fig_no += 1
+                short = b.title or b.caption
+                short = short if len(short) <= 95 else short[:92].rsplit(" ", 1)[0] + " ..."
+                items.append(f'<li class="figure"><a href="#fig{fig_no}">Figure {fig_no}. {html.escape(short)}</a>'
+                             "</li>")
+    return f'<nav class="toc"><h2>Contents</h2><ol>{"".join(items)}</ol></nav>'
+
+
+def render_html(report: Report, page_numbers: dict[str, int] | None = None) -> str:
+    """The report as one self-contained HTML page (screen and A4 print).
+
+    Parameters
+    ----------
+    report : Report
+    page_numbers : dict, optional
+        Printed page of each section (``"s1"``, ``"s2"``, ...) for the table of
+        contents; without it the contents list has no page numbers.
+    """
     fig_no = [0]
-    toc = "".join(f'<li><a href="#s{i}">{html.escape(s.title)}</a></li>' for i, s in enumerate(report.sections, 1))
-    parts = [f'<section id="s{i}"><h2>{i}. {html.escape(s.title)}</h2>'
-             + "".join(_html_block(b, fig_no) for b in s.blocks) + "</section>"
+    title = [f"<h1>{html.escape(report.title)}</h1><p class=\"subtitle\">{html.escape(report.subtitle)}</p>"]
+    if report.answer is not None:
+        title.append(_table_html(report.answer))
+    title += [f'<p class="remark">{html.escape(r)}</p>' for r in report.remarks]
+    parts = [f'<section class="chapter" id="{_anchor(i)}"><h2>{i}. {html.escape(s.title)}</h2>'
+             + "".join(_block_html(b, fig_no) for b in s.blocks) + "</section>"
              for i, s in enumerate(report.sections, 1)]
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
             f"<title>{html.escape(report.title)}</title><style>{_CSS}</style></head><body>"
-            f"<h1>{html.escape(report.title)}</h1><p class=\"subtitle\">{html.escape(report.subtitle)}</p>"
-            f"<nav><ol>{toc}</ol></nav>" + "".join(parts) + "</body></html>\n")
+            f'<div class="title-page">{"".join(title)}</div>'
+            + _toc_html(report, page_numbers) + "".join(parts) + "</body></html>\n")
 
 
 # ------------------------------------------------------------------- PDF
-_PAGE_IN = (8.27, 11.69)  # A4 portrait
-_LINE = 0.0155  # line height as a fraction of the page height (9 pt text)
-_WRAP = 100  # characters per line of body text
-_TABLE_CHARS = 118  # monospace characters of 7 pt across the text width
+def find_chromium() -> str | None:
+    """Path of a Chromium (or Chrome) executable on PATH, or None."""
+    for name in ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable"):
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
 
 
-def _table_lines(table: Table) -> list[str]:
-    widths = [max(len(str(r[k])) for r in [table.header, *table.rows]) for k in range(len(table.header))]
-    fmt = lambda row: "  ".join(str(c).ljust(w) if k == 0 else str(c).rjust(w)  # noqa: E731
-                                for k, (c, w) in enumerate(zip(row, widths)))
-    lines = [fmt(table.header), "-" * len(fmt(table.header))] + [fmt(r) for r in table.rows]
-    return ([table.caption] if table.caption else []) + lines
+def _print_with_chromium(chromium: str, html_text: str, pdf_path: Path, timeout_s: float) -> None:
+    with tempfile.TemporaryDirectory(prefix="filmcal-print-") as work:
+        page = Path(work) / "report.html"
+        page.write_text(html_text, encoding="utf-8")
+        cmd = [chromium, *CHROMIUM_FLAGS, f"--user-data-dir={Path(work) / 'profile'}",
+               f"--print-to-pdf={pdf_path}", page.as_uri()]
+        run = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout_s)
+    if not pdf_path.exists() or pdf_path.read_bytes()[:5] != b"%PDF-":
+        raise RuntimeError(f"Chromium did not print the report (exit status {run.returncode}): "
+                           f"{run.stderr.strip()[-500:]}")
 
 
-class _TextPages:
-    """Flows title, paragraph and table lines over A4 pages."""
-
-    def __init__(self, pdf) -> None:
-        self.pdf = pdf
-        self.fig: Figure | None = None
-        self.y = 0.0
-
-    def _new_page(self) -> None:
-        self.flush()
-        self.fig = Figure(figsize=_PAGE_IN)
-        self.y = 0.95
-
-    def line(self, text: str, size: float = 9, mono: bool = False, weight: str = "normal", gap: float = 1.0) -> None:
-        if self.fig is None or self.y < 0.05:
-            self._new_page()
-        self.fig.text(0.07, self.y, text, fontsize=size, family="monospace" if mono else "sans-serif",
-                      weight=weight, va="top")
-        self.y -= _LINE * gap * size / 9
-
-    def flush(self) -> None:
-        if self.fig is not None:
-            self.pdf.savefig(self.fig)
-            self.fig = None
+def _section_pages(pdf_path: Path, report: Report) -> dict[str, int] | None:
+    """Page of each section title in a printed PDF (``pdftotext``), or None without poppler."""
+    pdftotext = shutil.which("pdftotext")
+    if pdftotext is None:
+        return None
+    run = subprocess.run([pdftotext, "-layout", str(pdf_path), "-"], capture_output=True, text=True, timeout=120)
+    if run.returncode != 0:
+        return None
+    pages = run.stdout.split("\f")
+    out: dict[str, int] = {}
+    start = 2  # the title page and the contents come first
+    for i, s in enumerate(report.sections, 1):
+        heading = re.compile(rf"^\s*{i}\.\s+{re.escape(s.title.split()[0])}", re.MULTILINE)
+        for k in range(start, len(pages)):
+            if heading.search(pages[k]):
+                out[_anchor(i)] = k + 1
+                start = k
+                break
+    return out
 
 
-def write_pdf(report: Report, path: str | Path) -> Path:
-    """Write the report as PDF: text pages, each figure on its own page after its section's text."""
+def _write_matplotlib_pdf(report: Report, path: Path, reason: str) -> None:
+    """Figures-only fallback: a cover page that says why, then each figure on an A4 page with its caption."""
+    import textwrap
+
     from matplotlib.backends.backend_pdf import PdfPages
+    from matplotlib.image import imread
 
+    with PdfPages(path, metadata={"Title": report.title}) as pdf:
+        cover = Figure(figsize=_A4_IN)
+        lines = [report.title, "", *textwrap.wrap(report.subtitle, 90), "",
+                 *textwrap.wrap(f"This PDF holds the figures only: {reason} The HTML report beside it is complete.",
+                                90)]
+        cover.text(0.08, 0.92, "\n".join(lines), va="top", fontsize=10)
+        pdf.savefig(cover)
+        n = 0
+        for section in report.sections:
+            for block in section.blocks:
+                if not isinstance(block, FigureBlock):
+                    continue
+                n += 1
+                page = Figure(figsize=_A4_IN)
+                w, h = block.figure.get_size_inches()
+                scale = min(1.0, TEXT_WIDTH_IN / w, 8.8 / h)
+                pixels = imread(io.BytesIO(base64.b64decode(block.png_base64())))
+                ax = page.add_axes([(1 - w * scale / _A4_IN[0]) / 2, 1 - 0.06 - h * scale / _A4_IN[1],
+                                    w * scale / _A4_IN[0], h * scale / _A4_IN[1]])
+                ax.imshow(pixels)
+                ax.axis("off")
+                caption = "\n".join(textwrap.wrap(f"Figure {n}. {section.title}: {block.caption}", 100))
+                page.text(0.08, 1 - 0.08 - h * scale / _A4_IN[1], caption, va="top", fontsize=9)
+                pdf.savefig(page)
+
+
+def write_pdf(report: Report, path: str | Path, timeout_s: float = 300.0) -> PdfResult:
+    """Print the report's HTML to an A4 PDF with headless Chromium (fallback: figures-only matplotlib PDF).
+
+    The page is printed twice when ``pdftotext`` is available: the first print
+    tells on which page each section starts, the second carries those page
+    numbers in the table of contents.
+
+    Parameters
+    ----------
+    report : Report
+    path : str or Path
+        The PDF to write (atomically).
+    timeout_s : float, default 300
+        Limit of each Chromium run (s).
+
+    Returns
+    -------
+    PdfResult
+        ``engine`` is ``"chromium"``, or ``"matplotlib"`` with ``message`` saying why.
+    """
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
-    fig_no = 0
-    with PdfPages(tmp, metadata={"Title": report.title}) as pdf:
-        pages = _TextPages(pdf)
-        pages.line(report.title, size=16, weight="bold", gap=1.6)
-        for text in textwrap.wrap(report.subtitle, _WRAP):
-            pages.line(text)
-        for i, section in enumerate(report.sections, 1):
-            if pages.fig is not None and pages.y < 0.25:
-                pages.flush()
-            pages.line("", gap=0.8)
-            pages.line(f"{i}. {section.title}", size=12, weight="bold", gap=1.5)
-            figures = []
-            for block in section.blocks:
-                if isinstance(block, str):
-                    for text in textwrap.wrap(block, _WRAP):
-                        pages.line(text)
-                    pages.line("", gap=0.5)
-                elif isinstance(block, Table):
-                    lines = _table_lines(block)
-                    size = min(7.0, 7.0 * _TABLE_CHARS / max(len(t) for t in lines))  # fit the page width
-                    for text in lines:
-                        pages.line(text, size=size, mono=True)
-                    pages.line("", gap=0.5)
-                else:
-                    fig_no += 1
-                    figures.append((fig_no, block))
-                    for text in textwrap.wrap(f"Figure {fig_no} (page after): {block.caption}", _WRAP):
-                        pages.line(text, size=8)
-            if figures:
-                pages.flush()
-                for n, block in figures:
-                    pdf.savefig(block.figure)
-        pages.flush()
+    chromium = find_chromium()
+    if chromium is None:
+        reason = ("Chromium was not found, so the typeset PDF could not be printed (install Debian's chromium "
+                  "package, or any Chromium/Chrome on PATH).")
+        _write_matplotlib_pdf(report, tmp, reason)
+        tmp.replace(path)
+        return PdfResult(path, "matplotlib", reason)
+    _print_with_chromium(chromium, render_html(report), tmp, timeout_s)
+    pages = _section_pages(tmp, report)
+    if pages:
+        _print_with_chromium(chromium, render_html(report, page_numbers=pages), tmp, timeout_s)
     tmp.replace(path)
-    return path
+    return PdfResult(path, "chromium")

@@ -1,8 +1,17 @@
-"""The calibration report of a study folder: what was computed, figure by figure, and why it can be trusted.
+"""The calibration report of a study folder: the answer, what was computed, figure by figure, and why it can be trusted.
 
-`build_report` only reads the study's files (written by `filmcal.pipeline`)
-and draws them; a stage whose files are missing gets a section that says so.
-`write_report` renders the report as self-contained HTML and as PDF.
+Two layers:
+
+- **Reading** (`read_study`): the only code here that knows the study folder's
+  file names. It returns a `StudyData` of plain data (dicts, arrays,
+  calibration results); a file that is missing is None, a file that cannot be
+  read is None with a line in ``StudyData.problems``.
+- **Sections**: one function per section, each taking plain data and returning a
+  `Section`. `SECTION_BUILDERS` lists them in order; adding a section is one
+  function plus one line there.
+
+`build_report` composes the title page and the sections; `write_report`
+writes the self-contained HTML and the A4 PDF printed from the same page.
 """
 from __future__ import annotations
 
@@ -11,23 +20,225 @@ import hashlib
 import json
 import platform
 import subprocess
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
 
 import numpy as np
 
 from filmcal.report import figures as F
-from filmcal.report.document import FigureBlock, Report, Section, Table, render_html, write_pdf
+from filmcal.report.document import Definitions, FigureBlock, Report, Section, Table, render_html, write_pdf
 
-__all__ = ["build_report", "write_report"]
+__all__ = ["build_report", "write_report", "read_study", "StudyData", "DesignData", "SECTION_BUILDERS",
+           "GLOSSARY", "answer_table", "summary_section", "verification_section", "preliminary_section",
+           "design_section", "surrogate_section", "calibration_section", "film_records_section",
+           "crossval_section", "wheel_rail_section", "glossary_section", "provenance_section",
+           "REFERENCE_OFFSET_MM"]
 
-_PACKAGES = ("numpy", "scipy", "scikit-learn", "scikit-fem", "emcee", "matplotlib", "h5py", "pyDOE")
+_PACKAGES = ("numpy", "scipy", "scikit-learn", "scikit-fem", "emcee", "arviz", "matplotlib", "h5py", "pyDOE")
+#: Offset of the reference case quoted on the title page (the paper's centred position).
+REFERENCE_OFFSET_MM = 0.0
 
 
-def _read_json(path: Path) -> dict | None:
-    return json.loads(path.read_text(encoding="utf-8")) if path.exists() else None
+# ================================================================ reading
+@dataclass
+class DesignData:
+    """The FE campaign's designs in physical units, with their quality metrics."""
+
+    labels: list[str]
+    train: np.ndarray
+    test: np.ndarray
+    log_scale: list[bool]
+    levels: list[tuple[float, ...] | None]
+    metrics: dict  # {"train"|"test": {"n", "quality", "random_lhs_median"}}
 
 
+@dataclass
+class StudyData:
+    """Everything the report shows, read from one study folder (None: not in the folder)."""
+
+    folder: Path
+    films: list[str]
+    seed: int | None
+    settings_hash: str
+    settings: dict
+    posteriors: dict = field(default_factory=dict)  # film -> (CalibrationResult, file name)
+    curves: dict = field(default_factory=dict)  # film -> list of row dicts
+    verification: dict | None = None
+    design: DesignData | None = None
+    surrogate_validation: dict | None = None
+    radius_model: object | None = None  # predict(E, nu, R, F) -> (mean, std)
+    modulus_range_mpa: tuple[float, float] = (400.0, 20000.0)
+    crossval: dict = field(default_factory=dict)  # film -> CaseCrossValidation
+    outlines: dict | None = None
+    imprint_comparison: dict | None = None  # film -> comparison dict
+    files: list[tuple[str, int, str]] = field(default_factory=list)  # relative path, bytes, SHA-256
+    problems: list[str] = field(default_factory=list)
+
+
+def _read_json(path: Path | None) -> dict | None:
+    return json.loads(path.read_text(encoding="utf-8")) if path is not None and path.exists() else None
+
+
+def _first(study: Path, *patterns: str) -> Path | None:
+    """The first file matching one of the glob patterns (in order), or None."""
+    for pattern in patterns:
+        found = sorted(p for p in study.glob(pattern) if p.is_file() and not p.name.endswith(".tmp"))
+        if found:
+            return found[0]
+    return None
+
+
+def _domain():
+    try:
+        from filmcal.surrogate.radius import SurrogateDomain
+    except ImportError:  # older layout
+        from filmcal.study import SurrogateDomain
+    return SurrogateDomain()
+
+
+def _read_config(study: Path) -> tuple[list[str], int | None, str, dict]:
+    settings = _read_json(study / "settings.json")
+    if settings is not None:
+        return list(settings["films"]), settings.get("seed"), str(settings.get("hash", "")), settings["settings"]
+    manifest = _read_json(study / "study.json")
+    if manifest is not None and isinstance(manifest.get("settings"), dict):
+        s = manifest["settings"]
+        films = s.get("films") or list(manifest.get("films") or {})
+        text = json.dumps(s, sort_keys=True, default=str)
+        return list(films), s.get("seed"), hashlib.sha256(text.encode()).hexdigest()[:16], s
+    raise FileNotFoundError(f"study_dir {study} has no settings.json or study.json with settings: not a study "
+                            "folder made by `filmcal pipeline`")
+
+
+def _read_posteriors(study: Path, films: list[str], seed: int | None, problems: list[str]) -> dict:
+    from filmcal.calibration import load_result
+
+    candidates: dict[str, list[tuple[tuple, Path]]] = {}
+    for path in sorted([*study.glob("posterior-*.json"), *study.glob("posteriors/*.json")]):
+        try:
+            head = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as err:
+            problems.append(f"{path.name}: {err}")
+            continue
+        film = head.get("film")
+        if film in films:
+            # prefer all loads, the study's seed, then the newest file
+            rank = (head.get("loads") not in (None, "all"), head.get("seed") != seed, -path.stat().st_mtime)
+            candidates.setdefault(film, []).append((rank, path))
+    out = {}
+    for film in films:
+        for _, path in sorted(candidates.get(film, []), key=lambda c: c[0]):
+            try:
+                out[film] = (load_result(path), path.name)
+                break
+            except Exception as err:  # noqa: BLE001 (an unreadable file is reported, not fatal)
+                problems.append(f"{path.name}: {err}")
+    return out
+
+
+def _read_design(study: Path) -> DesignData | None:
+    d = _read_json(_first(study, "design.json"))
+    if d is None:
+        return None
+    from filmcal.calibration.plots import PARAMETER_LABELS
+
+    space = _domain().space()
+    params = list(space.parameters)
+    labels = {"radius_mm": "sphere radius R (mm)", "force_kn": "load F (kN)", **PARAMETER_LABELS}
+    train = np.asarray(space.to_physical(np.asarray(d["train"]["unit"])))
+    test = np.asarray(space.to_physical(np.asarray(d["test"]["unit"])))
+    return DesignData([labels.get(p.name, p.name) for p in params], train, test,
+                      [p.scale == "log" for p in params], [p.levels for p in params],
+                      {k: d[k] for k in ("train", "test")})
+
+
+def _read_radius_model(study: Path):
+    from filmcal.surrogate import load_surrogate
+
+    try:
+        from filmcal.surrogate.radius import SurrogateRadiusModel
+    except ImportError:  # older layout
+        from filmcal.study import SurrogateRadiusModel
+    meta = [p for p in [*study.glob("surrogate-*.json"), *study.glob("surrogates/*.json")]
+            if not p.name.endswith("validation.json")]
+    if not meta:
+        return None
+    path = sorted(meta)[0]
+    return SurrogateRadiusModel(load_surrogate(path.with_name(path.name[:-len(".json")])), _domain())
+
+
+def _read_crossval(study: Path, films: list[str]) -> dict:
+    from filmcal.correction.crossval import CaseCrossValidation
+
+    out = {}
+    for film in films:
+        d = _read_json(_first(study, f"crossval-{film}.json", f"crossval/crossval-{film}.json"))
+        if d is not None:
+            out[film] = CaseCrossValidation.from_dict(d)
+    return out
+
+
+def _read_imprint_comparison(study: Path, films: list[str]) -> dict | None:
+    d = _read_json(_first(study, "imprint-comparison.json"))
+    if d is not None:
+        return d
+    per_film = {film: _read_json(_first(study, f"comparison-{film}.json")) for film in films}
+    per_film = {k: v for k, v in per_film.items() if v is not None}
+    return per_film or None
+
+
+def _study_files(study: Path) -> list[tuple[str, int, str]]:
+    files = []
+    for p in sorted(study.rglob("*")):
+        rel = p.relative_to(study)
+        if p.is_file() and not p.name.endswith(".tmp") and rel.parts[0] != "report" and not p.name.startswith("."):
+            files.append((rel.as_posix(), p.stat().st_size, hashlib.sha256(p.read_bytes()).hexdigest()))
+    return files
+
+
+def read_study(study_dir: str | Path) -> StudyData:
+    """Read a study folder into plain data (the one place that knows the folder's file names).
+
+    Raises
+    ------
+    FileNotFoundError
+        If `study_dir` is not a folder or has no settings (not made by the pipeline).
+    """
+    from filmcal.correction import read_curves_csv
+
+    study = Path(study_dir)
+    if not study.is_dir():
+        raise FileNotFoundError(f"study_dir {study} is not a folder")
+    films, seed, settings_hash, settings = _read_config(study)
+    data = StudyData(study, films, seed, settings_hash, settings)
+    data.posteriors = _read_posteriors(study, films, seed, data.problems)
+
+    def attempt(what: str, read: Callable[[], object]):
+        try:
+            return read()
+        except Exception as err:  # noqa: BLE001 (one unreadable file must not hide the rest of the report)
+            data.problems.append(f"{what}: {type(err).__name__}: {err}")
+            return None
+
+    data.curves = attempt("curves", lambda: {
+        film: read_curves_csv(p) for film in films
+        if (p := _first(study, f"curves-{film}.csv", f"curves/curves-{film}.csv")) is not None}) or {}
+    data.verification = attempt("fe-verification.json", lambda: _read_json(_first(study, "fe-verification.json")))
+    data.design = attempt("design.json", lambda: _read_design(study))
+    data.surrogate_validation = attempt("surrogate validation", lambda: _read_json(
+        _first(study, "surrogate-validation.json", "surrogates/*-validation.json")))
+    data.radius_model = attempt("surrogate", lambda: _read_radius_model(study))
+    data.modulus_range_mpa = tuple(_domain().modulus_mpa)
+    data.crossval = attempt("cross-validation", lambda: _read_crossval(study, films)) or {}
+    data.outlines = attempt("wheelrail-outlines.json", lambda: _read_json(_first(study, "wheelrail-outlines.json")))
+    data.imprint_comparison = attempt("imprint comparison", lambda: _read_imprint_comparison(study, films))
+    data.files = _study_files(study)
+    return data
+
+
+# =============================================================== helpers
 def _missing(section: Section, *names: str) -> Section:
     return section.add(f"Not available: {', '.join(names)} missing in the study folder (run `filmcal pipeline`).")
 
@@ -37,80 +248,125 @@ def _ci(d: dict, fmt: str = "{:.0f}") -> str:
     return f"{fmt.format(d['median'])} [{fmt.format(lo)}, {fmt.format(hi)}]"
 
 
-def _study_config(study: Path) -> dict:
-    settings = _read_json(study / "settings.json")
-    if settings is None:
-        raise FileNotFoundError(f"study_dir {study} has no settings.json: not a study folder made by "
-                                "`filmcal pipeline`")
-    return settings
+def _fixed_poisson(posteriors: dict) -> float | None:
+    values = {r.poisson.get("fixed") for r, _ in posteriors.values() if isinstance(r.poisson, dict)}
+    values.discard(None)
+    return values.pop() if len(values) == 1 else None
 
 
-def _posteriors(study: Path, films: list[str], seed: int) -> dict:
-    from filmcal.calibration import load_result
-    from filmcal.study import posterior_path
-
-    out = {}
-    for film in films:
-        path = posterior_path(study, film, seed=seed)
-        if path.exists():
-            out[film] = (load_result(path), path)
-    return out
+def _reference_row(rows: list[dict]) -> dict | None:
+    """The smooth-wheel row at the largest load and the offset nearest `REFERENCE_OFFSET_MM`."""
+    smooth = [r for r in rows if r["wheel"] == "smooth"] or rows
+    if not smooth:
+        return None
+    force = max(r["force_kn"] for r in smooth)
+    at_force = [r for r in smooth if r["force_kn"] == force]
+    return min(at_force, key=lambda r: abs(r["offset_mm"] - REFERENCE_OFFSET_MM))
 
 
-# --------------------------------------------------------------- sections
-def _summary(posteriors: dict, curves: dict, config: dict) -> Section:
+def _span(values, fmt: str) -> str:
+    lo, hi = min(values), max(values)
+    return fmt.format(lo) if fmt.format(lo) == fmt.format(hi) else f"{fmt.format(lo)} to {fmt.format(hi)}"
+
+
+# =============================================================== sections
+def answer_table(posteriors: dict, curves: dict) -> tuple[Table, list[str]]:
+    """The title page's answer per film: E (median, 90 % interval) and the correction at a reference case."""
+    rows, ref_case = [], None
+    for film in dict.fromkeys([*posteriors, *curves]):
+        cells = [film]
+        if film in posteriors:
+            r = posteriors[film][0]
+            cells += [f"{r.modulus_mpa['median']:.0f}", f"{r.modulus_mpa['ci90'][0]:.0f} to "
+                      f"{r.modulus_mpa['ci90'][1]:.0f}", "pass" if r.diagnostics_ok else "FAILED"]
+        else:
+            cells += ["not calibrated", "", ""]
+        ref = _reference_row(curves.get(film, []))
+        if ref is None:
+            cells += ["not computed", ""]
+        else:
+            ref_case = ref
+            cells += [f"{ref['ratio_median']:.3f} [{ref['ratio_lo']:.3f}, {ref['ratio_hi']:.3f}]",
+                      f"{ref['delta_area_median_mm2']:.1f} [{ref['delta_area_lo_mm2']:.1f}, "
+                      f"{ref['delta_area_hi_mm2']:.1f}]"]
+        rows.append(cells)
+    where = ("the reference case" if ref_case is None else
+             f"S1002 wheel ({ref_case['wheel']}) on 60E2 rail, F = {ref_case['force_kn']:g} kN, "
+             f"η = {ref_case['offset_mm']:+g} mm")
+    table = Table(["film", "E median (MPa)", "E 90 % credible interval (MPa)", "sampler diagnostics",
+                   "correction factor A(no film)/A(film), median [90 %]", "area added by the film ΔA (mm²), "
+                   "median [90 %]"], rows,
+                  f"The answer per film type: calibrated film modulus E, and the correction at {where}")
+    remarks = ["Multiply a measured imprint area by the correction factor to obtain the contact area without "
+               "film; the 90 % credible interval is the posterior uncertainty of E carried through the "
+               "wheel-rail model (section 'Wheel-rail correction curves' gives every offset and load computed)."]
+    failed = [f for f, (r, _) in posteriors.items() if not r.diagnostics_ok]
+    if failed:
+        remarks.append(f"Sampler diagnostics FAILED for {', '.join(failed)}: the chains are too short or not "
+                       "mixed (see the calibration sections and the glossary); the numbers are provisional and "
+                       "a longer run is needed before they are used.")
+    return table, remarks
+
+
+def summary_section(posteriors: dict, curves: dict) -> Section:
+    """Posterior per film and the range of the wheel-rail corrections over the offsets."""
     s = Section("Summary")
-    s.add("Prescale film between two bodies prints a contact patch larger than the contact without film. This "
-          "report calibrates a finite-element model of the film (its Young's modulus E, with Poisson's ratio fixed "
-          "at 0.33) against the Hertzian sphere-on-flat experiments of Table 1 for each film type, and propagates "
-          "the posterior through a wheel-rail model (S1002 wheel on a 60E2 rail inclined 1:40) into correction "
-          "curves with 90 % credible bands.")
+    nu = _fixed_poisson(posteriors)
+    nu_text = f", with Poisson's ratio fixed at {nu:g}" if nu is not None else ""
+    s.add("A Prescale film between two bodies prints a contact patch larger than the contact without film. This "
+          f"report calibrates a finite-element model of the film (its Young's modulus E{nu_text}) against the "
+          "Hertzian sphere-on-flat experiments of Table 1 for each film type, and propagates the posterior "
+          "through a wheel-rail model (S1002 wheel on a 60E2 rail inclined 1:40) into correction curves with "
+          "90 % credible bands.")
     rows = []
     for film, (r, _) in posteriors.items():
         p = r.predictive
         rows.append([film, _ci(r.modulus_mpa), _ci(r.oedometric_modulus_mpa), f"{r.sigma_mm['median']:.3f}",
-                     f"{r.rhat_max:.4f}", f"{r.ess_min:.0f}", "yes" if r.diagnostics_ok else "NO",
-                     f"{int(np.sum(~p.outside))}/{len(p.outside)}"])
-    s.add(Table(["film", "E (MPa), median [90 %]", "M (MPa), median [90 %]", "sigma (mm)", "worst R-hat",
-                 "worst bulk ESS", "diagnostics pass", "Table 1 cases in 90 % PPI"], rows,
-                "Posterior per film type (all loads of Table 1)"))
+                     f"{r.rhat_max:.4f}", f"{r.ess_min:.0f}", "pass" if r.diagnostics_ok else "FAILED",
+                     f"{int(np.sum(~p.outside))} of {len(p.outside)}"])
+    if rows:
+        s.add(Table(["film", "E (MPa), median [90 %]", "M (MPa), median [90 %]", "scatter σ (mm), median",
+                     "worst R-hat", "worst bulk ESS", "diagnostics", "Table 1 cases inside the 90 % PPI"], rows,
+                    "Posterior per film type (all loads of Table 1); PPI: posterior predictive interval"))
     rows = []
     for film, c in curves.items():
         for wheel in dict.fromkeys(r["wheel"] for r in c):
             for force in sorted({r["force_kn"] for r in c}):
                 sel = [r for r in c if r["wheel"] == wheel and r["force_kn"] == force]
-                rows.append([film, wheel, f"{force:g}",
-                             f"{min(r['delta_area_median_mm2'] for r in sel):.1f} - "
-                             f"{max(r['delta_area_median_mm2'] for r in sel):.1f}",
-                             f"{min(r['ratio_median'] for r in sel):.3f} - {max(r['ratio_median'] for r in sel):.3f}",
+                rows.append([film, wheel, f"{force:g}", _span([r["offset_mm"] for r in sel], "{:+g}"),
+                             _span([r["delta_area_median_mm2"] for r in sel], "{:.1f}"),
+                             _span([r["ratio_median"] for r in sel], "{:.3f}"),
                              f"{max(r['ratio_hi'] - r['ratio_lo'] for r in sel):.3f}",
                              f"{100 * max(r['interpolation_error_rel'] for r in sel):.3f}"])
     if rows:
-        s.add(Table(["film", "wheel", "F (kN)", "Delta A median (mm2)", "A0/A median", "widest 90 % band of A0/A",
-                     "propagation error (% of A)"], rows, "Wheel-rail corrections over the offsets computed"))
-    s.add("E and nu are not separately identifiable from contact areas: a thin film held laterally is compressed "
-          "nearly oedometrically, so the radius depends on (E, nu) through M = E(1-nu)/((1+nu)(1-2nu)). With nu "
-          "fixed, the calibrated E stands for M; any (E, nu) pair with the same M gives the same correction.")
+        s.add(Table(["film", "wheel", "F (kN)", "offsets η (mm), range", "ΔA median (mm²), range over offsets",
+                     "A0/A median, range over offsets", "widest 90 % band of A0/A", "propagation error (% of A)"],
+                    rows, "Wheel-rail corrections: the smallest to the largest posterior median over the offsets "
+                          "computed (ranges over offsets, not credible intervals)"))
+    s.add("E and ν are not separately identifiable from contact areas: a thin film held laterally is compressed "
+          "nearly oedometrically, so the radius depends on (E, ν) through M = E(1-ν)/((1+ν)(1-2ν)). With ν "
+          "fixed, the calibrated E stands for M; any (E, ν) pair with the same M gives the same correction.")
     return s
 
 
-def _verification(study: Path) -> Section:
+def verification_section(v: dict | None) -> Section:
+    """FE without film against Hertz, pressure profiles, and the surrogate against new FE solves."""
     s = Section("FE model verification")
-    v = _read_json(study / "fe-verification.json")
     if v is None:
         return _missing(s, "fe-verification.json")
     rows = [[f"R{r['radius_mm']:g}", f"{r['force_n'] / 1e3:g}", f"{r['hertz_radius_mm']:.4f}",
              f"{r['fe_radius_mm']:.4f}", f"{100 * (r['fe_radius_mm'] / r['hertz_radius_mm'] - 1):+.3f}"]
             for r in v["hertz"]]
-    s.add("Without film the axisymmetric FE model (steel on steel, E = 210000 MPa, nu = 0.3) must reproduce "
-          "Hertz's contact radius a = (3FR/(4E*))^(1/3) at the ten (R, F) cases of Table 1.",
+    s.add("Without film the axisymmetric FE model (two steel bodies) must reproduce Hertz's contact radius "
+          "a = (3FR/(4E*))^(1/3) at the ten (R, F) cases of Table 1.",
           Table(["sphere", "F (kN)", "a Hertz (mm)", "a FE (mm)", "error (%)"], rows, "FE without film against Hertz"),
           FigureBlock(F.plot_hertz_verification(v["hertz"]), "Relative error of the FE contact radius without "
-                      "film against Hertz."))
+                      "film against Hertz, per Table 1 case.", "FE without film against Hertz"))
     case = v["profile_case"]
     s.add(FigureBlock(F.plot_pressure_profiles(v["profiles"], case["radius_mm"], case["force_n"]),
                       "Contact pressure without film (against Hertz) and with each film at its posterior median E: "
-                      "the film lowers the peak and widens the patch."))
+                      "the film lowers the peak and widens the patch.",
+                      "Contact pressure without and with film"))
     worst, inside, n = 0.0, 0, 0
     for d in v["films"].values():
         for r in d["cases"]:
@@ -119,110 +375,142 @@ def _verification(study: Path) -> Section:
             inside += diff <= F.Z90 * r["surrogate_std_mm"]
             n += 1
     s.add(f"The surrogate used by the calibration is checked against new FE solves at each film's posterior "
-          f"median: largest difference {1e3 * worst:.1f} um in radius, {inside}/{n} FE radii inside the "
+          f"median: largest difference {1e3 * worst:.1f} µm in radius, {inside} of {n} FE radii inside the "
           "surrogate's 90 % interval.",
           FigureBlock(F.plot_surrogate_at_medians(v["films"]), "Surrogate minus FE radius at the posterior medians, "
-                      "with the surrogate's 90 % interval, per case and film."))
+                      "with the surrogate's 90 % interval, per case and film.",
+                      "Surrogate against new FE solves at the posterior medians"))
     return s
 
 
-def _preliminary(study: Path) -> Section:
-    from filmcal.fem import ContactOptions
-    from filmcal.study import SurrogateDomain, SurrogateRadiusModel, surrogate_path
-    from filmcal.surrogate import load_surrogate
-
-    s = Section("Preliminary study: E and nu (Fig. 2)")
-    path = surrogate_path(study, ContactOptions())
-    if not path.with_name(path.name + ".json").exists():
-        return _missing(s, path.name + ".json")
-    domain = SurrogateDomain()
-    model = SurrogateRadiusModel(load_surrogate(path), domain)
+def preliminary_section(model, modulus_range_mpa: tuple[float, float]) -> Section:
+    """The paper's Fig. 2: contact area over E and over M for several Poisson's ratios."""
+    s = Section("Preliminary study: E and ν (Fig. 2)")
+    if model is None:
+        return _missing(s, "the radius surrogate")
     s.add("As in the paper's Fig. 2, the contact area of the film model over the film's Young's modulus for "
           "several Poisson's ratios, at R300 / 25 kN and R600 / 100 kN (from the validated surrogate, 90 % "
-          "bands). Over the oedometric modulus M the curves of different nu fall on one another: M is what the "
+          "bands). Over the oedometric modulus M the curves of different ν fall on one another: M is what the "
           "areas identify.",
-          FigureBlock(F.plot_preliminary_study(model, modulus_range_mpa=domain.modulus_mpa),
-                      "Contact area against E (left) and M (right) for nu = 0.29, 0.33, 0.37."))
+          FigureBlock(F.plot_preliminary_study(model, modulus_range_mpa=modulus_range_mpa),
+                      "Contact area against E (left) and M (right) for ν = 0.29, 0.33, 0.37.",
+                      "Contact area against E and M (Fig. 2)"))
     return s
 
 
-def _design(study: Path) -> Section:
+def design_section(design: DesignData | None) -> Section:
+    """Design quality metrics and the pairs plot of the FE campaign in physical units."""
     s = Section("Design of the FE campaign")
-    d = _read_json(study / "design.json")
-    if d is None:
+    if design is None:
         return _missing(s, "design.json")
+    m = design.metrics
     rows = []
-    for key, label in (("min_distance", "min. distance (larger is better)"), ("phi_p", "phi_50 (smaller is better)"),
-                       ("centered_l2", "centered L2 discrepancy (smaller is better)"),
-                       ("max_abs_correlation", "max. |correlation| (smaller is better)")):
-        rows.append([label] + [f"{d[part][src][key]:.4g}" for part in ("train", "test")
+    for key, label in (("min_distance", "smallest distance between points (larger is better)"),
+                       ("phi_p", "φp space-filling criterion, p = 50 (smaller is better)"),
+                       ("centered_l2", "centred L2 discrepancy (smaller is better)"),
+                       ("max_abs_correlation", "largest |correlation| between columns (smaller is better)")):
+        rows.append([label] + [f"{m[part][src][key]:.4g}" for part in ("train", "test")
                                for src in ("quality", "random_lhs_median")])
-    s.add(f"Optimal Latin hypercubes (enhanced stochastic evolutionary search on phi_p) over log E, nu, the five "
-          f"sphere radii (discrete levels) and F: {d['train']['n']} training and {d['test']['n']} held-out FE runs, "
-          "each compared with the median of ten plain random Latin hypercubes of the same size.",
-          Table(["metric (unit cube)", "training", "random LHS", "held out", "random LHS"], rows),
-          FigureBlock(F.plot_design(d["names"], np.asarray(d["train"]["unit"]), np.asarray(d["test"]["unit"])),
-                      "Pairwise projections of the training (dots) and held-out (crosses) designs."))
+    s.add(f"Optimal Latin hypercubes (enhanced stochastic evolutionary search on φp) over log E, ν, the five "
+          f"sphere radii (discrete levels) and F: {m['train']['n']} training and {m['test']['n']} held-out FE "
+          "runs, each compared with the median of ten plain random Latin hypercubes of the same size. The "
+          "metrics are computed in the unit cube (each input scaled to 0-1, E in log); the figure shows the "
+          "points in physical units.",
+          Table(["metric (unit cube)", "training", "random LHS", "held out", "random LHS"], rows,
+                "Design quality against plain random Latin hypercubes"),
+          FigureBlock(F.plot_design(design.labels, design.train, design.test, design.log_scale, design.levels),
+                      "Pairwise projections of the training (dots) and held-out (crosses) FE runs in physical "
+                      "units; diagonal: number of runs per bin (stacked: training, held out).",
+                      "Design points in physical units"))
     return s
 
 
-def _surrogate(study: Path) -> Section:
+def surrogate_section(v: dict | None) -> Section:
+    """Held-out validation of the Gaussian-process surrogate."""
     s = Section("Surrogate validation")
-    v = _read_json(study / "surrogate-validation.json")
     if v is None:
         return _missing(s, "surrogate-validation.json")
     m = v["summary"]
-    s.add("A Gaussian process (Matern kernel, fitted FE noise) of the film's radius excess over Hertz, in log "
+    s.add("A Gaussian process (Matérn kernel, fitted FE noise) of the film's radius excess over Hertz, in log "
           "inputs and log output, checked on held-out FE runs of the second design.",
           Table(["held-out runs", "RMS radius error (mm)", "max radius error (mm)", "RMS area error (%)",
-                 "max area error (%)", "90 % coverage", "Q2"],
+                 "max area error (%)", "inside the 90 % interval", "Q2"],
                 [[str(m["n"]), f"{m['radius_rms_error_mm']:.4f}", f"{m['radius_max_error_mm']:.4f}",
                   f"{100 * m['area_rms_relative_error']:.3f}", f"{100 * m['area_max_relative_error']:.3f}",
-                  f"{m['coverage90']:.2f}", f"{m['q2']:.4f}"]]),
-          FigureBlock(F.plot_surrogate_validation(v["points"]), "Held-out FE radius excess against the surrogate "
-                      "(left) and the standardised errors (right)."))
+                  f"{100 * m['coverage90']:.0f} %", f"{m['q2']:.4f}"]], "Surrogate against held-out FE runs"),
+          FigureBlock(F.plot_surrogate_validation(v["points"]), "Held-out FE runs against the surrogate: parity of "
+                      "the radius excess over Hertz (top left), the surrogate's error with its 90 % interval (top "
+                      "right) and the standardised errors against the standard normal density (bottom).",
+                      "Surrogate against held-out FE runs"))
     return s
 
 
-def _calibration(film: str, result, path: Path) -> Section:
-    from filmcal.calibration.plots import plot_case_intervals, plot_corner, plot_predictive, plot_trace
+def calibration_section(film: str, result, source: str) -> Section:
+    """Posterior, diagnostics, traces, pairs, predictive check and per-case E ranges of one film."""
+    from filmcal.calibration.plots import (parameter_label, plot_case_intervals, plot_corner, plot_predictive,
+                                           plot_trace)
 
     s = Section(f"Calibration of {film} film")
-    rows = [[name, f"{np.median(v):.4g}", f"{np.quantile(v, 0.05):.4g}", f"{np.quantile(v, 0.95):.4g}",
-             f"{result.rhat.get(name, np.nan):.4f}", f"{result.ess_bulk.get(name, np.nan):.0f}",
-             f"{result.ess_tail.get(name, np.nan):.0f}"]
+    rows = [[parameter_label(name), f"{np.median(v):.4g}", f"{np.quantile(v, 0.05):.4g}",
+             f"{np.quantile(v, 0.95):.4g}", f"{result.rhat.get(name, np.nan):.4f}",
+             f"{result.ess_bulk.get(name, np.nan):.0f}", f"{result.ess_tail.get(name, np.nan):.0f}"]
             for name, v in ((k, np.asarray(v).ravel()) for k, v in result.samples.items())]
-    s.add(f"emcee ensemble sampler, {result.n_walkers} walkers x {result.n_steps} steps (burn-in {result.burn_in}, "
+    verdict = ("pass" if result.diagnostics_ok else "FAIL: " + "; ".join(result.diagnostics.messages))
+    s.add(f"emcee ensemble sampler, {result.n_walkers} walkers × {result.n_steps} steps (burn-in {result.burn_in}, "
           f"thinning {result.thin}), acceptance {result.acceptance_fraction:.2f}; {result.n_data} measured radii of "
-          f"Table 1; noise sigma inferred. Diagnostics "
-          f"{'pass' if result.diagnostics_ok else 'FAIL: ' + '; '.join(result.diagnostics.messages)} "
-          f"(R-hat <= {result.diagnostics.max_rhat}, bulk ESS >= {result.diagnostics.min_ess:.0f}).",
+          f"Table 1; the scatter σ is inferred. Diagnostics {verdict} (required: R-hat ≤ "
+          f"{result.diagnostics.max_rhat}, bulk ESS ≥ {result.diagnostics.min_ess:.0f}).",
           Table(["parameter", "median", "5 %", "95 %", "R-hat", "bulk ESS", "tail ESS"], rows,
-                f"Posterior of {film} ({path.name})"))
+                f"Posterior of {film} (file {source})"))
     for note in result.notes:
         s.add(note)
-    s.add(FigureBlock(plot_trace(result), f"{film}: traces of the kept samples per walker and their histograms."),
-          FigureBlock(plot_corner(result), f"{film}: pairwise posterior samples."))
+    s.add(FigureBlock(plot_trace(result), f"{film}: traces of the kept samples per walker and their histograms.",
+                      f"{film}: posterior traces"),
+          FigureBlock(plot_corner(result), f"{film}: pairwise posterior samples and marginal histograms.",
+                      f"{film}: posterior pairs"))
     p = result.predictive
     rows = [[f"R{r:g}", f"{f / 1e3:g}", f"{m - h:+.3f}", f"{mu - h:+.3f}", f"[{lo - h:+.3f}, {hi - h:+.3f}]",
              "no" if out else "yes"]
             for r, f, m, h, mu, lo, hi, out in zip(p.sphere_radius_mm, p.force_n, p.measured_radius_mm,
                                                    p.hertz_radius_mm, p.mean_mm, p.lower_mm, p.upper_mm, p.outside)]
     s.add(Table(["sphere", "F (kN)", "Table 1 error (mm)", "predicted (mm)", "90 % PPI (mm)", "inside"], rows,
-                f"Posterior predictive check of {film} against Table 1 (radius errors a - a Hertz)"),
+                f"Posterior predictive check of {film} against Table 1 (radius errors a − a Hertz)"),
           FigureBlock(plot_predictive(result), f"{film}: Table 1's radius errors against the posterior predictive "
-                      "90 % intervals."),
+                      "90 % intervals.", f"{film}: posterior predictive check against Table 1"),
           FigureBlock(plot_case_intervals(result), f"{film}: the paper's Fig. 3 in kind: per case, the range of E "
-                      "that reproduces the measured radius within the inferred noise, beside the pooled posterior."))
+                      "that reproduces the measured radius within the inferred scatter, beside the pooled "
+                      "posterior.", f"{film}: E reproducing each case (Fig. 3)"))
     return s
 
 
-def _crossval(study: Path, films: list[str]) -> Section:
-    from filmcal.correction.crossval import CaseCrossValidation
+def film_records_section(comparison: dict | None) -> Section:
+    """What the film records: imprint models, their comparison by evidence, roughness laws.
 
+    `comparison` is the study's imprint-model comparison (``imprint-comparison.json``,
+    film -> comparison), or None when the study did not compute it.
+    """
+    s = Section("What the film records")
+    if comparison is None:
+        return s.add("Not computed in this study: the imprint-model comparison (imprint-comparison.json) is not "
+                     "in the study folder. The calibration above reads the imprint as the contact edge.")
+    rows = []
+    for film, d in comparison.items():
+        if isinstance(d, dict):
+            for model, v in (d.get("models") or {}).items():
+                if isinstance(v, dict):
+                    rows.append([film, model, *(f"{v[k]:.4g}" if isinstance(v.get(k), (int, float)) else ""
+                                                for k in ("elpd_loo", "weight", "rms_residual_mm"))])
+    if rows:
+        s.add(Table(["film", "imprint model", "ELPD-LOO", "stacking weight", "RMS residual (mm)"], rows,
+                    "Imprint models compared by leave-one-out predictive accuracy"))
+    else:
+        s.add("The imprint-model comparison is in the study folder but in a form this report does not yet show.")
+    return s
+
+
+def crossval_section(results: dict) -> Section:
+    """Leave-one-case-out cross-validation of the sphere correction on Table 1."""
     s = Section("Leave-one-case-out cross-validation on Table 1")
-    results = {film: CaseCrossValidation.from_dict(_read_json(study / f"crossval-{film}.json")) for film in films
-               if (study / f"crossval-{film}.json").exists()}
     if not results:
         return _missing(s, "crossval-<film>.json")
     s.add("Can the correction be trusted on a case it has not seen? Each (R, F) case of Table 1 is held out in "
@@ -230,11 +518,11 @@ def _crossval(study: Path, films: list[str]) -> Section:
           "and the Hertz area (the truth of these experiments) should lie in the corrected 90 % interval in "
           "about 9 of 10 cases.",
           FigureBlock(F.plot_crossval(results), "Corrected area of each held-out case relative to the Hertz area, "
-                      "with its 90 % interval."))
+                      "with its 90 % interval.", "Cross-validated corrections against Hertz"))
     for film, cv in results.items():
-        s.add(Table(["sphere", "F (kN)", "measured r (mm)", "E of fold (MPa)", "corrected A (mm2)", "90 % interval",
-                     "Hertz A (mm2)", "inside"],
-                    [[f"R{r:g}", f"{f / 1e3:g}", f"{m:.3f}", f"{e:.0f}", f"{a:.1f} +/- {sd:.1f}",
+        s.add(Table(["sphere", "F (kN)", "measured r (mm)", "E of fold (MPa)", "corrected A (mm²)", "90 % interval",
+                     "Hertz A (mm²)", "inside"],
+                    [[f"R{r:g}", f"{f / 1e3:g}", f"{m:.3f}", f"{e:.0f}", f"{a:.1f} ± {sd:.1f}",
                       f"[{ci[0]:.1f}, {ci[1]:.1f}]", f"{h:.1f}", "yes" if ok else "NO"]
                      for r, f, m, e, a, sd, ci, h, ok in zip(cv.sphere_radius_mm, cv.force_n, cv.measured_radius_mm,
                                                              cv.modulus_median_mpa, cv.area_mm2, cv.area_std_mm2,
@@ -243,7 +531,8 @@ def _crossval(study: Path, films: list[str]) -> Section:
     return s
 
 
-def _wheel_rail(study: Path, curves: dict, posteriors: dict) -> Section:
+def wheel_rail_section(curves: dict, outlines: dict | None) -> Section:
+    """Correction curves (Fig. 6), the correction factor, the tables per film and the outlines (Fig. 7)."""
     s = Section("Wheel-rail correction curves (Figs. 6 and 7)")
     if not curves:
         return _missing(s, "curves-<film>.csv")
@@ -252,32 +541,76 @@ def _wheel_rail(study: Path, curves: dict, posteriors: dict) -> Section:
           "area is interpolated in log E from solves at five posterior quantiles and checked by two more; the "
           "largest relative error of that interpolation is printed beside the bands (it includes the area "
           "reading's own numerical jitter of a few tenths of a percent between neighbouring E). Rough wheel: a "
-          "Greenwood-Williamson law from Ra at the film-wheel interface. At Ra 1.5 um it changes the area by "
+          "Greenwood-Williamson law from Ra at the film-wheel interface. At Ra 1.5 µm it changes the area by "
           "well under 1 %, whereas the paper's rough-wheel simulations, with an experimentally obtained "
           "pressure-overclosure law, found a considerable increase: the rough-wheel curves here are not a "
           "substitute for that measured law, and a rough wheel should be corrected only after its roughness "
           "law has been measured.")
     for film, rows in curves.items():
         s.add(FigureBlock(F.plot_area_curves(rows, film), f"{film}: contact area over the lateral offset without "
-                          "film and with film (posterior median, 90 % band), smooth and rough wheel."))
+                          "film and with film (posterior median, 90 % band), smooth and rough wheel.",
+                          f"{film}: contact area over the offset (Fig. 6)"))
     s.add(FigureBlock(F.plot_correction_factor(curves), "Correction factor A(no film) / A(film) that turns a "
-                      "measured imprint area into the contact area, posterior medians and 90 % bands."))
+                      "measured imprint area into the contact area, posterior medians and 90 % bands.",
+                      "Correction factor over the offset"))
     for film, rows in curves.items():
-        s.add(Table(["wheel", "F (kN)", "eta (mm)", "A0 (mm2)", "Delta A median", "Delta A 90 %", "A0/A median",
+        s.add(Table(["wheel", "F (kN)", "η (mm)", "A0 (mm²)", "ΔA median (mm²)", "ΔA 90 % (mm²)", "A0/A median",
                      "A0/A 90 %", "prop. error (%)"],
                     [[r["wheel"], f"{r['force_kn']:g}", f"{r['offset_mm']:+g}", f"{r['area_no_film_mm2']:.1f}",
                       f"{r['delta_area_median_mm2']:.1f}", f"[{r['delta_area_lo_mm2']:.1f}, {r['delta_area_hi_mm2']:.1f}]",
                       f"{r['ratio_median']:.4f}", f"[{r['ratio_lo']:.4f}, {r['ratio_hi']:.4f}]",
                       f"{100 * r['interpolation_error_rel']:.3f}"] for r in rows],
-                    f"{film}: correction curves"))
-    outlines = _read_json(study / "wheelrail-outlines.json")
+                    f"{film}: correction curves (A0: area without film; ΔA: area added by the film)"))
     if outlines is None:
         return _missing(s, "wheelrail-outlines.json")
     for film in outlines["films"]:
         s.add(FigureBlock(F.plot_outlines(outlines, film), f"The paper's Fig. 7 in kind: contact outlines at "
                           f"{outlines['force_n'] / 1e3:g} kN without film (solid) and with {film} film at its "
-                          f"posterior median E = {outlines['films'][film]:.0f} MPa (dashed)."))
+                          f"posterior median E = {outlines['films'][film]:.0f} MPa (dashed).",
+                          f"Contact outlines without and with {film} film (Fig. 7)"))
     return s
+
+
+#: Terms of the report, explained for a reader who is not a statistician.
+GLOSSARY: list[tuple[str, str]] = [
+    ("E, M, ν", "The film's Young's modulus E, its Poisson's ratio ν and its oedometric (constrained) modulus "
+     "M = E(1-ν)/((1+ν)(1-2ν)), the stiffness of a layer squeezed without lateral expansion. Contact areas "
+     "identify M; E is quoted for the stated ν."),
+    ("η (lateral offset)", "Lateral position of the wheel on the rail: 0 when the wheel's tape circle lies in the "
+     "rail's inclined symmetry plane, positive towards the flange."),
+    ("Correction factor A(no film)/A(film), A0/A", "The number a measured imprint area is multiplied by to "
+     "obtain the contact area the wheel and rail have without film."),
+    ("R-hat", "Compares the spread within each part of the Markov chains with the spread between parts. Close "
+     "to 1 (here at most 1.01) when the sampler has forgotten its starting points; larger values mean the chains "
+     "have not yet mixed and the posterior is not to be trusted."),
+    ("ESS bulk / ESS tail", "Effective sample size: how many independent draws the correlated chain is worth, "
+     "for the centre of the distribution (bulk, governs the median) and for its 5 % and 95 % quantiles (tail, "
+     "governs the interval ends). A few hundred suffice for a median; the pipeline asks for more."),
+    ("φp (phi_p)", "Space-filling criterion of a design: a smooth version of the smallest distance between "
+     "points (p = 50 makes it close to the smallest distance). Smaller is better."),
+    ("Centred L2 discrepancy", "How far the points' spread departs from a uniform spread over every "
+     "sub-box of the unit cube. Smaller is more uniform."),
+    ("Q2", "Predictivity coefficient on held-out runs: 1 − (sum of squared prediction errors) / (sum of squared "
+     "deviations from their mean). 1 is perfect; 0 is no better than the mean."),
+    ("Posterior predictive interval (PPI)", "The range in which a new measurement is expected with the stated "
+     "probability (here 90 %), given the calibrated model and its measurement scatter. About 9 of 10 cases "
+     "should fall inside a 90 % interval."),
+    ("90 % credible interval / band", "The range that holds the quantity with 90 % posterior probability (5 % "
+     "below, 5 % above); a band is this interval drawn along a curve. A range over offsets (smallest to "
+     "largest value along a curve) is something else and is labelled as such."),
+    ("ELPD-LOO", "Expected log predictive density under leave-one-out: how well a model predicts each "
+     "measurement when that measurement is left out, summed over measurements. Higher is better; differences "
+     "are read against their standard error."),
+    ("Pareto k", "Reliability of the importance-sampling shortcut behind ELPD-LOO, per measurement: below 0.7 "
+     "the shortcut is reliable; above, that measurement needs an exact refit."),
+    ("Stacking weight", "The weight of each model in the mixture of models that predicts left-out "
+     "measurements best; weights are between 0 and 1 and sum to 1."),
+]
+
+
+def glossary_section() -> Section:
+    """The glossary of statistical and engineering terms used in the report."""
+    return Section("Glossary").add(Definitions(GLOSSARY))
 
 
 def _git_commit() -> str:
@@ -289,7 +622,9 @@ def _git_commit() -> str:
     return out.stdout.strip() if out.returncode == 0 else "unknown (not a git checkout)"
 
 
-def _provenance(study: Path, config: dict) -> Section:
+def provenance_section(folder: Path, settings_hash: str, seed: int | None, films: list[str], settings: dict,
+                       files: list[tuple[str, int, str]], problems: list[str]) -> Section:
+    """Software versions, the settings and the study folder's files with their checksums."""
     import filmcal
 
     s = Section("Provenance")
@@ -300,16 +635,32 @@ def _provenance(study: Path, config: dict) -> Section:
             versions.append([name, metadata.version(name)])
         except metadata.PackageNotFoundError:
             versions.append([name, "not installed"])
-    s.add(Table(["software", "version"], versions))
-    settings = [["settings hash", config["hash"]], ["seed", str(config["seed"])],
-                ["films", ", ".join(config["films"])]] + [[k, json.dumps(v)] for k, v in config["settings"].items()]
-    s.add(Table(["setting", "value"], settings, "Pipeline settings (the hash covers settings, films and seed)"))
-    files = []
-    for p in sorted(study.iterdir()):
-        if p.is_file() and not p.name.endswith(".tmp"):
-            files.append([p.name, f"{p.stat().st_size / 1024:.1f}", hashlib.sha256(p.read_bytes()).hexdigest()[:16]])
-    s.add(Table(["file", "size (KiB)", "SHA-256 (first 16)"], files, f"Study folder {study}"))
+    s.add(Table(["software", "version"], versions, "Software"))
+    rows = [["settings hash", settings_hash], ["seed", str(seed)], ["films", ", ".join(films)]]
+    rows += [[k, json.dumps(v)] for k, v in settings.items()]
+    s.add(Table(["setting", "value"], rows, "Pipeline settings (the hash covers settings, films and seed)"))
+    s.add(Table(["file", "size (KiB)", "SHA-256 (first 16)"],
+                [[name, f"{size / 1024:.1f}", sha[:16]] for name, size, sha in files], f"Study folder {folder}"))
+    if problems:
+        s.add("Files that could not be read (their sections say 'not available'): " + "; ".join(problems))
     return s
+
+
+#: The report's sections in order: each entry turns the study's data into one section.
+SECTION_BUILDERS: list[Callable[[StudyData], Section | list[Section]]] = [
+    lambda d: summary_section(d.posteriors, d.curves),
+    lambda d: verification_section(d.verification),
+    lambda d: preliminary_section(d.radius_model, d.modulus_range_mpa),
+    lambda d: design_section(d.design),
+    lambda d: surrogate_section(d.surrogate_validation),
+    lambda d: [calibration_section(film, *d.posteriors[film]) if film in d.posteriors else
+               _missing(Section(f"Calibration of {film} film"), f"posterior of {film}") for film in d.films],
+    lambda d: film_records_section(d.imprint_comparison),
+    lambda d: crossval_section(d.crossval),
+    lambda d: wheel_rail_section(d.curves, d.outlines),
+    lambda d: glossary_section(),
+    lambda d: provenance_section(d.folder, d.settings_hash, d.seed, d.films, d.settings, d.files, d.problems),
+]
 
 
 def build_report(study_dir: str | Path) -> Report:
@@ -318,45 +669,42 @@ def build_report(study_dir: str | Path) -> Report:
     Raises
     ------
     FileNotFoundError
-        If the folder has no ``settings.json`` (not made by the pipeline).
+        If the folder has no settings (not made by the pipeline).
     """
-    from filmcal.correction import read_curves_csv
+    import matplotlib
 
-    study = Path(study_dir)
-    if not study.is_dir():
-        raise FileNotFoundError(f"study_dir {study} is not a folder")
-    config = _study_config(study)
-    posteriors = _posteriors(study, config["films"], config["seed"])
-    curves = {film: read_curves_csv(study / f"curves-{film}.csv") for film in config["films"]
-              if (study / f"curves-{film}.csv").exists()}
-    sections = [_summary(posteriors, curves, config), _verification(study), _preliminary(study), _design(study),
-                _surrogate(study)]
-    for film in config["films"]:
-        if film in posteriors:
-            sections.append(_calibration(film, *posteriors[film]))
-        else:
-            sections.append(_missing(Section(f"Calibration of {film} film"), f"posterior of {film}"))
-    sections += [_crossval(study, config["films"]), _wheel_rail(study, curves, posteriors),
-                 _provenance(study, config)]
+    data = read_study(study_dir)
+    sections: list[Section] = []
+    with matplotlib.rc_context(F.REPORT_STYLE):
+        for build in SECTION_BUILDERS:
+            out = build(data)
+            sections.extend(out if isinstance(out, list) else [out])
+    answer, remarks = answer_table(data.posteriors, data.curves)
     stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     return Report("Film calibration and wheel-rail correction report",
-                  f"Study {study.resolve()}, settings hash {config['hash']}, generated {stamp}.", sections)
+                  f"Study {data.folder.resolve()}, settings hash {data.settings_hash}, generated {stamp}.",
+                  sections, answer=answer, remarks=remarks)
 
 
-def write_report(study_dir: str | Path, out_dir: str | Path | None = None) -> dict[str, Path]:
-    """Write ``report.html`` (self-contained) and ``report.pdf`` into `out_dir` (default ``study_dir/report``).
+def write_report(study_dir: str | Path, out_dir: str | Path | None = None) -> dict:
+    """Write ``report.html`` (self-contained) and ``report.pdf`` (A4) into `out_dir` (default ``study_dir/report``).
 
     Returns
     -------
     dict
-        ``{"html": Path, "pdf": Path, "figures": int}``.
+        ``{"html": Path, "pdf": Path, "figures": int, "pdf_engine": "chromium" | "matplotlib",
+        "pdf_message": str}`` (the message says why the PDF fell back, else it is empty).
     """
+    import matplotlib
+
     report = build_report(study_dir)
     out = Path(out_dir) if out_dir is not None else Path(study_dir) / "report"
     out.mkdir(parents=True, exist_ok=True)
     html_path = out / "report.html"
-    tmp = html_path.with_name(html_path.name + ".tmp")
-    tmp.write_text(render_html(report), encoding="utf-8")
-    tmp.replace(html_path)
-    pdf_path = write_pdf(report, out / "report.pdf")
-    return {"html": html_path, "pdf": pdf_path, "figures": len(report.figures)}
+    with matplotlib.rc_context(F.REPORT_STYLE):
+        tmp = html_path.with_name(html_path.name + ".tmp")
+        tmp.write_text(render_html(report), encoding="utf-8")
+        tmp.replace(html_path)
+        pdf = write_pdf(report, out / "report.pdf")
+    return {"html": html_path, "pdf": pdf.path, "figures": len(report.figures), "pdf_engine": pdf.engine,
+            "pdf_message": pdf.message}
