@@ -422,20 +422,31 @@ class _PeriodicKernel:
         return sfft.irfft2(sfft.rfft2(p) * self.spectrum, s=self.shape)
 
 
-def _balance(p: np.ndarray, total: float, hardness: float) -> None:
-    """Scale the cells below the cap (in place) until ``sum(p) = total``."""
-    for _ in range(100):
+def _balance(p: np.ndarray, total: float, hardness: float, gap: np.ndarray | None = None) -> None:
+    """Adjust the cells below the cap (in place) until ``sum(p) = total``.
+
+    Loaded cells below the cap are scaled; when they cannot take the load
+    (all loaded cells at the cap), the unloaded cells with the smallest gap
+    (the next to touch) are loaded.
+    """
+    for _ in range(200):
         deficit = total - p.sum()
         if abs(deficit) <= 1e-12 * total:
             return
         room = (p > 0.0) & (p < hardness)
-        if not room.any():
-            room = p < hardness
         base = p[room].sum()
-        if base <= 0.0:
-            p[room] += deficit / room.sum()
-        else:
+        if deficit < 0.0 and base <= 0.0:  # only capped cells: lower them
+            capped = p > 0.0
+            p[capped] += deficit / capped.sum()
+        elif deficit < 0.0 or base > 1e-9 * total:
             p[room] *= 1.0 + deficit / base
+        else:
+            empty = np.flatnonzero(p.ravel() == 0.0)
+            if empty.size == 0:
+                return
+            k = max(1, min(empty.size, int(0.1 * np.count_nonzero(p)) + 1))
+            order = empty if gap is None else empty[np.argsort(gap.ravel()[empty])]
+            p.ravel()[order[:k]] = min(hardness, deficit / k)
         np.clip(p, 0.0, hardness, out=p)
 
 
@@ -478,7 +489,7 @@ def _solve_step(kernel: _PeriodicKernel, heights_um: np.ndarray, mean_p: float, 
         p[join] = -tau * g[join]
         p[leave] = hardness - tau * g[leave]
         np.clip(p, 0.0, hardness, out=p)
-        _balance(p, total, hardness)
+        _balance(p, total, hardness, g)
         change = float(np.abs(p - p_prev).sum() / total)
         if change < tol:
             converged = True
@@ -542,7 +553,7 @@ def solve_periodic_contact(surface: RoughSurface, nominal_pressures_mpa: np.ndar
     out = []
     for load in loads:
         p = np.minimum(p * (load / p.mean()), hard)
-        _balance(p, load * p.size, hard)
+        _balance(p, load * p.size, hard, kernel(p) - h)
         p, approach_um, its, ok = _solve_step(kernel, h, float(load), hard, p, tol, max_iter)
         out.append(PeriodicContact(
             nominal_pressure_mpa=float(load), closure_mm=1e-3 * approach_um,

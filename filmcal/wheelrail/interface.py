@@ -20,6 +20,14 @@ the half-spaces. Contact holds where ``h + u_el(p) + c(p) = delta``.
     (PCHIP) interpolation.
   - :class:`GreenwoodWilliamsonLaw`: elastic spherical asperities with
     Gaussian or exponential summit heights, from ``Ra``.
+  - :class:`LargeStrainFilm`: the film itself under large strain (the
+    oedometric law of the FE model's compressible neo-Hookean film), passed
+    to the solver as a law instead of a linear :class:`FilmLayer`.
+  - :class:`SeriesLaw`: laws in series (a large-strain film and a rough
+    interface): closures add at a common pressure.
+
+  A rough interface computed from the surface by contact mechanics is
+  :func:`filmcal.contact.roughness.rough_contact_law` (a :class:`TabularLaw`).
 
 A note on Abaqus: its "exponential" pressure-overclosure law is
 ``p = p0 / (e - 1) * (h/c0 + 1) * (exp(h/c0 + 1) - 1)`` for an overclosure
@@ -47,6 +55,9 @@ __all__ = [
     "ExponentialLaw",
     "TabularLaw",
     "GreenwoodWilliamsonLaw",
+    "LargeStrainFilm",
+    "SeriesLaw",
+    "film_law",
 ]
 
 
@@ -420,3 +431,177 @@ class GreenwoodWilliamsonLaw(InterfaceLaw):
     def __repr__(self) -> str:
         return (f"GreenwoodWilliamsonLaw(ra_um={self.ra_um:g}, contact_modulus_mpa="
                 f"{self.contact_modulus_mpa:g}, heights={self.heights!r})")
+
+
+class LargeStrainFilm(InterfaceLaw):
+    """The film under large strain: the oedometric law of a compressible neo-Hookean film.
+
+    The film of the FE model's ``large_strain`` option
+    (:mod:`filmcal.fem.largestrain`) has the strain energy
+    ``W = mu/2 (tr C - 3) - mu ln J + lam/2 (ln J)**2``. Compressed by a
+    pressure ``p`` while held laterally (lateral stretch 1, the oedometric
+    state of a thin film in a contact), its stretch ``lambda = J = exp(-s)``
+    obeys (nominal = true stress, the area does not change)::
+
+        p = mu (1/lambda - lambda) - lam ln(lambda) / lambda
+          = 2 mu sinh(s) + lam s exp(s)
+
+    and the film closes by ``c = t (1 - lambda)``. At small strain
+    ``p = (lam + 2 mu) c / t = M c / t``, the linear :class:`FilmLayer`; at
+    large strain the film stiffens (``c < t`` at any pressure), so a soft
+    film compressed by 50-70 % is not extrapolated linearly.
+
+    Parameters
+    ----------
+    modulus_mpa : float
+        Young's modulus at small strain (MPa), > 0.
+    poisson : float
+        Poisson's ratio at small strain, -1 < nu < 0.5.
+    thickness_mm : float
+        Film thickness (mm), > 0.
+
+    Notes
+    -----
+    Pass it to the solvers as the interface law (``law=`` of
+    :func:`filmcal.wheelrail.halfspace.sphere_on_flat_contact`, ``roughness=``
+    of the wheel-rail model) with no linear film, or in a :class:`SeriesLaw`
+    with a rough interface. ``int_0^p c dq = p c - t W(lambda)`` exactly.
+    """
+
+    kinematics = "large"
+
+    def __init__(self, modulus_mpa: float, poisson: float = 0.33,
+                 thickness_mm: float = 0.09) -> None:
+        self.modulus_mpa = check_positive("modulus_mpa", modulus_mpa)
+        self.poisson = check_poisson("poisson", poisson)
+        self.thickness_mm = check_positive("thickness_mm", thickness_mm)
+        e, nu = self.modulus_mpa, self.poisson
+        self._lam = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
+        self._mu = e / (2.0 * (1.0 + nu))
+
+    @classmethod
+    def from_film(cls, film: FilmLayer) -> "LargeStrainFilm":
+        """The large-strain counterpart of a linear film."""
+        return cls(film.modulus_mpa, film.poisson, film.thickness_mm)
+
+    @property
+    def oedometric_modulus_mpa(self) -> float:
+        """Small-strain constrained modulus ``M = lam + 2 mu`` (MPa)."""
+        return self._lam + 2.0 * self._mu
+
+    @property
+    def compliance_mm_per_mpa(self) -> float:
+        """Small-strain closure per unit pressure, ``t / M`` (mm/MPa)."""
+        return self.thickness_mm / self.oedometric_modulus_mpa
+
+    def _pressure_of_log(self, s: np.ndarray) -> np.ndarray:
+        return 2.0 * self._mu * np.sinh(s) + self._lam * s * np.exp(s)
+
+    def _slope_of_log(self, s: np.ndarray) -> np.ndarray:
+        return 2.0 * self._mu * np.cosh(s) + self._lam * (1.0 + s) * np.exp(s)
+
+    def log_compression(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """``s = -ln(lambda)`` at pressures ``p >= 0`` (Newton from ``p/M``, an upper bound)."""
+        p = np.clip(np.asarray(pressure_mpa, dtype=float), 0.0, None)
+        s = p / self.oedometric_modulus_mpa  # p(s) >= M s (convex): Newton falls monotonically
+        for _ in range(100):
+            step = (self._pressure_of_log(s) - p) / self._slope_of_log(s)
+            s = np.maximum(s - step, 0.0)
+            if np.all(np.abs(step) <= 1e-14 * (1.0 + s)):
+                break
+        return s
+
+    def strain(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """Compressive engineering strain ``1 - lambda`` of the film."""
+        return -np.expm1(-self.log_compression(pressure_mpa))
+
+    def closure_mm(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """``t (1 - lambda(p))``."""
+        return self.thickness_mm * self.strain(pressure_mpa)
+
+    def pressure_mpa(self, closure_mm: np.ndarray) -> np.ndarray:
+        """Pressure at a closure; unbounded as the closure approaches ``t``."""
+        c = np.clip(np.asarray(closure_mm, dtype=float), 0.0, None)
+        lam = 1.0 - c / self.thickness_mm
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = -np.log(np.where(lam > 0.0, lam, 1.0))
+        return np.where(lam > 0.0, self._pressure_of_log(s), np.inf)
+
+    def tangent_compliance_mm_per_mpa(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """``dc/dp = t exp(-s) / (dp/ds)``."""
+        s = self.log_compression(pressure_mpa)
+        return self.thickness_mm * np.exp(-s) / self._slope_of_log(s)
+
+    def closure_integral(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """``p c - t W(lambda)``, ``W = mu/2 (lambda**2 - 1) + mu s + lam s**2/2``."""
+        p = np.clip(np.asarray(pressure_mpa, dtype=float), 0.0, None)
+        s = self.log_compression(p)
+        c = -self.thickness_mm * np.expm1(-s)
+        w = 0.5 * self._mu * np.expm1(-2.0 * s) + self._mu * s + 0.5 * self._lam * s * s
+        return np.clip(p * c - self.thickness_mm * w, 0.0, None)
+
+    def __repr__(self) -> str:
+        return (f"LargeStrainFilm(modulus_mpa={self.modulus_mpa:g}, poisson={self.poisson:g}, "
+                f"thickness_mm={self.thickness_mm:g})")
+
+
+class SeriesLaw(InterfaceLaw):
+    """Interface laws in series: one pressure, the closures add.
+
+    Parameters
+    ----------
+    *laws : InterfaceLaw
+        At least one law; hard laws add nothing.
+    """
+
+    def __init__(self, *laws: InterfaceLaw) -> None:
+        if not laws or not all(isinstance(law, InterfaceLaw) for law in laws):
+            raise ValueError(f"laws must be one or more InterfaceLaw objects, got {laws!r}")
+        self.laws = tuple(law for law in laws if not law.is_hard) or (HardLaw(),)
+        self.is_hard = all(law.is_hard for law in self.laws)
+
+    def closure_mm(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """Sum of the closures."""
+        return sum(law.closure_mm(pressure_mpa) for law in self.laws)
+
+    def tangent_compliance_mm_per_mpa(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """Sum of the slopes."""
+        return sum(law.tangent_compliance_mm_per_mpa(pressure_mpa) for law in self.laws)
+
+    def closure_integral(self, pressure_mpa: np.ndarray) -> np.ndarray:
+        """Sum of the integrals."""
+        return sum(law.closure_integral(pressure_mpa) for law in self.laws)
+
+    def pressure_mpa(self, closure_mm: np.ndarray) -> np.ndarray:
+        """Inverse of the summed closure (bisection on the pressure)."""
+        c = np.clip(np.asarray(closure_mm, dtype=float), 0.0, None)
+        if self.is_hard:
+            return np.where(c > 0.0, np.inf, 0.0)
+        lo, hi = np.zeros(c.shape), np.ones(c.shape)
+        for _ in range(200):
+            short = self.closure_mm(hi) < c
+            if not np.any(short) or np.all(hi[short] > 1e12):
+                break
+            hi = np.where(short, 2.0 * hi, hi)
+        for _ in range(100):
+            mid = 0.5 * (lo + hi)
+            below = self.closure_mm(mid) < c
+            lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+        return 0.5 * (lo + hi)
+
+    def __repr__(self) -> str:
+        return "SeriesLaw(" + ", ".join(repr(law) for law in self.laws) + ")"
+
+
+def film_law(film: FilmLayer | None, roughness: InterfaceLaw | None, *,
+             large_strain: bool = False) -> tuple[FilmLayer | None, InterfaceLaw | None]:
+    """The ``(film, law)`` pair to hand to the contact solvers.
+
+    A linear film stays a :class:`FilmLayer` (springs ``t/M``); a
+    large-strain film becomes a :class:`LargeStrainFilm` law, in series with
+    the roughness law when there is one.
+    """
+    if film is None or not large_strain:
+        return film, roughness
+    large = LargeStrainFilm.from_film(film)
+    return None, (large if roughness is None or roughness.is_hard else SeriesLaw(large, roughness))
