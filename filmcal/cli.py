@@ -70,8 +70,8 @@ SIZE_BOUNDS: dict[str, tuple[float, float]] = {
 # Path options by destination: files that a command writes, folders it
 # writes into, and files it only reads. Checked before any work.
 OUTPUT_FILE_DESTS = ("out", "csv", "plot", "pressure_csv", "outline_out")
-OUTPUT_DIR_DESTS = ("study_dir", "out_dir", "plots")
-INPUT_FILE_DESTS = ("design", "augment", "imprint", "roughness_law", "data", "films_file")
+OUTPUT_DIR_DESTS = ("study_dir", "out_dir", "plots", "work_dir")
+INPUT_FILE_DESTS = ("design", "augment", "imprint", "roughness_law", "data", "films_file", "template_file")
 PLOT_SUFFIXES = (".png", ".pdf", ".svg")
 
 
@@ -144,20 +144,24 @@ def build_parser() -> argparse.ArgumentParser:
 
 # --- checks of path options before any work ------------------------------------
 
-def _option_strings(parser: argparse.ArgumentParser, command: list[str]) -> dict[str, str]:
-    """Destination -> long option string of the (sub)command named by `command`."""
+def _command_actions(parser: argparse.ArgumentParser, command: list[str]) -> dict[str, argparse.Action]:
+    """Destination -> option action of the (sub)command named by `command`."""
     current = parser
     for name in command:
         current = _subparsers(current).get(name, current)
+    return {action.dest: action for action in current._actions if action.option_strings}
+
+
+def _option_strings(actions: dict[str, argparse.Action]) -> dict[str, str]:
+    """Destination -> long option string."""
     options: dict[str, str] = {}
-    for action in current._actions:
-        if action.option_strings:
-            longs = [s for s in action.option_strings if s.startswith("--")]
-            options[action.dest] = (longs or action.option_strings)[0]
+    for dest, action in actions.items():
+        longs = [s for s in action.option_strings if s.startswith("--")]
+        options[dest] = (longs or action.option_strings)[0]
     return options
 
 
-def preflight(args: argparse.Namespace, options: dict[str, str]) -> None:
+def preflight(args: argparse.Namespace, actions: dict[str, argparse.Action]) -> None:
     """Check the path options of a parsed command line before any work.
 
     Output files must not be folders and their folder must exist and be
@@ -172,25 +176,34 @@ def preflight(args: argparse.Namespace, options: dict[str, str]) -> None:
     from filmcal._errors import InputError
     from filmcal._io import check_input_file, check_output_dir, check_output_file
 
+    options = _option_strings(actions)
+
     def opt(dest: str) -> str:
         return options.get(dest, "--" + dest.replace("_", "-"))
 
-    for dest in OUTPUT_FILE_DESTS:
+    def path_value(dest: str) -> str | None:
+        action = actions.get(dest)
         value = getattr(args, dest, None)
-        if isinstance(value, str):
+        if action is None or action.choices is not None or not isinstance(value, str):
+            return None
+        return value
+
+    for dest in OUTPUT_FILE_DESTS:
+        value = path_value(dest)
+        if value is not None:
             check_output_file(value, opt(dest))
             if dest == "plot" and Path(value).suffix.lower() not in PLOT_SUFFIXES:
                 raise InputError(f"{opt(dest)} must end in {', '.join(PLOT_SUFFIXES)}, got {value!r}")
     for dest in OUTPUT_DIR_DESTS:
-        value = getattr(args, dest, None)
-        if isinstance(value, str):
+        value = path_value(dest)
+        if value is not None:
             check_output_dir(value, opt(dest))
     for dest in INPUT_FILE_DESTS:
-        value = getattr(args, dest, None)
-        if isinstance(value, str):
+        value = path_value(dest)
+        if value is not None:
             check_input_file(value, opt(dest))
-    store = getattr(args, "store", None)
-    if isinstance(store, str):
+    store = path_value("store")
+    if store is not None:
         if getattr(args, "action", None) == "run":
             check_output_file(store, opt("store"))
         else:
@@ -347,9 +360,10 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_USER
     path = [args.command] + ([args.action] if isinstance(getattr(args, "action", None), str) else [])
     prog = "filmcal " + " ".join(path)
-    options = _option_strings(parser, path)
+    actions = _command_actions(parser, path)
+    options = _option_strings(actions)
     try:
-        preflight(args, options)
+        preflight(args, actions)
         return int(args.func(args) or 0)
     except KeyboardInterrupt:
         sys.stderr.write(f"{prog}: interrupted\n")
