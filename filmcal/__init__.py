@@ -27,14 +27,14 @@ _EXPORTS = {
                          "SerialExecutor"],
     "filmcal.calibration": ["load_table1", "RadiusErrorData", "calibrate_film", "CalibrationResult",
                             "RadiusModel", "Priors"],
-    "filmcal.study": ["build_radius_surrogate", "SurrogateRadiusModel", "FERadiusModel", "SurrogateDomain",
-                      "calibrate_from_study", "load_posterior_samples"],
+    "filmcal.surrogate.radius": ["SurrogateRadiusModel", "FERadiusModel", "SurrogateDomain"],
+    "filmcal.study": ["Study", "FESettings", "CalibrationSpec", "PipelineSettings", "run_pipeline"],
+    "filmcal.films": ["FilmType", "FilmRegistry", "get_film"],
     "filmcal.wheelrail": ["get_profile", "load_profile_csv", "place_wheel_on_rail", "solve_wheel_rail",
                           "solve_wheel_rail_many", "WheelRailModel", "HalfSpaceContactSolver", "FilmLayer"],
     "filmcal.correction": ["SphereCorrector", "WheelRailCorrector", "CorrectedArea", "correction_curves",
                            "CorrectionCurves", "read_imprint", "measure_imprint", "Imprint", "correct_outline",
                            "CorrectedOutline", "ModelOutlines", "wheel_rail_outlines"],
-    "filmcal.pipeline": ["run_pipeline", "PipelineSettings"],
     "filmcal.report": ["build_report", "write_report"],
 }
 __all__, __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())

@@ -16,11 +16,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "likelihood. The FE model is seen through a Gaussian-process surrogate trained on an optimal "
                     "Latin hypercube of FE runs (kept in --study-dir and reused). Prints E and the oedometric "
                     "modulus M = E(1-nu)/((1+nu)(1-2nu)) with 90 %% intervals and the sampler's diagnostics.")
-    p.add_argument("--film", required=True, help="film type: MS, HS or HHS")
+    p.add_argument("--film", required=True, help="film type: MS, HS, HHS or one of --films-file")
+    p.add_argument("--films-file", metavar="TOML", help="user film types (name, activation pressure or range, "
+                   "thickness, nu); recorded in the study")
+    p.add_argument("--data", metavar="CSV", help="your own sphere-on-flat dataset (columns film, sphere_radius_mm, "
+                   "force_kn and one of measured_radius_mm, measured_area_mm2, radius_error_mm; optional repeat, "
+                   "measurement_std_mm, flat_ra_um); default: the paper's Table 1")
+    p.add_argument("--imprint", choices=["edge", "activation", "capsule"], default="edge",
+                   help="what the film records: the contact edge (default), the contour of the film's activation "
+                        "pressure, or the capsule model's expected stained area")
     p.add_argument("--loads", help="load range in kN, e.g. 50-100 (the paper's choice); all loads by default")
     p.add_argument("--poisson", choices=["fixed", "free"], default="fixed",
-                   help="nu fixed at 0.33 (default, as the paper) or uniform over 0.29-0.37 "
-                        "(then only M is identified)")
+                   help="nu fixed at the film's nominal value (default, 0.33 as the paper) or uniform over "
+                        "0.29-0.37 (then only M is identified)")
     p.add_argument("--discrepancy", choices=["none", "load"], default="none",
                    help="'load': an offset per load level (normal prior, 0.2 mm)")
     p.add_argument("--sphere-contact", choices=["frictionless", "tied", "friction"], default="frictionless",
@@ -30,37 +38,66 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--friction-coefficient", type=float, default=0.4, help="for 'friction' interfaces (0.4)")
     p.add_argument("--large-strain", action="store_true", help="neo-Hookean large-strain film in the FE model")
     p.add_argument("--study-dir", default="filmcal-study",
-                   help="folder of the FE runs (SQLite), surrogates and chains (default ./filmcal-study); "
-                        "reused and resumed when present")
-    p.add_argument("--train-runs", type=int, default=200, help="FE runs to train the surrogate (default 200)")
-    p.add_argument("--test-runs", type=int, default=100, help="held-out FE runs to validate it (default 100)")
-    p.add_argument("--workers", type=int, default=None, help="FE worker processes (default: all cores)")
-    p.add_argument("--seed", type=int, default=0, help="seed of designs, surrogate and chains (default 0)")
-    p.add_argument("--max-steps", type=int, default=None, help="cap on MCMC steps per walker")
+                   help="study folder of the FE runs, surrogates and chains (default ./filmcal-study; created when "
+                        "missing); artefacts made with other settings are kept beside, never reused")
+    p.add_argument("--train-runs", type=int, default=200, help="FE runs to train the surrogate (20-5000, default 200)")
+    p.add_argument("--test-runs", type=int, default=100, help="held-out FE runs to validate it (5-5000, default 100)")
+    p.add_argument("--workers", type=int, default=None, help="FE worker processes (1-64, default: all cores)")
+    p.add_argument("--seed", type=int, default=0, help="the study's seed (0 to 2^32-1, default 0)")
+    p.add_argument("--max-steps", type=int, default=None, help="cap on MCMC steps per walker (100-10^6)")
     p.add_argument("--plots", metavar="DIR", help="write trace, corner, per-case (Fig. 3) and predictive plots")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run)
 
 
-def run(args: argparse.Namespace) -> int:
-    from filmcal.fem import ContactOptions
-    from filmcal.study import SurrogateDomain, calibrate_from_study, posterior_tag
+def _spec(args: argparse.Namespace):
+    """The calibration spec of the command's options (validated before any work)."""
+    from filmcal.study import CalibrationSpec, FESettings
 
-    options = ContactOptions(sphere_contact=args.sphere_contact, flat_contact=args.flat_contact,
-                             friction_coefficient=args.friction_coefficient, large_strain=args.large_strain)
-    if args.train_runs < 20 or args.test_runs < 5:
-        raise ValueError("train_runs must be >= 20 and test_runs >= 5")
-    discrepancy = None if args.discrepancy == "none" else args.discrepancy
-    result, validation, _, path = calibrate_from_study(
-        args.study_dir, args.film, args.loads, options, args.poisson, discrepancy, args.seed, args.train_runs,
-        args.test_runs, args.workers, args.max_steps, progress=not args.json)
+    if args.workers is not None and not 1 <= args.workers <= 64:
+        raise ValueError(f"--workers must be 1-64, got {args.workers}")
+    if not 0 <= args.seed < 2**32:
+        raise ValueError(f"--seed must be 0 to 2^32-1, got {args.seed}")
+    if args.max_steps is not None and not 100 <= args.max_steps <= 1_000_000:
+        raise ValueError(f"--max-steps must be 100-1000000, got {args.max_steps}")
+    if not (0 <= args.friction_coefficient <= 2):
+        raise ValueError(f"--friction-coefficient must be 0-2, got {args.friction_coefficient}")
+    fe = FESettings(sphere_contact=args.sphere_contact, flat_contact=args.flat_contact,
+                    friction_coefficient=args.friction_coefficient,
+                    kinematics="large" if args.large_strain else "small", n_train=args.train_runs,
+                    n_test=args.test_runs, seed=args.seed)
+    return CalibrationSpec(args.film, imprint=args.imprint, fe=fe, loads=args.loads, poisson=args.poisson,
+                           discrepancy=None if args.discrepancy == "none" else args.discrepancy,
+                           max_steps=args.max_steps)
+
+
+def run(args: argparse.Namespace) -> int:
+    from filmcal.study import Study, output_column
+
+    spec = _spec(args)
+    study = Study(args.study_dir, create=True, films_file=args.films_file)
+    film = study.film(args.film)
     if args.plots:
-        _plots(result, Path(args.plots), posterior_tag(args.film, args.loads, options, args.poisson, discrepancy,
-                                                        args.seed))
+        from filmcal._io import check_output_dir
+
+        check_output_dir(args.plots, "--plots")
+    with study.writing("filmcal calibrate"):
+        if spec.fe.film_thickness_mm != film.thickness_mm:
+            from dataclasses import replace
+
+            spec = replace(spec, fe=replace(spec.fe, film_thickness_mm=film.thickness_mm))
+        result, path, full = study.calibrate(spec, dataset=args.data, workers=args.workers, progress=not args.json)
+        _, validation, _ = study.radius_model(spec.fe, output_column(spec.imprint, spec.film), args.workers, progress=False)
+    if args.plots:
+        _plots(result, Path(args.plots), path.stem)
     out = result.to_dict()
     out["surrogate_validation"] = validation.to_dict()
-    out["fe_options"] = {"sphere_contact": options.sphere_contact, "flat_contact": options.flat_contact,
-                         "friction_coefficient": options.friction_coefficient, "large_strain": options.large_strain}
+    out["fe_options"] = full["fe"]
+    out["imprint_model"] = spec.imprint
+    out["film"] = film.to_dict()
+    out["dataset"] = full["dataset"]
+    from filmcal.surrogate.radius import SurrogateDomain
+
     out["prior_modulus_range_mpa"] = list(SurrogateDomain().modulus_mpa)
     out["posterior_file"] = str(path)
     if args.json:
@@ -68,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         m, ci = out["modulus_mpa"]["median"], out["modulus_mpa"]["ci90"]
         om, oci = out["oedometric_modulus_mpa"]["median"], out["oedometric_modulus_mpa"]["ci90"]
-        print(f"film {args.film.upper()}, loads {args.loads or 'all'}, {out['n_data']} cases")
+        print(f"film {film.name}, imprint model {spec.imprint}, loads {args.loads or 'all'}, {out['n_data']} cases")
         print(f"E  = {m:.0f} MPa   90 % [{ci[0]:.0f}, {ci[1]:.0f}]")
         print(f"M  = {om:.0f} MPa   90 % [{oci[0]:.0f}, {oci[1]:.0f}]")
         print(f"sigma = {out['sigma_mm']['median']:.3f} mm; R-hat {out['rhat']:.4f}, ESS {out['ess']:.0f}, "

@@ -38,6 +38,18 @@ def _measured_law(path: str):
     return TabularLaw(closure, pressure)
 
 
+def _posterior(study, film: str, args: argparse.Namespace):
+    """The film's posterior: pinned by --model, the only one, or the highest stacking weight."""
+    from filmcal.study.core import comparison_weights
+
+    found = study.posteriors(film, model=args.model, loads=args.loads)
+    if args.model is None and len(found) > 1:
+        weights = comparison_weights(study, film)
+        if weights:
+            return study.posterior(film, model=max(weights, key=weights.get), loads=args.loads)
+    return study.posterior(film, model=args.model, loads=args.loads)
+
+
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "curves", help="wheel-rail correction curves with 90 %% credible bands at any loads and offsets",
@@ -57,7 +69,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "columns closure_um,pressure_mpa, both strictly increasing from pressure 0")
     p.add_argument("--loads", help="calibration data: load range in kN, e.g. 50-100 (default: all loads)")
     p.add_argument("--study-dir", default="filmcal-study", help="study folder with the posterior")
-    p.add_argument("--seed", type=int, default=0, help="seed of the calibration (default 0)")
+    p.add_argument("--model", metavar="IMPRINT/KINEMATICS",
+                   help="the calibrated model, e.g. activation/small (default: the study's only posterior or the "
+                        "one with the highest stacking weight)")
     p.add_argument("--csv", help="write the curves to this CSV file")
     p.add_argument("--plot", help="write a PNG of the areas with and without film")
     p.add_argument("--json", action="store_true", help="print the rows as one JSON object")
@@ -65,9 +79,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from filmcal.calibration import load_table1
+    from filmcal.study import Study
 
-    load_table1(args.film, args.loads)  # validates film and loads
+    study = Study(args.study_dir)
+    ft = study.film(args.film)
     forces = _floats(args.forces_kn, "forces_kn")
     offsets = _floats(args.offsets_mm, "offsets_mm")
     if not forces or any(not (0 < f < float("inf")) for f in forces):
@@ -77,10 +92,9 @@ def run(args: argparse.Namespace) -> int:
     if args.rough_ra_um is not None and not args.rough_ra_um > 0:
         raise ValueError(f"rough_ra_um must be > 0, got {args.rough_ra_um}")
     from filmcal.correction import CURVE_COLUMNS, curve_rows, wheel_label, write_curves_csv
-    from filmcal.study import load_posterior_samples
-
-    film = args.film.upper()
-    samples, path = load_posterior_samples(args.study_dir, film, args.loads, seed=args.seed)
+    film = ft.name
+    result, path, spec = _posterior(study, film, args)
+    samples = result.samples
     wheels = [None] + ([args.rough_ra_um] if args.rough_ra_um else [])
     if args.roughness_law:
         wheels.append(_measured_law(args.roughness_law))
@@ -88,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
     for wheel in wheels:
         sys.stderr.write(f"[curves] {film}, {wheel_label(wheel)} wheel: {len(forces)} loads x {len(offsets)} "
                          "offsets\n")
-        rows += curve_rows(film, samples["modulus_mpa"], offsets, forces, wheel)
+        rows += curve_rows(film, samples["modulus_mpa"], offsets, forces, wheel, ft.poisson, ft.thickness_mm)
     if args.csv:
         write_curves_csv(args.csv, rows)
     if args.plot:
@@ -96,7 +110,7 @@ def run(args: argparse.Namespace) -> int:
 
         plot_area_curves([dict(zip(CURVE_COLUMNS, r)) for r in rows], film).savefig(args.plot, dpi=120)
     if args.json:
-        print_json({"film": film, "posterior_file": str(path), "columns": list(CURVE_COLUMNS), "rows": rows})
+        print_json({"film": film, "model": spec["model"], "posterior_file": str(path), "columns": list(CURVE_COLUMNS), "rows": rows})
     else:
         print(f"{'wheel':>16} {'F kN':>6} {'eta mm':>7} {'A0 mm2':>8} {'dA median':>9} {'dA 90 %':>17} "
               f"{'A0/A':>7} {'A0/A 90 %':>17} {'interp %':>8}")

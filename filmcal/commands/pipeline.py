@@ -17,13 +17,21 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "against Hertz and of the surrogate against FE, wheel-rail correction curves (S1002/60E2, 50 "
                     "and 100 kN, eta -7..2 mm, smooth and rough wheel) with 90 %% credible bands, contact outlines, "
                     "leave-one-case-out cross-validation of the correction on Table 1, and the HTML + PDF report (STUDY_DIR/report). Finished work is kept and reused: an interrupted "
-                    "run resumes where it stopped, and a second run only reads (under a minute). A folder keeps "
+                    "run resumes where it stopped, and a second run only reads (a few seconds). A folder keeps "
                     "the settings it was made with; other settings need another folder.")
     p.add_argument("--study-dir", default=None,
                    help="study folder (default ./filmcal-study, or ./filmcal-study-quick with --quick)")
     p.add_argument("--quick", action="store_true",
                    help="a small version for checks (40+12 FE runs, short chains, 3 offsets at 50 kN): 1-3 min")
-    p.add_argument("--films", default="MS,HS,HHS", help="film types, comma-separated (default MS,HS,HHS)")
+    p.add_argument("--films", default="MS,HS,HHS",
+                   help="film types, comma-separated (default MS,HS,HHS; others from --films-file)")
+    p.add_argument("--films-file", metavar="TOML", help="user film types (name, activation pressure or range, "
+                   "thickness, nu), recorded in the study")
+    p.add_argument("--imprint-models", default="edge,activation,capsule",
+                   help="what the film records, each calibrated and compared (default edge,activation,capsule)")
+    p.add_argument("--kinematics", default="small",
+                   help="film kinematics of the FE model, each calibrated and compared: small, large or "
+                        "small,large (default small)")
     p.add_argument("--workers", type=int, default=None, help="FE worker processes (default: all cores)")
     p.add_argument("--seed", type=int, default=0, help="seed of designs, surrogate and chains (default 0)")
     p.add_argument("--no-report", action="store_true", help="skip the HTML/PDF report")
@@ -32,29 +40,41 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from filmcal.films import FILM_TYPES
-    from filmcal.pipeline import PipelineSettings, run_pipeline
+    from dataclasses import replace
 
-    films = [f.strip().upper() for f in args.films.split(",") if f.strip()]
-    unknown = [f for f in films if f not in FILM_TYPES]
-    if not films or unknown or len(set(films)) != len(films):
-        raise ValueError(f"films must be distinct among {', '.join(FILM_TYPES)}, got {args.films!r}")
-    if args.workers is not None and args.workers < 1:
-        raise ValueError(f"workers must be >= 1, got {args.workers}")
+    from filmcal.films import FilmRegistry
+    from filmcal.study import PipelineSettings, run_pipeline
+
+    registry = FilmRegistry.from_file(args.films_file)
+    films = [f for f in args.films.split(",") if f]
+    for f in films:
+        registry.get(f)
+    if not films or len(set(films)) != len(films):
+        raise ValueError(f"--films must be distinct film types, got {args.films!r}")
+    if args.workers is not None and not 1 <= args.workers <= 64:
+        raise ValueError(f"--workers must be 1-64, got {args.workers}")
+    if not 0 <= args.seed < 2**32:
+        raise ValueError(f"--seed must be 0 to 2^32-1, got {args.seed}")
     settings = PipelineSettings.quick() if args.quick else PipelineSettings()
+    settings = replace(settings, imprint_models=tuple(m.strip() for m in args.imprint_models.split(",") if m.strip()),
+                       kinematics=tuple(k.strip() for k in args.kinematics.split(",") if k.strip()))
     study_dir = args.study_dir or ("filmcal-study-quick" if args.quick else "filmcal-study")
     log = (lambda msg: (sys.stderr.write(msg + "\n"), sys.stderr.flush())) if args.json else (
         lambda msg: print(msg, flush=True))
-    summary = run_pipeline(study_dir, settings, films, args.seed, args.workers, log, report=not args.no_report)
+    summary = run_pipeline(study_dir, settings, films, args.seed, args.workers, log, report=not args.no_report,
+                           films_file=args.films_file)
     if args.json:
         print_json(summary)
     else:
         for film, s in summary["films"].items():
             m, ci = s["modulus_mpa"]["median"], s["modulus_mpa"]["ci90"]
-            print(f"{film}: E = {m:.0f} MPa [{ci[0]:.0f}, {ci[1]:.0f}], R-hat {s['rhat']:.4f}, ESS {s['ess']:.0f}, "
-                  f"Table 1 cases in 90 % PPI {s['predictive_hits']}/{s['n_cases']}"
-                  + (f", leave-one-case-out {s['crossval_hits']}/{s['n_cases']}" if "crossval_hits" in s else "")
-                  + f", curves {s['curves_file']}")
+            weights = s.get("imprint_weights") or {}
+            print(f"{film} ({s['model']}): E = {m:.0f} MPa [{ci[0]:.0f}, {ci[1]:.0f}], R-hat {s['rhat']:.4f}, "
+                  f"ESS {s['ess']:.0f}, cases in their 90 % predictive interval {s['predictive_hits']}/{s['n_cases']}"
+                  + (", stacking weights " + ", ".join(f"{k} {v:.2f}" for k, v in weights.items()) if weights else ""))
+            if not s["diagnostics_ok"]:
+                sys.stderr.write(f"warning: {film}: the sampler's diagnostics failed (R-hat {s['rhat']:.4f}, "
+                                 f"ESS {s['ess']:.0f}); treat this posterior as provisional\n")
         if "report" in summary:
             print(f"report: {summary['report']['html']} and {summary['report']['pdf']}")
         print(f"summary: {study_dir}/summary.json ({summary['elapsed_s']:.0f} s)")

@@ -21,7 +21,7 @@ import numpy as np
 
 from filmcal.hertz import hertz_radius_mm
 
-__all__ = ["CorrectedArea", "SphereCorrector"]
+__all__ = ["CorrectedArea", "SphereCorrector", "pool_corrected"]
 
 
 @dataclass
@@ -63,6 +63,33 @@ def _summarise(samples_mm2: np.ndarray, radius_samples: np.ndarray) -> Corrected
                          radius_samples.mean(axis=-1), radius_samples.std(axis=-1, ddof=1), samples_mm2)
 
 
+def pool_corrected(parts: list[CorrectedArea], weights, random_state=0) -> CorrectedArea:
+    """Pool corrected areas of several models into one mixture, by model weights.
+
+    Each model contributes samples in proportion to its weight (e.g. stacking
+    weights of imprint models), so the pooled band is as wide as the models'
+    spread that the data cannot tell apart.
+
+    Parameters
+    ----------
+    parts : list of CorrectedArea
+        The same points corrected under each model.
+    weights : array_like
+        Non-negative model weights (normalised here).
+    random_state : int or numpy.random.Generator
+    """
+    w = np.asarray(weights, dtype=float)
+    if len(parts) != len(w) or not len(parts) or np.any(w < 0) or not np.isfinite(w).all() or w.sum() <= 0:
+        raise ValueError("weights must be one non-negative finite number per part, not all zero")
+    w = w / w.sum()
+    rng = np.random.default_rng(random_state)
+    n = min(p.samples_mm2.shape[-1] for p in parts)
+    counts = rng.multinomial(n, w)
+    samples = np.concatenate([p.samples_mm2[..., rng.choice(p.samples_mm2.shape[-1], c, replace=False)]
+                              for p, c in zip(parts, counts) if c > 0], axis=-1)
+    return _summarise(samples, np.sqrt(samples / np.pi))
+
+
 class SphereCorrector:
     """Correct sphere-on-flat imprints measured with one film type.
 
@@ -70,7 +97,7 @@ class SphereCorrector:
     ----------
     model : RadiusModel
         ``predict(modulus_mpa, poisson, sphere_radius_mm, force_n) -> (mean, std)``
-        of the radius printed on film (e.g. `filmcal.study.SurrogateRadiusModel`).
+        of the radius printed on film (e.g. `filmcal.surrogate.radius.SurrogateRadiusModel`).
     posterior : dict of ndarray
         Posterior samples ``modulus_mpa``, ``poisson`` and ``sigma_mm`` of equal
         shape, any layout (e.g. ``CalibrationResult.samples``, walkers x steps).
@@ -90,32 +117,6 @@ class SphereCorrector:
         self.poisson_ = np.broadcast_to(poisson.ravel()[take] if poisson.ndim else poisson, take.shape).copy()
         self.sigma_mm_ = np.asarray(posterior["sigma_mm"], dtype=float).ravel()[take]
         self.random_state = random_state
-
-    @classmethod
-    def from_study(cls, study_dir, film: str, loads: str | None = None, seed: int = 0, **kwargs) -> "SphereCorrector":
-        """The corrector of a film type from a study folder's saved posterior and radius surrogate.
-
-        Parameters
-        ----------
-        study_dir : str or Path
-            Study folder (``filmcal pipeline`` or ``filmcal calibrate`` wrote it).
-        film : str
-            MS, HS or HHS.
-        loads : str, optional
-            Load range of the calibration (default: all loads).
-        seed : int
-            Seed of the calibration, and of the corrector's scatter draws.
-        **kwargs
-            Passed to the constructor (``max_samples``).
-        """
-        from filmcal.fem import ContactOptions
-        from filmcal.study import SurrogateDomain, SurrogateRadiusModel, load_posterior_samples, surrogate_path
-        from filmcal.surrogate import load_surrogate
-
-        options = ContactOptions()
-        samples, _ = load_posterior_samples(study_dir, film, loads, options, seed)
-        model = SurrogateRadiusModel(load_surrogate(surrogate_path(study_dir, options)), SurrogateDomain())
-        return cls(model, samples, random_state=seed, **kwargs)
 
     def correct(self, measured_radius_mm, sphere_radius_mm, force_n, measurement_std_mm=0.0) -> CorrectedArea:
         """The contact area without film behind measured imprint radii (vectorised).

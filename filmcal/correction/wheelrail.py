@@ -43,11 +43,16 @@ class WheelRailCorrector:
         Radius error of the film representation (see the module docstring).
     max_samples : int
     random_state : int or numpy.random.Generator
+    imprint_area : callable, optional
+        ``imprint_area(result) -> float``: the area that the film records of a
+        wheel-rail result with film (the calibration's imprint model, e.g. the
+        activation contour); default the contact area read at its edge.
     """
 
     def __init__(self, posterior: dict, film_thickness_mm: float = 0.09, wheel: str = "S1002", rail: str = "60E2",
                  rail_inclination: float = 1 / 40, nominal_radius_mm: float = 460.0, grid_mm: float = 0.1,
-                 model_radius_std_mm: float = 0.01, max_samples: int = 2000, random_state=0) -> None:
+                 model_radius_std_mm: float = 0.01, max_samples: int = 2000, random_state=0,
+                 imprint_area=None) -> None:
         modulus = np.asarray(posterior["modulus_mpa"], dtype=float).ravel()
         take = np.unique(np.linspace(0, len(modulus) - 1, min(len(modulus), max_samples)).round().astype(int))
         self.modulus_mpa_ = modulus[take]
@@ -59,36 +64,16 @@ class WheelRailCorrector:
                              nominal_radius_mm=nominal_radius_mm, grid_mm=grid_mm)
         self.model_radius_std_mm = model_radius_std_mm
         self.random_state = random_state
-
-    @classmethod
-    def from_study(cls, study_dir, film: str, loads: str | None = None, seed: int = 0,
-                   **kwargs) -> "WheelRailCorrector":
-        """The corrector of a film type from a study folder's saved posterior.
-
-        Parameters
-        ----------
-        study_dir : str or Path
-            Study folder (``filmcal pipeline`` or ``filmcal calibrate`` wrote it).
-        film : str
-            MS, HS or HHS.
-        loads : str, optional
-            Load range of the calibration (default: all loads).
-        seed : int
-            Seed of the calibration, and of the corrector's scatter draws.
-        **kwargs
-            Passed to the constructor (profiles, rail inclination, ...).
-        """
-        from filmcal.study import load_posterior_samples
-
-        samples, _ = load_posterior_samples(study_dir, film, loads, seed=seed)
-        return cls(samples, random_state=seed, **kwargs)
+        self.imprint_area = imprint_area
 
     def area_ratio(self, offset_mm: float, force_n: float) -> tuple[np.ndarray, dict]:
         """A_0 / A_f(E) for every posterior sample, and the solved support points."""
         a0 = solve_wheel_rail(offset_mm, force_n, film=None, **self.settings).area_mm2
         e_grid = np.unique(np.quantile(self.modulus_mpa_, QUANTILES))
-        a_f = np.array([solve_wheel_rail(offset_mm, force_n, film=FilmLayer(e, self.poisson_, self.film_thickness_mm),
-                                         **self.settings).area_mm2 for e in e_grid])
+        read = self.imprint_area or (lambda result: result.area_mm2)
+        a_f = np.array([read(solve_wheel_rail(offset_mm, force_n, film=FilmLayer(e, self.poisson_,
+                                                                                 self.film_thickness_mm),
+                                              **self.settings)) for e in e_grid])
         log_ratio = np.log(a0 / a_f)
         degree = min(2, len(e_grid) - 1)
         coef = np.polyfit(np.log(e_grid), log_ratio, degree) if degree > 0 else log_ratio

@@ -1,0 +1,597 @@
+"""`Study`: one object that owns a study folder, as an emcee backend owns a chain.
+
+The stages (`filmcal.fem`, `filmcal.campaign`, `filmcal.surrogate`,
+`filmcal.calibration`, `filmcal.correction`) know nothing of folders; a
+`Study` composes them and is the only code that reads and writes the folder
+(through `StudyLayout`). Every artefact is named by the key of the spec that
+made it and recorded in the manifest with its SHA-256:
+
+* asked for an artefact, the study computes the spec's key; a recorded file
+  with that key is verified and reused, otherwise it is computed and recorded
+  beside any made with other settings (never reused silently);
+* a file changed after it was written is refused with a message that names it;
+* one process writes a study at a time (`Study.writing`, an OS file lock).
+"""
+from __future__ import annotations
+
+import contextlib
+import functools
+import zlib
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import Any, Iterator
+
+import numpy as np
+
+from filmcal._errors import InputError
+from filmcal._io import check_output_dir
+from filmcal.films import FilmRegistry, FilmType, load_films_file
+from filmcal.study.layout import StudyLayout, spec_key
+from filmcal.study.manifest import Manifest, StudyLock, utc_now
+
+__all__ = ["Study", "FESettings", "CalibrationSpec", "IMPRINT_MODELS", "KINEMATICS", "seed_for", "output_column", "correctors", "comparison_weights", "report_view"]
+
+#: What the film records (`filmcal.contact.imprint`): the edge of contact, or where it colours.
+IMPRINT_MODELS = ("edge", "activation", "capsule")
+#: Film kinematics of the FE model.
+KINEMATICS = ("small", "large")
+
+
+def seed_for(seed: int, stream: str) -> int:
+    """An independent integer seed of the named stream of a study's seed.
+
+    Every random step of a study draws from its own stream
+    (`numpy.random.SeedSequence` with the stream's name as spawn key), so that
+    adding a stage or a film never shifts the random numbers of another.
+    """
+    ss = np.random.SeedSequence(entropy=int(seed), spawn_key=(zlib.crc32(stream.encode()),))
+    return int(ss.generate_state(1, dtype=np.uint32)[0])
+
+
+@dataclass(frozen=True)
+class FESettings:
+    """What a study's FE campaign and radius surrogates are made from.
+
+    Attributes
+    ----------
+    sphere_contact, flat_contact, friction_coefficient : FE contact options.
+    kinematics : {"small", "large"}
+        Small-strain or large-strain (neo-Hookean) film.
+    film_thickness_mm : float
+        Film thickness of the FE model.
+    n_train, n_test : int
+        FE runs of the surrogate's training design and of its held-out design.
+    seed : int
+        The study's seed (designs and GP restarts draw from their own streams).
+    """
+
+    sphere_contact: str = "frictionless"
+    flat_contact: str = "tied"
+    friction_coefficient: float = 0.4
+    kinematics: str = "small"
+    film_thickness_mm: float = 0.09
+    n_train: int = 200
+    n_test: int = 100
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.kinematics not in KINEMATICS:
+            raise InputError(f"kinematics must be one of {', '.join(KINEMATICS)}, got {self.kinematics!r}")
+        if not (20 <= self.n_train <= 5000 and 5 <= self.n_test <= 5000):
+            raise InputError(f"train_runs must be 20-5000 and test_runs 5-5000, got {self.n_train} and {self.n_test}")
+
+    def contact_options(self):
+        from filmcal.fem import ContactOptions
+
+        return ContactOptions(sphere_contact=self.sphere_contact, flat_contact=self.flat_contact,
+                              friction_coefficient=self.friction_coefficient,
+                              large_strain=self.kinematics == "large")
+
+
+@dataclass(frozen=True)
+class CalibrationSpec:
+    """One calibration of a film in a study.
+
+    Attributes
+    ----------
+    film : str
+        Film type (built in, or defined in the study).
+    imprint : {"edge", "activation", "capsule"}
+        What the film records (the radius model's output).
+    fe : FESettings
+        FE options, kinematics, design sizes and seed.
+    loads : str or None
+        Load range of the data, e.g. ``"50-100"`` (kN); None: all.
+    poisson : {"fixed", "free"}
+    discrepancy : {None, "load"}
+    max_steps : int or None
+        Cap of MCMC steps per walker.
+    """
+
+    film: str
+    imprint: str = "edge"
+    fe: FESettings = field(default_factory=FESettings)
+    loads: str | None = None
+    poisson: str = "fixed"
+    discrepancy: str | None = None
+    max_steps: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.imprint not in IMPRINT_MODELS:
+            raise InputError(f"imprint must be one of {', '.join(IMPRINT_MODELS)}, got {self.imprint!r}")
+        if self.poisson not in ("fixed", "free"):
+            raise InputError(f"poisson must be fixed or free, got {self.poisson!r}")
+        if self.discrepancy not in (None, "load"):
+            raise InputError(f"discrepancy must be none or load, got {self.discrepancy!r}")
+
+    @property
+    def model_label(self) -> str:
+        """The calibrated model's name in comparisons: imprint model and kinematics."""
+        return f"{self.imprint}/{self.fe.kinematics}"
+
+
+def output_column(imprint: str, film: str) -> str:
+    """The FE reading that the imprint model `imprint` makes of film `film`."""
+    from filmcal.surrogate.radius import EDGE_COLUMN
+
+    return EDGE_COLUMN if imprint == "edge" else f"radius_{imprint}_{film}_mm"
+
+
+class Study:
+    """A study folder: its manifest, its artefacts and the stages that make them.
+
+    Parameters
+    ----------
+    root : str or Path
+        The folder.
+    create : bool
+        Create the folder (and its manifest) when missing. Without it a
+        missing folder, or a folder without a manifest, is an error: a mistyped
+        ``--study-dir`` never starts a new study silently.
+    films_file : str or Path, optional
+        A TOML file of user film types to add to the study's films.
+    """
+
+    def __init__(self, root: str | Path, *, create: bool = False, films_file: str | Path | None = None) -> None:
+        self.layout = StudyLayout(root)
+        self.root = self.layout.root
+        check_output_dir(self.root, "--study-dir", must_exist=not create)
+        if self.layout.manifest.exists():
+            self.manifest = Manifest.read(self.layout.manifest)
+        elif create:
+            if self.root.exists() and any(p.name != ".lock" for p in self.root.iterdir()):
+                raise InputError(f"--study-dir {str(self.root)!r} is a folder with files but no study manifest "
+                                 f"({self.layout.manifest.name}); give an empty or new folder")
+            self.manifest = Manifest.new(self.layout.manifest)
+        else:
+            raise InputError(f"--study-dir {str(self.root)!r} is not a study folder (no {self.layout.manifest.name}); "
+                             "make one with `filmcal pipeline` or `filmcal calibrate --study-dir ...`")
+        self._lock = StudyLock(self.layout.lock)
+        user = {name: FilmType.from_dict(name, d) for name, d in self.manifest.data["films"].items()}
+        self.films = FilmRegistry(user)
+        if films_file is not None:
+            self._new_films = load_films_file(films_file)
+            for name, film in self._new_films.items():
+                if name in user and user[name] != film:
+                    raise InputError(f"film {name} in {films_file} differs from the study's definition; "
+                                     "give it another name or use another --study-dir")
+            self.films = FilmRegistry({**user, **self._new_films})
+        else:
+            self._new_films = {}
+
+    def __repr__(self) -> str:
+        return f"Study({str(self.root)!r})"
+
+    # ------------------------------------------------------------ writing
+    @contextlib.contextmanager
+    def writing(self, what: str = "") -> Iterator["Study"]:
+        """Hold the study's writer lock; the manifest is saved on exit (also after an error)."""
+        if self._lock.held:
+            yield self
+            return
+        self.root.mkdir(parents=True, exist_ok=True)
+        self._lock.acquire(what)
+        try:
+            if self.layout.manifest.exists():  # another writer may have finished since we read it
+                self.manifest = Manifest.read(self.layout.manifest)
+            for name, film in self._new_films.items():
+                self.manifest.data["films"][name] = film.to_dict()
+            self.manifest.write()
+            yield self
+        finally:
+            if self._lock.held:
+                self.manifest.write()
+            self._lock.release()
+
+    def _require_writer(self) -> None:
+        if not self._lock.held:
+            raise RuntimeError("a study is written inside `with study.writing():`")
+
+    def record(self, path: Path, kind: str, spec: dict, **extra: Any) -> Path:
+        """Record an artefact just written under the lock."""
+        self._require_writer()
+        self.manifest.record(self.layout.relative(path), path, kind, spec, **extra)
+        self.manifest.write()
+        return path
+
+    def verified(self, path: Path) -> Path | None:
+        """`path` if it exists and is the file the study recorded; None if missing; refused if changed."""
+        if not path.exists():
+            return None
+        self.manifest.verify(self.layout.relative(path), path)
+        return path
+
+    def film(self, name: str) -> FilmType:
+        """A film type known to the study (built in, from the manifest or the films file)."""
+        return self.films.get(name)
+
+    def set_settings(self, settings: dict) -> None:
+        """Record the study's settings on first use; refuse other settings later (naming what differs)."""
+        self._require_writer()
+        old = self.manifest.data.get("settings")
+        if old is not None and old != settings:
+            diff = sorted(k for k in set(old) | set(settings) if old.get(k) != settings.get(k))
+            raise InputError(f"study {self.root} was made with other settings ({', '.join(diff)} differ: "
+                             f"{', '.join(f'{k} {old.get(k)!r} -> {settings.get(k)!r}' for k in diff)}); "
+                             "use another --study-dir")
+        self.manifest.data["settings"] = settings
+        self.manifest.write()
+
+    def stage_done(self, name: str, elapsed_s: float, **info: Any) -> None:
+        """Record the timing of a stage run that computed something."""
+        self.manifest.data["stages"][name] = {"elapsed_s": round(float(elapsed_s), 3), "finished_utc": utc_now(),
+                                              **info}
+        if self._lock.held:
+            self.manifest.write()
+
+    # ------------------------------------------------------------ FE runs and surrogates
+    def _fe_films(self, thickness_mm: float) -> tuple[FilmType, ...]:
+        """The study's films with an activation pressure and this thickness (their imprint readings)."""
+        return tuple(self.films.get(n) for n in self.films.names()
+                     if self.films.get(n).has_activation and abs(self.films.get(n).thickness_mm - thickness_mm) < 1e-12)
+
+    def _store_spec(self, fe: FESettings) -> dict:
+        films = self._fe_films(fe.film_thickness_mm)
+        return {"kind": "fe-runs", "options": {k: v for k, v in asdict(fe).items()
+                                              if k not in ("n_train", "n_test", "seed")},
+                "films": [f.to_dict() for f in films]}
+
+    def fe_runs(self, fe: FESettings, workers: int | None = None, progress=None) -> dict:
+        """Run (or resume) the FE training and held-out designs; return inputs and every output column.
+
+        Returns
+        -------
+        dict
+            ``X_train``, ``X_test`` (input name -> array), ``Y_train``, ``Y_test``
+            (output column -> array, NaN where a run failed) and ``store`` (path).
+        """
+        from functools import partial
+
+        from filmcal.campaign import Campaign
+        from filmcal.fem import evaluate_point
+        from filmcal.surrogate.radius import INPUTS, SurrogateDomain, design_points
+
+        self._require_writer()
+        domain = SurrogateDomain()
+        options = fe.contact_options()
+        train = design_points(domain, fe.n_train, seed_for(fe.seed, "design-train"), options)
+        test = design_points(domain, fe.n_test, seed_for(fe.seed, "design-test"), options)
+        import inspect
+
+        films = self._fe_films(fe.film_thickness_mm)
+        if "films" not in inspect.signature(evaluate_point).parameters:
+            films = ()
+        for p in train + test:
+            p["film_thickness_mm"] = fe.film_thickness_mm
+        store_spec = self._store_spec(fe)
+        store = self.layout.runs_store(spec_key(store_spec))
+        store.parent.mkdir(parents=True, exist_ok=True)
+        model = partial(evaluate_point, films=films) if films else evaluate_point
+        campaign = Campaign(model, store, settings={"spec": store_spec})
+        campaign.run(train + test, progress=progress if progress is not None else False)
+        results = campaign.results(status=None)
+        rows = _match_rows(results, train + test)
+        ok = rows >= 0
+        status = np.array([results.status[i] if i >= 0 else "missing" for i in rows])
+        ok &= status == "ok"
+        out: dict[str, Any] = {"store": store}
+        columns = [c for c in results.outputs if np.issubdtype(np.asarray(results.outputs[c]).dtype, np.number)]
+        Y = {c: np.where(ok, np.asarray(results.outputs[c], float)[np.maximum(rows, 0)], np.nan) for c in columns}
+        n = len(train)
+        X = {k: np.array([p[k] for p in train + test], float) for k in INPUTS}
+        out["X_train"] = {k: v[:n] for k, v in X.items()}
+        out["X_test"] = {k: v[n:] for k, v in X.items()}
+        out["Y_train"] = {c: v[:n] for c, v in Y.items()}
+        out["Y_test"] = {c: v[n:] for c, v in Y.items()}
+        return out
+
+    def radius_model(self, fe: FESettings, column: str, workers: int | None = None, progress=None):
+        """The validated radius surrogate of one FE reading (`column`) under `fe`.
+
+        Returns
+        -------
+        (SurrogateRadiusModel, SurrogateValidation, key)
+        """
+        from filmcal.surrogate import load_surrogate, save_surrogate
+        from filmcal.surrogate.radius import (SurrogateDomain, SurrogateRadiusModel, fit_radius_surrogate,
+                                              validate_radius_surrogate)
+
+        domain = SurrogateDomain()
+        spec = {"kind": "radius-surrogate", "fe": asdict(fe), "store": self._store_spec(fe), "column": column,
+                "domain": domain.to_dict()}
+        key = spec_key(spec)
+        stem = self.layout.surrogate(key)
+        json_path = stem.with_name(stem.name + ".json")
+        npz_path = stem.with_name(stem.name + ".npz")
+        vpath = self.layout.surrogate_validation(key)
+        if self.verified(json_path) and self.verified(npz_path) and self.verified(vpath):
+            from filmcal._io import read_json
+            from filmcal.surrogate.radius import SurrogateValidation
+
+            v = read_json(vpath)
+            validation = SurrogateValidation(**v["summary"], details={"points": v["points"]})
+            return SurrogateRadiusModel(load_surrogate(stem), domain), validation, key
+        runs = self.fe_runs(fe, workers, progress)
+        if column not in runs["Y_train"]:
+            raise InputError(f"the FE runs have no output {column!r}")
+        ytr, yte = runs["Y_train"][column], runs["Y_test"][column]
+        ok_tr, ok_te = np.isfinite(ytr), np.isfinite(yte)
+        Xtr = {k: v[ok_tr] for k, v in runs["X_train"].items()}
+        Xte = {k: v[ok_te] for k, v in runs["X_test"].items()}
+        surrogate = fit_radius_surrogate(Xtr, ytr[ok_tr], domain, random_state=seed_for(fe.seed, f"gp-{column}"))
+        validation = validate_radius_surrogate(surrogate, Xte, yte[ok_te])
+        stem.parent.mkdir(parents=True, exist_ok=True)
+        save_surrogate(surrogate, stem)
+        from filmcal._io import atomic_write_json
+
+        atomic_write_json(vpath, {"summary": validation.to_dict(), "points": validation.details["points"],
+                                  "column": column}, indent=None)
+        for p in (json_path, npz_path, vpath):
+            self.record(p, "radius-surrogate", spec, column=column)
+        return SurrogateRadiusModel(surrogate, domain), validation, key
+
+    # ------------------------------------------------------------ calibration
+    def _calibration_spec_dict(self, spec: CalibrationSpec, data_meta: dict) -> dict:
+        return {"kind": "posterior", "film": self.film(spec.film).to_dict(), "imprint": spec.imprint,
+                "model": spec.model_label, "fe": asdict(spec.fe), "loads": spec.loads, "poisson": spec.poisson,
+                "discrepancy": spec.discrepancy, "max_steps": spec.max_steps, "dataset": data_meta}
+
+    def calibrate(self, spec: CalibrationSpec, dataset=None, workers: int | None = None, progress=None):
+        """Calibrate one film under one model; reuse the recorded posterior of the same spec.
+
+        Returns
+        -------
+        (CalibrationResult, Path, dict)
+            The result, its file and the spec it was recorded with.
+        """
+        from filmcal.calibration import Priors, calibrate, load_result, save_result
+        from filmcal.surrogate.radius import SurrogateDomain
+
+        film = self.film(spec.film)
+        if spec.imprint != "edge" and not film.has_activation:
+            raise InputError(f"film {film.name} has no activation pressure: only the edge imprint model applies")
+        data, data_meta = self.dataset_rows(film.name, spec.loads, dataset)
+        full = self._calibration_spec_dict(spec, data_meta)
+        key = spec_key(full)
+        path = self.layout.posterior(key)
+        if self.verified(path):
+            return load_result(path), path, full
+        model, validation, skey = self.radius_model(spec.fe, output_column(spec.imprint, film.name), workers, progress)
+        self._require_writer()
+        chain = self.layout.chain(key)
+        chain.parent.mkdir(parents=True, exist_ok=True)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        from filmcal.calibration import SamplerSettings
+
+        settings = SamplerSettings() if spec.max_steps is None else replace(SamplerSettings(), max_steps=spec.max_steps)
+        result = calibrate(data, model, film=film.name, loads=spec.loads, poisson=spec.poisson,
+                           discrepancy=spec.discrepancy, priors=Priors(modulus_range_mpa=SurrogateDomain().modulus_mpa),
+                           seed=seed_for(spec.fe.seed, f"chain-{film.name}-{spec.model_label}"), backend_path=chain,
+                           settings=settings, progress=bool(progress))
+        save_result(result, path)
+        self.record(path, "posterior", full, surrogate=skey)
+        return result, path, full
+
+    def dataset_rows(self, film: str, loads: str | None, dataset=None):
+        """The calibration data of one film (the study's dataset; Table 1 by default) and its record."""
+        from filmcal.calibration import load_table1
+
+        if dataset is None:
+            data = load_table1(film, loads)
+            return data, {"name": "table1"}
+        raise InputError("datasets other than Table 1 need filmcal.calibration.load_dataset")
+
+    # ------------------------------------------------------------ reading posteriors
+    def posteriors(self, film: str | None = None, **match: Any) -> list[tuple[Path, dict]]:
+        """Recorded posteriors (file, spec), optionally of one film and matching spec fields.
+
+        `match` takes ``imprint``, ``model``, ``loads``, ``poisson``, ``discrepancy``
+        and FE fields (``kinematics``, ``sphere_contact``, ``flat_contact``,
+        ``friction_coefficient``, ``seed``, ``n_train``, ``n_test``); a value of
+        None matches anything.
+        """
+        out = []
+        for rel, entry in self.manifest.artefacts("posterior").items():
+            spec = entry["spec"]
+            if film is not None and spec["film"]["name"] != film:
+                continue
+            if all(v is None or (spec["fe"].get(k, spec.get(k)) if k in spec["fe"] else spec.get(k)) == v
+                   for k, v in match.items()):
+                out.append((self.root / rel, spec))
+        return out
+
+    def posterior(self, film: str, **match: Any):
+        """The one recorded posterior of `film` matching `match`; a clear error when none or several.
+
+        Returns
+        -------
+        (CalibrationResult, Path, dict)
+        """
+        from filmcal.calibration import load_result
+
+        self.film(film)
+        found = self.posteriors(film, **match)
+        if not found:
+            asked = ", ".join(f"{k}={v}" for k, v in match.items() if v is not None) or "any settings"
+            raise InputError(f"study {self.root} has no posterior of {film} with {asked}: run `filmcal calibrate "
+                             f"--film {film} --study-dir {self.root}` (or `filmcal pipeline`) first")
+        if len(found) > 1:
+            keys = sorted({k for _, s in found for k in _spec_fields(s)
+                           if len({json_key(_spec_fields(t).get(k)) for _, t in found}) > 1})
+            raise InputError(f"study {self.root} has {len(found)} posteriors of {film} that differ in "
+                             f"{', '.join(keys)}; choose one with those options")
+        path, spec = found[0]
+        self.verified(path)
+        return load_result(path), path, spec
+
+
+def json_key(value: Any) -> str:
+    import json
+
+    return json.dumps(value, sort_keys=True, default=str)
+
+
+def _spec_fields(spec: dict) -> dict:
+    fields = {k: v for k, v in spec.items() if k not in ("fe", "film", "kind", "dataset")}
+    fields.update(spec["fe"])
+    return fields
+
+
+def _match_rows(results, points: list[dict]) -> np.ndarray:
+    """Index of each point's row in the campaign results (-1 when missing)."""
+    from filmcal.surrogate.radius import INPUTS
+
+    opts = ("sphere_contact", "flat_contact", "large_strain")
+
+    def key_of(get) -> tuple:
+        return tuple(round(float(get(n)), 9) for n in INPUTS) + tuple(str(get(o)) for o in opts)
+
+    n = len(results.status)
+    index = {}
+    for i in range(n):
+        index[key_of(lambda name: results.inputs[name][i])] = i
+    return np.array([index.get(key_of(p.__getitem__), -1) for p in points])
+
+
+def comparison_weights(study: Study, film: str) -> dict[str, float]:
+    """Stacking weights of the film's models (model label -> weight), when the study compared them."""
+    from filmcal._io import read_json
+
+    path = study.layout.comparison(film)
+    if not study.verified(path):
+        return {}
+    return {k: float(v) for k, v in (read_json(path).get("weights") or {}).items()}
+
+
+def _sphere_model(study: Study, posterior_path: Path):
+    """The radius surrogate that a recorded posterior was calibrated with."""
+    from filmcal.surrogate import load_surrogate
+    from filmcal.surrogate.radius import SurrogateDomain, SurrogateRadiusModel
+
+    entry = study.manifest.entry(study.layout.relative(posterior_path))
+    stem = study.layout.surrogate(entry["surrogate"])
+    for p in (stem.with_name(stem.name + ".json"), stem.with_name(stem.name + ".npz")):
+        if study.verified(p) is None:
+            raise InputError(f"{p} is missing: the surrogate of {posterior_path.name}; run `filmcal calibrate` again "
+                             "to recompute it")
+    return SurrogateRadiusModel(load_surrogate(stem), SurrogateDomain())
+
+
+def correctors(study: Study, film: str, kind: str = "sphere", *, model: str | None = None, random_state=0,
+               wheel_rail: dict | None = None, **match: Any) -> list[tuple[float, Any, dict]]:
+    """The correctors of a film, built from the study's recorded posteriors: ``[(weight, corrector, spec)]``.
+
+    With `model` (``"activation/small"``) or filters that leave one posterior,
+    that posterior alone (weight 1). Otherwise, when the study compared the
+    film's models, every compared model with its stacking weight: the
+    correction is then their mixture. Never calibrates.
+
+    Parameters
+    ----------
+    kind : {"sphere", "wheel-rail"}
+    wheel_rail : dict, optional
+        Wheel-rail model settings (wheel, rail, rail_inclination, nominal_radius_mm).
+    """
+    from filmcal.calibration import load_result
+    from filmcal.correction import SphereCorrector, WheelRailCorrector
+
+    if kind not in ("sphere", "wheel-rail"):
+        raise InputError(f"kind must be sphere or wheel-rail, got {kind!r}")
+    ft = study.film(film)
+    found = study.posteriors(film, model=model, **match)
+    if not found:
+        study.posterior(film, model=model, **match)  # raises the message that says what to run
+    weights = comparison_weights(study, film) if model is None and len(found) > 1 else {}
+    if len(found) > 1:
+        chosen = [(weights[s["model"]], p, s) for p, s in found if s["model"] in weights]
+        if not chosen or len({s["model"] for _, _, s in chosen}) != len(chosen):
+            study.posterior(film, model=model, **match)  # several and no comparison: says which options differ
+    else:
+        chosen = [(1.0, found[0][0], found[0][1])]
+    out = []
+    for w, path, spec in chosen:
+        study.verified(path)
+        samples = load_result(path).samples
+        if kind == "sphere":
+            corrector = SphereCorrector(_sphere_model(study, path), samples, random_state=random_state)
+        else:
+            reader = None
+            if spec["imprint"] != "edge":
+                from filmcal.contact.imprint import get_imprint_model
+
+                imprint = get_imprint_model(spec["imprint"])
+
+                def reader(result, imprint=imprint):
+                    return imprint.area_mm2(result.grid.x_mm, result.grid.y_mm, result.pressure_mpa, ft)
+            corrector = WheelRailCorrector(samples, film_thickness_mm=ft.thickness_mm, random_state=random_state,
+                                           imprint_area=reader, **(wheel_rail or {}))
+        out.append((w, corrector, spec))
+    return out
+
+
+def report_view(study: Study) -> dict:
+    """What the report reads of a study: its settings and the files of each stage (None when missing).
+
+    Returns
+    -------
+    dict
+        ``config`` (films, seed, settings, hash), ``posteriors`` {film: path}
+        (the film's preferred model: the highest stacking weight, else the
+        first recorded), ``surrogate`` (stem of the edge surrogate of the
+        first kinematics) and ``surrogate_validation``, ``verification``,
+        ``design``, ``outlines`` (paths), ``crossval``, ``curves``,
+        ``comparison`` ({film: path}).
+    """
+    settings = study.manifest.data.get("settings") or {}
+    films = list(study.manifest.data.get("pipeline_films") or sorted(
+        {s["film"]["name"] for s in (e["spec"] for e in study.manifest.artefacts("posterior").values())}))
+    seed = settings.get("seed", 0)
+    config = {"films": films, "seed": seed, "settings": settings.get("pipeline", settings),
+              "hash": spec_key(settings or {"films": films})}
+    posteriors = {}
+    for film in films:
+        found = study.posteriors(film)
+        if not found:
+            continue
+        weights = comparison_weights(study, film)
+        best = max(weights, key=weights.get) if weights else None
+        pick = [p for p, s in found if s["model"] == best] or [p for p, s in found if s["imprint"] == "edge"] \
+            or [found[0][0]]
+        posteriors[film] = pick[0]
+    surrogate = validation = None
+    edge = [(rel, e) for rel, e in study.manifest.artefacts("radius-surrogate").items()
+            if e.get("column") == "contact_radius_mm" and rel.endswith(".json") and not rel.endswith("-validation.json")]
+    if edge:
+        rel = edge[0][0]
+        surrogate = study.root / rel[: -len(".json")]
+        validation = study.layout.surrogate_validation(Path(rel).stem)
+
+    def existing(p):
+        return p if p is not None and p.exists() else None
+
+    return {"config": config, "posteriors": posteriors, "surrogate": surrogate,
+            "surrogate_validation": existing(validation), "verification": existing(study.layout.verification),
+            "design": existing(study.layout.design), "outlines": existing(study.layout.outlines),
+            "crossval": {f: study.layout.crossval(f) for f in films if study.layout.crossval(f).exists()},
+            "curves": {f: study.layout.curves(f) for f in films if study.layout.curves(f).exists()},
+            "comparison": {f: study.layout.comparison(f) for f in films if study.layout.comparison(f).exists()}}

@@ -1,0 +1,104 @@
+"""The layout of a study folder: the one place that knows its file names.
+
+A study folder holds::
+
+    study.json                 the manifest: settings, dataset, films, and what every artefact was made from
+    .lock                      held by the one process that writes the folder
+    runs/runs-<key>.sqlite     FE campaign stores (one per FE options and film set)
+    surrogates/<key>.npz|json  radius surrogates
+    surrogates/<key>-validation.json
+    chains/<key>.h5            emcee chains
+    posteriors/<key>.json      posteriors (samples, pointwise log-likelihood, summary)
+    comparison-<film>.json     imprint-model comparison and combination of a film
+    design.json  fe-verification.json  wheelrail-outlines.json
+    curves/curves-<film>.csv  crossval/crossval-<film>.json
+    summary.json               the last pipeline run's summary
+    report/report.html|pdf
+
+``<key>`` is the first 12 hexadecimal digits of the SHA-256 of the canonical
+JSON of what made the artefact (its *spec*): an artefact made with other
+settings has another key and is computed beside the old one, never mistaken
+for it. The manifest maps each file to its spec and its own SHA-256.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+from typing import Any
+
+from filmcal._json import json_safe
+
+__all__ = ["StudyLayout", "spec_key", "MANIFEST_NAME"]
+
+MANIFEST_NAME = "study.json"
+
+
+def spec_key(spec: dict[str, Any]) -> str:
+    """The 12-hex-digit key of a spec (SHA-256 of its canonical JSON)."""
+    text = json.dumps(json_safe(spec), sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+class StudyLayout:
+    """File names inside one study folder."""
+
+    def __init__(self, root: str | Path) -> None:
+        self.root = Path(root)
+
+    @property
+    def manifest(self) -> Path:
+        return self.root / MANIFEST_NAME
+
+    @property
+    def lock(self) -> Path:
+        return self.root / ".lock"
+
+    def runs_store(self, key: str) -> Path:
+        return self.root / "runs" / f"runs-{key}.sqlite"
+
+    def surrogate(self, key: str) -> Path:
+        """Stem of a surrogate's ``.npz``/``.json`` pair."""
+        return self.root / "surrogates" / key
+
+    def surrogate_validation(self, key: str) -> Path:
+        return self.root / "surrogates" / f"{key}-validation.json"
+
+    def chain(self, key: str) -> Path:
+        return self.root / "chains" / f"{key}.h5"
+
+    def posterior(self, key: str) -> Path:
+        return self.root / "posteriors" / f"{key}.json"
+
+    def comparison(self, film: str) -> Path:
+        return self.root / f"comparison-{film}.json"
+
+    @property
+    def design(self) -> Path:
+        return self.root / "design.json"
+
+    @property
+    def verification(self) -> Path:
+        return self.root / "fe-verification.json"
+
+    @property
+    def outlines(self) -> Path:
+        return self.root / "wheelrail-outlines.json"
+
+    def curves(self, film: str) -> Path:
+        return self.root / "curves" / f"curves-{film}.csv"
+
+    def crossval(self, film: str) -> Path:
+        return self.root / "crossval" / f"crossval-{film}.json"
+
+    @property
+    def summary(self) -> Path:
+        return self.root / "summary.json"
+
+    @property
+    def report_dir(self) -> Path:
+        return self.root / "report"
+
+    def relative(self, path: Path) -> str:
+        """`path` relative to the study folder, as recorded in the manifest."""
+        return Path(path).resolve().relative_to(self.root.resolve()).as_posix()

@@ -1,0 +1,117 @@
+"""The study's manifest and its writer lock.
+
+The manifest (``study.json``) records the study's settings and, for every
+artefact, what it was made from (its spec), when, and its SHA-256, so that a
+file changed after it was written is refused rather than used. The lock is an
+OS file lock on ``.lock``: one process writes a study at a time; a second is
+refused at once with a message saying who holds it.
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import fcntl
+import json
+import os
+import socket
+import sys
+from pathlib import Path
+from typing import Any
+
+from filmcal._errors import InputError
+from filmcal._io import atomic_write_json, read_json, sha256_file
+
+__all__ = ["Manifest", "StudyLock", "FORMAT", "utc_now"]
+
+FORMAT = "filmcal-study/1"
+
+
+def utc_now() -> str:
+    return _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+class Manifest:
+    """The manifest of one study folder (read on open, written whole, atomically)."""
+
+    def __init__(self, path: Path, data: dict[str, Any]) -> None:
+        self.path = Path(path)
+        self.data = data
+
+    @classmethod
+    def new(cls, path: Path) -> "Manifest":
+        return cls(path, {"format": FORMAT, "created_utc": utc_now(), "films": {}, "artefacts": {},
+                          "stages": {}, "settings": None})
+
+    @classmethod
+    def read(cls, path: Path) -> "Manifest":
+        data = read_json(path)
+        if not isinstance(data, dict) or data.get("format") != FORMAT:
+            raise InputError(f"{path} is not a filmcal study manifest (format {FORMAT!r} expected)")
+        for key in ("films", "artefacts", "stages"):
+            data.setdefault(key, {})
+        return cls(path, data)
+
+    def write(self) -> None:
+        atomic_write_json(self.path, self.data, indent=1)
+
+    # ------------------------------------------------------------ artefacts
+    def record(self, relpath: str, file: Path, kind: str, spec: dict, **extra: Any) -> None:
+        """Record an artefact just written (its spec and SHA-256)."""
+        self.data["artefacts"][relpath] = {"kind": kind, "spec": spec, "sha256": sha256_file(file),
+                                           "written_utc": utc_now(), **extra}
+
+    def entry(self, relpath: str) -> dict | None:
+        return self.data["artefacts"].get(relpath)
+
+    def forget(self, relpath: str) -> None:
+        self.data["artefacts"].pop(relpath, None)
+
+    def verify(self, relpath: str, file: Path) -> None:
+        """Refuse a file whose content differs from what the study wrote."""
+        entry = self.entry(relpath)
+        if entry is None:
+            raise InputError(f"{file}: not recorded in the study's manifest {self.path.name}; delete it and run "
+                             "again to recompute it")
+        if sha256_file(file) != entry["sha256"]:
+            raise InputError(f"{file} was changed after the study wrote it (SHA-256 differs from the manifest); "
+                             "delete it and run again to recompute it")
+
+    def artefacts(self, kind: str) -> dict[str, dict]:
+        return {k: v for k, v in self.data["artefacts"].items() if v["kind"] == kind}
+
+
+class StudyLock:
+    """An exclusive OS lock on a study's ``.lock`` file, held for a whole run."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = Path(path)
+        self._fh = None
+
+    def acquire(self, what: str = "") -> None:
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        fh = open(self.path, "a+", encoding="utf-8")
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            fh.seek(0)
+            holder = fh.read().strip() or "another process"
+            fh.close()
+            raise InputError(f"study {self.path.parent} is being written by {holder}; wait for it to finish "
+                             "or use another --study-dir") from None
+        fh.seek(0)
+        fh.truncate()
+        fh.write(f"pid {os.getpid()} on {socket.gethostname()} since {utc_now()}"
+                 f" ({what or ' '.join(sys.argv[:3])})")
+        fh.flush()
+        self._fh = fh
+
+    def release(self) -> None:
+        if self._fh is not None:
+            self._fh.seek(0)
+            self._fh.truncate()
+            fcntl.flock(self._fh.fileno(), fcntl.LOCK_UN)
+            self._fh.close()
+            self._fh = None
+
+    @property
+    def held(self) -> bool:
+        return self._fh is not None

@@ -1,0 +1,455 @@
+"""The whole job as declared stages of a `Study`.
+
+Each stage reads and writes through the study (its layout and manifest); a
+stage whose outputs are recorded with the same spec is skipped, so an
+interrupted run loses no finished work and a second run only reads:
+
+``design``        quality of the optimal Latin hypercubes (``design.json``)
+``calibration``   FE campaign -> validated radius surrogates -> posterior of
+                  each film under each imprint model and film kinematics
+``comparison``    the models of each film compared by PSIS-LOO and stacked
+                  (``comparison-<film>.json``)
+``verification``  FE against Hertz without film and FE against the surrogate at
+                  the posterior medians (``fe-verification.json``)
+``curves``        wheel-rail correction curves with 90 % bands, smooth and rough
+                  wheel (``curves/curves-<film>.csv``)
+``outlines``      wheel-rail contact outlines with and without film
+``crossval``      leave-one-case-out cross-validation of the sphere-on-flat correction
+``report``        HTML and PDF report (``report/``)
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass
+from typing import Callable
+
+import numpy as np
+
+from filmcal._errors import InputError
+from filmcal._io import atomic_write_json, read_json
+from filmcal.films import FILM_TYPES
+from filmcal.study.core import IMPRINT_MODELS, KINEMATICS, CalibrationSpec, FESettings, Study, seed_for
+
+__all__ = ["PipelineSettings", "run_pipeline", "STAGES"]
+
+#: Sphere and force of the pressure profiles shown in the report (the DESIGN's Hertz example).
+PROFILE_CASE = (450.0, 75_000.0)
+STAGES = ("design", "calibration", "comparison", "verification", "curves", "outlines", "crossval", "report")
+
+
+@dataclass(frozen=True)
+class PipelineSettings:
+    """Sizes and model choices of the pipeline's stages (`quick` is a small version for tests).
+
+    Attributes
+    ----------
+    train_runs, test_runs : int
+        FE runs of the surrogate's training design and of its held-out design.
+    imprint_models : tuple of str
+        What the film records, each calibrated and compared (`filmcal.contact.imprint`).
+    kinematics : tuple of str
+        Film kinematics of the FE model, each calibrated and compared.
+    offsets_mm, forces_kn : tuple of float
+        Grid of the wheel-rail correction curves.
+    rough_ra_um : float or None
+        Roughness Ra of the rough-wheel curves (None: smooth wheel only).
+    outline_force_kn : float
+        Load of the contact outlines (the paper's Fig. 7 uses 50 kN).
+    crossval_films : tuple of str
+        Film types cross-validated leave-one-case-out.
+    max_steps : int or None
+        Cap of the MCMC steps per walker (None: until converged).
+    """
+
+    train_runs: int = 200
+    test_runs: int = 100
+    imprint_models: tuple[str, ...] = IMPRINT_MODELS
+    kinematics: tuple[str, ...] = ("small",)
+    offsets_mm: tuple[float, ...] = tuple(float(x) for x in np.arange(-7.0, 2.01, 1.0))
+    forces_kn: tuple[float, ...] = (50.0, 100.0)
+    rough_ra_um: float | None = 1.5
+    outline_force_kn: float = 50.0
+    crossval_films: tuple[str, ...] = FILM_TYPES
+    max_steps: int | None = None
+
+    def __post_init__(self) -> None:
+        for m in self.imprint_models:
+            if m not in IMPRINT_MODELS:
+                raise InputError(f"imprint model must be one of {', '.join(IMPRINT_MODELS)}, got {m!r}")
+        for k in self.kinematics:
+            if k not in KINEMATICS:
+                raise InputError(f"kinematics must be one of {', '.join(KINEMATICS)}, got {k!r}")
+        if not self.imprint_models or not self.kinematics:
+            raise InputError("at least one imprint model and one film kinematics are needed")
+
+    @classmethod
+    def quick(cls) -> "PipelineSettings":
+        """Few FE runs, three offsets at 50 kN, short chains: a minute or two."""
+        return cls(train_runs=40, test_runs=12, offsets_mm=(-6.0, -3.0, 0.0), forces_kn=(50.0,),
+                   crossval_films=("HS",), max_steps=3000)
+
+    def fe(self, kinematics: str, seed: int) -> FESettings:
+        return FESettings(kinematics=kinematics, n_train=self.train_runs, n_test=self.test_runs, seed=seed)
+
+    def specs(self, film: str, imprint_models, seed: int) -> list[CalibrationSpec]:
+        return [CalibrationSpec(film, imprint=m, fe=self.fe(k, seed), max_steps=self.max_steps)
+                for k in self.kinematics for m in imprint_models]
+
+
+def _models_for(study: Study, film: str, settings: PipelineSettings) -> tuple[str, ...]:
+    return tuple(m for m in settings.imprint_models if m == "edge" or study.film(film).has_activation)
+
+
+def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM_TYPES, seed: int = 0,
+                 workers: int | None = None, log: Callable[[str], None] = print, report: bool = True,
+                 films_file=None) -> dict:
+    """Run (or resume) the pipeline in a study folder; return the summary also written to ``summary.json``.
+
+    Parameters
+    ----------
+    study_dir : str or Path
+        The study folder (created if missing).
+    settings : PipelineSettings, optional
+        Stage sizes and model choices (default: the full study).
+    films : sequence of str
+        Film types to calibrate and propagate (added to those of earlier runs).
+    seed : int
+        The study's seed; every stage draws from its own stream of it.
+    workers : int, optional
+        Worker processes (default: all cores).
+    log : callable
+        Progress messages.
+    report : bool
+        Write the HTML and PDF report at the end.
+    films_file : str or Path, optional
+        TOML file of user film types.
+    """
+    settings = settings or PipelineSettings()
+    if seed < 0 or seed >= 2**32:
+        raise InputError(f"seed must be in 0..{2**32 - 1}, got {seed}")
+    study = Study(study_dir, create=True, films_file=films_file)
+    for f in films:
+        study.film(f)  # unknown films are refused before anything is written
+    with study.writing("filmcal pipeline"):
+        study.set_settings({"pipeline": asdict(settings), "seed": seed})
+        known = list(study.manifest.data.get("pipeline_films", []))
+        films = known + [f for f in films if f not in known]
+        study.manifest.data["pipeline_films"] = films
+        t0 = time.perf_counter()
+        summary: dict = {"study_dir": str(study.root), "films": {}, "stages_s": {}}
+
+        def stage(name: str, fn, *args):
+            t = time.perf_counter()
+            out, computed = fn(*args)
+            elapsed = time.perf_counter() - t
+            summary["stages_s"][name] = elapsed
+            if computed:
+                study.stage_done(name, elapsed)
+            return out
+
+        stage("design", _design_stage, study, settings, seed, log)
+        results = stage("calibration", _calibration_stage, study, settings, films, seed, workers, log)
+        comparisons = stage("comparison", _comparison_stage, study, settings, results, log)
+        chosen = {film: _preferred(results[film], comparisons.get(film)) for film in films}
+        medians = {film: float(r.modulus_mpa["median"]) for film, (r, _, _) in chosen.items()}
+        stage("verification", _verification_stage, study, settings, seed, medians, log)
+        stage("curves", _curves_stage, study, settings, chosen, workers, log)
+        stage("outlines", _outlines_stage, study, settings, medians, log)
+        stage("crossval", _crossval_stage, study, settings, chosen, seed, workers, log)
+        for film in films:
+            result, path, spec = chosen[film]
+            d = result.to_dict()
+            s = {k: d[k] for k in ("modulus_mpa", "oedometric_modulus_mpa", "sigma_mm", "rhat", "ess", "n_data")}
+            s.update(model=spec["model"], diagnostics_ok=bool(result.diagnostics_ok),
+                     posterior_file=str(path), predictive_hits=int(np.sum(~result.predictive.outside)),
+                     n_cases=int(len(result.predictive.outside)))
+            if film in comparisons:
+                s["imprint_weights"] = comparisons[film].get("weights")
+            summary["films"][film] = s
+        if report:
+            summary["report"] = stage("report", _report_stage, study, log)
+        summary["stage_timings_of_computing_runs"] = study.manifest.data["stages"]
+        summary["elapsed_s"] = time.perf_counter() - t0
+        atomic_write_json(study.layout.summary, summary, indent=1)
+    return summary
+
+
+def _preferred(models: dict, comparison: dict | None):
+    """The film's posterior that the curves and checks use: the highest stacking weight (or the first)."""
+    if comparison and comparison.get("weights"):
+        best = max(comparison["weights"], key=comparison["weights"].get)
+        if best in models:
+            return models[best]
+    return next(iter(models.values()))
+
+
+# ------------------------------------------------------------------ stages
+def _design_stage(study: Study, settings: PipelineSettings, seed: int, log):
+    path = study.layout.design
+    if study.verified(path):
+        return None, False
+    from scipy.stats import qmc
+
+    from filmcal.doe import design_quality, latin_design
+    from filmcal.surrogate.radius import SurrogateDomain
+
+    log("[design] optimal Latin hypercubes and their quality")
+    space = SurrogateDomain().space()
+    out = {"names": list(space.names)}
+    for name, n in (("train", settings.train_runs), ("test", settings.test_runs)):
+        s = seed_for(seed, f"design-{name}")
+        design = latin_design(space, n, seed=s)
+        rng = np.random.default_rng(seed_for(seed, f"design-{name}-reference"))
+        ref = [design_quality(space.to_unit(space.to_physical(qmc.LatinHypercube(d=space.d, seed=rng).random(n))))
+               .as_dict() for _ in range(10)]
+        out[name] = {"n": n, "seed": s, "quality": design.quality.as_dict(), "unit": design.unit,
+                     "physical": design.points, "random_lhs_median": {k: float(np.median([r[k] for r in ref]))
+                                                                      for k in ref[0] if k != "latin"}}
+    atomic_write_json(path, out, indent=None)
+    study.record(path, "design", {"train_runs": settings.train_runs, "test_runs": settings.test_runs, "seed": seed})
+    return None, True
+
+
+def _calibration_stage(study: Study, settings: PipelineSettings, films, seed: int, workers, log):
+    results: dict = {}
+    computed = False
+    for film in films:
+        results[film] = {}
+        for spec in settings.specs(film, _models_for(study, film, settings), seed):
+            before = len(study.manifest.artefacts("posterior"))
+            log(f"[calibration] {film} under {spec.model_label}")
+            result, path, full = study.calibrate(spec, workers=workers, progress=False)
+            computed |= len(study.manifest.artefacts("posterior")) > before
+            results[film][spec.model_label] = (result, path, full)
+            log(f"[calibration] {film} {spec.model_label}: E = {result.modulus_mpa['median']:.0f} MPa "
+                f"[{result.modulus_mpa['ci90'][0]:.0f}, {result.modulus_mpa['ci90'][1]:.0f}]")
+    return results, computed
+
+
+def _comparison_stage(study: Study, settings: PipelineSettings, results: dict, log):
+    """Compare each film's models (PSIS-LOO, stacking) where the calibration library offers it."""
+    try:
+        from filmcal.calibration import compare_models
+    except ImportError:
+        return {}, False
+    out, computed = {}, False
+    for film, models in results.items():
+        if len(models) < 2:
+            continue
+        path = study.layout.comparison(film)
+        spec = {"film": film, "posteriors": sorted(str(p.name) for _, p, _ in models.values())}
+        entry = study.manifest.entry(study.layout.relative(path))
+        if study.verified(path) and entry and entry["spec"] == spec:
+            out[film] = read_json(path)
+            continue
+        log(f"[comparison] {film}: {len(models)} models by PSIS-LOO and stacking")
+        comparison = compare_models({label: r for label, (r, _, _) in models.items()})
+        d = comparison.to_dict() if hasattr(comparison, "to_dict") else dict(comparison)
+        atomic_write_json(path, d, indent=1)
+        study.record(path, "comparison", spec)
+        out[film] = d
+        computed = True
+    return out, computed
+
+
+def _verification_stage(study: Study, settings: PipelineSettings, seed: int, medians: dict, log):
+    path = study.layout.verification
+    if study.verified(path) and set(read_json(path)["films"]) >= set(medians):
+        return None, False
+    from filmcal.calibration import load_table1
+    from filmcal.fem import Film, get_model
+
+    log("[verification] FE without film against Hertz; FE against the surrogate at the posterior medians")
+    data = load_table1("HS")  # the ten (R, F) cases of Table 1
+    cases = [(float(r), float(f)) for r, f in zip(data.sphere_radius_mm, data.force_n)]
+    hertz = []
+    for r, f in cases:
+        res = get_model(r).solve(None, f)
+        hertz.append({"radius_mm": r, "force_n": f, "fe_radius_mm": res.contact_radius_mm,
+                      "hertz_radius_mm": res.hertz_radius_mm, "fe_max_pressure_mpa": res.max_pressure_mpa,
+                      "converged": res.converged})
+    fe = settings.fe(settings.kinematics[0], seed)
+    options = fe.contact_options()
+    model, _, _ = study.radius_model(fe, "contact_radius_mm", progress=False)
+    films = {}
+    for film, e in medians.items():
+        nu = study.film(film).poisson
+        rows = []
+        for r, f in cases:
+            res = get_model(r).solve(Film(e, nu), f, options)
+            mean, std = model.predict(e, nu, r, f)
+            rows.append({"radius_mm": r, "force_n": f, "fe_radius_mm": res.contact_radius_mm,
+                         "surrogate_mean_mm": float(mean), "surrogate_std_mm": float(std), "converged": res.converged})
+        films[film] = {"modulus_mpa": e, "cases": rows}
+    r, f = PROFILE_CASE
+    profiles = {"no film": _profile(get_model(r).solve(None, f))}
+    for film, e in medians.items():
+        profiles[f"{film} film, E = {e:.0f} MPa"] = _profile(get_model(r).solve(Film(e, study.film(film).poisson), f,
+                                                                                options))
+    atomic_write_json(path, {"hertz": hertz, "films": films, "profile_case": {"radius_mm": r, "force_n": f},
+                             "profiles": profiles}, indent=None)
+    study.record(path, "verification", {"films": medians})
+    return None, True
+
+
+def _profile(res) -> dict:
+    return {"r_mm": res.r_mm, "pressure_mpa": res.pressure_mpa, "contact_radius_mm": res.contact_radius_mm,
+            "hertz_radius_mm": res.hertz_radius_mm}
+
+
+def _call(task):
+    """Run one ``(key, function, args)`` task in a worker."""
+    key, fn, args = task
+    return fn(*args)
+
+
+def _parallel(tasks: dict, workers: int | None, on_done) -> None:
+    """Run ``{key: (function, args)}`` on worker processes; ``on_done(key, result, k)`` as each finishes.
+
+    Each finished unit is handed to `on_done` at once (which persists it), so an
+    interrupt keeps every finished unit; a failed unit raises after the others.
+    """
+    from filmcal._parallel import open_executor
+
+    items = [(key, fn, args) for key, (fn, args) in tasks.items()]
+    errors = []
+    with open_executor(workers, n_tasks=len(items)) as executor:
+        for k, outcome in enumerate(executor.map_unordered(_call, items), 1):
+            if outcome.ok:
+                on_done(outcome.task[0], outcome.value, k)
+            else:
+                errors.append((outcome.task[0], outcome.error))
+    if errors:
+        key, error = errors[0]
+        raise RuntimeError(f"{len(errors)} task(s) failed, first {key}: {error!r}") from error
+
+
+def _curves_stage(study: Study, settings: PipelineSettings, chosen: dict, workers: int | None, log):
+    """Curves of the films without a recorded CSV of the same posterior: one task per (film, wheel)."""
+    from filmcal.correction import curve_rows, wheel_label, write_curves_csv
+
+    wheels = [None] + ([settings.rough_ra_um] if settings.rough_ra_um else [])
+    specs = {film: {"posterior": path.name, "offsets_mm": list(settings.offsets_mm),
+                    "forces_kn": list(settings.forces_kn), "rough_ra_um": settings.rough_ra_um}
+             for film, (_, path, _) in chosen.items()}
+    todo = []
+    for film in chosen:
+        path = study.layout.curves(film)
+        entry = study.manifest.entry(study.layout.relative(path)) if path.exists() else None
+        if not (study.verified(path) and entry and entry["spec"] == specs[film]):
+            todo.append(film)
+    tasks = {}
+    for film in todo:
+        ft = study.film(film)
+        samples = np.asarray(chosen[film][0].samples["modulus_mpa"], dtype=float)
+        for ra in wheels:
+            tasks[film, ra] = (curve_rows, (film, samples, settings.offsets_mm, settings.forces_kn, ra, ft.poisson,
+                                            ft.thickness_mm))
+    if not tasks:
+        return None, False
+    log(f"[curves] {len(todo)} film(s) x {len(wheels)} wheel(s), {len(settings.forces_kn)} loads x "
+        f"{len(settings.offsets_mm)} offsets each")
+    rows: dict = {}
+
+    def done(key, result, k):
+        film, ra = key
+        rows[key] = result
+        log(f"[curves] {film}, {wheel_label(ra)} wheel done ({k}/{len(tasks)})")
+        if all((film, w) in rows for w in wheels):
+            path = study.layout.curves(film)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            write_curves_csv(path, [r for w in wheels for r in rows[film, w]])
+            study.record(path, "curves", specs[film])
+
+    _parallel(tasks, workers, done)
+    return None, True
+
+
+def _crossval_fold(surrogate_stem: str, film: str, case: int, seed: int) -> dict:
+    from filmcal.calibration import Priors
+    from filmcal.correction.crossval import cross_validate_case
+    from filmcal.surrogate import load_surrogate
+    from filmcal.surrogate.radius import SurrogateDomain, SurrogateRadiusModel
+
+    model = SurrogateRadiusModel(load_surrogate(surrogate_stem), SurrogateDomain())
+    priors = Priors(modulus_range_mpa=SurrogateDomain().modulus_mpa)
+    return cross_validate_case(model, film, case, priors=priors, seed=seed)
+
+
+def _crossval_stage(study: Study, settings: PipelineSettings, chosen: dict, seed: int, workers, log):
+    """Leave-one-case-out cross-validation on the calibration data (one task per fold)."""
+    from filmcal.calibration import load_table1
+    from filmcal.correction.crossval import CaseCrossValidation
+
+    todo = []
+    for film in chosen:
+        path = study.layout.crossval(film)
+        if film in settings.crossval_films and film in FILM_TYPES and not study.verified(path):
+            todo.append(film)
+    if not todo:
+        return None, False
+    n_cases = {film: len(load_table1(film)) for film in todo}
+    stems = {}
+    for film in todo:
+        entry = study.manifest.entry(study.layout.relative(chosen[film][1]))
+        stems[film] = str(study.layout.surrogate(entry["surrogate"]))
+    tasks = {(film, case): (_crossval_fold, (stems[film], film, case, seed_for(seed, f"crossval-{film}")))
+             for film in todo for case in range(n_cases[film])}
+    log(f"[crossval] leave-one-case-out: {len(tasks)} calibrations ({', '.join(todo)})")
+    folds: dict = {}
+
+    def done(key, result, k):
+        film = key[0]
+        folds[key] = result
+        if all((film, c) in folds for c in range(n_cases[film])):
+            cv = CaseCrossValidation.from_folds(film, [folds[film, c] for c in range(n_cases[film])])
+            path = study.layout.crossval(film)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            atomic_write_json(path, cv.to_dict(), indent=1)
+            study.record(path, "crossval", {"film": film, "posterior": chosen[film][1].name})
+            log(f"[crossval] {film}: Hertz area inside the corrected 90 % interval in {cv.hits}/{n_cases[film]} "
+                f"cases ({k}/{len(tasks)} calibrations done)")
+
+    _parallel(tasks, workers, done)
+    return None, True
+
+
+def _outlines_stage(study: Study, settings: PipelineSettings, medians: dict, log):
+    path = study.layout.outlines
+    if study.verified(path) and set(read_json(path)["films"]) >= set(medians):
+        return None, False
+    from filmcal.wheelrail import FilmLayer, solve_wheel_rail
+
+    force = settings.outline_force_kn * 1e3
+    log(f"[outlines] wheel-rail contact outlines at {settings.outline_force_kn:g} kN")
+    cases = []
+    for eta in settings.offsets_mm:
+        bare = solve_wheel_rail(eta, force)
+        case = {"offset_mm": eta, "contact_y_mm": bare.placement.contact.y_mm,
+                "no film": {"area_mm2": bare.area_mm2, "outline_mm": bare.outline_mm}}
+        for film, e in medians.items():
+            ft = study.film(film)
+            res = solve_wheel_rail(eta, force, film=FilmLayer(e, ft.poisson, ft.thickness_mm))
+            case[film] = {"area_mm2": res.area_mm2, "outline_mm": res.outline_mm}
+        cases.append(case)
+    atomic_write_json(path, {"force_n": force, "films": medians, "cases": cases}, indent=None)
+    study.record(path, "outlines", {"films": medians, "force_kn": settings.outline_force_kn})
+    return None, True
+
+
+def _report_stage(study: Study, log):
+    from filmcal.report import write_report
+
+    out = study.layout.report_dir
+    current = study.manifest.data.get("report")
+    inputs = {rel: e["sha256"] for rel, e in study.manifest.data["artefacts"].items()}
+    html, pdf = out / "report.html", out / "report.pdf"
+    if current and current.get("inputs") == inputs and html.exists() and pdf.exists():
+        return {"html": str(html), "pdf": str(pdf)}, False
+    log("[report] HTML and PDF")
+    study.manifest.data.pop("report", None)
+    study.manifest.write()
+    paths = write_report(study.root, out)
+    study.manifest.data["report"] = {"inputs": inputs}  # current only once both HTML and PDF are written
+    study.manifest.write()
+    return {"html": str(paths["html"]), "pdf": str(paths["pdf"]), "figures": paths.get("figures")}, True

@@ -1,0 +1,215 @@
+"""The radius surrogate: what a calibration sees of the FE model of the Hertzian tests.
+
+The FE model gives, for a film (E, nu) between a sphere of radius R and a
+flat under force F, a contact radius and imprint radii (one per imprint model
+and film type, `filmcal.contact.imprint`). A Gaussian process emulates one of
+them as its excess over the Hertz radius, in log (the excess is positive and
+spans a decade), over (log E, nu, log R, log F):
+
+* `SurrogateDomain` -- where it is trained and valid (the prior's support);
+* `design_points` -- an optimal Latin hypercube over the domain as FE points;
+* `fit_radius_surrogate`, `validate_radius_surrogate` -- fit and held-out check;
+* `SurrogateRadiusModel`, `FERadiusModel` -- the surrogate or the FE model itself
+  as the ``predict(E, nu, R, F) -> (mean, std)`` callable of the calibration.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from filmcal.hertz import hertz_radius_mm
+
+if TYPE_CHECKING:
+    from filmcal.fem import ContactOptions
+    from filmcal.surrogate.gp import GPSurrogate
+
+__all__ = ["INPUTS", "LOG_INPUTS", "EDGE_COLUMN", "SurrogateDomain", "SurrogateValidation", "design_points",
+           "option_columns", "radius_excess_mm", "fit_radius_surrogate", "validate_radius_surrogate",
+           "SurrogateRadiusModel", "FERadiusModel"]
+
+INPUTS = ("modulus_mpa", "poisson", "radius_mm", "force_kn")
+LOG_INPUTS = ("modulus_mpa", "radius_mm", "force_kn")
+#: The FE output read where the contact pressure falls to zero (the ``edge`` imprint model).
+EDGE_COLUMN = "contact_radius_mm"
+
+
+@dataclass(frozen=True)
+class SurrogateDomain:
+    """The domain over which a radius surrogate is trained and validated.
+
+    The default covers Table 1's experiments (R 300-600 mm, F 25-100 kN) with
+    margins, film moduli from 400 MPa (softer films collapse at 100 kN) to
+    20000 MPa and Poisson's ratios 0.29-0.37 (thin PET films, the paper's
+    range). Sphere radii are discrete levels: each needs its own FE model.
+    """
+
+    modulus_mpa: tuple[float, float] = (400.0, 20000.0)
+    poisson: tuple[float, float] = (0.29, 0.37)
+    radius_levels_mm: tuple[float, ...] = (300.0, 375.0, 450.0, 525.0, 600.0)
+    force_kn: tuple[float, float] = (20.0, 110.0)
+
+    def space(self):
+        """The `filmcal.doe.DesignSpace` of the domain (log E, nu, discrete R levels, F)."""
+        from filmcal.doe import DesignSpace, Parameter
+
+        return DesignSpace((Parameter("modulus_mpa", *self.modulus_mpa, unit="MPa", scale="log"),
+                            Parameter("poisson", *self.poisson),
+                            Parameter("radius_mm", levels=tuple(self.radius_levels_mm), unit="mm"),
+                            Parameter("force_kn", *self.force_kn, unit="kN")))
+
+    def bounds(self) -> dict[str, tuple[float, float]]:
+        """Lower and upper bound of each input."""
+        return {"modulus_mpa": self.modulus_mpa, "poisson": self.poisson,
+                "radius_mm": (min(self.radius_levels_mm), max(self.radius_levels_mm)),
+                "force_kn": self.force_kn}
+
+    def contains(self, modulus_mpa, poisson, radius_mm, force_kn) -> np.ndarray:
+        """Elementwise: inside the domain (radius within the levels' span)."""
+        b = self.bounds()
+        inside = np.ones(np.broadcast(modulus_mpa, poisson, radius_mm, force_kn).shape, bool)
+        for name, x in zip(INPUTS, (modulus_mpa, poisson, radius_mm, force_kn)):
+            lo, hi = b[name]
+            inside &= (np.asarray(x) >= lo * (1 - 1e-12)) & (np.asarray(x) <= hi * (1 + 1e-12))
+        return inside
+
+    def to_dict(self) -> dict:
+        return {k: list(v) for k, v in asdict(self).items()}
+
+
+def option_columns(options: "ContactOptions") -> dict:
+    """The FE options as design columns of a campaign."""
+    return {"sphere_contact": options.sphere_contact, "flat_contact": options.flat_contact,
+            "friction_coefficient": options.friction_coefficient, "large_strain": options.large_strain}
+
+
+def design_points(domain: SurrogateDomain, samples: int, seed: int, options: "ContactOptions") -> list[dict]:
+    """An optimal Latin hypercube over the domain as FE campaign points (inputs + FE options)."""
+    from filmcal.doe import latin_design
+
+    design = latin_design(domain.space(), samples, seed=seed)
+    cols = option_columns(options)
+    return [dict(zip(INPUTS, map(float, row)), **cols) for row in design.points]
+
+
+def radius_excess_mm(X: dict, radius_mm: np.ndarray) -> np.ndarray:
+    """Radius minus the Hertz radius of the same (R, F): the film's enlargement."""
+    return np.asarray(radius_mm, float) - hertz_radius_mm(X["radius_mm"], np.asarray(X["force_kn"]) * 1e3)
+
+
+def fit_radius_surrogate(X: dict, radius_mm: np.ndarray, domain: SurrogateDomain, random_state: int = 0,
+                         n_restarts: int = 8) -> "GPSurrogate":
+    """GP of the radius excess over Hertz, log output, over (log E, nu, log R, log F).
+
+    Non-positive excesses (an imprint read inside the Hertz radius, possible
+    for a stiff film read at a high activation pressure) cannot take a log:
+    the output is then fitted without the log transform.
+    """
+    from filmcal.surrogate.gp import GPSurrogate
+
+    y = radius_excess_mm(X, radius_mm)
+    transform = "log" if np.all(y > 0) else "identity"
+    return GPSurrogate(list(INPUTS), output="radius_excess_mm", log_inputs=list(LOG_INPUTS),
+                       output_transform=transform, input_bounds=domain.bounds(), n_restarts=n_restarts,
+                       random_state=random_state).fit(X, y)
+
+
+@dataclass
+class SurrogateValidation:
+    """Held-out accuracy of a radius surrogate, in radius and in area.
+
+    ``details["points"]`` holds the held-out inputs with the FE radius and the
+    surrogate's mean and predictive std (incl. FE noise) at each.
+    """
+
+    n: int
+    radius_rms_error_mm: float
+    radius_max_error_mm: float
+    area_rms_relative_error: float
+    area_max_relative_error: float
+    coverage90: float
+    q2: float
+    details: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {k: v for k, v in self.__dict__.items() if k != "details"}
+
+
+def validate_radius_surrogate(surrogate: "GPSurrogate", X: dict, radius_mm: np.ndarray) -> SurrogateValidation:
+    """Accuracy on held-out FE runs; intervals include the fitted FE noise (a new FE run's jitter)."""
+    from filmcal.surrogate.validation import validate
+
+    v = validate(surrogate, X, radius_excess_mm(X, radius_mm), noise=True)
+    excess, std = surrogate.predict(X, return_std=True, noise=True)
+    mean = excess + hertz_radius_mm(X["radius_mm"], np.asarray(X["force_kn"]) * 1e3)
+    area_rel = (mean / radius_mm) ** 2 - 1.0
+    err = mean - radius_mm
+    points = {**{k: np.asarray(X[k], dtype=float) for k in INPUTS}, "radius_fe_mm": np.asarray(radius_mm, float),
+              "radius_mean_mm": mean, "radius_std_mm": std}
+    return SurrogateValidation(int(len(radius_mm)), float(np.sqrt(np.mean(err**2))), float(np.max(np.abs(err))),
+                               float(np.sqrt(np.mean(area_rel**2))), float(np.max(np.abs(area_rel))),
+                               float(v.coverage90), float(v.q2), {"excess": v.__dict__, "points": points})
+
+
+def _broadcast(modulus_mpa, poisson, sphere_radius_mm, force_n):
+    return np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (modulus_mpa, poisson, sphere_radius_mm, force_n)))
+
+
+class SurrogateRadiusModel:
+    """A radius surrogate seen by the calibration: ``predict(E, nu, R, F) -> (mean, std)``.
+
+    The std includes the FE model's numerical jitter (the GP's fitted noise).
+    Points outside the surrogate's domain get a NaN mean.
+    """
+
+    def __init__(self, surrogate: "GPSurrogate", domain: SurrogateDomain | None = None) -> None:
+        self.surrogate = surrogate
+        self.domain = domain or SurrogateDomain()
+
+    def predict(self, modulus_mpa, poisson, sphere_radius_mm, force_n):
+        e, nu, r, f = _broadcast(modulus_mpa, poisson, sphere_radius_mm, force_n)
+        shape = e.shape
+        X = {"modulus_mpa": e.ravel(), "poisson": nu.ravel(), "radius_mm": r.ravel(), "force_kn": f.ravel() / 1e3}
+        mean, std = self.surrogate.predict(X, return_std=True, noise=True)
+        mean = mean + hertz_radius_mm(X["radius_mm"], f.ravel())
+        inside = self.domain.contains(*(X[n] for n in INPUTS))
+        mean = np.where(inside, mean, np.nan)
+        return mean.reshape(shape), std.reshape(shape)
+
+
+class FERadiusModel:
+    """The FE model itself seen by the calibration (FE in the loop): std = 0.
+
+    Slow per call compared with a surrogate; meant for deterministic checks
+    (e.g. inverting each case) rather than for MCMC.
+
+    Parameters
+    ----------
+    options : ContactOptions, optional
+        FE options (default: frictionless sphere, film tied to the flat, small strain).
+    output : str
+        Which FE reading is the radius: ``contact_radius_mm`` (the edge) or an
+        imprint reading ``radius_<model>_<film>_mm`` of `filmcal.fem.evaluate_point`.
+    films : sequence of FilmType, optional
+        Film types whose imprint readings `output` may name.
+    """
+
+    def __init__(self, options: "ContactOptions | None" = None, output: str = EDGE_COLUMN, films=()) -> None:
+        from filmcal.fem import ContactOptions
+
+        self.options = options or ContactOptions()
+        self.output = output
+        self.films = tuple(films)
+
+    def predict(self, modulus_mpa, poisson, sphere_radius_mm, force_n):
+        from filmcal.fem import evaluate_point
+
+        e, nu, r, f = _broadcast(modulus_mpa, poisson, sphere_radius_mm, force_n)
+        out = np.empty(e.shape)
+        for idx in np.ndindex(e.shape):
+            point = {"modulus_mpa": float(e[idx]), "poisson": float(nu[idx]), "radius_mm": float(r[idx]),
+                     "force_kn": float(f[idx]) / 1e3, **option_columns(self.options)}
+            res = evaluate_point(point, films=self.films) if self.films else evaluate_point(point)
+            out[idx] = float(res.get(self.output, np.nan)) if res.get("converged", True) else np.nan
+        return out, np.zeros(e.shape)
