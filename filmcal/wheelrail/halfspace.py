@@ -854,7 +854,7 @@ class HalfSpaceContactSolver:
             raise ValueError("the contact reaches the edge of the grid: enlarge the region "
                              "covered by grid (or pass allow_edge=True)")
         if check_resolution:
-            self._check_resolution(loaded, grid)
+            self.check_resolution(loaded, grid)
         area, rings = _region(grid, _boundary_field(loaded, fractions))
         x, y = grid.mesh()
         return ContactResult(
@@ -894,7 +894,9 @@ class HalfSpaceContactSolver:
 
         return hard_edge if hard else compliant
 
-    def _check_resolution(self, loaded: np.ndarray, grid: SurfaceGrid) -> None:
+    def check_resolution(self, loaded: np.ndarray, grid: SurfaceGrid) -> None:
+        """Raise ValueError if the loaded cells span fewer than ``min_cells_across``
+        cells along x or y (the most loaded cells on one grid line)."""
         across_x = int(loaded.sum(axis=0).max())
         across_y = int(loaded.sum(axis=1).max())
         if min(across_x, across_y) < self.min_cells_across:

@@ -88,6 +88,8 @@ _CANDIDATE_TOLERANCE_MM = 1.0
 _MARGIN_CELLS = 3
 _MAX_CELLS = 800
 _MAX_ATTEMPTS = 6
+_MAX_REFINEMENTS = 3
+_MAX_REFINEMENT_FACTOR = 8
 _HERTZ_CURVATURE_FACTOR = 2.0
 
 
@@ -174,9 +176,15 @@ class WheelRailCase:
         _check_interfaces(self.film, self.roughness)
 
 
+_INTERFACE_METHODS = ("closure_mm", "tangent_compliance_mm_per_mpa", "closure_integral",
+                      "initial_compliance_mm_per_mpa")
+
+
 def _check_interfaces(film, roughness) -> None:
-    if film is not None and not isinstance(film, FilmLayer):
-        raise ValueError(f"film must be a FilmLayer or None, got {film!r}")
+    if film is not None and not (isinstance(film, FilmLayer) or all(
+            hasattr(film, name) for name in _INTERFACE_METHODS)):
+        raise ValueError("film must be a FilmLayer, a film with the interface methods "
+                         f"({', '.join(_INTERFACE_METHODS)}) or None, got {film!r}")
     if roughness is not None and not isinstance(roughness, InterfaceLaw):
         raise ValueError(f"roughness must be an InterfaceLaw or None, got {roughness!r}")
 
@@ -314,6 +322,7 @@ class WheelRailResult:
             "hertz_semi_axes_mm": None if hz is None else [hz.semi_axis_x_mm, hz.semi_axis_y_mm],
             "hertz_like": self.hertz_like,
             "grid_mm": self.grid.dx_mm,
+            "grid_s_mm": self.grid.dy_mm,
             "grid_cells": [self.grid.nx, self.grid.ny],
             "converged": self.converged,
             "elapsed_s": self.elapsed_s,
@@ -364,6 +373,33 @@ class _PlaneCurves:
             source = s - rise * self.sin
         wheel = np.interp(source, self.s_wheel, self.n_wheel) + rise * self.cos
         return wheel - np.interp(s, self.s_rail, self.n_rail)
+
+
+    def grid_gap(self, x_mm: np.ndarray, s_mm: np.ndarray) -> np.ndarray:
+        """:meth:`gap` on the tensor grid ``x_mm (nx,) x s_mm (ns,)``, shape ``(nx, ns)``.
+
+        The same fixed-point iteration, with everything that depends on ``s``
+        alone evaluated once per grid line and the iteration stopped when the
+        source points move by less than 1e-9 mm (at once for an untilted
+        plane).
+        """
+        x2 = np.square(np.asarray(x_mm, dtype=float))[:, None]
+        s = np.asarray(s_mm, dtype=float)[None, :]
+        rail = np.interp(s, self.s_rail, self.n_rail)
+        r = np.interp(s, self.s_wheel, self.radius_wheel)
+        rise = x2 / (r + np.sqrt(np.clip(r * r - x2, 0.0, None)))
+        source = s - rise * self.sin
+        if self.sin != 0.0:
+            for _ in range(4):
+                r = np.interp(source, self.s_wheel, self.radius_wheel)
+                rise = x2 / (r + np.sqrt(np.clip(r * r - x2, 0.0, None)))
+                moved = s - rise * self.sin
+                done = float(np.abs(moved - source).max()) < 1e-9
+                source = moved
+                if done:
+                    break
+        wheel = np.interp(source, self.s_wheel, self.n_wheel)
+        return np.broadcast_to(wheel, rise.shape) + rise * self.cos - rail
 
 
 def _monotone_run(s: np.ndarray, start: int) -> slice:
@@ -447,10 +483,17 @@ def _approach_estimate(point: ContactPoint, force_n: float, contact_modulus_mpa:
     hz = hertz_elliptic(a_coef, b_coef, force_n / c, contact_modulus_mpa)
     delta = hz.approach_mm
     if film is not None:
-        delta += film.compliance_mm_per_mpa * hz.max_pressure_mpa
+        delta += _closure_mm(film, hz.max_pressure_mpa)
     if roughness is not None:
         delta += float(roughness.closure_mm(np.array([hz.max_pressure_mpa]))[0])
     return delta
+
+
+def _closure_mm(film, pressure_mpa: float) -> float:
+    """Closure of a film at one pressure, through its generic method when it has one."""
+    if hasattr(film, "closure_mm"):
+        return float(np.asarray(film.closure_mm(np.array([pressure_mpa])), dtype=float)[0])
+    return film.compliance_mm_per_mpa * pressure_mpa
 
 
 def _round_up(n: int, step: int) -> int:
@@ -476,20 +519,70 @@ def _region(curves: _PlaneCurves, delta_mm: float, spacing_mm: float) -> Contact
                          float(s[inside[-1]]) + margin)
 
 
-def _grid(region: ContactRegion, spacing_mm: float, curves: _PlaneCurves) -> SurfaceGrid:
-    """Grid over the region, with cell counts rounded up for spectrum reuse."""
-    half = _round_up(int(math.ceil(region.half_length_x_mm / spacing_mm)), 4)
+def _grid(region: ContactRegion, spacing_mm: float, curves: _PlaneCurves,
+          spacing_s_mm: float | None = None) -> SurfaceGrid:
+    """Grid over the region, with cell counts rounded up for spectrum reuse.
+
+    Cell centres lie on the lattice ``(i dx, j ds)`` of the plane (``s = 0``
+    at its first contact point), so that grids of one plane share their
+    cells and a pressure moves between them by copying.
+    """
+    hx = spacing_mm
+    hs = spacing_mm if spacing_s_mm is None else spacing_s_mm
+    half = _round_up(int(math.ceil(region.half_length_x_mm / hx)), 4)
     nx = 2 * half + 1
-    ns = _round_up(int(math.ceil((region.s_max_mm - region.s_min_mm) / spacing_mm)) + 1, 8)
+    ns = _round_up(int(math.ceil((region.s_max_mm - region.s_min_mm) / hs)) + 1, 8)
     if max(nx, ns) > _MAX_CELLS:
-        raise ValueError(f"the contact region needs a {nx} x {ns} grid at grid_mm={spacing_mm:g}; "
-                         f"at most {_MAX_CELLS} cells per side are allowed: use a larger grid_mm")
+        raise ValueError(f"the contact region needs a {nx} x {ns} grid at grid_mm={hx:g} "
+                         f"(across the rail {hs:g} mm); at most {_MAX_CELLS} cells per side are "
+                         "allowed: use a larger grid_mm")
     centre = 0.5 * (region.s_min_mm + region.s_max_mm)
     lo, hi = curves.s_range
-    half_s = 0.5 * (ns - 1) * spacing_mm
+    length = (ns - 1) * hs
+    first = int(round((centre - 0.5 * length) / hs))
     # keep the grid inside the part of the plane where both profiles are graphs
-    centre = min(max(centre, lo + half_s), hi - half_s) if hi - lo > 2 * half_s else 0.5 * (lo + hi)
-    return SurfaceGrid(nx, ns, spacing_mm, spacing_mm, -half * spacing_mm, centre - half_s)
+    if hi - lo > length + 2 * hs:
+        first = min(max(first, int(math.ceil(lo / hs))), int(math.floor((hi - length) / hs)))
+    return SurfaceGrid(nx, ns, hx, hs, -half * hx, first * hs)
+
+
+def _transfer(previous: ContactResult, grid: SurfaceGrid) -> np.ndarray | None:
+    """A neighbouring solution's pressure on `grid` (same plane coordinates), or None.
+
+    Copied cell by cell when the grids share spacing and lattice, else
+    bilinearly interpolated (zero outside the neighbour's grid).
+    """
+    source = previous.grid
+    p = previous.pressure_mpa
+    fx = (grid.x_mm - source.x0_mm) / source.dx_mm
+    fy = (grid.y_mm - source.y0_mm) / source.dy_mm
+    same = (math.isclose(grid.dx_mm, source.dx_mm) and math.isclose(grid.dy_mm, source.dy_mm)
+            and np.allclose(fx, np.rint(fx), atol=1e-6) and np.allclose(fy, np.rint(fy), atol=1e-6))
+    if same:
+        ix, iy = np.rint(fx).astype(int), np.rint(fy).astype(int)
+        okx = (ix >= 0) & (ix < source.nx)
+        oky = (iy >= 0) & (iy < source.ny)
+        out = np.zeros(grid.shape)
+        out[np.ix_(okx, oky)] = p[np.ix_(ix[okx], iy[oky])]
+    else:
+        fxx, fyy = np.meshgrid(fx, fy, indexing="ij")
+        out = ndimage.map_coordinates(p, [fxx, fyy], order=1, mode="constant", cval=0.0,
+                                      prefilter=False)
+    out = np.clip(out, 0.0, None)
+    return out if out.sum() > 0.0 else None
+
+
+def _refinement(loaded: np.ndarray, min_cells: int) -> tuple[int, int]:
+    """Factors refining x and s so that the contact spans at least `min_cells` cells.
+
+    The span in a direction is the largest number of loaded cells on one
+    grid line in that direction (the solver's resolution check).
+    """
+    across_x = int(loaded.sum(axis=0).max())
+    across_s = int(loaded.sum(axis=1).max())
+    factor_x = 1 if across_x >= min_cells else int(math.ceil(min_cells / max(across_x, 1)))
+    factor_s = 1 if across_s >= min_cells else int(math.ceil(min_cells / max(across_s, 1)))
+    return factor_x, factor_s
 
 
 # ---------------------------------------------------------------------------
@@ -557,7 +650,8 @@ class WheelRailModel:
 
     def solve(self, offset_mm: float, force_n: float, film: FilmLayer | None = None,
               roughness: InterfaceLaw | None = None,
-              region: ContactRegion | None = None) -> WheelRailResult:
+              region: ContactRegion | None = None, *,
+              initial: "WheelRailResult | None" = None) -> WheelRailResult:
         """Solve one case.
 
         Parameters
@@ -567,12 +661,24 @@ class WheelRailModel:
         force_n : float
             Vertical wheel load (N), > 0.
         film : FilmLayer, optional
-            Film between wheel and rail (springs in series).
+            Film between wheel and rail (springs in series; a linear
+            :class:`FilmLayer` or any film with the interface methods, such
+            as a nonlinear film law).
         roughness : InterfaceLaw, optional
             Pressure-overclosure law of a rough interface in series (the
             film-wheel interface with a film, the wheel-rail one without).
         region : ContactRegion, optional
             Grid region in the contact plane; chosen automatically by default.
+        initial : WheelRailResult, optional
+            Warm start from a neighbouring solution (another offset, load,
+            film modulus or roughness): its pressure, in its contact-plane
+            coordinates ``(x, s)`` measured from its first contact point, is
+            interpolated onto this case's grid (copied cell by cell when the
+            grids share a lattice: same offset and spacing) and scaled to
+            this force as the solver's starting pressure. The answer is the
+            same as from a cold start to the solver tolerance; only the
+            iteration count falls. :meth:`solve_many` does this along a
+            list of cases.
 
         Returns
         -------
@@ -581,54 +687,109 @@ class WheelRailModel:
         Raises
         ------
         ValueError
-            For an offset outside the profiles, a non-positive force, a grid
-            too coarse for the contact, or a contact reaching the end of a
-            profile (or the edge of a given region).
+            For an offset outside the profiles, a non-positive force, a
+            contact too narrow for ``min_cells_across`` even on a grid
+            refined to an eighth of ``grid_mm``, or a contact reaching the
+            end of a profile (or the edge of a given region).
+
+        Notes
+        -----
+        The grid region grows until it encloses the contact (module notes);
+        each larger region starts from the previous attempt's pressure. A
+        contact narrower than the solver's ``min_cells_across`` cells in a
+        direction (a flange contact: 60E1, 10 kN, eta +5 to +7 mm spans 8-9
+        cells of 0.1 mm across) is solved again on a grid refined in that
+        direction only, by the factor that brings it to at least that many
+        cells, over the same region; ``WheelRailResult.grid`` gives the
+        spacings used.
+
+        Examples
+        --------
+        A sweep over film moduli at one offset and load, each solve warm
+        started from the previous one:
+
+        >>> model = WheelRailModel()
+        >>> previous = None
+        >>> for modulus in (2000.0, 2800.0, 4000.0):
+        ...     previous = model.solve(-3.0, 50e3, film=FilmLayer(modulus), initial=previous)
         """
         start = time.perf_counter()
         force = check_positive("force_n", force_n)
         _check_interfaces(film, roughness)
+        if initial is not None and not isinstance(initial, WheelRailResult):
+            raise ValueError(f"initial must be a WheelRailResult or None, got {initial!r}")
         geo = self.geometry(offset_mm)
         placement = geo.placement
         e_star = self.solver.contact_modulus_mpa
         delta_box = 1.1 * _approach_estimate(placement.contact, force, e_star, film, roughness)
-        enclosed = False
-        for _ in range(_MAX_ATTEMPTS):
+        previous = None if initial is None else initial.contact
+        spacing_x = spacing_s = self.grid_mm
+        enclosed = resolved = False
+        refinements = 0
+        for _ in range(_MAX_ATTEMPTS + _MAX_REFINEMENTS):
             points = tuple(p for p in placement.contact_points if p.separation_mm <= delta_box)
             plane = geo.plane(points)
             curves = geo.curves(plane)
             normal_force = force / math.cos(plane.angle_rad)
             box = _region(curves, delta_box, self.grid_mm) if region is None else region
-            grid = _grid(box, self.grid_mm, curves)
-            x, s = grid.mesh()
-            gap = curves.gap(x, s)
+            grid = _grid(box, spacing_x, curves, spacing_s)
+            gap = curves.grid_gap(grid.x_mm, grid.y_mm)
+            start_pressure = None if previous is None else _transfer(previous, grid)
             result = self.solver.solve(gap, normal_force, grid, film=film, law=roughness,
-                                       allow_edge=True)
+                                       initial_pressure_mpa=start_pressure, allow_edge=True,
+                                       check_resolution=False)
+            previous = result
             delta = result.approach_mm + float(gap.min())
             if region is not None:
                 enclosed = not result.reaches_edge
-                break
-            if not result.reaches_edge and delta <= delta_box:
+            elif not result.reaches_edge and delta <= delta_box:
                 enclosed = True
+            else:
+                delta_box = 1.25 * max(delta, delta_box)
+                continue
+            if not enclosed:
                 break
-            delta_box = 1.25 * max(delta, delta_box)
+            factor_x, factor_s = _refinement(result.contact_mask,
+                                             self.solver.min_cells_across)
+            resolved = factor_x == factor_s == 1
+            if resolved or refinements == _MAX_REFINEMENTS:
+                break
+            finest = self.grid_mm / _MAX_REFINEMENT_FACTOR
+            refined = (max(spacing_x / factor_x, finest), max(spacing_s / factor_s, finest))
+            if refined == (spacing_x, spacing_s):
+                break
+            refinements += 1
+            spacing_x, spacing_s = refined
         if not enclosed:
             raise ValueError("the contact reaches the edge of the given region; enlarge it"
                              if region is not None else
                              "the contact could not be enclosed in the usable part of the profiles "
                              "at this offset and load")
+        if not resolved:
+            self.solver.check_resolution(result.contact_mask, result.grid)
         return self._result(geo, plane, curves, result, force, normal_force, film, roughness,
                             delta, start)
 
-    def solve_many(self, cases: Iterable[WheelRailCase | Mapping | tuple]) -> list[WheelRailResult]:
+    def solve_many(self, cases: Iterable[WheelRailCase | Mapping | tuple], *,
+                   warm_start: bool = True) -> list[WheelRailResult]:
         """Solve many cases (offset, force, film, roughness) with the shared caches.
 
         Cases may be :class:`WheelRailCase`, mappings with its field names or
         tuples in its field order. Their values (finite offset, positive
         force, film and roughness types) are checked before the first solve.
+
+        With ``warm_start`` (default) each case starts from the solution of
+        the case before it (``solve(..., initial=previous)``): order a sweep
+        so that neighbours are alike (moduli, loads or offsets in order).
+        The results equal cold starts to the solver tolerance.
         """
         checked = [_as_case(c) for c in cases]
-        return [self.solve(c.offset_mm, c.force_n, c.film, c.roughness) for c in checked]
+        results: list[WheelRailResult] = []
+        for c in checked:
+            initial = results[-1] if warm_start and results else None
+            results.append(self.solve(c.offset_mm, c.force_n, c.film, c.roughness,
+                                      initial=initial))
+        return results
 
     # -- post-processing ---------------------------------------------------
     def _result(self, geo: WheelRailGeometry, plane: ContactPlane, curves: _PlaneCurves,
