@@ -1,4 +1,8 @@
-"""Bayesian calibration of the film modulus per film type against Table 1.
+"""Bayesian calibration of the film modulus per film type against measured imprints.
+
+Data come from `load_dataset` (Table 1 of the reference paper, packaged as
+``table1``, or a lab's own CSV file); models are compared and combined with
+`compare_models` and `combine_posteriors`.
 
 The model is seen only through the `RadiusModel` protocol
 (``predict(modulus_mpa, poisson, sphere_radius_mm, force_n) -> (mean, std)``):
@@ -8,11 +12,16 @@ from filmcal._lazy import lazy_exports
 
 __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "filmcal.calibration.checks": ["CaseIntervals", "PredictiveCheck", "case_modulus_intervals", "predictive_check"],
+    "filmcal.calibration.comparison": ["MixturePosterior", "ModelAssessment", "ModelComparison", "assess_model",
+                                       "combine_posteriors", "compare_models"],
+    "filmcal.calibration.datasets": ["Dataset", "PACKAGED_DATASETS", "load_dataset"],
     "filmcal.calibration.data": ["FILM_TYPES", "RadiusErrorData", "load_table1", "parse_load_range"],
     "filmcal.calibration.diagnostics": ["Diagnostics", "compute_diagnostics"],
     "filmcal.calibration.likelihood": ["CalibrationProblem", "Priors", "RadiusModel"],
     "filmcal.elastic": ["oedometric_ratio"],
     "filmcal.calibration.pipeline": ["calibrate", "calibrate_film"],
-    "filmcal.calibration.posterior": ["CalibrationResult", "load_result", "save_result", "summarize"],
+    "filmcal.calibration.posterior": ["CalibrationResult", "load_posterior_netcdf", "load_result",
+                                      "posterior_inference_data", "save_posterior_netcdf", "save_result",
+                                      "summarize"],
     "filmcal.calibration.sampling": ["SamplerSettings", "read_chain", "run_chain"],
 }, globals())

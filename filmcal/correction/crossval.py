@@ -1,39 +1,69 @@
-"""Leave-one-case-out cross-validation of the sphere-on-flat correction on Table 1.
+"""Leave-one-case-out cross-validation of the sphere-on-flat correction.
 
-For each (R, F) case of a film type: calibrate the film without that case,
-correct the case's measured radius, and check whether the Hertz area (the
-truth of these Hertzian experiments) lies inside the corrected 90 % interval.
-A correction that can be trusted puts it there in about 9 of 10 cases.
+For each (R, F) case of a film: calibrate the film without that case, correct
+the case's measured radius, and check whether the Hertz area (the truth of
+these Hertzian experiments) lies inside the corrected 90 % interval. A
+correction that can be trusted puts it there in about 9 of 10 cases.
+
+`psis_leave_one_case_out` does this from the one posterior calibrated on all
+cases: the posterior without case i is the full posterior reweighted by
+``1 / p(r_i | theta)``, the weights Pareto-smoothed (PSIS; Vehtari, Gelman &
+Gabry, Stat. Comput. 27, 2017; ArviZ `psislw`). Where the Pareto shape k of
+a case's weights exceeds 0.7 the reweighting is unreliable and that case is
+refitted exactly by the caller's `refit` function; the result says how many
+refits that took. The reweighted draws are resampled (sampling-importance
+resampling) and handed to the product's corrector, `SphereCorrector`, so the
+folds check the corrector users run. With several models (imprint readings,
+film kinematics) and their weights, each model's posterior is reweighted on
+its own and the corrections are pooled in proportion to the weights, the
+weights themselves held fixed.
+
+`cross_validate_case` / `leave_one_case_out` are the exact refits of Table 1
+folds (one calibration per case). Nothing here imports the orchestration
+layer: models, data and posteriors come in as arguments.
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
+from typing import Callable, Mapping
 
 import numpy as np
 
 from filmcal.correction.sphere import SphereCorrector
 from filmcal.hertz import hertz_radius_mm
 
-__all__ = ["CaseCrossValidation", "cross_validate_case", "leave_one_case_out"]
+__all__ = ["CaseCrossValidation", "cross_validate_case", "leave_one_case_out", "psis_leave_one_case_out",
+           "PARETO_K_REFIT"]
+
+#: Pareto k above which a fold is refitted exactly.
+PARETO_K_REFIT = 0.7
 
 
 @dataclass
 class CaseCrossValidation:
-    """Corrections of each Table 1 case by a calibration that did not see it (arrays of shape (n,)).
+    """Corrections of each held-out imprint by a posterior that did not see its case (arrays of shape (n,)).
 
     Attributes
     ----------
     film : str
     sphere_radius_mm, force_n, measured_radius_mm : ndarray
-        The cases.
+        The imprints (one per case for Table 1).
     hertz_area_mm2 : ndarray
-        The truth: pi a_Hertz^2.
+        The truth: pi a_Hertz^2 of the imprint's bodies.
     area_mm2, area_std_mm2 : ndarray
-        Corrected area (posterior mean and std) of each held-out case.
+        Corrected area (posterior mean and std) of each held-out imprint.
     area_ci90_mm2 : ndarray, shape (n, 2)
         Its 90 % interval.
     modulus_median_mpa : ndarray
-        Posterior median of E of each fold.
+        Median of E of each fold's posterior (pooled over models).
+    pareto_k : ndarray or None
+        Largest Pareto k of the fold's importance weights over the models
+        (NaN for exact folds); None for folds of `leave_one_case_out`.
+    refit : ndarray of bool or None
+        Whether the fold was refitted exactly (for at least one model).
+    method : str
+        ``"refit"`` (every fold calibrated anew) or ``"psis"``.
     """
 
     film: str
@@ -45,6 +75,9 @@ class CaseCrossValidation:
     area_std_mm2: np.ndarray
     area_ci90_mm2: np.ndarray
     modulus_median_mpa: np.ndarray
+    pareto_k: np.ndarray | None = None
+    refit: np.ndarray | None = None
+    method: str = "refit"
 
     @property
     def inside(self) -> np.ndarray:
@@ -55,14 +88,41 @@ class CaseCrossValidation:
     def hits(self) -> int:
         return int(self.inside.sum())
 
+    @property
+    def n_refits(self) -> int:
+        """Folds calibrated anew: every fold for ``method="refit"``, the high-k ones for PSIS."""
+        if self.refit is None:
+            return int(self.area_mm2.size)
+        return int(np.sum(self.refit))
+
+    @property
+    def band_percent(self) -> np.ndarray:
+        """Width of each 90 % interval as a percentage of the corrected area."""
+        return 100.0 * (self.area_ci90_mm2[:, 1] - self.area_ci90_mm2[:, 0]) / self.area_mm2
+
     def to_dict(self) -> dict:
-        """Plain JSON values."""
-        return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in self.__dict__.items()}
+        """Plain JSON values (NaN Pareto k as None)."""
+        out = {}
+        for k, v in self.__dict__.items():
+            if isinstance(v, np.ndarray):
+                v = [None if isinstance(x, float) and not np.isfinite(x) else x for x in v.tolist()] \
+                    if v.ndim == 1 else v.tolist()
+            out[k] = v
+        out["n_refits"] = self.n_refits
+        out["hits"] = self.hits
+        return out
 
     @classmethod
     def from_dict(cls, d: dict) -> CaseCrossValidation:
         """Inverse of `to_dict`."""
-        return cls(film=str(d["film"]), **{k: np.asarray(v, dtype=float) for k, v in d.items() if k != "film"})
+        floats = ("sphere_radius_mm", "force_n", "measured_radius_mm", "hertz_area_mm2", "area_mm2",
+                  "area_std_mm2", "area_ci90_mm2", "modulus_median_mpa")
+        kw = {k: np.asarray(d[k], dtype=float) for k in floats}
+        if d.get("pareto_k") is not None:
+            kw["pareto_k"] = np.array([np.nan if x is None else x for x in d["pareto_k"]], dtype=float)
+        if d.get("refit") is not None:
+            kw["refit"] = np.asarray(d["refit"], dtype=bool)
+        return cls(film=str(d["film"]), method=str(d.get("method", "refit")), **kw)
 
     @classmethod
     def from_folds(cls, film: str, folds: list[dict]) -> CaseCrossValidation:
@@ -119,3 +179,178 @@ def leave_one_case_out(model, film: str, loads: str | None = None, priors=None, 
         if log:
             log(f"{film} fold {case + 1}: R{folds[-1]['sphere_radius_mm']:g} / {folds[-1]['force_n'] / 1e3:g} kN")
     return CaseCrossValidation.from_folds(film, folds)
+
+
+def _psislw(neg_log_lik: np.ndarray, reff: float) -> tuple[np.ndarray, float]:
+    """Pareto-smoothed normalised log weights and the Pareto k of one fold (ArviZ)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        import arviz as az
+
+        log_w, k = az.psislw(neg_log_lik, reff=reff)
+    return np.asarray(log_w, dtype=float), float(np.asarray(k))
+
+
+def _relative_ess(named: dict[str, np.ndarray]) -> float:
+    """Relative efficiency of the draws, as ArviZ's `loo` takes it: mean bulk ESS (method "mean") over the
+    parameters divided by the number of draws; 1 for a single chain."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        import arviz as az
+
+        first = next(iter(named.values()))
+        n_chain, n_draw = first.shape[:2]
+        if n_chain < 2:
+            return 1.0
+        ess = [float(az.ess(np.asarray(v, dtype=float), method="mean")) for v in named.values()]
+    return float(np.clip(np.mean(ess) / (n_chain * n_draw), 1e-3, None))
+
+
+def _as_theta(problem, posterior) -> np.ndarray:
+    """Sampled coordinates of a posterior (InferenceData, dict of named samples or array), (chains, draws, ndim)."""
+    if hasattr(posterior, "posterior"):
+        post = posterior.posterior
+        named = {k: post[k].values for k in post.data_vars}
+    elif isinstance(posterior, Mapping):
+        named = {k: np.asarray(v, dtype=float) for k, v in posterior.items()}
+    else:
+        theta = np.asarray(posterior, dtype=float)
+        return theta if theta.ndim == 3 else theta.reshape(1, -1, problem.ndim)
+    if "poisson" in named and problem.poisson_mode == "fixed":
+        named = {k: v for k, v in named.items() if k != "poisson"}
+    theta = problem.theta_from_named(named)
+    return theta if theta.ndim == 3 else theta.reshape(1, -1, problem.ndim)
+
+
+def _reported(problem, theta: np.ndarray) -> dict[str, np.ndarray]:
+    """The parameters as an InferenceData posterior holds them (nu included when fixed)."""
+    named = problem.named_samples(theta)
+    named.setdefault("poisson", np.full(theta.shape[:-1], float(problem.priors.poisson)))
+    return named
+
+
+def _corrector_samples(problem, theta: np.ndarray) -> dict[str, np.ndarray]:
+    p = problem.unpack(theta)
+    return {"modulus_mpa": p["modulus_mpa"], "poisson": p["poisson"],
+            "sigma_mm": np.sqrt(p["sigma_mm"] ** 2 + p["case_sigma_mm"] ** 2)}
+
+
+def psis_leave_one_case_out(models: Mapping[str, tuple], weights: Mapping[str, float] | None = None,
+                            refit: Callable[[str, object], object] | None = None, *, film: str | None = None,
+                            n_draws: int = 2000, k_threshold: float = PARETO_K_REFIT,
+                            random_state: int | np.random.Generator | None = 0,
+                            log: Callable[[str], None] | None = None) -> CaseCrossValidation:
+    """Leave-one-case-out cross-validation of the correction from the full posterior(s).
+
+    Parameters
+    ----------
+    models : mapping of name -> (CalibrationProblem, posterior)
+        Each model's calibration problem (its data and radius model) and its
+        posterior on all cases: InferenceData, a dict of reported samples
+        (``CalibrationResult.samples``, walkers x draws) or sampled
+        coordinates (chains, draws, ndim). All models must hold the same data.
+    weights : mapping of name -> float, optional
+        Weights of the models in the combined correction (e.g. from
+        `filmcal.calibration.comparison.compare_models`); default equal.
+        Held fixed over the folds.
+    refit : callable, optional
+        ``refit(name, data_without_case) -> posterior`` (same forms as
+        above): an exact calibration of model `name` on the other cases,
+        called only for folds whose Pareto k exceeds `k_threshold`. Without
+        it such folds keep their PSIS estimate and stay flagged by their k.
+    film : str, optional
+        Label; default the data's film.
+    n_draws : int, default 2000
+        Posterior draws resampled per fold and model for the corrector.
+    k_threshold : float, default 0.7
+    random_state : int or Generator, optional
+        Seed of the resampling and of the corrector's scatter draws.
+    log : callable, optional
+        Receives one line per refit.
+
+    Returns
+    -------
+    CaseCrossValidation
+        One row per imprint of the data (left out with its whole case), with
+        ``method="psis"``, the Pareto k of each fold and which folds were
+        refitted (``n_refits``).
+    """
+    if not models:
+        raise ValueError("models must hold at least one (problem, posterior) pair")
+    names = list(models)
+    w = np.ones(len(names)) if weights is None else np.array([float(weights[n]) for n in names])
+    if not np.all(np.isfinite(w)) or np.any(w < 0) or w.sum() <= 0:
+        raise ValueError(f"weights must be finite, >= 0 and not all 0, got {weights}")
+    w = w / w.sum()
+    if not (isinstance(n_draws, (int, np.integer)) and n_draws >= 10):
+        raise ValueError(f"n_draws must be an integer >= 10, got {n_draws!r}")
+    problems = {n: models[n][0] for n in names}
+    ref = problems[names[0]]
+    for n in names[1:]:
+        if not (np.array_equal(problems[n].target_radius_mm, ref.target_radius_mm)
+                and np.array_equal(problems[n].case_index, ref.case_index)):
+            raise ValueError(f"model {n!r} holds other data than {names[0]!r}")
+    rng = np.random.default_rng(random_state)
+    data = ref.data
+    counts = np.floor(w * n_draws).astype(int)
+    counts[np.argsort(-(w * n_draws - counts), kind="stable")[:n_draws - counts.sum()]] += 1
+
+    thetas = {n: _as_theta(problems[n], models[n][1]) for n in names}
+    case_ll = {n: problems[n].case_log_likelihood(thetas[n].reshape(-1, problems[n].ndim))
+               .reshape(thetas[n].shape[:2] + (problems[n].n_cases,)) for n in names}
+    reff = {n: _relative_ess(_reported(problems[n], thetas[n])) for n in names}
+
+    rows_out = []
+    for case in range(ref.n_cases):
+        rows = np.flatnonzero(ref.case_index == case)
+        area_samples, moduli, ks, refitted = [], [], [], False
+        for n, count in zip(names, counts):
+            if count == 0:
+                continue
+            problem = problems[n]
+            flat = thetas[n].reshape(-1, problem.ndim)
+            log_w, k = _psislw(-case_ll[n][..., case].ravel(), reff[n])
+            if k > k_threshold and refit is not None:
+                keep = ref.case_index != case
+                fold_theta = _as_theta(problem, refit(n, data.select(keep))).reshape(-1, problem.ndim)
+                take = rng.choice(fold_theta.shape[0], size=count, replace=count > fold_theta.shape[0])
+                draws = fold_theta[take]
+                refitted = True
+                ks.append(k)
+                if log:
+                    log(f"fold {case + 1} ({n}): Pareto k {k:.2f} > {k_threshold:g}, refitted")
+            else:
+                prob = np.exp(log_w - log_w.max())
+                draws = flat[rng.choice(flat.shape[0], size=count, replace=True, p=prob / prob.sum())]
+                ks.append(k)
+            samples = _corrector_samples(problem, draws)
+            moduli.append(samples["modulus_mpa"])
+            corrector = SphereCorrector(problem.model, samples, max_samples=count,
+                                        random_state=int(rng.integers(2**31)))
+            r_target = problem.target_radius_mm[rows]
+            out = corrector.correct(r_target, data.sphere_radius_mm[rows], data.force_n[rows],
+                                    data.measurement_std_mm[rows])
+            # back from the steel-equivalent radius to the row's bodies (no change for steel)
+            shift = data.hertz_radius_mm[rows] - data.steel_hertz_radius_mm[rows]
+            radius = np.sqrt(out.samples_mm2 / np.pi) + shift[:, None]
+            area_samples.append(np.pi * np.clip(radius, 0.0, None) ** 2)
+        pooled = np.concatenate(area_samples, axis=1)
+        modulus = np.concatenate(moduli)
+        for j, row in enumerate(rows):
+            a = pooled[j]
+            rows_out.append((row, {
+                "sphere_radius_mm": float(data.sphere_radius_mm[row]), "force_n": float(data.force_n[row]),
+                "measured_radius_mm": float(data.measured_radius_mm[row]),
+                "hertz_area_mm2": float(np.pi * data.hertz_radius_mm[row] ** 2),
+                "area_mm2": float(a.mean()), "area_std_mm2": float(a.std(ddof=1)),
+                "area_ci90_mm2": [float(x) for x in np.quantile(a, [0.05, 0.95])],
+                "modulus_median_mpa": float(np.median(modulus)), "pareto_k": float(max(ks)),
+                "refit": refitted}))
+    rows_out.sort(key=lambda t: t[0])
+    folds = [f for _, f in rows_out]
+    label = film if film is not None else ",".join(dict.fromkeys(data.film.tolist()))
+    cv = CaseCrossValidation.from_folds(label, folds)
+    cv.pareto_k = np.array([f["pareto_k"] for f in folds])
+    cv.refit = np.array([f["refit"] for f in folds], dtype=bool)
+    cv.method = "psis"
+    return cv
