@@ -4,18 +4,23 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from filmcal.fem import ContactOptions, Film, MeshSettings, SphereOnFlat, read_contact_radius, thin_layer_contact
+from filmcal.contact import read_radial_profile
+from filmcal.fem import ContactOptions, Film, MeshSettings, SphereOnFlat, thin_layer_contact
 
 
 @pytest.mark.parametrize("modulus_mpa", [500.0, 1000.0, 2800.0, 5000.0, 10000.0])
 def test_tied_film_matches_thin_layer_model(model450, modulus_mpa):
     """Film tied to the flat and frictionless at the sphere behaves like springs M/t in
-    series with the steel half-spaces (an independent boundary-element model)."""
+    series with the steel half-spaces (an independent boundary-element model): the
+    contours at 50 and 100 MPa, in the bulk of the contact where the spring model holds,
+    agree within 0.02 mm. (The edges differ: the springs have no square-root tip.)"""
     fe = model450.solve(Film(modulus_mpa, 0.33), 75e3)
     thin = thin_layer_contact(450.0, 75e3, modulus_mpa, 0.33, 0.09)
-    thin_a = read_contact_radius(thin.r_mm, thin.pressure_mpa, thin.pressure_mpa > 0)
     assert fe.converged and thin.converged
-    assert abs(fe.contact_radius_mm - thin_a) <= 0.02
+    # springs: the pressure falls linearly to the edge (a vanishing tip)
+    thin_profile = read_radial_profile(thin.r_mm, thin.pressure_mpa, tip_mm=1e-3, samples="point")
+    for level in (50.0, 100.0):
+        assert abs(fe.profile().level_radius_mm(level) - thin_profile.level_radius_mm(level)) <= 0.02
 
 
 def test_mesh_convergence_with_film():

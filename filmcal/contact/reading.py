@@ -24,7 +24,8 @@ square-root tip, as at a Hertzian edge. On meshes down to h = 0.0125 mm the
 finite-element pressure shows exactly that. A mesh of h = 0.1 mm does not
 resolve the tip, but its last nodal forces carry the tip's integral, so the
 edge is read by fitting, to the nodal forces of the nodes within
-:data:`EDGE_WINDOW_MM` of the last loaded node (and the first unloaded node,
+:data:`EDGE_WINDOW_MM` (0.3 mm; without a film :data:`HERTZ_WINDOW_MM`, 1 mm)
+of the last loaded node (and the first unloaded node,
 whose force is zero), the force-consistent integrals of
 
     p(r) = c sqrt(q (1 + q / (2 a l))),   q = a^2 - r^2,
@@ -53,11 +54,14 @@ import numpy as np
 
 from filmcal.contact.geometry import outline_area_mm2
 
-__all__ = ["EDGE_WINDOW_MM", "TIP_STIFFNESS_FACTOR", "film_tip_length_mm", "tributary_areas_mm2",
+__all__ = ["EDGE_WINDOW_MM", "HERTZ_WINDOW_MM", "TIP_STIFFNESS_FACTOR", "film_tip_length_mm", "tributary_areas_mm2",
            "RadialProfile", "read_radial_profile", "GridField"]
 
-#: Width of the window of nodes inside the last loaded node fitted for the edge (mm).
+#: Width of the window of nodes inside the last loaded node fitted for the edge
+#: of a contact through a film (mm): the two-scale shape holds near the edge only.
 EDGE_WINDOW_MM = 0.3
+#: The same without a film (mm): Hertz's profile holds over the whole contact.
+HERTZ_WINDOW_MM = 1.0
 #: Growth of the tip length with the film's stiffness relative to steel (see film_tip_length_mm).
 TIP_STIFFNESS_FACTOR = 4.0
 
@@ -227,7 +231,7 @@ class RadialProfile:
 
 
 def read_radial_profile(r_mm: np.ndarray, pressure_mpa: np.ndarray, tip_mm: float = math.inf,
-                        window_mm: float = EDGE_WINDOW_MM, samples: str = "nodal") -> RadialProfile:
+                        window_mm: float | None = None, samples: str = "nodal") -> RadialProfile:
     """Read an axisymmetric nodal pressure profile (see the module notes).
 
     Parameters
@@ -239,8 +243,10 @@ def read_radial_profile(r_mm: np.ndarray, pressure_mpa: np.ndarray, tip_mm: floa
     tip_mm : float
         Tip length of the edge (:func:`film_tip_length_mm`); inf for a
         Hertzian edge (no film).
-    window_mm : float
-        Nodes within this distance inside the last loaded node are fitted.
+    window_mm : float, optional
+        Nodes within this distance inside the last loaded node are fitted;
+        default :data:`EDGE_WINDOW_MM` with a film (finite tip),
+        :data:`HERTZ_WINDOW_MM` without.
     samples : {'nodal', 'point'}
         ``nodal``: nodal forces over tributary areas of linear elements (the
         FE model's pressures), fitted through their hat-function integrals;
@@ -257,6 +263,8 @@ def read_radial_profile(r_mm: np.ndarray, pressure_mpa: np.ndarray, tip_mm: floa
         raise ValueError("r_mm must be ascending and of the same length as pressure_mpa (>= 2 nodes)")
     if not (tip_mm > 0):
         raise ValueError(f"tip_mm must be > 0 (inf for no film), got {tip_mm!r}")
+    if window_mm is None:
+        window_mm = HERTZ_WINDOW_MM if math.isinf(tip_mm) else EDGE_WINDOW_MM
     if not (window_mm > 0):
         raise ValueError(f"window_mm must be > 0, got {window_mm!r}")
     if samples not in ("nodal", "point"):

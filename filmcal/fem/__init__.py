@@ -9,22 +9,23 @@ parameter dict in, a dict of outputs out), with a per-process model cache.
 from __future__ import annotations
 
 from collections import OrderedDict
-from typing import Any, Iterable
+from typing import Any, Iterable, Sequence
 
 from filmcal._validation import as_finite, check_choice
+from filmcal.contact import DEFAULT_IMPRINT_MODEL, IMPRINT_MODELS, get_imprint_model, imprint_key
 from filmcal.fem.forms import lame_parameters, oedometric_modulus_mpa
 from filmcal.hertz import (STEEL_MODULUS_MPA, STEEL_POISSON, contact_modulus_mpa, hertz_approach_mm,
                                hertz_max_pressure_mpa, hertz_pressure_mpa, hertz_radius_mm)
 from filmcal.fem.mesh import MeshSettings
 from filmcal.fem.model import CONTACT_MODES, ContactOptions, Film, SphereOnFlat
-from filmcal.fem.result import FEResult, read_contact_radius
+from filmcal.fem.result import FEResult
 from filmcal.fem.thinlayer import ThinLayerResult, thin_layer_contact
 
 __all__ = [
     "SphereOnFlat", "Film", "ContactOptions", "MeshSettings", "FEResult", "CONTACT_MODES",
-    "solve_sphere_on_flat", "solve_many", "evaluate_point", "OUTPUT_KEYS",
+    "solve_sphere_on_flat", "solve_many", "evaluate_point", "imprint_columns", "OUTPUT_KEYS",
     "hertz_radius_mm", "hertz_max_pressure_mpa", "hertz_approach_mm", "hertz_pressure_mpa",
-    "contact_modulus_mpa", "oedometric_modulus_mpa", "lame_parameters", "read_contact_radius",
+    "contact_modulus_mpa", "oedometric_modulus_mpa", "lame_parameters",
     "thin_layer_contact", "ThinLayerResult", "STEEL_MODULUS_MPA", "STEEL_POISSON", "get_model",
 ]
 
@@ -50,7 +51,8 @@ def get_model(radius_mm: float, mesh: MeshSettings | None = None, film_thickness
 def solve_sphere_on_flat(radius_mm: float, force_n: float, film: Film | None = None,
                          options: ContactOptions | None = None, mesh: MeshSettings | None = None,
                          film_thickness_mm: float = 0.09, film_layers: int = 1,
-                         activation_pressure_mpa: float | None = None) -> FEResult:
+                         activation_pressure_mpa: float | None = None, film_type=None,
+                         imprint_model: str = DEFAULT_IMPRINT_MODEL) -> FEResult:
     """One evaluation of the FE model (reusing a cached model for this R and mesh).
 
     Parameters
@@ -67,9 +69,13 @@ def solve_sphere_on_flat(radius_mm: float, force_n: float, film: Film | None = N
     film_layers : int
     activation_pressure_mpa : float, optional
         Also read the imprint radius where the pressure exceeds this level.
+    film_type : filmcal.films.FilmType, optional
+        Also read the imprint of this film type (not with `activation_pressure_mpa`).
+    imprint_model : {'activation', 'edge', 'capsule'}
+        What the film records (default activation).
     """
     model = get_model(radius_mm, mesh, film_thickness_mm, film_layers)
-    return model.solve(film, force_n, options, activation_pressure_mpa)
+    return model.solve(film, force_n, options, activation_pressure_mpa, film_type, imprint_model)
 
 
 def solve_many(radius_mm: float, points: Iterable[tuple[Film | None, float]],
@@ -96,7 +102,32 @@ def _as_bool(name: str, value: Any) -> bool:
     return bool(value)
 
 
-def evaluate_point(params: dict) -> dict:
+def imprint_columns(films: Sequence, imprint_models: Sequence[str] | None = None) -> list[tuple[str, Any, str]]:
+    """The (model, film type, output key) triples `evaluate_point` adds for `films`.
+
+    Every model of `imprint_models` (default: all but ``edge``, whose reading
+    is ``contact_radius_mm``) that can read a film (``activation`` needs an
+    activation pressure, ``capsule`` a range) gives one key
+    ``radius_<model>_<film>_mm``.
+    """
+    models = [m for m in IMPRINT_MODELS if m != "edge"] if imprint_models is None else list(imprint_models)
+    out = []
+    for m in models:
+        model = get_imprint_model(m)
+        if m == "edge":
+            continue
+        for film in films:
+            try:
+                model.check_film(film)
+            except ValueError:
+                if imprint_models is not None:
+                    raise
+                continue
+            out.append((m, film, imprint_key(m, film)))
+    return out
+
+
+def evaluate_point(params: dict, films: Sequence = (), imprint_models: Sequence[str] | None = None) -> dict:
     """Evaluate one design point: the campaign's model.
 
     Parameters
@@ -106,13 +137,22 @@ def evaluate_point(params: dict) -> dict:
         ``modulus_mpa`` and ``poisson``; optional ``sphere_contact``,
         ``flat_contact``, ``friction_coefficient``, ``large_strain``,
         ``element_size_mm``, ``film_thickness_mm``, ``activation_pressure_mpa``.
+    films : sequence of filmcal.films.FilmType
+        Film types whose imprint radii to read from the same solve.
+    imprint_models : sequence of str, optional
+        Imprint models to read them with (default: ``activation`` and
+        ``capsule``, each where the film type allows it; a model named here
+        that cannot read a film is an error).
 
     Returns
     -------
     dict
-        The scalar outputs listed in `OUTPUT_KEYS`; ``converged = False`` with
-        a ``reason`` when the solve failed (never raises for that).
+        The scalar outputs listed in `OUTPUT_KEYS` (``contact_radius_mm`` is
+        the edge), plus ``radius_<model>_<film>_mm`` for every (model, film)
+        pair (see :func:`imprint_columns`); ``converged = False`` with a
+        ``reason`` when the solve failed (never raises for that).
     """
+    columns = imprint_columns(films, imprint_models)
     def get(name, default=None):
         v = params.get(name, default)
         return default if v is None or (isinstance(v, str) and v.strip() == "") else v
@@ -133,6 +173,10 @@ def evaluate_point(params: dict) -> dict:
                                activation_pressure_mpa=None if act is None else as_finite("activation_pressure_mpa", act))
     summary = res.summary()
     out = {k: summary[k] for k in OUTPUT_KEYS}
+    if columns:
+        profile = res.profile()
+        for model, film_type, key in columns:
+            out[key] = float(get_imprint_model(model).radius_from_profile(profile, film_type))
     if act is not None:
         out["imprint_radius_mm"] = res.imprint_radius_mm
         out["imprint_area_mm2"] = res.imprint_area_mm2

@@ -33,13 +33,14 @@ from skfem import Basis, ElementQuad1, ElementVector, FacetBasis
 from threadpoolctl import threadpool_limits
 
 from filmcal._validation import check_choice, check_poisson, check_positive, check_range
+from filmcal.contact import DEFAULT_IMPRINT_MODEL, film_tip_length_mm, get_imprint_model
 from filmcal.fem.condense import CondensedBody, condense, nested_dissection
 from filmcal.fem.contact import CLOSED, FREE, OPEN, ContactState, PairSystem, solve_pairs
 from filmcal.fem.forms import axial_traction, lame_parameters, linear_elasticity, oedometric_modulus_mpa
 from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, hertz_radius_mm
 from filmcal.fem.largestrain import film_internal_force_and_tangent
 from filmcal.fem.mesh import BodyGrid, MeshSettings, film_grid, flat_grid, sphere_grid
-from filmcal.fem.result import FEResult, read_contact_radius
+from filmcal.fem.result import FEResult
 
 __all__ = ["Film", "ContactOptions", "SphereOnFlat", "CONTACT_MODES"]
 
@@ -158,18 +159,6 @@ class _Lower:
     film_bottom_r: np.ndarray
     flat_r: np.ndarray
     flat_z: np.ndarray
-
-
-def _radius_where_pressure_exceeds(r_mm: np.ndarray, pressure_mpa: np.ndarray, level_mpa: float) -> float:
-    """Outermost radius where the nodal pressure exceeds `level_mpa` (linear interpolation)."""
-    above = np.flatnonzero(pressure_mpa > level_mpa)
-    if len(above) == 0:
-        return 0.0
-    k = int(above[-1])
-    if k + 1 >= len(r_mm):
-        return float(r_mm[k])
-    p0, p1 = pressure_mpa[k], pressure_mpa[k + 1]
-    return float(r_mm[k] + (r_mm[k + 1] - r_mm[k]) * (p0 - level_mpa) / (p0 - p1))
 
 
 @dataclass
@@ -333,7 +322,8 @@ class SphereOnFlat:
 
     # -------------------------------------------------------------- the solve
     def solve(self, film: Film | None, force_n: float, options: ContactOptions | None = None,
-              activation_pressure_mpa: float | None = None) -> FEResult:
+              activation_pressure_mpa: float | None = None, film_type=None,
+              imprint_model: str = DEFAULT_IMPRINT_MODEL) -> FEResult:
         """Press the sphere on the flat with force F, with or without a film.
 
         Parameters
@@ -345,8 +335,13 @@ class SphereOnFlat:
         options : ContactOptions, optional
             Interfaces, kinematics and solver limits.
         activation_pressure_mpa : float, optional
-            If given, also report the imprint radius where the pressure on the
-            film exceeds it (MS 10, HS 50, HHS 130 MPa).
+            Shorthand for a film type with this activation pressure and no
+            range (read with the ``activation`` or ``edge`` model).
+        film_type : filmcal.films.FilmType, optional
+            Also report the imprint of this film type (``imprint_radius_mm``,
+            ``imprint_area_mm2``); not together with `activation_pressure_mpa`.
+        imprint_model : {'activation', 'edge', 'capsule'}
+            What the film records (:mod:`filmcal.contact.imprint`).
 
         Returns
         -------
@@ -357,15 +352,21 @@ class SphereOnFlat:
         """
         # the dense work here is small: one BLAS thread is fastest, and leaves
         # the other cores to parallel evaluations
+        if activation_pressure_mpa is not None:
+            if film_type is not None:
+                raise ValueError("give either film_type or activation_pressure_mpa, not both")
+            from filmcal.films import FilmType
+            act = check_positive("activation_pressure_mpa", activation_pressure_mpa)
+            film_type = FilmType(f"p>{act:g}MPa", activation_pressure_mpa=act)
+        if film_type is not None:
+            get_imprint_model(imprint_model).check_film(film_type)
         with threadpool_limits(limits=1, user_api="blas"):
-            return self._solve(film, force_n, options, activation_pressure_mpa)
+            return self._solve(film, force_n, options, film_type, imprint_model)
 
-    def _solve(self, film, force_n, options, activation_pressure_mpa) -> FEResult:
+    def _solve(self, film, force_n, options, film_type, imprint_model) -> FEResult:
         t0 = time.perf_counter()
         force_n = check_positive("force_n", force_n)
         opts = ContactOptions() if options is None else options
-        if activation_pressure_mpa is not None:
-            check_positive("activation_pressure_mpa", activation_pressure_mpa)
         h = self.mesh.element_size_mm
         a_h = hertz_radius_mm(self.radius_mm, force_n)
         if a_h < 10.0 * h:
@@ -456,7 +457,7 @@ class SphereOnFlat:
                 converged, reason = False, "film collapsed: through-thickness strain beyond -95 %"
                 break
         return self._result(film, force_n, opts, state, x, low, converged, reason, total_iterations,
-                            activation_pressure_mpa, time.perf_counter() - t0)
+                            film_type, imprint_model, t0)
 
     def _load_step(self, pb: "_StepProblem", load: float, x: np.ndarray, state: ContactState,
                    d_prev: np.ndarray) -> tuple[bool, str, np.ndarray, ContactState, int]:
@@ -545,35 +546,43 @@ class SphereOnFlat:
         return (top - bottom) / self.film_thickness_mm
 
     def _result(self, film, force_n, opts, state: ContactState, x, low, converged, reason, iterations,
-                activation_pressure_mpa, elapsed) -> FEResult:
+                film_type, imprint_model, t0) -> FEResult:
         n = self.n_face
         lam_n = state.forces[:n] if len(state.forces) else np.zeros(n)
         pressure = np.where(state.normal_status == CLOSED, lam_n / self.face_area_mm2, 0.0)
         active = state.normal_status == CLOSED
         gaps = state.relative[:n] if len(state.relative) else np.full(n, np.nan)
-        reading = read_contact_radius(self.r_face_mm, pressure, active)
+        tip = (film_tip_length_mm(self.film_thickness_mm, film.oedometric_modulus_mpa)
+               if film is not None else float("inf"))
         if converged and active[-3:].any():
             converged = False
             reason = (f"contact reached the edge of the refined zone (r = {self.r_face_mm[-1]:.2f} mm): "
                       "enlarge MeshSettings.contact_zone_mm")
         a_h = hertz_radius_mm(self.radius_mm, force_n)
         strain = self._film_strain(low, x) if film is not None else np.zeros(n)
-        imprint = None
-        if activation_pressure_mpa is not None:
-            imprint = _radius_where_pressure_exceeds(self.r_face_mm, pressure, activation_pressure_mpa)
-        return FEResult(
+        result = FEResult(
             radius_mm=self.radius_mm, force_n=force_n,
             film_modulus_mpa=None if film is None else film.modulus_mpa,
             film_poisson=None if film is None else film.poisson,
             sphere_contact=opts.sphere_contact, flat_contact=opts.flat_contact if film is not None else "none",
             friction_coefficient=opts.friction_coefficient, large_strain=opts.large_strain and film is not None,
-            contact_radius_mm=reading, contact_area_mm2=np.pi * reading**2,
+            contact_radius_mm=0.0, contact_area_mm2=0.0,
             max_pressure_mpa=float(np.max(pressure)), hertz_radius_mm=a_h,
             approach_mm=float(-state.rigid_w), film_strain_max=float(-np.min(strain)) if film is not None else 0.0,
             r_mm=self.r_face_mm.copy(), pressure_mpa=pressure, gap_mm=gaps, film_strain=strain,
-            n_active=int(active.sum()), imprint_radius_mm=imprint,
-            imprint_area_mm2=None if imprint is None else np.pi * imprint**2,
-            activation_pressure_mpa=activation_pressure_mpa,
+            n_active=int(active.sum()), imprint_radius_mm=None, imprint_area_mm2=None,
+            activation_pressure_mpa=None if film_type is None else film_type.activation_pressure_mpa,
+            imprint_model=None if film_type is None else imprint_model,
+            film_type=None if film_type is None else film_type.name, edge_tip_mm=tip,
             converged=bool(converged), reason=reason, iterations=int(iterations),
-            elapsed_s=elapsed, n_dofs=self.n_dofs, element_size_mm=self.mesh.element_size_mm,
+            elapsed_s=0.0, n_dofs=self.n_dofs, element_size_mm=self.mesh.element_size_mm,
         )
+        profile = result.profile()
+        result.contact_radius_mm = float(profile.edge_mm)
+        result.contact_area_mm2 = float(np.pi * profile.edge_mm**2)
+        if film_type is not None:
+            imprint = get_imprint_model(imprint_model).radius_from_profile(profile, film_type)
+            result.imprint_radius_mm = float(imprint)
+            result.imprint_area_mm2 = float(np.pi * imprint**2)
+        result.elapsed_s = time.perf_counter() - t0
+        return result

@@ -1,100 +1,14 @@
-"""The result of one FE evaluation and the sub-element reading of the contact radius."""
+"""The result of one FE evaluation and its readings: the contact edge and the imprint."""
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
-__all__ = ["FEResult", "read_contact_radius"]
+from filmcal.contact import RadialProfile, get_imprint_model, read_radial_profile
 
-
-def read_contact_radius(r_mm: np.ndarray, pressure_mpa: np.ndarray, active: np.ndarray,
-                        window_mm: tuple[float, float] = (1.0, 0.2), max_misfit: float = 1e-3) -> float:
-    """Contact radius read between the nodes from the pressure profile near the edge.
-
-    An element-level reading (the last node in contact) is off by up to half
-    an element, and the last one or two nodal pressures carry the O(h) error
-    of the discrete contact edge. The reading therefore fits the edge profile
-
-        p(r) = b (a^2 - r^2)^gamma,   gamma free in [0.3, 1.5],
-
-    to the nodal pressures in a fixed physical window a - 1.0 <= r <= a - 0.2
-    mm inside the edge (iterated, as a is not known beforehand), where the FE
-    pressure is mesh-converged, and returns the fitted a. A Hertz edge has
-    gamma = 1/2 (the fit recovers it on steel-on-steel cases); a film, stiff in
-    thickness only at these scales (the thin-layer, Winkler-like limit), pushes
-    gamma towards 1. Because the window is physical, the reading converges with
-    the mesh. On meshes much finer than the film thickness, the pressure shows
-    a sharper tail about one film thickness wide beyond the fitted edge (a few
-    hundredths of a mm), below the 0.1 mm resolution of the film itself.
-
-    With friction, stick-slip transitions put kinks into the profile; when the
-    fit's RMS misfit (relative to the largest pressure in the window) exceeds
-    `max_misfit`, the window is narrowed to a - 0.5 <= r <= a - 0.2 mm.
-
-    Parameters
-    ----------
-    r_mm : ndarray
-        Radial positions of the face nodes (ascending).
-    pressure_mpa : ndarray
-        Nodal contact pressure (nodal force over the node's tributary area).
-    active : ndarray of bool
-        Nodes in contact.
-    window_mm : (float, float)
-        Outer and inner distance of the fit window from the edge.
-    max_misfit : float
-        Relative RMS misfit above which the window is narrowed.
-
-    Returns
-    -------
-    float
-        Contact radius (mm). With fewer than three contact nodes, the middle of
-        the element beyond the last contact node.
-    """
-
-    idx = np.flatnonzero(active)
-    if len(idx) == 0:
-        return 0.0
-    k = int(idx[-1])
-    h = r_mm[1] - r_mm[0]
-    r_next = r_mm[k + 1] if k + 1 < len(r_mm) else r_mm[k] + h
-    fallback = float(0.5 * (r_mm[k] + r_next))
-    if k < 3:
-        return fallback
-    outer, inner = window_mm
-    a, misfit = _fit_edge(r_mm, pressure_mpa, active, k, float(r_mm[k]), outer, inner, r_next)
-    if a is not None and misfit > max_misfit and outer > 0.5:
-        a, misfit = _fit_edge(r_mm, pressure_mpa, active, k, a, 0.5, inner, r_next)
-    return fallback if a is None else a
-
-
-def _fit_edge(r_mm, pressure_mpa, active, k, a, outer, inner, r_next) -> tuple[float | None, float]:
-    """Fit b (a^2 - r^2)^gamma over the window [a - outer, a - inner] (iterated on a)."""
-    from scipy.optimize import least_squares
-
-    misfit = np.inf
-    for _ in range(3):
-        sel = np.flatnonzero((r_mm >= a - outer) & (r_mm <= a - inner) & active)
-        sel = sel[sel < k]
-        if len(sel) < 3:
-            sel = np.arange(max(0, k - 3), k)
-        p = pressure_mpa[sel]
-        if np.any(p <= 0):
-            return None, misfit
-        b0 = p[0] / np.sqrt(max(a * a - r_mm[sel[0]] ** 2, 1e-12))
-
-        def residual(q, r=r_mm[sel], p=p):
-            return (q[1] * np.clip(q[0] ** 2 - r**2, 1e-300, None) ** q[2] - p) / p.max()
-
-        lower = [float(r_mm[sel[-1]]) + 1e-9, 0.0, 0.3]
-        upper = [float(r_next) + outer, np.inf, 1.5]
-        start = [min(max(a, lower[0] + 1e-6), upper[0] - 1e-6), b0, 0.5]
-        fit = least_squares(residual, start, bounds=(lower, upper), x_scale=[0.1, b0, 0.1])
-        if not fit.success:
-            return None, misfit
-        a = float(fit.x[0])
-        misfit = float(np.sqrt(np.mean(fit.fun**2)))
-    return a, misfit
+__all__ = ["FEResult"]
 
 
 @dataclass
@@ -103,6 +17,13 @@ class FEResult:
 
     Lengths in mm, forces in N, pressures in MPa. ``converged = False`` comes
     with a ``reason``; its numbers are then not to be used.
+
+    ``contact_radius_mm`` is the zero-pressure edge read from the nodal
+    pressures with sub-element accuracy (:mod:`filmcal.contact.reading`, tip
+    length ``edge_tip_mm``). ``imprint_radius_mm`` and ``imprint_area_mm2``
+    are the imprint of film type ``film_type`` under ``imprint_model``
+    (None when no film type was asked for); :meth:`read_imprint` reads any
+    other (model, film type) pair from the same solution.
     """
 
     radius_mm: float
@@ -127,6 +48,9 @@ class FEResult:
     imprint_radius_mm: float | None
     imprint_area_mm2: float | None
     activation_pressure_mpa: float | None
+    imprint_model: str | None
+    film_type: str | None
+    edge_tip_mm: float
     converged: bool
     reason: str
     iterations: int
@@ -143,9 +67,19 @@ class FEResult:
     def hertz_area_mm2(self) -> float:
         return float(np.pi * self.hertz_radius_mm**2)
 
+    def profile(self) -> RadialProfile:
+        """The continuous reading of the nodal pressure profile (edge, levels, integrals)."""
+        return read_radial_profile(self.r_mm, self.pressure_mpa, self.edge_tip_mm)
+
+    def read_imprint(self, model: str, film_type) -> float:
+        """Imprint radius (mm) of `film_type` (a :class:`filmcal.films.FilmType`) under imprint `model`."""
+        return get_imprint_model(model).radius_from_profile(self.profile(), film_type)
+
     def summary(self) -> dict:
         """The scalar fields as a JSON-ready dict (no arrays)."""
         d = {k: v for k, v in asdict(self).items() if not isinstance(v, np.ndarray)}
+        if math.isinf(d["edge_tip_mm"]):
+            d["edge_tip_mm"] = None  # no film: a Hertzian edge (JSON has no infinity)
         d["radius_error_mm"] = self.radius_error_mm
         d["hertz_area_mm2"] = self.hertz_area_mm2
         return d
