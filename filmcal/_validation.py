@@ -82,7 +82,8 @@ def check_count(name: str, value: object, low: int, high: int) -> int:
 
 # --- argparse types: the check happens while the options are parsed, before any work ---
 
-def _argparse_type(convert: Callable[[str], Any], check: Callable[[Any], None], name: str) -> Callable[[str], Any]:
+def _argparse_type(convert: Callable[[str], Any], check: Callable[[Any], None], name: str,
+                   bounds: tuple[float, float] | None = None) -> Callable[[str], Any]:
     def parse(text: str) -> Any:
         try:
             value = convert(text)
@@ -94,6 +95,7 @@ def _argparse_type(convert: Callable[[str], Any], check: Callable[[Any], None], 
         return value
     parse.__name__ = name
     parse.filmcal_checked = True  # type: ignore[attr-defined]
+    parse.bounds = bounds  # type: ignore[attr-defined]
     return parse
 
 
@@ -116,7 +118,7 @@ def arg_int_in(low: int, high: int) -> Callable[[str], int]:
             return int(text)
         except ValueError:
             raise ValueError(what) from None
-    return _argparse_type(convert, lambda n: _require(low <= n <= high, what), "int")
+    return _argparse_type(convert, lambda n: _require(low <= n <= high, what), "int", (low, high))
 
 
 def arg_float_in(low: float, high: float) -> Callable[[str], float]:
@@ -128,4 +130,5 @@ def arg_float_in(low: float, high: float) -> Callable[[str], float]:
             return float(text)
         except ValueError:
             raise ValueError(what) from None
-    return _argparse_type(convert, lambda x: _require(math.isfinite(x) and low <= x <= high, what), "float")
+    return _argparse_type(convert, lambda x: _require(math.isfinite(x) and low <= x <= high, what), "float",
+                          (low, high))

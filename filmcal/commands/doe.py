@@ -45,7 +45,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--out", required=True, metavar="CSV",
                         help="file to write the design to")
     parser.add_argument("--seed", type=arg_int_in(0, 2**32 - 1), default=0,
-                        help="random seed, 0 to 2^32-1; the same seed gives the same design (default 0)")
+                        help="random seed, 0-4294967295; the same seed gives the same design (default 0)")
     parser.add_argument("--augment", metavar="CSV",
                         help="existing design to extend by --samples points; its columns "
                              "must be the --param names. The output holds the existing "
