@@ -1,0 +1,211 @@
+"""Imprint models and the readings behind them, against analytic pressure fields.
+
+Every expected value comes from a closed form or from scipy quadrature of the
+analytic field, never from the reading code itself.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+from filmcal.contact import (IMPRINT_MODELS, GridField, get_imprint_model, imprint_key, outline_area_mm2,
+                             read_imprints, read_radial_profile, ring_signed_area_mm2)
+from filmcal.films import FilmType, get_film
+
+HS = get_film("HS")
+
+
+def _lognormal_cdf(p, lo, hi, q=0.02):
+    """The capsule model's stated law, written out independently: log-normal
+    burst strengths with the range ends at the q and 1 - q quantiles."""
+    from statistics import NormalDist
+
+    z = NormalDist().inv_cdf(1 - q)
+    mu, sigma = 0.5 * math.log(lo * hi), math.log(hi / lo) / (2 * z)
+    return NormalDist().cdf((math.log(p) - mu) / sigma) if p > 0 else 0.0
+
+
+# ---------------------------------------------------------------- stain laws
+
+def test_model_names_and_lookup():
+    assert IMPRINT_MODELS == ("edge", "activation", "capsule")
+    for name in IMPRINT_MODELS:
+        assert get_imprint_model(name).name == name
+    with pytest.raises(ValueError, match="imprint model must be one of"):
+        get_imprint_model("stacked")
+    assert imprint_key("activation", HS) == "radius_activation_HS_mm"
+    assert imprint_key("capsule", "MS") == "radius_capsule_MS_mm"
+    assert imprint_key("edge", HS) == "contact_radius_mm"
+
+
+def test_stain_probabilities():
+    p = np.array([0.0, 1.0, 49.9, 50.0, 80.0, 130.0, 500.0])
+    edge = get_imprint_model("edge").stain_probability(p, HS)
+    act = get_imprint_model("activation").stain_probability(p, HS)
+    cap = get_imprint_model("capsule").stain_probability(p, HS)
+    assert edge.tolist() == [0, 1, 1, 1, 1, 1, 1]
+    assert act.tolist() == [0, 0, 0, 1, 1, 1, 1]
+    assert np.all((cap >= 0) & (cap <= 1)) and np.all(np.diff(cap) >= 0)
+    for value, got in zip(p, cap):
+        assert got == pytest.approx(_lognormal_cdf(value, 50.0, 130.0), abs=1e-12)
+    # the range ends are the 2 % and 98 % quantiles; the median is the geometric mean
+    assert cap[3] == pytest.approx(0.02) and cap[5] == pytest.approx(0.98)
+    mid = get_imprint_model("capsule").stain_probability(np.array([math.sqrt(50 * 130)]), HS)
+    assert mid[0] == pytest.approx(0.5)
+
+
+def test_films_without_the_needed_facts_are_refused():
+    bare = FilmType("BARE")
+    act_only = FilmType("ACT", activation_pressure_mpa=40.0)
+    r = np.linspace(0, 5, 51)
+    p = np.clip(100 * (1 - r**2 / 16), 0, None)
+    assert get_imprint_model("edge").radius_mm(r, p, bare) > 0
+    with pytest.raises(ValueError, match="BARE has no activation_pressure_mpa"):
+        get_imprint_model("activation").radius_mm(r, p, bare)
+    with pytest.raises(ValueError, match="needs a film type"):
+        get_imprint_model("activation").stain_probability(p, None)
+    with pytest.raises(ValueError, match="ACT has no range_mpa"):
+        get_imprint_model("capsule").radius_mm(r, p, act_only)
+    # p linear in a^2 - r^2 (a vanishing tip), sampled at points
+    got = get_imprint_model("activation").radius_mm(r, p, act_only, tip_mm=1e-3, samples="point")
+    assert got == pytest.approx(4 * math.sqrt(1 - 0.4), abs=1e-3)
+
+
+# ---------------------------------------------------------- 2D fields (areas)
+
+def _hertz_ellipse(a, b, p0, spacing=0.1, centre=(0.37, -0.21)):
+    x = np.arange(-1.4 * a, 1.4 * a, spacing) + centre[0] + 0.013
+    y = np.arange(-1.4 * b, 1.4 * b, spacing) + centre[1] - 0.029
+    X, Y = np.meshgrid(x, y, indexing="ij")
+    rho2 = ((X - centre[0]) / a) ** 2 + ((Y - centre[1]) / b) ** 2
+    return x, y, p0 * np.sqrt(np.clip(1 - rho2, 0, None))
+
+
+@pytest.mark.parametrize("a, b, p0", [(6.0, 4.0, 900.0), (3.1, 5.3, 420.0)])
+@pytest.mark.parametrize("film", ["MS", "HS", "HHS"])
+def test_area_of_a_hertz_ellipse(a, b, p0, film):
+    """p = p0 sqrt(1 - x^2/a^2 - y^2/b^2) on a 0.1 mm grid (cell centres): the edge is
+    the ellipse pi a b, the contour p = p_act the ellipse pi a b (1 - (p_act/p0)^2), and
+    the capsule model's expected area pi a b int_0^1 P(p0 sqrt(1 - s)) ds."""
+    ft = get_film(film)
+    x, y, p = _hertz_ellipse(a, b, p0)
+    exact_edge = math.pi * a * b
+    exact_act = exact_edge * (1 - (ft.activation_pressure_mpa / p0) ** 2)
+    exact_cap = exact_edge * quad(lambda s: _lognormal_cdf(p0 * math.sqrt(1 - s), *ft.range_mpa),
+                                  0, 1, limit=200, points=[1 - (ft.range_mpa[0] / p0) ** 2])[0]
+    # tolerance: an error of 0.005 mm all round the outline (half a twentieth of a cell)
+    tol = 0.005 * math.pi * (a + b)
+    assert get_imprint_model("edge").area_mm2(x, y, p, ft) == pytest.approx(exact_edge, abs=tol)
+    assert get_imprint_model("activation").area_mm2(x, y, p, ft) == pytest.approx(exact_act, abs=tol)
+    assert get_imprint_model("capsule").area_mm2(x, y, p, ft) == pytest.approx(exact_cap, abs=tol)
+
+
+def test_area_of_a_linear_edge_field():
+    """A film-like cone p = k (a - r): the contour p = p_act is the circle a - p_act / k."""
+    a, k = 5.0, 60.0
+    x = np.arange(-7, 7, 0.1) + 0.05
+    X, Y = np.meshgrid(x, x, indexing="ij")
+    p = np.clip(k * (a - np.hypot(X, Y)), 0, None)
+    r_act = a - HS.activation_pressure_mpa / k
+    area = get_imprint_model("activation").area_mm2(x, x, p, HS)
+    assert math.sqrt(area / math.pi) == pytest.approx(r_act, abs=0.005)
+
+
+def test_two_patches_and_no_contact():
+    x = np.arange(0, 20, 0.1) + 0.05
+    y = np.arange(0, 8, 0.1) + 0.05
+    X, Y = np.meshgrid(x, y, indexing="ij")
+    p = np.zeros_like(X)
+    for cx in (5.0, 14.0):
+        p += 300 * np.sqrt(np.clip(1 - ((X - cx) ** 2 + (Y - 4) ** 2) / 9, 0, None))
+    edge = get_imprint_model("edge").area_mm2(x, y, p, HS)
+    assert edge == pytest.approx(2 * math.pi * 9, rel=2e-3)
+    assert get_imprint_model("activation").area_mm2(x, y, np.zeros_like(p), HS) == 0.0
+    with pytest.raises(ValueError, match="shape"):
+        GridField(x, y, p.T)
+
+
+def test_polygon_areas():
+    square = np.array([[0, 0], [2, 0], [2, 2], [0, 2], [0, 0]], float)
+    hole = np.array([[0.5, 0.5], [0.5, 1.5], [1.5, 1.5], [1.5, 0.5]], float)
+    assert ring_signed_area_mm2(square) == pytest.approx(4.0)
+    assert ring_signed_area_mm2(hole) == pytest.approx(-1.0)
+    assert outline_area_mm2([square, hole]) == pytest.approx(3.0)
+
+
+# ---------------------------------------------- axisymmetric profiles (radii)
+
+def _nodal(r, shape):
+    """Nodal pressures of linear elements: int shape phi_i 2 pi r dr / int phi_i 2 pi r dr
+    (adaptive quadrature, independent of the reading's Gauss rule)."""
+    out = np.zeros(r.size)
+    for i in range(r.size):
+        lo = r[max(i - 1, 0)]
+        hi = r[min(i + 1, r.size - 1)]
+
+        def phi(x):
+            if x <= r[i]:
+                return 1.0 if i == 0 else (x - lo) / (r[i] - lo)
+            return (hi - x) / (hi - r[i])
+
+        num = quad(lambda x: shape(x) * phi(x) * x, lo, hi, limit=200)[0]
+        den = quad(lambda x: phi(x) * x, lo, hi, limit=200)[0]
+        out[i] = num / den
+    return out
+
+
+@pytest.mark.parametrize("a", [6.0311, 4.1817, 7.08])
+def test_radial_hertz_profile(a):
+    """Nodal pressures of p0 sqrt(1 - r^2/a^2) at h = 0.1 mm: edge and activation
+    contours within 1e-3 mm of the closed forms."""
+    p0 = 984.5
+    r = np.round(np.arange(0, 9.0, 0.1), 10)
+    p = _nodal(r, lambda x: p0 * math.sqrt(max(1 - x * x / a / a, 0.0)))
+    prof = read_radial_profile(r, p)
+    assert prof.edge_mm == pytest.approx(a, abs=1e-3)
+    for film in ("MS", "HS", "HHS"):
+        level = get_film(film).activation_pressure_mpa
+        exact = a * math.sqrt(1 - (level / p0) ** 2)
+        assert get_imprint_model("activation").radius_mm(r, p, get_film(film)) == pytest.approx(exact, abs=1e-3)
+
+
+def test_radial_capsule_is_the_expected_area():
+    """Capsule radius of a Hertz profile: sqrt(A / pi), A = 2 pi int P(p(r)) r dr."""
+    a, p0 = 6.0, 700.0
+    r = np.round(np.arange(0, 9.0, 0.1), 10)
+    p = _nodal(r, lambda x: p0 * math.sqrt(max(1 - x * x / a / a, 0.0)))
+    area = 2 * math.pi * quad(lambda x: _lognormal_cdf(p0 * math.sqrt(1 - x * x / a / a), 50, 130) * x,
+                              0, a, limit=200)[0]
+    got = get_imprint_model("capsule").radius_mm(r, p, HS)
+    assert got == pytest.approx(math.sqrt(area / math.pi), abs=2e-3)
+    keys = read_imprints(r, p, [("activation", HS), ("capsule", HS), ("edge", HS)])
+    assert keys["radius_capsule_HS_mm"] == pytest.approx(got, abs=1e-12)
+    assert keys["contact_radius_mm"] == pytest.approx(a, abs=1e-3)
+
+
+@pytest.mark.parametrize("tip_mm", [0.09, 0.14])
+def test_radial_two_scale_profile_is_recovered(tip_mm):
+    """A film-like profile c sqrt(q (1 + q / (2 a l))): the fit returns a to 1e-4 mm."""
+    a, c = 7.163, 20.0
+    r = np.round(np.arange(0, 9.0, 0.1), 10)
+
+    def shape(x):
+        q = max(a * a - x * x, 0.0)
+        return c * math.sqrt(q * (1 + q / (2 * a * tip_mm)))
+
+    prof = read_radial_profile(r, _nodal(r, shape), tip_mm)
+    assert prof.fitted and prof.edge_mm == pytest.approx(a, abs=1e-4)
+
+
+def test_radial_reading_input_checks():
+    r = np.linspace(0, 1, 11)
+    with pytest.raises(ValueError, match="ascending"):
+        read_radial_profile(r[::-1], r)
+    with pytest.raises(ValueError, match="tip_mm"):
+        read_radial_profile(r, r, tip_mm=0.0)
+    with pytest.raises(ValueError, match="samples"):
+        read_radial_profile(r, r, samples="cells")
+    assert read_radial_profile(r, np.zeros_like(r)).edge_mm == 0.0
