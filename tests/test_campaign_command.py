@@ -394,6 +394,7 @@ def test_an_unreachable_dask_scheduler_fails_within_seconds(tmp_path):
     assert run.returncode == 2 and run.stderr.count("\n") == 1, run.stderr
     assert "cannot connect to the Dask scheduler" in run.stderr
     assert time.monotonic() - start < 20.0
+    assert not case["store"].exists()
 
 
 @pytest.mark.slow(reason="4 s: a process pool")

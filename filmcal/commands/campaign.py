@@ -121,10 +121,11 @@ def _lock_command(args: argparse.Namespace) -> str:
 def _run(args: argparse.Namespace) -> int:
     from filmcal._errors import InputError
     from filmcal._io import check_output_dir
-    from filmcal._parallel import check_dask_address
+    from filmcal._parallel import DaskExecutor, check_dask_address
     from filmcal.campaign import Campaign, CommandModel, read_design_csv
 
-    # every option is checked before any work or any file is written
+    # every option is checked, and the Dask scheduler reached, before any
+    # work and before any file is written
     if args.dask is not None:
         args.dask = check_dask_address(args.dask)
     if args.template_file and args.command_template is None:
@@ -137,19 +138,27 @@ def _run(args: argparse.Namespace) -> int:
         check_output_dir(work_dir, "--work-dir")
         model = CommandModel.from_files(args.command_template, work_dir, args.template_file or (), args.timeout_s)
         model.check_design(points)
-        campaign = Campaign(model, args.store, settings=model.settings(), workers=args.workers, dask=args.dask,
-                            group_by=())
+        settings, group_by, model_name = model.settings(), (), None
     else:
+        group_by = ()
         if args.model == DEFAULT_MODEL:
             points = check_fe_design(points)
-            group_by: tuple[str, ...] = FE_SETUP_COLUMNS
-        else:
-            group_by = ()
+            group_by = FE_SETUP_COLUMNS
         model = import_model(args.model)
-        campaign = Campaign(model, args.store, workers=args.workers, dask=args.dask, group_by=group_by,
-                            model_name=args.model)
-    summary = campaign.run(points, retry_failed=args.retry_failed, timeout_s=args.timeout_s,
-                           progress=not args.no_progress, lock_command=_lock_command(args))
+        settings, model_name = None, args.model
+    executor = DaskExecutor(args.dask) if args.dask is not None else None
+    try:
+        campaign = Campaign(model, args.store, settings=settings, executor=executor,
+                            workers=None if executor is not None else args.workers,
+                            group_by=group_by, model_name=model_name)
+        summary = campaign.run(points, retry_failed=args.retry_failed, timeout_s=args.timeout_s,
+                               progress=not args.no_progress, lock_command=_lock_command(args))
+    except BaseException:
+        if executor is not None:
+            executor.abort()
+        raise
+    if executor is not None:
+        executor.shutdown()
     if args.json:
         print_json({"store": str(args.store), "settings_hash": campaign.settings_hash, **summary.as_dict()})
     else:
