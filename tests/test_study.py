@@ -1,34 +1,42 @@
-"""FE designs through a campaign into a radius surrogate, seen by the calibration."""
+"""The Study: FE runs into validated radius surrogates, artefacts keyed by what made them, one writer, integrity."""
 from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
 
 import numpy as np
 import pytest
 
+from filmcal._errors import InputError
 from filmcal.fem import Film, get_model
-from filmcal.study import FERadiusModel, SurrogateDomain, SurrogateRadiusModel, build_radius_surrogate
+from filmcal.study import FESettings, Study, seed_for
+from filmcal.surrogate.radius import FERadiusModel, SurrogateDomain
 
 DOMAIN = SurrogateDomain(modulus_mpa=(1500.0, 6000.0), poisson=(0.32, 0.34), radius_levels_mm=(450.0, 600.0),
                          force_kn=(50.0, 100.0))
+FE = FESettings(n_train=30, n_test=12, seed=3, domain=DOMAIN)
 
 
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
-    study = tmp_path_factory.mktemp("study")
-    surrogate, validation = build_radius_surrogate(study, domain=DOMAIN, n_train=30, n_test=12, seed=3,
-                                                   workers=2, progress=False)
-    return study, surrogate, validation
+    root = tmp_path_factory.mktemp("study") / "s"
+    study = Study(root, create=True)
+    with study.writing():
+        model, validation, key = study.radius_model(FE, "contact_radius_mm", workers=2)
+    return study, model, validation, key
 
 
 def test_surrogate_reproduces_held_out_fe_runs(built):
-    _, _, validation = built
+    _, _, validation, _ = built
     assert validation.n == 12
     assert validation.area_rms_relative_error < 0.005
     assert validation.radius_max_error_mm < 0.03
 
 
 def test_radius_model_agrees_with_the_fe_model(built):
-    _, surrogate, _ = built
-    model = SurrogateRadiusModel(surrogate, DOMAIN)
+    _, model, _, _ = built
     mean, std = model.predict(np.array([2500.0, 4000.0]), 0.33, 450.0, 75e3)
     fe, fe_std = FERadiusModel().predict(np.array([2500.0, 4000.0]), 0.33, 450.0, 75e3)
     direct = [get_model(450.0).solve(Film(e, 0.33), 75e3).contact_radius_mm for e in (2500.0, 4000.0)]
@@ -38,29 +46,90 @@ def test_radius_model_agrees_with_the_fe_model(built):
 
 
 def test_outside_the_domain_is_nan(built):
-    _, surrogate, _ = built
-    mean, _ = SurrogateRadiusModel(surrogate, DOMAIN).predict(500.0, 0.33, 450.0, 75e3)
+    _, model, _, _ = built
+    mean, _ = model.predict(500.0, 0.33, 450.0, 75e3)
     assert np.isnan(mean)
 
 
-def test_second_build_reuses_runs_and_surrogate(built):
-    study, surrogate, validation = built
-    again, validation2 = build_radius_surrogate(study, domain=DOMAIN, n_train=30, n_test=12, seed=3, workers=1,
-                                                progress=False)
-    X = {"modulus_mpa": np.array([3000.0]), "poisson": np.array([0.33]), "radius_mm": np.array([450.0]),
-         "force_kn": np.array([75.0])}
-    assert again.predict(X)[0] == surrogate.predict(X)[0]
-    assert validation2.area_rms_relative_error == validation.area_rms_relative_error
+def test_same_settings_reuse_other_settings_are_computed_beside(built):
+    study, model, _, key = built
+    reopened = Study(study.root)
+    with reopened.writing():
+        again, _, key2 = reopened.radius_model(FE, "contact_radius_mm", workers=1)
+    assert key2 == key
+    x = (3000.0, 0.33, 450.0, 75e3)
+    assert again.predict(*x)[0] == model.predict(*x)[0]
+    # another seed: another key, a new surrogate beside the old one, the old one untouched
+    from dataclasses import replace
+
+    other = replace(FE, seed=4, n_train=20, n_test=6)
+    with reopened.writing():
+        _, _, key3 = reopened.radius_model(other, "contact_radius_mm", workers=2)
+    assert key3 != key
+    kinds = [e["kind"] for e in Study(study.root).manifest.data["artefacts"].values()]
+    assert kinds.count("radius-surrogate") == 6  # json, npz and validation of each
 
 
-def test_refinement_runs_fe_where_the_surrogate_is_least_certain(built):
-    from filmcal.study import refine_radius_surrogate
-    study, surrogate, _ = built
-    result = refine_radius_surrogate(study, surrogate, domain=DOMAIN, target=1e-9, max_evaluations=8,
-                                     batch_size=4, workers=1, experiments_radii_mm=(450.0, 600.0),
-                                     experiments_force_kn=(50.0, 100.0))
-    refined = result.surrogate
-    assert len(refined.y_train_) == len(surrogate.y_train_) + 8
-    # the new runs came from the FE model: they are stored in the study's campaign
-    from filmcal.campaign import RunStore
-    assert RunStore(study / "runs.sqlite").counts().ok >= 30 + 12 + 8
+def test_a_changed_artefact_is_refused_with_its_name(built, tmp_path):
+    study, _, _, key = built
+    path = study.layout.surrogate_validation(key)
+    original = path.read_bytes()
+    try:
+        data = json.loads(original)
+        data["summary"]["q2"] = 1.0
+        path.write_text(json.dumps(data))
+        with pytest.raises(InputError, match=path.name):
+            with Study(study.root).writing():
+                Study(study.root).radius_model(FE, "contact_radius_mm")
+    finally:
+        path.write_bytes(original)
+
+
+def test_missing_or_foreign_folder_is_an_error(tmp_path):
+    with pytest.raises(InputError, match="not a study folder"):
+        Study(tmp_path)
+    with pytest.raises(InputError, match="does not exist"):
+        Study(tmp_path / "typo")
+    (tmp_path / "x.txt").write_text("mine")
+    with pytest.raises(InputError, match="files but no study manifest"):
+        Study(tmp_path, create=True)
+
+
+def test_one_writer_at_a_time(tmp_path):
+    root = tmp_path / "s"
+    study = Study(root, create=True)
+    with study.writing():  # makes the folder and its manifest
+        pass
+    holder = textwrap.dedent(f"""
+        import sys, time
+        from filmcal.study import Study
+        with Study({str(root)!r}).writing("holder"):
+            print("held", flush=True)
+            time.sleep(30)
+    """)
+    proc = subprocess.Popen([sys.executable, "-c", holder], stdout=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().strip() == "held"
+        with pytest.raises(InputError, match=r"being written by pid \d+ .*holder"):
+            with study.writing():
+                pass
+    finally:
+        proc.kill()
+        proc.wait()
+    with study.writing():  # free again once the holder is gone
+        pass
+
+
+def test_other_settings_are_refused_naming_what_differs(tmp_path):
+    study = Study(tmp_path / "s", create=True)
+    with study.writing():
+        study.set_settings({"seed": 0, "train_runs": 200})
+    with pytest.raises(InputError, match="seed 0 -> 1"):
+        with study.writing():
+            study.set_settings({"seed": 1, "train_runs": 200})
+
+
+def test_seed_streams_are_independent_and_reproducible():
+    assert seed_for(0, "design-train") == seed_for(0, "design-train")
+    values = {seed_for(s, name) for s in (0, 1) for name in ("design-train", "design-test", "chain-HS")}
+    assert len(values) == 6

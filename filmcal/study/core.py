@@ -63,6 +63,8 @@ class FESettings:
         FE runs of the surrogate's training design and of its held-out design.
     seed : int
         The study's seed (designs and GP restarts draw from their own streams).
+    domain : SurrogateDomain, optional
+        Where the surrogates are trained (default: Table 1's experiments with margins).
     """
 
     sphere_contact: str = "frictionless"
@@ -73,8 +75,13 @@ class FESettings:
     n_train: int = 200
     n_test: int = 100
     seed: int = 0
+    domain: Any = None
 
     def __post_init__(self) -> None:
+        from filmcal.surrogate.radius import SurrogateDomain
+
+        if self.domain is None:
+            object.__setattr__(self, "domain", SurrogateDomain())
         if self.kinematics not in KINEMATICS:
             raise InputError(f"kinematics must be one of {', '.join(KINEMATICS)}, got {self.kinematics!r}")
         if not (20 <= self.n_train <= 5000 and 5 <= self.n_test <= 5000):
@@ -253,7 +260,7 @@ class Study:
     def _store_spec(self, fe: FESettings) -> dict:
         films = self._fe_films(fe.film_thickness_mm)
         return {"kind": "fe-runs", "options": {k: v for k, v in asdict(fe).items()
-                                              if k not in ("n_train", "n_test", "seed")},
+                                              if k not in ("n_train", "n_test", "seed", "domain")},
                 "films": [f.to_dict() for f in films]}
 
     def fe_runs(self, fe: FESettings, workers: int | None = None, progress=None) -> dict:
@@ -269,10 +276,10 @@ class Study:
 
         from filmcal.campaign import Campaign
         from filmcal.fem import evaluate_point
-        from filmcal.surrogate.radius import INPUTS, SurrogateDomain, design_points
+        from filmcal.surrogate.radius import INPUTS, design_points
 
         self._require_writer()
-        domain = SurrogateDomain()
+        domain = fe.domain
         options = fe.contact_options()
         train = design_points(domain, fe.n_train, seed_for(fe.seed, "design-train"), options)
         test = design_points(domain, fe.n_test, seed_for(fe.seed, "design-test"), options)
@@ -313,12 +320,10 @@ class Study:
         (SurrogateRadiusModel, SurrogateValidation, key)
         """
         from filmcal.surrogate import load_surrogate, save_surrogate
-        from filmcal.surrogate.radius import (SurrogateDomain, SurrogateRadiusModel, fit_radius_surrogate,
-                                              validate_radius_surrogate)
+        from filmcal.surrogate.radius import SurrogateRadiusModel, fit_radius_surrogate, validate_radius_surrogate
 
-        domain = SurrogateDomain()
-        spec = {"kind": "radius-surrogate", "fe": asdict(fe), "store": self._store_spec(fe), "column": column,
-                "domain": domain.to_dict()}
+        domain = fe.domain
+        spec = {"kind": "radius-surrogate", "fe": asdict(fe), "store": self._store_spec(fe), "column": column}
         key = spec_key(spec)
         stem = self.layout.surrogate(key)
         json_path = stem.with_name(stem.name + ".json")
@@ -365,7 +370,6 @@ class Study:
             The result, its file and the spec it was recorded with.
         """
         from filmcal.calibration import Priors, calibrate, load_result, save_result
-        from filmcal.surrogate.radius import SurrogateDomain
 
         film = self.film(spec.film)
         if spec.imprint != "edge" and not film.has_activation:
@@ -385,7 +389,7 @@ class Study:
 
         settings = SamplerSettings() if spec.max_steps is None else replace(SamplerSettings(), max_steps=spec.max_steps)
         result = calibrate(data, model, film=film.name, loads=spec.loads, poisson=spec.poisson,
-                           discrepancy=spec.discrepancy, priors=Priors(modulus_range_mpa=SurrogateDomain().modulus_mpa),
+                           discrepancy=spec.discrepancy, priors=Priors(modulus_range_mpa=spec.fe.domain.modulus_mpa),
                            seed=seed_for(spec.fe.seed, f"chain-{film.name}-{spec.model_label}"), backend_path=chain,
                            settings=settings, progress=bool(progress))
         save_result(result, path)
@@ -490,11 +494,12 @@ def _sphere_model(study: Study, posterior_path: Path):
 
     entry = study.manifest.entry(study.layout.relative(posterior_path))
     stem = study.layout.surrogate(entry["surrogate"])
+    domain = SurrogateDomain(**{k: tuple(v) for k, v in entry["spec"]["fe"]["domain"].items()})
     for p in (stem.with_name(stem.name + ".json"), stem.with_name(stem.name + ".npz")):
         if study.verified(p) is None:
             raise InputError(f"{p} is missing: the surrogate of {posterior_path.name}; run `filmcal calibrate` again "
                              "to recompute it")
-    return SurrogateRadiusModel(load_surrogate(stem), SurrogateDomain())
+    return SurrogateRadiusModel(load_surrogate(stem), domain)
 
 
 def correctors(study: Study, film: str, kind: str = "sphere", *, model: str | None = None, random_state=0,
