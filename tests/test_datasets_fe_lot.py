@@ -8,8 +8,8 @@ scatter, written as a dataset CSV with a stated measurement uncertainty.
 
 The radius model of the calibration is a different set of FE solves: per
 case, FE radii at five moduli that exclude the true one (1200-6000 MPa),
-interpolated by a cubic spline in ln E, its error checked against further FE
-solves at four other moduli. The known E must lie inside the 90 % interval
+interpolated by a cubic spline in ln E (`TabulatedRadiusModel`), its error
+checked against further FE solves at four other moduli. The known E must lie inside the 90 % interval
 and the median within 2 %.
 """
 from __future__ import annotations
@@ -18,11 +18,11 @@ import time
 
 import numpy as np
 import pytest
-from scipy.interpolate import CubicSpline
 
 from filmcal.calibration.datasets import load_dataset
 from filmcal.calibration.likelihood import Priors
 from filmcal.calibration.pipeline import calibrate
+from filmcal.calibration.tabulated import TabulatedRadiusModel
 from filmcal.films import load_films_file
 
 pytestmark = pytest.mark.slow  # about 40 FE solves and one MCMC run
@@ -35,23 +35,6 @@ CHECK_MPA = np.array([1500.0, 2200.0, 3300.0, 4900.0])
 CASES = [(R, F) for R in (350.0, 500.0) for F in (40e3, 60e3, 90e3)]
 
 
-class SplineRadiusModel:
-    """FE radius per case, interpolated in ln E (nu fixed at the film's value)."""
-
-    def __init__(self, splines: dict, poisson: float, std_mm: float) -> None:
-        self.splines, self.poisson, self.std_mm = splines, poisson, std_mm
-
-    def predict(self, modulus_mpa, poisson, sphere_radius_mm, force_n):
-        E, nu, R, F = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in
-                                            (modulus_mpa, poisson, sphere_radius_mm, force_n)))
-        assert np.all(nu == self.poisson)
-        mean = np.full(E.shape, np.nan)
-        for (r, f), spline in self.splines.items():
-            at = (R == r) & (F == f)
-            mean[at] = spline(np.log(E[at]))
-        return mean, np.full(E.shape, self.std_mm)
-
-
 @pytest.fixture(scope="module")
 def lot(tmp_path_factory):
     from filmcal.fem import Film, solve_sphere_on_flat
@@ -61,8 +44,8 @@ def lot(tmp_path_factory):
     films_file.write_text('[LOT7]\nactivation_pressure_mpa = 45\nthickness_mm = 0.1\npoisson = 0.33\n')
     film = load_films_file(films_file)["LOT7"]
 
-    def fe_radius(R, F, E):
-        result = solve_sphere_on_flat(R, F, Film(E, film.poisson), film_thickness_mm=film.thickness_mm)
+    def fe_radius(E, nu, R, F):
+        result = solve_sphere_on_flat(R, F, Film(E, nu), film_thickness_mm=film.thickness_mm)
         assert result.converged
         return result.contact_radius_mm
 
@@ -70,19 +53,16 @@ def lot(tmp_path_factory):
     rng = np.random.default_rng(11)
     lines = ["# FE imprints of a film lot at E = 2600 MPa, two repeats per case",
              "film,sphere_radius_mm,force_kn,measured_radius_mm,repeat,measurement_std_mm"]
-    splines, check_errors = {}, []
     for R, F in CASES:
-        truth = fe_radius(R, F, E_TRUE_MPA)
+        truth = fe_radius(E_TRUE_MPA, film.poisson, R, F)
         for repeat in (1, 2):
             noise = np.hypot(SCATTER_MM, STATED_STD_MM) * rng.standard_normal()
             lines.append(f"LOT7,{R:g},{F / 1e3:g},{truth + noise:.4f},{repeat},{STATED_STD_MM}")
-        spline = CubicSpline(np.log(NODES_MPA), [fe_radius(R, F, E) for E in NODES_MPA])
-        check_errors += [float(spline(np.log(E))) - fe_radius(R, F, E) for E in CHECK_MPA]
-        splines[(R, F)] = spline
     csv = folder / "lot7.csv"
     csv.write_text("\n".join(lines) + "\n")
-    spline_error_mm = float(np.max(np.abs(check_errors)))
-    model = SplineRadiusModel(splines, film.poisson, std_mm=max(spline_error_mm, 0.002))
+    model = TabulatedRadiusModel.from_function(fe_radius, CASES, NODES_MPA, film.poisson)
+    spline_error_mm = model.max_error_mm(fe_radius, CHECK_MPA)
+    model.std_mm = max(spline_error_mm, 0.002)
     fe_s = time.perf_counter() - t0
     return film, csv, model, spline_error_mm, fe_s
 

@@ -24,4 +24,5 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
                                       "posterior_inference_data", "save_posterior_netcdf", "save_result",
                                       "summarize"],
     "filmcal.calibration.sampling": ["SamplerSettings", "read_chain", "run_chain"],
+    "filmcal.calibration.tabulated": ["TabulatedRadiusModel"],
 }, globals())
