@@ -1,6 +1,14 @@
-"""The report: opened in headless Chromium with every figure loaded, the PDF rendered to pages by pdftoppm."""
+"""The report: read from a study folder, printed to A4 by headless Chromium, checked as a reader would.
+
+A small synthetic study folder (analytic Hertz radii, a random Latin hypercube,
+made-up correction curves) is written once per module and its report printed
+once; the PDF is then read back with poppler (``pdfinfo``, ``pdftotext``,
+``pdfimages``, ``pdftoppm``), independently of the code that wrote it.
+"""
 from __future__ import annotations
 
+import csv
+import json
 import re
 import shutil
 import subprocess
@@ -9,10 +17,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from filmcal.hertz import hertz_radius_mm
+from filmcal.hertz import hertz_pressure_mpa, hertz_radius_mm
 from filmcal.report import FigureBlock, Report, Section, Table, render_html, write_pdf
+from filmcal.report import document
+from filmcal.report.study_report import answer_table, build_report, film_records_section, summary_section
 
 CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                   "--disable-background-networking", "--disable-component-update", "--disable-sync",
@@ -21,12 +32,22 @@ CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic
 LOAD_PROBE = ("<script>window.addEventListener('load', () => {const imgs = [...document.images];"
               "const ok = imgs.filter(i => i.complete && i.naturalWidth > 0).length;"
               "document.title = 'loaded ' + ok + '/' + imgs.length;});</script>")
+# ISO 216: A4 is 210 mm x 297 mm, i.e. 595.28 pt x 841.89 pt (1 pt = 25.4 / 72 mm).
+A4_PT = (210 / 25.4 * 72, 297 / 25.4 * 72)
+CURVE_COLUMNS = ("film", "wheel", "force_kn", "offset_mm", "area_no_film_mm2", "area_film_median_mm2",
+                 "delta_area_median_mm2", "delta_area_lo_mm2", "delta_area_hi_mm2", "ratio_median", "ratio_lo",
+                 "ratio_hi", "interpolation_error_rel")
+CASES = [(r, f) for f in (25e3, 50e3, 75e3, 100e3) for r in (300.0, 450.0, 600.0)][:10]
 
 
 def _tool(name: str) -> str:
     path = shutil.which(name)
     assert path, f"{name} is needed by this test (Debian packages chromium and poppler-utils; .ci/run installs them)"
     return path
+
+
+def _words(text: str) -> str:
+    return " ".join(text.split())
 
 
 def images_loaded_in_chromium(html_path: Path, work: Path) -> tuple[int, int]:
@@ -41,6 +62,25 @@ def images_loaded_in_chromium(html_path: Path, work: Path) -> tuple[int, int]:
     return int(match.group(1)), int(match.group(2))
 
 
+def page_sizes_pt(pdf: Path) -> list[tuple[float, float]]:
+    out = subprocess.run([_tool("pdfinfo"), "-f", "1", "-l", "9999", str(pdf)], capture_output=True, text=True,
+                         check=True, timeout=60).stdout
+    return [(float(w), float(h)) for w, h in re.findall(r"Page\s+\d+ size:\s+([\d.]+) x ([\d.]+) pts", out)]
+
+
+def page_texts(pdf: Path) -> list[str]:
+    out = subprocess.run([_tool("pdftotext"), "-layout", str(pdf), "-"], capture_output=True, text=True,
+                         check=True, timeout=60).stdout
+    return out.split("\f")[:len(page_sizes_pt(pdf))]
+
+
+def image_pages(pdf: Path) -> list[int]:
+    """Page of each embedded image, in document order (``pdfimages -list``)."""
+    out = subprocess.run([_tool("pdfimages"), "-list", str(pdf)], capture_output=True, text=True, check=True,
+                         timeout=60).stdout
+    return [int(line.split()[0]) for line in out.splitlines()[2:] if line.split()[2] == "image"]
+
+
 def pdf_pages(pdf_path: Path, work: Path) -> list[np.ndarray]:
     """The PDF's pages rendered by pdftoppm, as greyscale arrays."""
     from matplotlib.image import imread
@@ -50,6 +90,74 @@ def pdf_pages(pdf_path: Path, work: Path) -> list[np.ndarray]:
     return [imread(p) for p in sorted(work.glob("page*.png"))]
 
 
+# ---------------------------------------------------------- synthetic study
+def _curve_rows(film: str) -> list[dict]:
+    rows = []
+    for wheel in ("smooth", "rough Ra 1.5 um"):
+        for force in (50.0, 100.0):
+            for eta in (-6.0, -3.0, 0.0, 2.0):
+                a0 = 60.0 + 2.0 * force ** 0.66 + 4.0 * eta
+                dm = 0.3 * a0 + (1.0 if wheel != "smooth" else 0.0)
+                rows.append(dict(zip(CURVE_COLUMNS, (film, wheel, force, eta, a0, a0 + dm, dm, dm - 2.0, dm + 2.0,
+                                                     a0 / (a0 + dm), a0 / (a0 + dm + 2.0), a0 / (a0 + dm - 2.0),
+                                                     0.001))))
+    return rows
+
+
+def write_synthetic_study(folder: Path) -> Path:
+    """A study folder with settings, FE verification, design, surrogate validation and curves (no posteriors)."""
+    from scipy.stats import qmc
+
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "settings.json").write_text(json.dumps({"settings": {"train_runs": 30, "test_runs": 10},
+                                                      "films": ["HS"], "seed": 0, "hash": "feedc0ffee"}))
+    hertz = [{"radius_mm": r, "force_n": f, "hertz_radius_mm": float(hertz_radius_mm(r, f)),
+              "fe_radius_mm": float(hertz_radius_mm(r, f)) * (1 + 2e-4 * (k - 4))} for k, (r, f) in enumerate(CASES)]
+    a = float(hertz_radius_mm(450.0, 75e3))
+    r_mm = np.linspace(0, 1.2 * a, 40)
+    profiles = {"no film": {"r_mm": r_mm.tolist(), "pressure_mpa": hertz_pressure_mpa(r_mm, 450.0, 75e3).tolist(),
+                            "contact_radius_mm": a}}
+    films = {"HS": {"modulus_mpa": 2800.0, "cases": [
+        {"radius_mm": r, "force_n": f, "fe_radius_mm": float(hertz_radius_mm(r, f)) + 1.0,
+         "surrogate_mean_mm": float(hertz_radius_mm(r, f)) + 1.0 + 0.004 * np.sin(k), "surrogate_std_mm": 0.004}
+        for k, (r, f) in enumerate(CASES)]}}
+    (folder / "fe-verification.json").write_text(json.dumps({"hertz": hertz, "profiles": profiles, "films": films,
+                                                             "profile_case": {"radius_mm": 450.0, "force_n": 75e3}}))
+    quality = {"min_distance": 0.2, "phi_p": 5.0, "centered_l2": 0.01, "max_abs_correlation": 0.1}
+    design = {"names": ["modulus_mpa", "poisson", "radius_mm", "force_kn"]}
+    for part, n, seed in (("train", 30, 1), ("test", 10, 2)):
+        design[part] = {"n": n, "seed": seed, "unit": qmc.LatinHypercube(d=4, seed=seed).random(n).tolist(),
+                        "quality": quality, "random_lhs_median": quality}
+    (folder / "design.json").write_text(json.dumps(design))
+    rng = np.random.default_rng(3)
+    radius = rng.choice([300.0, 450.0, 600.0], 12)
+    force = rng.uniform(25, 100, 12)
+    excess = np.geomspace(0.15, 2.5, 12)
+    fe = hertz_radius_mm(radius, force * 1e3) + excess
+    points = {"modulus_mpa": rng.uniform(500, 9000, 12).tolist(), "poisson": [0.33] * 12,
+              "radius_mm": radius.tolist(), "force_kn": force.tolist(), "radius_fe_mm": fe.tolist(),
+              "radius_mean_mm": (fe + rng.normal(0, 0.005, 12)).tolist(), "radius_std_mm": [0.005] * 12}
+    summary = {"n": 12, "radius_rms_error_mm": 0.005, "radius_max_error_mm": 0.01, "area_rms_relative_error": 0.002,
+               "area_max_relative_error": 0.005, "coverage90": 0.9, "q2": 0.9999}
+    (folder / "surrogate-validation.json").write_text(json.dumps({"summary": summary, "points": points}))
+    with open(folder / "curves-HS.csv", "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=CURVE_COLUMNS)
+        writer.writeheader()
+        writer.writerows(_curve_rows("HS"))
+    return folder
+
+
+@pytest.fixture(scope="module")
+def printed(tmp_path_factory):
+    """The synthetic study's report (as data) and its HTML and PDF, printed once."""
+    from filmcal.report import write_report
+
+    study = write_synthetic_study(tmp_path_factory.mktemp("synthetic-study"))
+    paths = write_report(study)
+    return build_report(study), paths
+
+
+# ----------------------------------------------------------------- tests
 def _sine_figure() -> Figure:
     fig = Figure(figsize=(4, 3))
     ax = fig.subplots()
@@ -65,16 +173,145 @@ def test_html_escapes_text_and_embeds_figures():
     assert "A &lt;title&gt;" in page and "a &lt; b &amp; c" in page and "x&amp;y" in page
     assert page.count('src="data:image/png;base64,') == 1
     assert "<script" not in page and "http://" not in page and "https://" not in page
+    assert "<table>" in page and "<pre" not in page  # tables are tables
 
 
-def test_pdf_flows_long_tables_over_pages(tmp_path):
-    rows = [[f"row {i}", f"{i:.3f}"] for i in range(300)]
-    report = Report("Long", "many rows", [Section("Table").add(Table(["name", "value"], rows)),
-                                          Section("Figure").add(FigureBlock(_sine_figure(), "sine"))])
-    pages = pdf_pages(write_pdf(report, tmp_path / "long.pdf"), tmp_path)
-    # 300 table lines at ~58 lines per A4 page need at least 5 text pages, plus the figure's page
-    assert len(pages) >= 6
-    assert all(p.std() > 0 for p in pages)  # nothing blank
+def test_pdf_is_a4_on_every_page(printed):
+    _, paths = printed
+    assert paths["pdf_engine"] == "chromium"
+    sizes = page_sizes_pt(paths["pdf"])
+    assert len(sizes) >= 8
+    for w, h in sizes:
+        assert abs(w - A4_PT[0]) < 1.0 and abs(h - A4_PT[1]) < 1.0
+
+
+def test_pdf_text_has_every_section_title_and_figure_caption(printed):
+    report, paths = printed
+    text = _words(" ".join(page_texts(paths["pdf"])))
+    for i, section in enumerate(report.sections, 1):
+        assert _words(f"{i}. {section.title}") in text
+    for n, fig in enumerate(report.figures, 1):
+        assert _words(f"Figure {n}. {fig.caption}") in text
+    assert "page after" not in text
+    # the title page gives the answer and the ranges over offsets are labelled as ranges
+    assert "The answer per film type" in text and "range over offsets" in text
+    assert "What the film records" in text and "Not computed in this study" in text
+    for term in ("R-hat", "ESS bulk / ESS tail", "Q2", "Centred L2 discrepancy", "Pareto k", "Stacking weight"):
+        assert term in text
+
+
+def test_each_figure_is_printed_on_the_page_of_its_caption(printed):
+    report, paths = printed
+    pages = [_words(t) for t in page_texts(paths["pdf"])]
+    images = image_pages(paths["pdf"])
+    assert len(images) == len(report.figures)
+    for n, page in enumerate(images, 1):
+        assert f"Figure {n}." in pages[page - 1], f"figure {n} is on page {page}, its caption is not"
+
+
+def test_contents_lists_the_page_each_section_starts_on(printed):
+    report, paths = printed
+    pages = page_texts(paths["pdf"])
+    assert pages[1].lstrip().startswith("Contents")
+    for i, section in enumerate(report.sections, 1):
+        match = re.search(rf"^\s*{i}\. {re.escape(section.title)}\s.*?(\d+)\s*$", pages[1], re.MULTILINE)
+        assert match, f"section {i} missing from the contents"
+        page = int(match.group(1))
+        assert re.search(rf"^\s*{i}\. {re.escape(section.title)}\s*$", pages[page - 1], re.MULTILINE), \
+            f"section {i} is not on page {page}"
+
+
+def test_report_pages_are_not_blank_and_html_loads_every_figure(printed, tmp_path):
+    _, paths = printed
+    assert all(p.std() > 0.01 for p in pdf_pages(paths["pdf"], tmp_path))
+    loaded, total = images_loaded_in_chromium(paths["html"], tmp_path)
+    assert total == paths["figures"] and loaded == total
+
+
+def _overlaps(boxes) -> list[tuple[int, int]]:
+    return [(i, j) for i in range(len(boxes)) for j in range(i + 1, len(boxes))
+            if boxes[i].width > 0 and boxes[j].width > 0 and boxes[i].overlaps(boxes[j])]
+
+
+def test_figures_have_units_readable_ticks_and_legends_outside_the_axes(printed):
+    report, _ = printed
+    for block in report.figures:
+        fig = block.figure
+        renderer = FigureCanvasAgg(fig).get_renderer()
+        fig.draw(renderer)
+        for ax in fig.axes:
+            if not ax.get_visible():
+                continue
+            for axis in (ax.xaxis, ax.yaxis):
+                labels = [t for t in axis.get_ticklabels(which="both") if t.get_visible() and t.get_text()]
+                boxes = [t.get_window_extent(renderer) for t in labels]
+                assert not _overlaps(boxes), f"{block.caption}: tick labels {[t.get_text() for t in labels]} overlap"
+            for label in (ax.get_xlabel(), ax.get_ylabel()):
+                assert "_" not in label, f"{block.caption}: variable name {label!r} as an axis label"
+            if ax.get_xlabel() and not ax.get_xlabel().startswith("standardised"):
+                assert re.search(r"\(.+\)", ax.get_xlabel()), f"{block.caption}: no unit in {ax.get_xlabel()!r}"
+        for legend in fig.legends:
+            box = legend.get_window_extent(renderer)
+            for ax in fig.axes:
+                if ax.get_visible():
+                    assert not box.overlaps(ax.get_window_extent(renderer)), f"{block.caption}: legend on the data"
+
+
+def test_design_pairs_are_in_physical_units(printed):
+    report, _ = printed
+    fig = next(b.figure for b in report.figures if "physical units" in b.caption)
+    bottom = {ax.get_xlabel(): ax.get_xlim() for ax in fig.axes if ax.get_visible() and ax.get_xlabel()}
+    e_lim = next(lim for label, lim in bottom.items() if label.startswith("film Young's modulus E"))
+    r_lim = next(lim for label, lim in bottom.items() if label.startswith("sphere radius R"))
+    # the synthetic design spans the default surrogate domain: E 400-20000 MPa, R levels 300-600 mm
+    assert e_lim[0] < 1000 and e_lim[1] > 10000
+    assert r_lim[0] > 250 and r_lim[1] < 650
+
+
+def test_pdf_falls_back_to_figures_without_chromium(tmp_path, monkeypatch):
+    monkeypatch.setattr(document, "find_chromium", lambda: None)
+    report = Report("T", "s", [Section("One").add("text", FigureBlock(_sine_figure(), "sine")),
+                               Section("Two").add(FigureBlock(_sine_figure(), "cosine"))])
+    result = write_pdf(report, tmp_path / "r.pdf")
+    assert result.engine == "matplotlib" and "Chromium" in result.message
+    sizes = page_sizes_pt(result.path)
+    assert len(sizes) == 3 and all(abs(w - A4_PT[0]) < 1 and abs(h - A4_PT[1]) < 1 for w, h in sizes)
+    assert "Chromium" in page_texts(result.path)[0]
+
+
+def test_long_table_flows_over_pages_with_its_header_repeated(tmp_path):
+    rows = [[f"row {i}", f"{i:.3f}"] for i in range(150)]
+    report = Report("Long", "many rows", [Section("Table").add(Table(["name", "value (mm)"], rows, "long"))])
+    result = write_pdf(report, tmp_path / "long.pdf")
+    pages = [t for t in page_texts(result.path) if "row " in t]
+    assert len(pages) >= 3  # 150 rows of 8.5 pt text do not fit on two A4 pages
+    assert all("value (mm)" in t for t in pages)
+    assert all(f"row {i}" in " ".join(pages) for i in (0, 74, 149))
+
+
+def test_summary_labels_offset_ranges_as_ranges():
+    rows = _curve_rows("HS")
+    table = next(b for b in summary_section({}, {"HS": rows}).blocks if isinstance(b, Table))
+    assert "ΔA median (mm²), range over offsets" in table.header
+    sel = [r for r in rows if r["wheel"] == "smooth" and r["force_kn"] == 100.0]
+    lo, hi = min(r["delta_area_median_mm2"] for r in sel), max(r["delta_area_median_mm2"] for r in sel)
+    row = next(r for r in table.rows if r[1] == "smooth" and r[2] == "100")
+    assert row[table.header.index("ΔA median (mm²), range over offsets")] == f"{lo:.1f} to {hi:.1f}"
+    assert row[table.header.index("offsets η (mm), range")] == "-6 to +2"
+
+
+def test_answer_is_quoted_at_the_reference_case():
+    rows = _curve_rows("HS")
+    table, _ = answer_table({}, {"HS": rows})
+    ref = next(r for r in rows if r["wheel"] == "smooth" and r["force_kn"] == 100.0 and r["offset_mm"] == 0.0)
+    assert table.rows[0][4] == f"{ref['ratio_median']:.3f} [{ref['ratio_lo']:.3f}, {ref['ratio_hi']:.3f}]"
+    assert "F = 100 kN" in table.caption and "η = +0 mm" in table.caption
+
+
+def test_film_records_hook_says_not_computed_without_its_file():
+    section = film_records_section(None)
+    assert section.title == "What the film records"
+    assert any("Not computed in this study" in b for b in section.blocks if isinstance(b, str))
 
 
 def test_report_opens_in_chromium_with_every_figure(quick_study, tmp_path):
@@ -93,18 +330,22 @@ def test_report_opens_in_chromium_with_every_figure(quick_study, tmp_path):
     assert summary["hash"] in text  # provenance: the settings hash
 
 
-def test_report_pdf_renders_to_pages(quick_study, tmp_path):
+def test_quick_study_report_pdf_is_a4_with_every_caption(quick_study):
     _, summary, _ = quick_study
-    pages = pdf_pages(Path(summary["report"]["pdf"]), tmp_path)
-    assert len(pages) >= summary["report"]["figures"] + 1  # one page per figure and the text pages
-    assert all(p.std() > 0.01 for p in pages)
+    pdf = Path(summary["report"]["pdf"])
+    assert all(abs(w - A4_PT[0]) < 1 and abs(h - A4_PT[1]) < 1 for w, h in page_sizes_pt(pdf))
+    text = _words(" ".join(page_texts(pdf)))
+    assert all(f"Figure {n}." in text for n in range(1, summary["report"]["figures"] + 1))
+    assert "Calibration of HS film" in text and "Glossary" in text
 
 
-def test_report_command_rewrites_from_the_study(quick_study, tmp_path):
-    study, _, _ = quick_study
+def test_report_command_rewrites_from_the_study(tmp_path):
+    study = write_synthetic_study(tmp_path / "study")
     out = subprocess.run([sys.executable, "-m", "filmcal.cli", "report", "--study-dir", str(study), "--out-dir",
                           str(tmp_path / "rep"), "--json"], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr[-2000:]
+    answer = json.loads(out.stdout)
+    assert answer["pdf_engine"] == "chromium" and answer["figures"] >= 7
     assert (tmp_path / "rep" / "report.html").stat().st_size > 100_000
     assert (tmp_path / "rep" / "report.pdf").read_bytes()[:5] == b"%PDF-"
 

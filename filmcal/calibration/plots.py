@@ -28,7 +28,7 @@ __all__ = ["plot_trace", "plot_corner", "plot_case_intervals", "plot_predictive"
 PARAMETER_LABELS = {
     "modulus_mpa": "film Young's modulus E (MPa)",
     "oedometric_modulus_mpa": "film oedometric modulus M (MPa)",
-    "poisson": "film Poisson's ratio ν",
+    "poisson": "film Poisson's ratio ν (-)",
     "sigma_mm": "scatter of the measured radius σ (mm)",
 }
 _SHORT_LABELS = {"modulus_mpa": "E (MPa)", "oedometric_modulus_mpa": "M (MPa)", "poisson": "ν",
@@ -62,16 +62,20 @@ def _nice_log_ticks(lo: float, hi: float) -> list[float]:
     return [t for t in ticks if lo * (1 - 1e-9) <= t <= hi * (1 + 1e-9)]
 
 
-def readable_log_axis(axis: Axis, lo: float, hi: float) -> None:
+def readable_log_axis(axis: Axis, lo: float, hi: float, max_ticks: int = 8) -> None:
     """Log-scaled axis from `lo` to `hi` with plain-number 1-2-5 ticks and no minor labels.
 
     Avoids matplotlib's crowded ``2x10^3`` minor labels: ticks read ``500``,
-    ``1000``, ``2000``, ``5000`` (fewer per decade when the span is wide).
+    ``1000``, ``2000``, ``5000`` (fewer per decade when the span is wide, and
+    every other one until at most `max_ticks` remain, for narrow panels).
     """
     ax = axis.axes
     (ax.set_xscale if axis is ax.xaxis else ax.set_yscale)("log")
     (ax.set_xlim if axis is ax.xaxis else ax.set_ylim)(lo, hi)
-    axis.set_major_locator(FixedLocator(_nice_log_ticks(lo, hi)))
+    ticks = _nice_log_ticks(lo, hi)
+    while len(ticks) > max(max_ticks, 2):
+        ticks = ticks[::2]
+    axis.set_major_locator(FixedLocator(ticks))
     axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     axis.set_minor_formatter(NullFormatter())
     if np.log10(hi / lo) < 0.5:

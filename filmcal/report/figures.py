@@ -213,7 +213,7 @@ def plot_design(labels: list[str], train: np.ndarray, test: np.ndarray, log_scal
                 ax.plot(train[:, j], train[:, i], ".", ms=3, color="C0")
                 ax.plot(test[:, j], test[:, i], "x", ms=3.5, color="C1")
                 if log_scale[i]:
-                    readable_log_axis(ax.yaxis, *lims[i])
+                    readable_log_axis(ax.yaxis, *lims[i], max_ticks=4)
                 else:
                     ax.set_ylim(*lims[i])
                     ax.yaxis.set_major_locator(MaxNLocator(4))
@@ -222,7 +222,7 @@ def plot_design(labels: list[str], train: np.ndarray, test: np.ndarray, log_scal
                 else:
                     ax.tick_params(labelleft=False)
             if log_scale[j]:
-                readable_log_axis(ax.xaxis, *lims[j])
+                readable_log_axis(ax.xaxis, *lims[j], max_ticks=3)
             else:
                 ax.set_xlim(*lims[j])
                 ax.xaxis.set_major_locator(MaxNLocator(4))
