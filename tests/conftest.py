@@ -1,9 +1,168 @@
-"""Shared fixtures: FE models are expensive to build, so each radius is built once per run."""
+"""Shared fixtures and the test tiers.
+
+Two tiers, one suite:
+
+- ``python3 -m pytest`` (what ``.ci/run`` runs): every test.
+- ``python3 -m pytest -m "not slow"``: the fast tier, every stage covered,
+  within about 90 s on 2 cores.
+
+A test is in the slow tier when any of these holds (decided here, at
+collection, so that test files need no markers):
+
+1. it carries ``@pytest.mark.slow`` itself;
+2. it uses a fixture listed in :data:`SLOW_FIXTURES` (a quick pipeline and the
+   like), directly or through another fixture;
+3. its source runs a pipeline: ``run_pipeline(...)``, or the command with
+   ``--quick`` (string literals ``"pipeline"`` and ``"--quick"``, as in
+   ``[..., "pipeline", "--quick"]``); a pipeline refusing bad input is fast;
+4. its node id (relative to ``tests/``) starts with a key of
+   :data:`SLOW_TESTS`: tests measured at several seconds each (MCMC runs, fine
+   FE meshes, refits, process pools), with the measured time beside them.
+
+At the end of a run the terminal summary names unmarked tests that took
+longer than :data:`FAST_TEST_LIMIT_S` (candidates for :data:`SLOW_TESTS`),
+and ``tests/test_tiers.py`` checks that every key still names a test and that
+the fast tier keeps a test for every stage.
+"""
 from __future__ import annotations
+
+import inspect
+import re
+from pathlib import Path
 
 import pytest
 
 from filmcal.fem import get_model
+
+TESTS_DIR = Path(__file__).resolve().parent
+
+#: Fixtures whose users are slow: each runs a whole (quick) pipeline or as much work.
+SLOW_FIXTURES: frozenset[str] = frozenset({"quick_study"})
+
+#: Node-id prefixes (relative to tests/) of slow tests, with the time measured
+#: (setup + call, wall time on 2 cores shared with other work, so about 2-3x
+#: the idle time) by ``python3 -m pytest -q --durations=60 -p no:cacheprovider``.
+SLOW_TESTS: dict[str, str] = {
+    "test_calibration_mcmc.py::test_contract_keys": "17 s: the module's default calibration",
+    "test_calibration_mcmc.py::test_recovers_modulus_and_sigma": "10 s: a 60-radius calibration",
+    "test_calibration_mcmc.py::test_posterior_predictive_coverage": "uses the 60-radius calibration",
+    "test_calibration_mcmc.py::test_same_seed_same_summary_digit_for_digit": "8 s: two samplings",
+    "test_calibration_mcmc.py::test_run_is_extended_until_the_ess_target_or_the_cap": "5 s",
+    "test_calibration_mcmc.py::test_backend_resume_continues_the_chain": "5 s",
+    "test_calibration_model.py::test_case_intervals_on_the_fe_model_bracket_its_crossings": "12 s: FE solves",
+    "test_calibration_options.py::": "21 s shared calibration with a load discrepancy, 9 s free Poisson ratio",
+    "test_campaign.py::test_failures_are_recorded_with_reasons_and_retried_on_request": "6 s",
+    "test_campaign.py::test_dask_cluster_gives_the_same_results_as_the_local_pool": "5 s: a Dask cluster",
+    "test_campaign.py::test_killed_campaign_resumes_without_recomputing_finished_points": "4 s: kills a process",
+    "test_correction_curves.py::test_bands_match_direct_solves_at_their_quantiles": "4 s",
+    "test_correction_imprint.py::test_command_rejects_bad_imprint_input": "9 s: seven processes",
+    "test_correction_outline.py::test_command_reads_an_imprint_and_writes_the_corrected_outline": "10 s",
+    "test_correction_wheelrail.py::test_ratio_interpolates_the_film_effect_across_the_posterior": "4 s",
+    "test_correction_wheelrail.py::test_command_uses_the_study_posterior": "5 s",
+    "test_doe.py::test_cli_as_a_process": "5 s",
+    "test_fem_film.py::test_mesh_convergence_with_film": "4 s: fine FE meshes",
+    "test_fem_film.py::test_paper_friction_configuration_converges": "6 s: friction at both interfaces",
+    "test_study.py::": "14 s shared FE campaign and surrogate, 19 s refinement",
+    "test_surrogate.py::test_same_random_state_same_fit_serial_or_parallel": "8 s: parallel refits",
+    "test_wheelrail_contact.py::test_film_enlarges_the_area_at_every_offset": "11 s: a sweep of solves",
+}
+
+#: An unmarked test slower than this is named at the end of the run.
+FAST_TEST_LIMIT_S = 3.0
+
+#: The stages the fast tier must cover: a pattern on the node id relative to
+#: tests/, matching the test file's path (``test_fem_film.py``, ``fem/...``)
+#: or, for the command line, also the test's name.
+STAGES: dict[str, str] = {
+    "doe": r"^[^:]*doe[^:]*::",
+    "fem": r"^[^:]*(fem|hertz)[^:]*::",
+    "campaign": r"^[^:]*campaign[^:]*::",
+    "surrogate": r"^[^:]*surrogate[^:]*::",
+    "calibration": r"^[^:]*calibration[^:]*::",
+    "wheelrail": r"^[^:]*(wheelrail|halfspace|profile)[^:]*::",
+    "correction": r"^[^:]*correction[^:]*::",
+    "report": r"^[^:]*report[^:]*::",
+    "cli": r"^[^:]*cli[^:]*::|::[^\[]*(cli|command)",
+}
+
+_PIPELINE_COMMAND = re.compile(r"""["']pipeline["']""")
+_QUICK_OPTION = re.compile(r"""["']--quick["']""")
+_PIPELINE_CALL = re.compile(r"\brun_pipeline\(")
+_ALL_ITEMS = pytest.StashKey[list]()
+
+
+def relative_nodeid(item: pytest.Item) -> str:
+    """Node id with the path relative to ``tests/`` (``fem/test_x.py::test_y[1]``)."""
+    try:
+        path = Path(item.path).resolve().relative_to(TESTS_DIR).as_posix()
+    except ValueError:
+        return item.nodeid
+    rest = item.nodeid.split("::", 1)
+    return path + ("::" + rest[1] if len(rest) == 2 else "")
+
+
+def key_matches(key: str, nodeid: str) -> bool:
+    """Whether a :data:`SLOW_TESTS` key selects a node id (exact, parametrised or a prefix ending in ``::``)."""
+    return nodeid == key or nodeid.startswith(key + "[") or nodeid.startswith(key + "::") or (
+        key.endswith("::") and nodeid.startswith(key))
+
+
+def _runs_the_pipeline(item: pytest.Item) -> bool:
+    function = getattr(item, "function", None)
+    try:
+        source = inspect.getsource(function) if function is not None else ""
+    except (OSError, TypeError):
+        return False
+    command = _PIPELINE_COMMAND.search(source) and _QUICK_OPTION.search(source)
+    return bool(command or _PIPELINE_CALL.search(source))
+
+
+def slow_reason(item: pytest.Item) -> str | None:
+    """Why a collected test belongs to the slow tier, or None when it is fast."""
+    if item.get_closest_marker("slow") is not None:
+        return "marked slow"
+    used = SLOW_FIXTURES.intersection(getattr(item, "fixturenames", ()))
+    if used:
+        return f"uses {', '.join(sorted(used))}"
+    nodeid = relative_nodeid(item)
+    for key, why in SLOW_TESTS.items():
+        if key_matches(key, nodeid):
+            return why
+    if _runs_the_pipeline(item):
+        return "runs the pipeline"
+    return None
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Mark the slow tier (before ``-m`` deselects) and keep the whole collection for the tier checks."""
+    for item in items:
+        if item.get_closest_marker("slow") is None:
+            reason = slow_reason(item)
+            if reason is not None:
+                item.add_marker(pytest.mark.slow(reason=reason))
+    config.stash[_ALL_ITEMS] = list(items)
+
+
+def collected_items(config: pytest.Config) -> list[pytest.Item]:
+    """Every test collected in this session, before ``-m``/``-k`` deselection."""
+    return config.stash.get(_ALL_ITEMS, [])
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus: int, config: pytest.Config) -> None:
+    """Name unmarked tests slower than :data:`FAST_TEST_LIMIT_S`: candidates for :data:`SLOW_TESTS`."""
+    durations: dict[str, float] = {}
+    for reports in terminalreporter.stats.values():
+        for report in reports:
+            if getattr(report, "when", None) in ("setup", "call"):
+                durations[report.nodeid] = durations.get(report.nodeid, 0.0) + report.duration
+    slow_ids = {item.nodeid for item in collected_items(config) if item.get_closest_marker("slow") is not None}
+    offenders = sorted(((d, n) for n, d in durations.items() if d > FAST_TEST_LIMIT_S and n not in slow_ids),
+                       reverse=True)
+    if offenders:
+        terminalreporter.section("fast tier: unmarked tests over %.0f s" % FAST_TEST_LIMIT_S)
+        for duration, nodeid in offenders:
+            terminalreporter.write_line(f"{duration:6.1f} s  {nodeid}  (add it to SLOW_TESTS in tests/conftest.py?)")
 
 
 @pytest.fixture(scope="session")
