@@ -1,93 +1,268 @@
-"""Speed of the half-space contact solver on wheel-rail sized grids.
+"""Speed of the wheel-rail contact solve, with iteration and FFT counts and a peer.
 
-Target: one solve with film springs on a 0.1 mm grid over a 24 x 24 mm region
-(240 x 240 cells) in at most 1 s (median after a warm-up), so that the
-wheel-rail model can run for every posterior sample of the film modulus.
+Default output (the acceptance figures of the speed work):
 
-Cases (quadratic gaps ``A x**2 + B y**2``, 100 kN, steel on steel):
+* ``acceptance``: S1002 on 60E2, eta = -3 mm, 50 kN, 0.1 mm grid, with the
+  HS film (E = 2800 MPa, the paper's HS match; nu and thickness from the film
+  registry) and without film: one warm-up solve, then 5 solves; median
+  ``elapsed_s`` of the wheel-rail result (targets 0.1 s with film, 0.15 s
+  without), median ``time.process_time`` per solve, the contact solve's own
+  time, CG iterations, FFTs per solve (counted by wrapping ``scipy.fft`` in
+  the solver module, so the same count works on older code), contact cells;
+* ``exponent``: the same case without film at 0.2, 0.1 and 0.05 mm: cost
+  (elapsed and process time, median of 3) against contact cells, and the
+  least-squares exponent of ``cost ~ cells**k`` (target k <= 1.2);
+* ``sweeps`` (needs ``WheelRailModel.solve_many(..., warm_start=)``): a
+  modulus sweep (E = 2000-4000 MPa at eta = -3 mm) and an offset sweep
+  (eta = -7 ... 2 mm, HS film) warm started from the neighbour against cold
+  starts: iterations, FFTs, process time, largest area difference;
+* ``flange``: 60E1, 10 kN, eta = +5, +6, +7 mm (patches 8-9 cells of 0.1 mm
+  across): area, the refined spacing across the rail, cells across, time;
+* ``peer``: tamaas (``pip install tamaas``; periodic Polonsky-Keer-Rey) on a
+  Hertz window: sphere R450 on a flat, 75 kN, 24 x 24 mm at 0.1 mm (240 x 240
+  cells), both one thread, process time and iterations, as a ratio;
+  skipped with a note when tamaas is not installed.
 
-* ``wheel-rail``: Hertz semi-axes about 7.5 x 5.4 mm (wheel radius 460 mm on
-  a transversely curved rail head: A = 1/920, B = 1/500 per mm), region
-  24 x 24 mm (240 x 240 cells);
-* ``elongated``: Hertz semi-axes about 11.7 x 2.6 mm (a/b = 4.5), region
-  32 x 16 mm (320 x 160 cells).
+The machine's load (``os.getloadavg()``) is printed before and after; on a
+shared machine wall times are noisy, so compare counts and process times.
 
-Each is solved with the HS film (E = 2800 MPa, nu = 0.33, t = 0.09 mm),
-without film, and (for information, no target) with the film and a rough
-wheel (Greenwood-Williamson law, Ra = 1.5 um, Newton iteration). "cold" is the first solve of a new solver, including the FFT of
-the influence coefficients; "median" is over repeated solves from the default
-start; "warm start" re-solves for a film modulus changed by 2 % starting from
-the previous pressure (what a loop over posterior samples does).
+Options: ``--synthetic`` (quadratic-gap cases with and without film and a
+rough wheel), ``--paper-table`` (the 20 cases of the paper),
+``--accuracy`` (Hertz grid convergence, film sphere table), ``--fe-table``
+(film springs against the axisymmetric FE model), ``--hertz-table``
+(wheel-rail areas against local Hertz over eta).
 
-With ``--accuracy`` it also prints the accuracy figures of the solver:
-
-* grid convergence against Hertz for quadratic gaps with a/b = 1, 2, 3, 5
-  (A = 1/920 per mm, a wheel of radius 460 mm; B from the eccentricity
-  equation), F = 50 and 100 kN, cell sizes 0.25, 0.2, 0.1, 0.05 mm: errors
-  of the sub-cell area, of the loaded-cell count, of the peak pressure and
-  of the approach;
-* contact radius ``sqrt(A/pi)`` of a steel sphere on a steel flat with a
-  90 um film (nu = 0.33, E = 1000, 2800, 5000 MPa) for R = 300, 450, 600 mm
-  and F = 25-100 kN, to compare with the axisymmetric finite-element model.
-
-Wheel-rail problem (``filmcal.wheelrail.wheelrail``), always printed:
-
-* one S1002/60E2 solve at eta = -3 mm, 100 kN with the HS film on the 0.1 mm
-  grid: cold (new model: placement, sampled profiles, spectrum) and the
-  median of repeated solves (what a loop over posterior samples costs);
-  target <= 1 s median;
-* the 20-case table of the paper (eta = -7 ... 2 mm in 1 mm steps, F = 50
-  and 100 kN) without and with the film, from a new model: total time
-  target <= 30 s, with the areas (FE edge reading and pressure > 0), the
-  local Hertz area and the number of patches.
-
-With ``--fe-table`` it prints the film representation against the
-axisymmetric FE model (``filmcal.fem``, film tied to the flat and
-frictionless at the sphere, 0.1 mm elements) on the ten Table 1 cases at
-E = 1000, 2800 and 5000 MPa (nu = 0.33, t = 0.09 mm), and without film: the FE radius (edge
-profile fit, ``filmcal.fem.result.read_contact_radius``) and the half-space
-radius by three definitions: ``sqrt(A/pi)`` of the positive-pressure area,
-the FE reading applied to the radial line of cells through the centre, and
-``sqrt(A/pi)`` of the fitted outline (the definition the wheel-rail model
-uses, ``filmcal.wheelrail.edge``); target |difference| <= 0.02 mm.
-
-With ``--hertz-table`` it prints the wheel-rail areas without film against
-the local Hertz solution for eta = -7 ... 2 mm in 0.5 mm steps.
-
-Run: ``python bench/wheelrail_speed.py [--repeats 10] [--workers N] [--accuracy]
-[--fe-table] [--hertz-table]``
+Run: ``OMP_NUM_THREADS=1 python bench/wheelrail_speed.py [--repeats 5] [--workers N]
+[--skip-sweeps] [--synthetic] [--paper-table] [--accuracy] [--fe-table] [--hertz-table]``
 """
 from __future__ import annotations
 
 import argparse
 import math
+import os
 import statistics
 import time
 
 import numpy as np
-
+import scipy.fft as _scipy_fft
 from scipy.optimize import brentq
 
+import filmcal.wheelrail.halfspace as _halfspace
+import filmcal.wheelrail.wheelrail as _wheelrail
+from filmcal.films import get_film
+from filmcal.hertz import contact_modulus_mpa
+from filmcal.wheelrail.edge import read_contact_edge, read_radial_edge_mm
 from filmcal.wheelrail.halfspace import (HalfSpaceContactSolver, SurfaceGrid,
                                          sphere_on_flat_contact)
 from filmcal.wheelrail.hertz import hertz_elliptic
-from filmcal.hertz import contact_modulus_mpa
-from filmcal.wheelrail.edge import read_contact_edge, read_radial_edge_mm
 from filmcal.wheelrail.interface import FilmLayer, GreenwoodWilliamsonLaw, InterfaceLaw
 from filmcal.wheelrail.wheelrail import WheelRailModel
 
-TARGET_S = 1.0
-FORCE_N = 100e3
-CASES = {  # gap coefficients A, B (1/mm) and region (mm)
+_HS_TYPE = get_film("HS")
+#: The paper's HS match (E = 2800 MPa), registry thickness and Poisson's ratio.
+HS_FILM = FilmLayer(2800.0, _HS_TYPE.poisson, _HS_TYPE.thickness_mm)
+FILM_TARGET_S = 0.1
+BARE_TARGET_S = 0.15
+EXPONENT_TARGET = 1.2
+
+
+class _CountingFFT:
+    """``scipy.fft`` with a count of the transforms the solver module calls."""
+
+    _COUNTED = {"rfft2", "irfft2", "rfftn", "irfftn", "fft2", "ifft2", "rfft", "irfft"}
+
+    def __init__(self) -> None:
+        self.count = 0
+
+    def __getattr__(self, name):
+        target = getattr(_scipy_fft, name)
+        if name not in self._COUNTED:
+            return target
+
+        def counted(*args, **kwargs):
+            self.count += 1
+            return target(*args, **kwargs)
+
+        return counted
+
+
+FFT = _CountingFFT()
+_halfspace.sfft = FFT
+_EDGE_S = [0.0]
+_read_fitted_outline = _wheelrail.read_fitted_outline
+
+
+def _timed_edge_reading(*args, **kwargs):
+    cpu = time.process_time()
+    try:
+        return _read_fitted_outline(*args, **kwargs)
+    finally:
+        _EDGE_S[0] += time.process_time() - cpu
+
+
+_wheelrail.read_fitted_outline = _timed_edge_reading
+
+
+def _load() -> str:
+    one, five, fifteen = os.getloadavg()
+    return f"load average {one:.2f} {five:.2f} {fifteen:.2f} on {os.cpu_count()} CPUs"
+
+
+def _timed_solves(model: WheelRailModel, offset_mm: float, force_n: float, film, repeats: int):
+    """Warm-up solve, then `repeats` timed solves; per-solve figures and the last result."""
+    model.solve(offset_mm, force_n, film=film)
+    rows = []
+    for _ in range(repeats):
+        FFT.count = 0
+        _EDGE_S[0] = 0.0
+        cpu = time.process_time()
+        res = model.solve(offset_mm, force_n, film=film)
+        rows.append({"elapsed_s": res.elapsed_s, "process_s": time.process_time() - cpu,
+                     "contact_s": res.contact.elapsed_s, "iterations": res.contact.iterations,
+                     "ffts": FFT.count, "edge_s": _EDGE_S[0]})
+    return rows, res
+
+
+def _median(rows, key):
+    return statistics.median(r[key] for r in rows)
+
+
+def acceptance(repeats: int, workers: int | None) -> None:
+    """S1002/60E2, eta -3 mm, 50 kN, 0.1 mm, with and without the HS film."""
+    print("\nS1002/60E2, eta = -3 mm, 50 kN, grid 0.1 mm (median of "
+          f"{repeats} solves after a warm-up; {_load()})")
+    print("  elapsed s: WheelRailResult.elapsed_s; process s: CPU time of the whole solve; "
+          "contact s: the half-space solve's elapsed_s; edge s: CPU time of the edge reading")
+    print(f"{'film':<5} {'elapsed s':>9} {'target':>6} {'process s':>9} {'contact s':>9} "
+          f"{'edge s':>6} {'its':>4} {'FFTs':>5} {'cells':>6} {'grid':>9} {'area mm2':>9} "
+          f"{'A>0 mm2':>9}")
+    for film, target in ((HS_FILM, FILM_TARGET_S), (None, BARE_TARGET_S)):
+        model = WheelRailModel(solver=HalfSpaceContactSolver(workers=workers))
+        rows, res = _timed_solves(model, -3.0, 50e3, film, repeats)
+        elapsed = _median(rows, "elapsed_s")
+        print(f"{'HS' if film else 'none':<5} {elapsed:>9.3f} {target:>6.2f} "
+              f"{_median(rows, 'process_s'):>9.3f} {_median(rows, 'contact_s'):>9.3f} "
+              f"{_median(rows, 'edge_s'):>6.3f} {rows[0]['iterations']:>4d} {rows[0]['ffts']:>5d} "
+              f"{int(res.contact.contact_mask.sum()):>6d} {res.grid.nx:>4d}x{res.grid.ny:<4d} "
+              f"{res.area_mm2:>9.3f} {res.support_area_mm2:>9.3f}   "
+              f"{'met' if elapsed <= target else 'NOT met'}")
+
+
+def exponent(workers: int | None) -> None:
+    """No-film cost against contact cells from 0.2 to 0.05 mm."""
+    print(f"\nNo film, same case, grids 0.2/0.1/0.05 mm (median of 3; {_load()})")
+    print(f"{'grid mm':>7} {'cells':>6} {'its':>4} {'FFTs':>5} {'elapsed s':>9} {'process s':>9} "
+          f"{'area mm2':>9}")
+    cells, elapsed, process = [], [], []
+    for spacing in (0.2, 0.1, 0.05):
+        model = WheelRailModel(grid_mm=spacing, solver=HalfSpaceContactSolver(workers=workers))
+        rows, res = _timed_solves(model, -3.0, 50e3, None, 3)
+        cells.append(int(res.contact.contact_mask.sum()))
+        elapsed.append(_median(rows, "elapsed_s"))
+        process.append(_median(rows, "process_s"))
+        print(f"{spacing:>7.2f} {cells[-1]:>6d} {rows[0]['iterations']:>4d} {rows[0]['ffts']:>5d} "
+              f"{elapsed[-1]:>9.3f} {process[-1]:>9.3f} {res.area_mm2:>9.3f}")
+    log_cells = np.log(cells)
+    for name, cost in (("elapsed", elapsed), ("process", process)):
+        k = float(np.polyfit(log_cells, np.log(cost), 1)[0])
+        print(f"cost exponent ({name} time) k = {k:.2f}, target <= {EXPONENT_TARGET} -> "
+              f"{'met' if k <= EXPONENT_TARGET else 'NOT met'}")
+
+
+def sweeps(workers: int | None) -> None:
+    """Warm-started sweeps against cold starts."""
+    model = WheelRailModel(solver=HalfSpaceContactSolver(workers=workers))
+    model.solve(-3.0, 50e3, film=HS_FILM)
+    moduli = (2000.0, 2500.0, 3000.0, 3500.0, 4000.0)
+    plans = {
+        "moduli 2000-4000 MPa, eta -3, 50 kN": [
+            (-3.0, 50e3, FilmLayer(e, HS_FILM.poisson, HS_FILM.thickness_mm)) for e in moduli],
+        "offsets -7..2 mm, 50 kN, HS": [(float(e), 50e3, HS_FILM) for e in range(-7, 3)],
+    }
+    print(f"\nSweeps, each solve warm started from its neighbour against cold starts ({_load()})")
+    print(f"{'sweep':<38} {'start':<5} {'its':>5} {'FFTs':>6} {'process s':>9} {'max |dA|/A':>10}")
+    for name, cases in plans.items():
+        out = {}
+        for warm in (False, True):
+            FFT.count = 0
+            cpu = time.process_time()
+            results = model.solve_many(cases, warm_start=warm)
+            out[warm] = (results, FFT.count, time.process_time() - cpu)
+        diff = max(abs(w.area_mm2 / c.area_mm2 - 1.0) for w, c in zip(out[True][0], out[False][0]))
+        for warm in (False, True):
+            results, ffts, cpu = out[warm]
+            its = sum(r.contact.iterations for r in results)
+            print(f"{name:<38} {'warm' if warm else 'cold':<5} {its:>5d} {ffts:>6d} {cpu:>9.3f} "
+                  f"{diff if warm else 0.0:>10.1e}")
+
+
+def flange(workers: int | None) -> None:
+    """Narrow flange patches: refined across the rail instead of refused."""
+    model = WheelRailModel(rail="60E1", solver=HalfSpaceContactSolver(workers=workers))
+    print(f"\nFlange contact, S1002/60E1, 10 kN, grid 0.1 mm ({_load()})")
+    print(f"{'eta':>4} {'area mm2':>9} {'dx mm':>6} {'ds mm':>7} {'across':>6} {'its':>4} "
+          f"{'process s':>9}")
+    for eta in (5.0, 6.0, 7.0):
+        cpu = time.process_time()
+        try:
+            res = model.solve(eta, 10e3)
+        except ValueError as err:
+            print(f"{eta:>4.0f} refused: {err}")
+            continue
+        across = int(res.contact.contact_mask.sum(axis=1).max())
+        print(f"{eta:>4.0f} {res.area_mm2:>9.3f} {res.grid.dx_mm:>6.3f} {res.grid.dy_mm:>7.4f} "
+              f"{across:>6d} {res.contact.iterations:>4d} {time.process_time() - cpu:>9.3f}")
+
+
+def peer(workers: int | None) -> None:
+    """tamaas against this solver on one Hertz window (same grid, same load)."""
+    try:
+        import tamaas as tm
+    except ImportError:
+        print("\ntamaas is not installed (pip install tamaas): no peer comparison")
+        return
+    n, length, radius, force = 240, 24.0, 450.0, 75e3
+    solver = HalfSpaceContactSolver(workers=1 if workers is None else workers)
+    e_star = solver.contact_modulus_mpa
+    grid = SurfaceGrid.centred(length, length, length / n)
+    x, y = grid.mesh()
+    gap = (x * x + y * y) / (2.0 * radius)
+    solver.solve(gap, force, grid)
+    cpu = time.process_time()
+    ours = solver.solve(gap, force, grid)
+    ours_s = time.process_time() - cpu
+    tm.set_log_level(tm.LogLevel.error)
+    model = tm.ModelFactory.createModel(tm.model_type.basic_2d, [length, length], [n, n])
+    model.E, model.nu = e_star, 0.0  # tamaas: rigid flat against a body of E/(1-nu^2) = E*
+    peer_solver = tm.PolonskyKeerRey(model, -gap, 1e-12, tm.PolonskyKeerRey.pressure,
+                                     tm.PolonskyKeerRey.pressure)
+    cpu = time.process_time()
+    peer_error = peer_solver.solve(force / length ** 2)
+    peer_s = time.process_time() - cpu
+    p = np.asarray(model.traction).reshape(n, n)
+    a = (3.0 * force * radius / (4.0 * e_star)) ** (1.0 / 3.0)
+    print(f"\nPeer: tamaas {tm.__version__} (periodic PKR, tol 1e-12) against filmcal "
+          f"(non-periodic, tol 1e-9), Hertz R{radius:.0f}, {force / 1e3:.0f} kN, "
+          f"{n}x{n} cells of {length / n:g} mm, one thread ({_load()})")
+    print(f"  filmcal: {ours_s:.3f} s process, {ours.iterations} iterations, loaded cells "
+          f"{ours.area_cells_mm2:.2f} mm2, sub-cell area {ours.area_mm2:.2f} mm2")
+    print(f"  tamaas:  {peer_s:.3f} s process, final error {peer_error:.1e}, loaded cells "
+          f"{(p > 0).sum() * grid.cell_area_mm2:.2f} mm2 (periodic images of the window)")
+    print(f"  Hertz area {math.pi * a * a:.2f} mm2; time ratio tamaas/filmcal "
+          f"{peer_s / ours_s:.1f}")
+
+
+SYNTHETIC_CASES = {  # gap coefficients A, B (1/mm) and region (mm)
     "wheel-rail": ((1.0 / 920.0, 1.0 / 500.0), (24.0, 24.0)),
     "elongated": ((1.0 / 2000.0, 1.0 / 200.0), (32.0, 16.0)),
 }
+FORCE_N = 100e3
 
 
 def time_case(name: str, coefficients: tuple[float, float], region: tuple[float, float],
               film: FilmLayer | None, law: InterfaceLaw | None, repeats: int,
               workers: int | None) -> dict:
-    """Cold, median and warm-start times of one case on a 0.1 mm grid."""
+    """Cold, median and warm-start times of one quadratic-gap case on a 0.1 mm grid."""
     grid = SurfaceGrid.centred(region[0], region[1], 0.1)
     x, y = grid.mesh()
     gap = coefficients[0] * x ** 2 + coefficients[1] * y ** 2
@@ -121,6 +296,24 @@ def time_case(name: str, coefficients: tuple[float, float], region: tuple[float,
         "area_mm2": first.area_mm2, "hertz_area_mm2": hertz.area_mm2,
         "max_pressure_mpa": first.max_pressure_mpa,
     }
+
+
+def synthetic_table(repeats: int, workers: int | None) -> None:
+    """Quadratic-gap cases with the HS film, without film and with film and a rough wheel."""
+    rough = GreenwoodWilliamsonLaw(1.5, contact_modulus_mpa(HS_FILM.modulus_mpa,
+                                                            HS_FILM.poisson, 210000.0, 0.3))
+    rows = [time_case(name, coefs, region, f, law, repeats, workers)
+            for name, (coefs, region) in SYNTHETIC_CASES.items()
+            for f, law in ((HS_FILM, None), (None, None), (HS_FILM, rough))]
+    print(f"\nQuadratic gaps, 100 kN, 0.1 mm ({_load()})")
+    print(f"{'case':<11} {'film':<7} {'cells':<8} {'its':>4} {'cold s':>7} "
+          f"{'median s':>9} {'min s':>6} {'max s':>6} {'warm s':>7} "
+          f"{'area mm2':>9} {'Hertz':>8} {'p0 MPa':>7}")
+    for r in rows:
+        print(f"{r['case']:<11} {r['film']:<7} {r['cells']:<8} {r['iterations']:>4d} "
+              f"{r['cold_s']:>7.3f} {r['median_s']:>9.3f} {r['min_s']:>6.3f} {r['max_s']:>6.3f} "
+              f"{r['warm_median_s']:>7.3f} "
+              f"{r['area_mm2']:>9.2f} {r['hertz_area_mm2']:>8.2f} {r['max_pressure_mpa']:>7.1f}")
 
 
 def hertz_convergence_table(solver: HalfSpaceContactSolver) -> None:
@@ -174,32 +367,11 @@ def film_sphere_table(solver: HalfSpaceContactSolver) -> None:
             print(f"{radius:>5.0f} {force / 1e3:>5.0f} {a:>7.3f} " + " ".join(cells))
 
 
-HS_FILM = FilmLayer(2800.0, 0.33, 0.09)
 PAPER_OFFSETS_MM = tuple(float(e) for e in range(-7, 3))
 PAPER_FORCES_N = (50e3, 100e3)
 TABLE_TARGET_S = 30.0
 TABLE1_CASES = ((300, 25), (450, 25), (600, 25), (300, 50), (450, 50), (600, 50), (450, 75),
                 (600, 75), (450, 100), (600, 100))
-
-
-def wheel_rail_timing(repeats: int, workers: int | None) -> float:
-    """Cold and median time of one wheel-rail solve with the HS film; returns the median."""
-    model = WheelRailModel(solver=HalfSpaceContactSolver(workers=workers))
-    start = time.perf_counter()
-    first = model.solve(-3.0, 100e3, film=HS_FILM)
-    cold = time.perf_counter() - start
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        model.solve(-3.0, 100e3, film=HS_FILM)
-        times.append(time.perf_counter() - start)
-    median = statistics.median(times)
-    print(f"\nwheel-rail S1002/60E2, eta = -3 mm, 100 kN, HS film, grid 0.1 mm "
-          f"({first.grid.nx}x{first.grid.ny} cells, {first.contact.iterations} CG iterations): "
-          f"cold {cold:.3f} s, median {median:.3f} s (min {min(times):.3f}, max {max(times):.3f}); "
-          f"target {TARGET_S:.1f} s -> {'met' if median <= TARGET_S else 'NOT met'} "
-          f"(ratio {TARGET_S / median:.1f}x); area {first.area_mm2:.2f} mm2")
-    return median
 
 
 def paper_table(workers: int | None) -> float:
@@ -290,10 +462,17 @@ def hertz_table(workers: int | None) -> None:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--repeats", type=int, default=10,
-                        help="timed solves per case after the cold one (default 10)")
+    parser.add_argument("--repeats", type=int, default=5,
+                        help="timed solves per case after the warm-up (default 5)")
     parser.add_argument("--workers", type=int, default=None,
                         help="FFT threads (default: all CPUs)")
+    parser.add_argument("--skip-sweeps", action="store_true",
+                        help="skip the warm-start sweeps (for code without them)")
+    parser.add_argument("--skip-peer", action="store_true", help="skip the tamaas comparison")
+    parser.add_argument("--synthetic", action="store_true",
+                        help="also time quadratic-gap cases (film, no film, rough wheel)")
+    parser.add_argument("--paper-table", action="store_true",
+                        help="also solve the 20 cases of the paper with and without film")
     parser.add_argument("--accuracy", action="store_true",
                         help="also print the Hertz grid-convergence and film sphere tables")
     parser.add_argument("--fe-table", action="store_true",
@@ -302,25 +481,18 @@ def main() -> int:
     parser.add_argument("--hertz-table", action="store_true",
                         help="also print the wheel-rail areas against local Hertz over eta")
     args = parser.parse_args()
-    film = FilmLayer(2800.0, 0.33, 0.09)
-    rough = GreenwoodWilliamsonLaw(1.5, contact_modulus_mpa(2800.0, 0.33, 210000.0, 0.3))
-    rows = [time_case(name, coefs, region, f, law, args.repeats, args.workers)
-            for name, (coefs, region) in CASES.items()
-            for f, law in ((film, None), (None, None), (film, rough))]
-    header = (f"{'case':<11} {'film':<7} {'cells':<8} {'its':>4} {'cold s':>7} "
-              f"{'median s':>9} {'min s':>6} {'max s':>6} {'warm s':>7} {'target/median':>13} "
-              f"{'area mm2':>9} {'Hertz':>8} {'p0 MPa':>7}")
-    print(header)
-    for r in rows:
-        print(f"{r['case']:<11} {r['film']:<7} {r['cells']:<8} {r['iterations']:>4d} "
-              f"{r['cold_s']:>7.3f} {r['median_s']:>9.3f} {r['min_s']:>6.3f} {r['max_s']:>6.3f} "
-              f"{r['warm_median_s']:>7.3f} {TARGET_S / r['median_s']:>13.1f} "
-              f"{r['area_mm2']:>9.2f} {r['hertz_area_mm2']:>8.2f} {r['max_pressure_mpa']:>7.1f}")
-    worst = max(r["median_s"] for r in rows if r["film"] == "HS")
-    print(f"slowest film solve: median {worst:.3f} s, target {TARGET_S:.1f} s -> "
-          f"{'met' if worst <= TARGET_S else 'NOT met'} (ratio {TARGET_S / worst:.1f}x)")
-    wheel_rail_timing(args.repeats, args.workers)
-    paper_table(args.workers)
+    print(f"start: {_load()}")
+    acceptance(args.repeats, args.workers)
+    exponent(args.workers)
+    if not args.skip_sweeps:
+        sweeps(args.workers)
+    flange(args.workers)
+    if not args.skip_peer:
+        peer(args.workers)
+    if args.synthetic:
+        synthetic_table(args.repeats, args.workers)
+    if args.paper_table:
+        paper_table(args.workers)
     if args.accuracy:
         solver = HalfSpaceContactSolver(workers=args.workers)
         hertz_convergence_table(solver)
@@ -329,6 +501,7 @@ def main() -> int:
         fe_film_table(args.workers)
     if args.hertz_table:
         hertz_table(args.workers)
+    print(f"end: {_load()}")
     return 0
 
 

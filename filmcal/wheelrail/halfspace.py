@@ -22,21 +22,37 @@ Method
 * ``K p`` is a discrete convolution, evaluated by real FFTs on a zero-padded
   grid of at least ``(2 nx - 1) x (2 ny - 1)`` cells so that no periodic
   images interact (Liu, Wang & Liu 2000, Wear 243:101, "DC-FFT"). The
-  spectrum of the kernel is computed once per grid and cached.
-* The constrained quadratic problem is solved by the conjugate-gradient
-  scheme of Polonsky & Keer (1999, Wear 231:206) with the force constraint:
-  CG steps on the loaded cells, projection onto ``p >= 0``, re-activation of
-  penetrating cells (with a restart of the conjugate direction) and scaling
-  to the prescribed force.
+  kernel, its spectrum and the preconditioner's wavenumbers are computed
+  once per grid and cached by the solver (planned once, reused by every
+  solve on that grid).
+* The constrained quadratic problem is solved by projected conjugate
+  gradients with the force constraint in the frame of Polonsky & Keer
+  (1999, Wear 231:206): CG steps on the loaded cells, projection onto
+  ``p >= 0``, re-activation of penetrating cells (with a restart of the
+  conjugate direction) and scaling to the prescribed force. The residual is
+  preconditioned by the inverse of the half-space symbol ``2 / (E* |k|)``
+  (plus the interface compliance), applied by FFTs on the unpadded grid and
+  restricted to the loaded cells (after Vollebregt 2014, J. Comput. Phys.
+  257:333): the plain iteration's count grows with the condition number of
+  ``K``, about ``1/h`` (46, 59, 84 iterations at 0.2, 0.1, 0.05 mm for a
+  wheel-rail contact), the preconditioned one stays nearly constant (13, 16,
+  18). ``K p`` is carried along from ``K d`` of the search direction, so an
+  iteration costs one padded FFT pair and one unpadded pair, plus direct
+  kernel sums for the few cells the projection changes.
 * A film adds the diagonal term ``t/M`` to the operator (``K + t/M I``, still
-  symmetric positive definite). A nonlinear interface law is solved by
-  Newton's method: each step linearises the closure about the current
-  pressure, ``c(p_k) + c'(p_k) (p - p_k)``, which gives the same linear
-  problem with the diagonal ``c'(p_k)`` and a shifted gap, solved by PK-CG
-  from the current pressure; the step is damped until the convex energy
-  decreases. A diagonal spanning decades (the law's slope at the edge of the
-  contact is orders of magnitude above the half-space compliance) is
-  handled with a Jacobi preconditioner.
+  symmetric positive definite). Films and laws enter only through their
+  interface methods; parts that are linear are summed into that diagonal. A
+  nonlinear interface (a rough law, a nonlinear film) is solved by Newton's
+  method: each step linearises the closure about the current pressure,
+  ``c(p_k) + c'(p_k) (p - p_k)``, which gives the same linear problem with
+  the diagonal ``c'(p_k)`` and a shifted gap, solved from the current
+  pressure; the step is damped until the convex energy decreases. A
+  diagonal spanning decades (the law's slope at the edge of the contact is
+  orders of magnitude above the half-space compliance) is handled by a
+  symmetric diagonal scaling around the preconditioner.
+* Warm starts: ``solve(..., initial_pressure_mpa=...)`` starts from any
+  pressure map (a neighbouring offset, load or film modulus); the answer is
+  the same to the solver tolerance.
 
 Contact area
 ------------

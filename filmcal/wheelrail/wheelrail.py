@@ -41,7 +41,22 @@ solved again. So every contact point that the load brings into contact --
 a second patch at the gauge corner, a patch spread over a profile joint --
 is covered, whatever its shape. Grid sizes are rounded up (x: to an odd
 count in steps of 8, s: in steps of 8) so that neighbouring cases share the
-cached influence-coefficient spectra of the solver.
+cached influence-coefficient spectra of the solver, and cell centres lie on
+the plane's lattice (multiples of the spacing from the first contact
+point), so that grids of one plane share cells. A larger region starts from
+the previous attempt's pressure instead of from scratch.
+
+A patch narrower than the solver's ``min_cells_across`` cells in a
+direction (a flange contact) is solved again on a grid refined in that
+direction only (down to an eighth of ``grid_mm``), over the same region.
+
+Sweeps
+------
+``WheelRailModel.solve(..., initial=neighbour)`` starts from a neighbouring
+solution (another offset, load, film modulus or roughness), its pressure
+mapped by plane coordinates; ``solve_many`` does so along its list by
+default. The answers equal cold starts to the solver tolerance; a modulus
+sweep saves about a fifth of the iterations.
 
 Area
 ----
