@@ -89,6 +89,7 @@ __all__ = [
     "limit_native_threads",
     "GuardedRun",
     "run_guarded",
+    "task_cancelled",
     "NATIVE_THREAD_VARIABLES",
 ]
 
@@ -271,6 +272,27 @@ class GuardedRun:
     elapsed_s: float
 
 
+# A probe set by the executor running the current task: returns True once the
+# task is no longer wanted (its Dask client went away, ...).
+_task_context = threading.local()
+
+
+def task_cancelled() -> bool:
+    """True if the executor running the current task no longer wants its result.
+
+    Long tasks may poll it; `run_guarded` does, and kills its child when it
+    turns True. Only Dask tasks can be cancelled while running (when their
+    client disconnects or cancels them); elsewhere it is always False.
+    """
+    probe = getattr(_task_context, "cancelled", None)
+    if probe is None:
+        return False
+    try:
+        return bool(probe())
+    except Exception:  # a probe that fails never stops a task
+        return False
+
+
 def run_guarded(argv: Sequence[str] | str, *, cwd: str | os.PathLike | None = None,
                 timeout_s: float | None = None, shell: bool = False,
                 env: dict[str, str] | None = None) -> GuardedRun:
@@ -315,7 +337,7 @@ def run_guarded(argv: Sequence[str] | str, *, cwd: str | os.PathLike | None = No
             _child_groups.add(process.pid)
         try:
             try:
-                out, err = process.communicate(timeout=timeout_s)
+                out, err = _communicate(process, timeout_s)
                 timed_out = False
             except subprocess.TimeoutExpired:
                 timed_out = True
@@ -335,6 +357,26 @@ def run_guarded(argv: Sequence[str] | str, *, cwd: str | os.PathLike | None = No
     return GuardedRun(None if timed_out else process.returncode,
                       out.decode("utf-8", "replace"), err.decode("utf-8", "replace"),
                       timed_out, time.perf_counter() - start)
+
+
+class _Cancelled(subprocess.TimeoutExpired):
+    """The task running the child was cancelled (handled like a deadline)."""
+
+
+def _communicate(process: subprocess.Popen, timeout_s: float | None) -> tuple[bytes, bytes]:
+    """`Popen.communicate` that also gives up when the task is cancelled (polled every 0.2 s)."""
+    if getattr(_task_context, "cancelled", None) is None:
+        return process.communicate(timeout=timeout_s)
+    deadline = None if timeout_s is None else time.monotonic() + timeout_s
+    while True:
+        step = 0.2 if deadline is None else max(0.0, min(0.2, deadline - time.monotonic()))
+        try:
+            return process.communicate(timeout=step)
+        except subprocess.TimeoutExpired:
+            if deadline is not None and time.monotonic() >= deadline:
+                raise
+            if task_cancelled():
+                raise _Cancelled(process.args, timeout_s or 0.0) from None
 
 
 def _killpg(group: int) -> None:
@@ -993,8 +1035,34 @@ def check_dask_address(address: str) -> str:
     return text
 
 
+def _dask_cancel_probe() -> Callable[[], bool] | None:
+    """A probe telling whether the Dask task running in this thread was cancelled or released."""
+    try:
+        from distributed import get_worker
+        from distributed.worker import thread_state
+
+        worker, key = get_worker(), thread_state.key
+    except Exception:  # not in a Dask worker thread
+        return None
+
+    def cancelled() -> bool:
+        state = worker.state.tasks.get(key)
+        return state is None or state.state in ("cancelled", "released", "forgotten")
+
+    return cancelled
+
+
+def _call_with_probe(probe: Callable[[], bool] | None, fn: Callable[..., Any], args: tuple) -> Any:
+    _task_context.cancelled = probe
+    try:
+        return fn(*args)
+    finally:
+        _task_context.cancelled = None
+
+
 def _deadline_call(fn: Callable[..., Any], args: tuple, timeout_s: float | None) -> Any:
-    return call_with_deadline(fn, args, timeout_s)
+    """A Dask task: ``fn(*args)`` with its deadline, able to see its own cancellation."""
+    return call_with_deadline(_call_with_probe, (_dask_cancel_probe(), fn, args), timeout_s)
 
 
 class DaskExecutor(Executor):
@@ -1004,8 +1072,10 @@ class DaskExecutor(Executor):
     submitted as impure so that every submission runs. Dask's nanny starts
     its workers with one BLAS thread each by default. A deadline is enforced
     in a watched thread of the Dask worker: at the deadline the task is given
-    up, but the abandoned thread runs on until it returns (external commands
-    run with `run_guarded` are killed at their own deadline instead).
+    up, but the abandoned thread runs on until it returns. External commands
+    run with `run_guarded` are killed at their own deadline instead, and as
+    soon as their task is cancelled (its client disconnected, e.g. a killed
+    campaign): see `task_cancelled`.
 
     Parameters
     ----------

@@ -169,6 +169,7 @@ def guarded_shell() -> int:
     return run_guarded("sleep 600 & sleep 600", shell=True, timeout_s=600).returncode
 
 
+@pytest.mark.slow(reason="4 s: a parent with three workers, killed")
 def test_workers_and_their_children_die_with_a_killed_parent(tmp_path):
     script = tmp_path / "parent.py"
     script.write_text(PARENT_SCRIPT.format(tests=str(TESTS_DIR)))
