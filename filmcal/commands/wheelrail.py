@@ -9,7 +9,8 @@ from pathlib import Path
 from filmcal._validation import check_positive, check_range
 from filmcal.commands._common import print_json
 
-from filmcal.films import ACTIVATION_PRESSURE_MPA as ACTIVATION_MPA
+#: The imprint models that `--imprint` offers (filmcal.contact.imprint).
+IMPRINT_CHOICES = ("activation", "edge", "capsule")
 
 
 def add_parser(subparsers) -> None:
@@ -40,14 +41,37 @@ def add_parser(subparsers) -> None:
     film.add_argument("--film-modulus-mpa", type=float,
                       help="film Young's modulus E in MPa (HS calibrated: 2800)")
     film.add_argument("--no-film", action="store_true", help="steel on steel, no film")
-    p.add_argument("--film-poisson", type=float, default=0.33,
-                   help="film Poisson's ratio nu (default 0.33)")
-    p.add_argument("--film-thickness-mm", type=float, default=0.09,
-                   help="film thickness in mm (default 0.09)")
-    p.add_argument("--roughness-ra-um", type=float,
-                   help="roughness Ra of the wheel in um (Greenwood-Williamson law at the "
-                        "film-wheel interface, or at the wheel-rail interface without film); "
-                        "smooth by default")
+    p.add_argument("--film-poisson", type=float,
+                   help="film Poisson's ratio nu (default: the film type's, else 0.33)")
+    p.add_argument("--film-thickness-mm", type=float,
+                   help="film thickness in mm (default: the film type's, else 0.09)")
+    p.add_argument("--large-strain", action="store_true",
+                   help="film springs follow the large-strain law of the FE's --large-strain film "
+                        "(compressible neo-Hookean, compressed oedometrically) instead of the "
+                        "linear law t/M")
+    rough = p.add_mutually_exclusive_group()
+    rough.add_argument("--roughness-ra-um", type=float,
+                       help="roughness Ra of the wheel in um: a synthetic self-affine steel surface "
+                            "pressed into the film (FFT boundary elements, PET hardness cap) gives "
+                            "the film-wheel pressure-closure law; without film, the "
+                            "Greenwood-Williamson law at the wheel-rail interface. Smooth by default")
+    rough.add_argument("--roughness-law", metavar="CSV",
+                       help="a measured film-wheel pressure-closure law: CSV with columns "
+                            "closure_um,pressure_mpa")
+    rough.add_argument("--roughness-map", metavar="FILE",
+                       help="a measured height map of the wheel: CSV of heights (um, see "
+                            "--roughness-height-scale) or a greyscale PNG/TIFF (see "
+                            "--roughness-height-range-um), with --roughness-pixel-um")
+    p.add_argument("--roughness-pixel-um", type=float,
+                   help="pixel size of --roughness-map in um")
+    p.add_argument("--roughness-height-scale", type=float, default=1.0,
+                   help="CSV height map: factor from the numbers to um (default 1)")
+    p.add_argument("--roughness-height-range-um", type=float,
+                   help="image height map: height in um from black to full white")
+    p.add_argument("--roughness-seed", type=int, default=0,
+                   help="seed of the synthetic rough surface (default 0)")
+    p.add_argument("--hardness-mpa", type=float,
+                   help="cap on asperity pressures in the film (default 300 MPa, PET)")
     p.add_argument("--inclination", default="1/40",
                    help="rail inclination as a fraction or a number, e.g. 1/40 (default), 1/20, "
                         "0.025, or 0 for an upright rail")
@@ -55,9 +79,15 @@ def add_parser(subparsers) -> None:
                    help="wheel rolling radius at the tape circle in mm (default 460)")
     p.add_argument("--grid-mm", type=float, default=0.1,
                    help="cell size of the contact grid in mm (default 0.1, the film's resolution)")
-    p.add_argument("--film-type", choices=sorted(ACTIVATION_MPA),
-                   help="also report the area where the pressure exceeds this film's activation "
-                        "pressure (MS 10, HS 50, HHS 130 MPa)")
+    p.add_argument("--film-type", metavar="NAME",
+                   help="film type (MS, HS, HHS or one of --films-file): also report the imprint "
+                        "area that the imprint model colours (imprint_area_mm2); its thickness and "
+                        "Poisson's ratio are the defaults of the film")
+    p.add_argument("--films-file", metavar="TOML", help="user film types (TOML)")
+    p.add_argument("--imprint", dest="imprint_model", choices=IMPRINT_CHOICES,
+                   default="activation",
+                   help="what the film records (default activation: where the pressure exceeds "
+                        "the film's activation pressure)")
     p.add_argument("--plot", metavar="PNG",
                    help="draw the pressure map with the contact outline into a PNG file")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -115,38 +145,134 @@ def plot_pressure_map(result, path: str | Path) -> None:
     fig.savefig(path, dpi=150)
 
 
+def _film_type(args: argparse.Namespace):
+    from filmcal.films import FilmRegistry
+
+    if args.film_type is None:
+        if args.films_file:
+            raise ValueError("--films-file needs --film-type")
+        return None
+    return FilmRegistry.from_file(args.films_file).get(args.film_type)
+
+
+def _surface(args: argparse.Namespace):
+    """The rough wheel surface of --roughness-ra-um or --roughness-map (None otherwise)."""
+    from filmcal.contact.roughness import WHEEL_SURFACE_DEFAULTS, RoughSurface
+
+    if args.roughness_map:
+        path = Path(args.roughness_map)
+        if not path.is_file():
+            raise ValueError(f"roughness_map {path}: not found")
+        if args.roughness_pixel_um is None:
+            raise ValueError("--roughness-map needs --roughness-pixel-um")
+        if path.suffix.lower() in (".png", ".tif", ".tiff"):
+            if args.roughness_height_range_um is None:
+                raise ValueError("an image --roughness-map needs --roughness-height-range-um")
+            return RoughSurface.from_image(path, args.roughness_pixel_um,
+                                           args.roughness_height_range_um)
+        return RoughSurface.from_csv(path, args.roughness_pixel_um, args.roughness_height_scale)
+    if args.roughness_ra_um is None:
+        return None
+    check_range("roughness_ra_um", args.roughness_ra_um, 0.0, 30.0, high_open=False)
+    d = WHEEL_SURFACE_DEFAULTS
+    return RoughSurface.synthetic(ra_um=args.roughness_ra_um, hurst=d["hurst"],
+                                  rolloff_wavelength_um=d["rolloff_wavelength_um"],
+                                  size_um=d["size_um"], n=d["n"], seed=args.roughness_seed)
+
+
+def imprint_area_mm2(model_name: str, result, film_type) -> float:
+    """Area (mm^2) that the imprint model colours on the solved pressure field."""
+    from filmcal.contact.imprint import get_imprint_model
+
+    contact = result.contact
+    return float(get_imprint_model(model_name).area_mm2(contact.grid.x_mm, contact.grid.y_mm,
+                                                       contact.pressure_mpa, film_type))
+
+
+def stained_area_mm2(model_name: str, result, film_type, law) -> float:
+    """Area (mm^2) of the coloured spots under a rough surface: the imprint model's stain
+    probability averaged over the local (asperity) pressures at each cell's nominal pressure."""
+    from filmcal.contact.imprint import get_imprint_model
+
+    model = get_imprint_model(model_name)
+    p = result.contact.pressure_mpa
+    loaded = p > 0.0
+    fraction = law.expected_stain(lambda q: model.stain_probability(q, film_type), p[loaded])
+    return float(fraction.sum() * result.contact.grid.cell_area_mm2)
+
+
 def run(args: argparse.Namespace) -> int:
     """Solve the case and print the result."""
+    from filmcal.films import FILM_POISSON, FILM_THICKNESS_MM
     from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, contact_modulus_mpa
-    from filmcal.wheelrail.interface import FilmLayer, GreenwoodWilliamsonLaw
+    from filmcal.wheelrail.interface import FilmLayer, GreenwoodWilliamsonLaw, film_law
     from filmcal.wheelrail.wheelrail import solve_wheel_rail
 
     force_n = 1e3 * check_positive("force_kn", args.force_kn)
     inclination = parse_inclination(args.inclination)
-    film = None if args.no_film else FilmLayer(args.film_modulus_mpa, args.film_poisson,
-                                               args.film_thickness_mm)
-    roughness = None
-    if args.roughness_ra_um is not None:
-        e_star = contact_modulus_mpa() if film is None else contact_modulus_mpa(
-            film.modulus_mpa, film.poisson, STEEL_MODULUS_MPA, STEEL_POISSON)
-        roughness = GreenwoodWilliamsonLaw(args.roughness_ra_um, e_star)
+    film_type = _film_type(args)
+    if film_type is not None:
+        from filmcal.contact.imprint import get_imprint_model
+
+        get_imprint_model(args.imprint_model).check_film(film_type)
+    poisson = args.film_poisson if args.film_poisson is not None else (
+        film_type.poisson if film_type is not None else FILM_POISSON)
+    thickness = args.film_thickness_mm if args.film_thickness_mm is not None else (
+        film_type.thickness_mm if film_type is not None else FILM_THICKNESS_MM)
+    film = None if args.no_film else FilmLayer(args.film_modulus_mpa, poisson, thickness)
+    if args.no_film and args.large_strain:
+        raise ValueError("--large-strain needs a film (--film-modulus-mpa)")
+    roughness, rough_info = None, None
+    surface = _surface(args)
+    if args.roughness_law:
+        from filmcal.commands.curves import _measured_law
+
+        roughness = _measured_law(args.roughness_law)
+        rough_info = {"model": "measured law", "file": str(args.roughness_law)}
+    elif surface is not None and film is None:
+        if args.roughness_map:
+            raise ValueError("--roughness-map needs a film (the law is computed against the film)")
+        roughness = GreenwoodWilliamsonLaw(args.roughness_ra_um, contact_modulus_mpa())
+        rough_info = {"model": "Greenwood-Williamson (steel on steel)"}
+    elif surface is not None:
+        from filmcal.contact.roughness import PET_HARDNESS_MPA, rough_contact_law
+
+        hardness = PET_HARDNESS_MPA if args.hardness_mpa is None else check_positive(
+            "hardness_mpa", args.hardness_mpa)
+        roughness = rough_contact_law(surface, film.modulus_mpa, film.poisson, film.thickness_mm,
+                                      hardness_mpa=hardness)
+        rough_info = {"model": "FFT boundary elements", **roughness.describe()}
+    solver_film, solver_law = film_law(film, roughness, large_strain=args.large_strain)
     result = solve_wheel_rail(args.offset_mm, force_n, wheel=_profile(args.wheel, "wheel"),
                               rail=_profile(args.rail, "rail"), rail_inclination=inclination,
-                              nominal_radius_mm=args.wheel_radius_mm, film=film,
-                              roughness=roughness, grid_mm=args.grid_mm)
+                              nominal_radius_mm=args.wheel_radius_mm, film=solver_film,
+                              roughness=solver_law, grid_mm=args.grid_mm)
     out = result.summary()
+    if film is not None:
+        out["film"] = {"modulus_mpa": film.modulus_mpa, "poisson": film.poisson,
+                       "thickness_mm": film.thickness_mm,
+                       "oedometric_modulus_mpa": film.oedometric_modulus_mpa,
+                       "kinematics": "large" if args.large_strain else "small"}
+    out["roughness"] = rough_info
     if args.roughness_ra_um is not None:
         out["roughness_ra_um"] = args.roughness_ra_um
-    if args.film_type:
-        level = ACTIVATION_MPA[args.film_type]
-        out["imprint_area_mm2"] = result.contact.area_above_mm2(level)
-        out["activation_pressure_mpa"] = level
+    if film_type is not None:
+        out["film_type"] = film_type.name
+        out["imprint_model"] = args.imprint_model
+        out["imprint_area_mm2"] = imprint_area_mm2(args.imprint_model, result, film_type)
+        if film_type.activation_pressure_mpa is not None:
+            out["activation_pressure_mpa"] = film_type.activation_pressure_mpa
+        if hasattr(roughness, "expected_stain"):
+            out["stained_area_mm2"] = stained_area_mm2(args.imprint_model, result, film_type,
+                                                       roughness)
     if args.plot:
         plot_pressure_map(result, args.plot)
     if args.json:
         print_json(out)
         return 0 if result.converged else 1
-    film_text = "no film" if film is None else f"film E = {film.modulus_mpa:g} MPa, nu = {film.poisson:g}"
+    film_text = "no film" if film is None else (
+        f"film E = {film.modulus_mpa:g} MPa, nu = {film.poisson:g}"
+        + (", large strain" if args.large_strain else ""))
     print(f"{out['wheel']} on {out['rail']} (inclination {inclination:g}), eta = {result.offset_mm:g} mm, "
           f"F = {force_n / 1e3:g} kN, {film_text}")
     print(f"contact area     {result.area_mm2:.2f} mm2   (pressure > 0: {result.support_area_mm2:.2f} mm2)")
@@ -157,9 +283,11 @@ def run(args: argparse.Namespace) -> int:
     print(f"patches          {result.n_patches}, centroid y = {result.centroid_y_mm:.2f} mm "
           f"(rail {result.centroid_rail_y_mm:.2f}, wheel {result.centroid_wheel_y_mm:.2f}), "
           f"contact angle {math.degrees(result.contact_angle_rad):.2f} deg")
-    if args.film_type:
-        print(f"imprint area     {out['imprint_area_mm2']:.2f} mm2 "
-              f"(pressure > {out['activation_pressure_mpa']:g} MPa)")
+    if film_type is not None:
+        print(f"imprint area     {out['imprint_area_mm2']:.2f} mm2 ({args.imprint_model} model, "
+              f"film {film_type.name})")
+        if "stained_area_mm2" in out:
+            print(f"stained spots    {out['stained_area_mm2']:.2f} mm2 (asperity pressures)")
     state = "converged" if result.converged else "NOT converged"
     print(f"{state}, {result.elapsed_s:.3f} s")
     return 0 if result.converged else 1

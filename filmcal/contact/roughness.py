@@ -450,7 +450,7 @@ def _balance(p: np.ndarray, total: float, hardness: float, gap: np.ndarray | Non
         np.clip(p, 0.0, hardness, out=p)
 
 
-def _solve_step(kernel: _PeriodicKernel, heights_um: np.ndarray, mean_p: float, hardness: float,
+def _pk_step(kernel: _PeriodicKernel, heights_um: np.ndarray, mean_p: float, hardness: float,
                 p: np.ndarray, tol: float, max_iter: int) -> tuple[np.ndarray, float, int, bool]:
     """Polonsky-Keer CG with ``mean(p) = mean_p`` and ``0 <= p <= hardness``.
 
@@ -500,6 +500,85 @@ def _solve_step(kernel: _PeriodicKernel, heights_um: np.ndarray, mean_p: float, 
     # gap = raw + h_max - delta = 0 on the free cells
     approach = float(heights_um.max() + raw[loaded].mean())
     return p, approach, it, converged
+
+
+def _kkt_violation(kernel: _PeriodicKernel, heights_um: np.ndarray, p: np.ndarray,
+                   hardness: float) -> float:
+    """Largest violation of the contact conditions, relative to the RMS height: zero gap
+    where ``0 < p < H``, no penetration where ``p = 0``, no opening where ``p = H``."""
+    free = (p > 0.0) & (p < hardness)
+    if not free.any():
+        return math.inf
+    g = kernel(p) - heights_um
+    g -= g[free].mean()
+    scale = float(heights_um.std())
+    worst = float(np.abs(g[free]).max())
+    zero = p == 0.0
+    if zero.any():
+        worst = max(worst, float(-g[zero].min()))
+    capped = p >= hardness
+    if capped.any():
+        worst = max(worst, float(g[capped].max()))
+    return worst / scale
+
+
+def _project(x: np.ndarray, mean_p: float, hardness: float) -> tuple[np.ndarray, float]:
+    """Euclidean projection onto ``{0 <= p <= H, mean(p) = mean_p}``: ``clip(x - mu, 0, H)``."""
+    lo, hi = float(x.min()) - hardness - 1.0, float(x.max()) + 1.0
+    if math.isinf(hardness):
+        lo = float(x.min()) - mean_p - 1.0
+    for _ in range(100):
+        mu = 0.5 * (lo + hi)
+        if np.clip(x - mu, 0.0, hardness).mean() > mean_p:
+            lo = mu
+        else:
+            hi = mu
+        if hi - lo <= 1e-13 * (1.0 + abs(mu)):
+            break
+    mu = 0.5 * (lo + hi)
+    return np.clip(x - mu, 0.0, hardness), mu
+
+
+def _fista_step(kernel: _PeriodicKernel, heights_um: np.ndarray, mean_p: float, hardness: float,
+                p: np.ndarray, tol: float, max_iter: int) -> tuple[np.ndarray, float, int, bool]:
+    """Accelerated projected gradient (Beck & Teboulle 2009, with the gradient restart of
+    O'Donoghue & Candes 2015) on ``p.K p / 2 - h.p`` over the projection set; robust when
+    most contact spots sit at the hardness. Returns as :func:`_pk_step`."""
+    step = 1.0 / float(kernel.spectrum.max())
+    total = mean_p * p.size
+    p, mu = _project(p, mean_p, hardness)
+    y, t = p.copy(), 1.0
+    converged = False
+    it = 0
+    for it in range(1, max_iter + 1):
+        grad = kernel(y) - heights_um
+        p_new, mu = _project(y - step * grad, mean_p, hardness)
+        change = float(np.abs(p_new - p).sum() / total)
+        t_new = 0.5 * (1.0 + math.sqrt(1.0 + 4.0 * t * t))
+        if float(np.sum((y - p_new) * (p_new - p))) > 0.0:  # restart
+            t_new, y = 1.0, p_new.copy()
+        else:
+            y = p_new + ((t - 1.0) / t_new) * (p_new - p)
+        p, t = p_new, t_new
+        if change < tol:
+            converged = True
+            break
+    # on the free cells K p - h = -mu / step: the approach of the mean plane
+    approach = float(heights_um.max() - mu / step)
+    return p, approach, it, converged
+
+
+def _solve_step(kernel: _PeriodicKernel, heights_um: np.ndarray, mean_p: float, hardness: float,
+                p: np.ndarray, tol: float, max_iter: int) -> tuple[np.ndarray, float, int, bool]:
+    """Polonsky-Keer CG (fast while few spots are plastic), then the projected-gradient
+    method from where it stopped when it has not converged in 150 iterations."""
+    p1, approach, its, ok = _pk_step(kernel, heights_um, mean_p, hardness, p, tol,
+                                     min(max_iter, 150))
+    if ok and _kkt_violation(kernel, heights_um, p1, hardness) <= 1e-3:
+        return p1, approach, its, ok
+    p2, approach, its2, ok = _fista_step(kernel, heights_um, mean_p, hardness, p1, tol,
+                                         10 * max_iter)
+    return p2, approach, its + its2, ok
 
 
 def solve_periodic_contact(surface: RoughSurface, nominal_pressures_mpa: np.ndarray, *,
@@ -633,6 +712,34 @@ class RoughContactLaw(TabularLaw):
             last = self._sorted[-1]
             extra = p[above] - top
             out[above] = 1.0 - np.searchsorted(last, level - extra, side="right") / last.size
+        return out
+
+    def expected_stain(self, stain_probability, nominal_pressure_mpa: np.ndarray) -> np.ndarray:
+        """Mean of ``stain_probability(local pressure)`` over the nominal area.
+
+        Parameters
+        ----------
+        stain_probability : callable
+            Local pressure (MPa) array -> probability in [0, 1] that the film
+            colours there (``ImprintModel.stain_probability`` bound to a film).
+        nominal_pressure_mpa : array_like
+            Nominal pressures (MPa).
+
+        Returns
+        -------
+        ndarray
+            The coloured fraction of the nominal area; interpolated linearly
+            between the solved steps, and above the last step from its local
+            pressures shifted by the extra nominal pressure.
+        """
+        p = np.asarray(nominal_pressure_mpa, dtype=float)
+        xs = np.array([0.0] + [s.nominal_pressure_mpa for s in self.steps])
+        ys = np.array([0.0] + [float(np.mean(stain_probability(a))) for a in self._sorted])
+        out = np.interp(p, xs, ys)
+        above = p > xs[-1]
+        if np.any(above):
+            last = self._sorted[-1][:: max(1, self._sorted[-1].size // 4096)]
+            out[above] = [float(np.mean(stain_probability(last + (q - xs[-1])))) for q in p[above]]
         return out
 
     def table(self) -> list[dict[str, float]]:
