@@ -1,63 +1,201 @@
-"""Wall time and diagnostics of the Bayesian calibration of each film type.
+"""Calibration on Table 1 with the FE model in the loop: model comparison and cross-validation, timed.
 
-In one run: the FE radius surrogate of `filmcal.study` (optimal Latin
-hypercube of FE runs through a resumable campaign in ``--study-dir``, a GP over
-(log E, nu, log R, log F), validated on held-out runs) is built or reused, then
-``calibrate_film`` runs for MS, HS and HHS (32 walkers, >= 50 tau, R-hat <=
-1.01 and bulk ESS >= 2000 for E, nu fixed at 0.33, prior support the
-surrogate's domain). Prints per film: seconds, steps, tau, R-hat, bulk ESS of E,
-E and M with 90 % intervals, sigma, predictive coverage; then the slowest film's
-time against the 60 s target. Surrogate building is timed separately.
+The radius model is the FE model itself (`filmcal.fem`, default options: frictionless sphere, film tied to
+the flat), tabulated at Table 1's ten (R, F) cases on a ladder of moduli and interpolated in ln E
+(`filmcal.calibration.TabulatedRadiusModel`, interpolation error checked at the midpoints and used as the
+model's std). Every imprint model (edge, activation, capsule) of every film type is read from the same
+solves; small- and large-strain film kinematics are two sets of solves. Nothing depends on a study folder.
 
-    python bench/calibration_speed.py [--study-dir /tmp/filmcal-bench-study] [--loads 50-100]
+Three steps (each prints its own timings; the machine's load average is printed with them):
+
+    python bench/calibration_speed.py tables [--kinematics small large] [--nodes 9] [--cache FILE]
+        FE tables (10 cases x nodes x kinematics), cached as JSON.
+    python bench/calibration_speed.py compare --film HS [--cache FILE]
+        Per imprint model x kinematics: E median and 90 %, rms residual, ppc_inside_90, ELPD-LOO +/- SE,
+        max Pareto k, stacking weight and combination weight; seconds per calibration.
+    python bench/calibration_speed.py crossval --film HS [--model activation-small] [--exact]
+        Leave-one-case-out of the sphere correction: PSIS from one posterior (refits where k > 0.7)
+        against ten exact refits; time ratio, refits, hits, largest difference of the corrected areas.
 """
 from __future__ import annotations
 
 import argparse
+import json
+import os
 import time
 from pathlib import Path
 
-from filmcal.calibration import FILM_TYPES, Priors, calibrate_film
-from filmcal.study import SurrogateDomain, SurrogateRadiusModel, build_radius_surrogate
+import numpy as np
 
-TARGET_S = 60.0
+from filmcal.calibration import (CalibrationProblem, Priors, TabulatedRadiusModel, calibrate, compare_models,
+                                 load_table1, posterior_inference_data)
+from filmcal.films import FILM_TYPES, get_film
+
+IMPRINTS = ("edge", "activation", "capsule")
+DEFAULT_CACHE = Path("/tmp/filmcal-bench-fe-tables.json")
+
+
+def load() -> str:
+    return "load average " + " ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
+def cases() -> list[tuple[float, float]]:
+    data = load_table1("HS")  # the same ten (R, F) cases for every film
+    return list(zip(data.sphere_radius_mm.tolist(), data.force_n.tolist()))
+
+
+def build_tables(kinematics: list[str], nodes: int, path: Path) -> dict:
+    from filmcal.fem import ContactOptions, Film, solve_sphere_on_flat
+
+    films = {name: get_film(name) for name in FILM_TYPES}
+    nu = films["HS"].poisson
+    moduli = np.geomspace(400.0, 20000.0, nodes)
+    checks = np.sqrt(moduli[:-1] * moduli[1:])[::2]  # midpoints in ln E, every other interval
+    out = json.loads(path.read_text()) if path.exists() else {}
+    for kin in kinematics:
+        t0 = time.perf_counter()
+        options = ContactOptions(large_strain=kin == "large")
+        table = {f"{imp}-{film}": {"node": [], "check": []} for imp in IMPRINTS for film in films}
+        solves = 0
+        for R, F in cases():
+            for key, ladder in (("node", moduli), ("check", checks)):
+                rows = {k: [] for k in table}
+                for E in ladder:
+                    res = solve_sphere_on_flat(R, F, Film(float(E), nu), options=options)
+                    solves += 1
+                    for imp in IMPRINTS:
+                        for name, film in films.items():
+                            rows[f"{imp}-{name}"].append(res.read_imprint(imp, film) if res.converged else None)
+                for k in table:
+                    table[k][key].append(rows[k])
+        out[kin] = {"moduli_mpa": moduli.tolist(), "check_mpa": checks.tolist(), "poisson": nu, "cases": cases(),
+                    "radius_mm": table, "solves": solves, "elapsed_s": time.perf_counter() - t0}
+        print(f"{kin}-strain tables: {solves} FE solves in {time.perf_counter() - t0:.1f} s ({load()})")
+    path.write_text(json.dumps(out))
+    return out
+
+
+def models_of(tables: dict, film: str) -> dict[str, TabulatedRadiusModel]:
+    out = {}
+    for kin, t in tables.items():
+        for imp in IMPRINTS:
+            rows = t["radius_mm"][f"{imp}-{film}"]
+            node, check = np.array(rows["node"], dtype=float), np.array(rows["check"], dtype=float)
+            moduli = np.array(t["moduli_mpa"])
+            usable = np.all(np.isfinite(node), axis=0)  # drop moduli where some case failed (film collapse)
+            model = TabulatedRadiusModel(t["cases"], moduli[usable], node[:, usable], t["poisson"])
+            lo, hi = model.modulus_range_mpa
+            inside = (np.array(t["check_mpa"]) > lo) & (np.array(t["check_mpa"]) < hi)
+            errors = [abs(model.predict(e, t["poisson"], r, f)[0] - check[i, j])
+                      for i, (r, f) in enumerate(t["cases"]) for j, e in enumerate(t["check_mpa"]) if inside[j]]
+            model.std_mm = max(float(np.nanmax(errors)), 0.002)
+            out[f"{imp}-{kin}"] = model
+    return out
+
+
+def calibrate_all(film: str, models: dict, seed: int) -> dict:
+    data = load_table1(film)
+    out = {}
+    for name, model in models.items():
+        priors = Priors.for_film(get_film(film), modulus_range_mpa=model.modulus_range_mpa)
+        t0 = time.perf_counter()
+        result = calibrate(data, model, film=film, priors=priors, seed=seed)
+        problem = CalibrationProblem(data, model, priors)
+        out[name] = (problem, posterior_inference_data(problem, result.samples, name, max_draws=250), result,
+                     time.perf_counter() - t0)
+    return out
+
+
+def cmd_compare(args, tables) -> None:
+    t0 = time.perf_counter()
+    fits = calibrate_all(args.film, models_of(tables, args.film), args.seed)
+    comparison = compare_models({k: v[:2] for k, v in fits.items()})
+    print(f"{args.film}: {len(fits)} calibrations in {time.perf_counter() - t0:.1f} s ({load()})")
+    print(f"{'model':20s} {'E_med':>6s} {'E_ci90':>13s} {'std_mm':>6s} {'rms_mm':>6s} {'ppc90':>5s} "
+          f"{'elpd_loo':>13s} {'k_max':>5s} {'stack':>5s} {'weight':>6s} {'ok':>5s} {'time_s':>6s}")
+    for name, (problem, _, result, secs) in fits.items():
+        a = comparison.assessments[name]
+        ci = result.modulus_mpa["ci90"]
+        print(f"{name:20s} {result.modulus_mpa['median']:6.0f} {f'{ci[0]:.0f}-{ci[1]:.0f}':>13s} "
+              f"{problem.model.std_mm:6.4f} {a.rms_residual_mm:6.3f} {a.ppc_inside_90:2d}/{a.n_data:<2d} "
+              f"{f'{a.elpd_loo:.1f}+/-{a.elpd_loo_se:.1f}':>13s} {a.pareto_k_max:5.2f} "
+              f"{comparison.stacking_weights[name]:5.2f} {comparison.weights[name]:6.2f} "
+              f"{str(result.diagnostics_ok):>5s} {secs:6.1f}")
+    r600 = [(name, float(v[2].predictive.standardized_residual[(v[0].data.sphere_radius_mm == 600)
+                                                              & (v[0].data.force_n == 25e3)][0]))
+            for name, v in fits.items()]
+    print("R600/25 kN standardised residual: " + ", ".join(f"{n} {z:+.2f}" for n, z in r600))
+    print(f"preferred: {comparison.preferred}; indistinguishable groups: {comparison.groups}")
+
+
+def cmd_crossval(args, tables) -> None:
+    from filmcal.correction.crossval import psis_leave_one_case_out
+
+    model = models_of(tables, args.film)[args.model]
+    data = load_table1(args.film)
+    priors = Priors.for_film(get_film(args.film), modulus_range_mpa=model.modulus_range_mpa)
+    problem = CalibrationProblem(data, model, priors)
+    refits = []
+
+    def refit(name, fold_data):
+        refits.append(len(fold_data))
+        return calibrate(fold_data, model, film=args.film, priors=priors, seed=args.seed).samples
+
+    t0 = time.perf_counter()
+    full = calibrate(data, model, film=args.film, priors=priors, seed=args.seed)
+    t_full = time.perf_counter() - t0
+    psis = psis_leave_one_case_out({args.model: (problem, full.samples)}, refit=refit, film=args.film,
+                                   random_state=args.seed)
+    t_psis = time.perf_counter() - t0
+    print(f"{args.film} {args.model}: PSIS leave-one-case-out {t_psis:.1f} s (full calibration {t_full:.1f} s, "
+          f"{psis.n_refits} refits for Pareto k > 0.7 of {len(data)} folds), hits {psis.hits}/{len(data)}, "
+          f"median band {np.median(psis.band_percent):.1f} % of the area ({load()})")
+    print("Pareto k: " + " ".join(f"{k:.2f}" for k in psis.pareto_k))
+    if not args.exact:
+        return
+    from filmcal.correction.sphere import SphereCorrector
+
+    t0 = time.perf_counter()
+    exact_rows = []
+    for case in range(len(data)):
+        keep = np.arange(len(data)) != case
+        result = calibrate(data.select(keep), model, film=args.film, priors=priors, seed=args.seed)
+        samples = {"modulus_mpa": result.samples["modulus_mpa"], "sigma_mm": result.samples["sigma_mm"],
+                   "poisson": np.full(result.samples["sigma_mm"].shape, priors.poisson)}
+        corrected = SphereCorrector(model, samples, random_state=args.seed).correct(
+            data.measured_radius_mm[case], data.sphere_radius_mm[case], data.force_n[case])
+        exact_rows.append((float(corrected.area_mm2), float(corrected.area_std_mm2),
+                           [float(x) for x in corrected.area_ci90_mm2]))
+    t_exact = time.perf_counter() - t0
+    mean = np.array([r[0] for r in exact_rows])
+    std = np.array([r[1] for r in exact_rows])
+    ci = np.array([r[2] for r in exact_rows])
+    hertz = np.pi * data.hertz_radius_mm**2
+    hits = int(np.sum((ci[:, 0] <= hertz) & (hertz <= ci[:, 1])))
+    print(f"exact refits: {len(data)} calibrations in {t_exact:.1f} s; hits {hits}/{len(data)}; "
+          f"PSIS / exact time {t_psis / t_exact:.2f}; largest |PSIS - exact| corrected mean "
+          f"{np.max(np.abs(psis.area_mm2 - mean) / std):.2f} std, std ratio "
+          f"{np.min(psis.area_std_mm2 / std):.2f}-{np.max(psis.area_std_mm2 / std):.2f}")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--study-dir", type=Path, default=Path("/tmp/filmcal-bench-study"))
-    parser.add_argument("--loads", default=None, help="load range in kN, e.g. 50-100 (default: all)")
-    parser.add_argument("--poisson", choices=("fixed", "free"), default="fixed")
-    parser.add_argument("--discrepancy", choices=("load",), default=None)
+    parser.add_argument("step", choices=("tables", "compare", "crossval"))
+    parser.add_argument("--cache", type=Path, default=DEFAULT_CACHE)
+    parser.add_argument("--kinematics", nargs="+", choices=("small", "large"), default=["small"])
+    parser.add_argument("--nodes", type=int, default=9)
+    parser.add_argument("--film", choices=FILM_TYPES, default="HS")
+    parser.add_argument("--model", default="activation-small", help="imprint-kinematics for crossval")
+    parser.add_argument("--exact", action="store_true", help="crossval: also the ten exact refits")
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
-
-    domain = SurrogateDomain()
-    t0 = time.perf_counter()
-    surrogate, validation = build_radius_surrogate(args.study_dir, domain=domain, seed=args.seed, progress=False)
-    print(f"surrogate (built or reused) in {time.perf_counter() - t0:.1f} s; held-out area error RMS "
-          f"{100 * validation.area_rms_relative_error:.3f} %, max {100 * validation.area_max_relative_error:.3f} %, "
-          f"90 % coverage {validation.coverage90:.2f} (n = {validation.n})")
-    model = SurrogateRadiusModel(surrogate, domain)
-    print(f"{'film':5s} {'time_s':>7s} {'steps':>6s} {'tau':>6s} {'rhat':>7s} {'ess_E':>7s} {'ok':>5s} "
-          f"{'E_median':>9s} {'E_ci90':>17s} {'M_median':>9s} {'sigma':>6s} {'cover':>6s}")
-    times = []
-    for film in FILM_TYPES:
-        t0 = time.perf_counter()
-        r = calibrate_film(film, model, args.loads, poisson=args.poisson, discrepancy=args.discrepancy,
-                           priors=Priors(modulus_range_mpa=domain.modulus_mpa), seed=args.seed)
-        elapsed = time.perf_counter() - t0
-        times.append(elapsed)
-        ci = r.modulus_mpa["ci90"]
-        print(f"{film:5s} {elapsed:7.1f} {r.n_steps:6d} {max(r.tau.values()):6.1f} {r.rhat_max:7.4f} "
-              f"{r.ess_bulk['modulus_mpa']:7.0f} {str(r.diagnostics_ok):>5s} {r.modulus_mpa['median']:9.0f} "
-              f"{f'[{ci[0]:.0f}, {ci[1]:.0f}]':>17s} {r.oedometric_modulus_mpa['median']:9.0f} "
-              f"{r.sigma_mm['median']:6.3f} {r.predictive.coverage:6.2f}")
-        for message in r.diagnostics.messages:
-            print(f"      {message}")
-    worst = max(times)
-    print(f"slowest film: {worst:.1f} s = {worst / TARGET_S:.2f} x the {TARGET_S:.0f} s target "
-          f"({'met' if worst <= TARGET_S else 'MISSED'})")
+    if args.step == "tables":
+        build_tables(args.kinematics, args.nodes, args.cache)
+        return
+    if not args.cache.exists():
+        parser.error(f"no FE tables at {args.cache}; run the 'tables' step first")
+    tables = json.loads(args.cache.read_text())
+    (cmd_compare if args.step == "compare" else cmd_crossval)(args, tables)
 
 
 if __name__ == "__main__":

@@ -98,5 +98,5 @@ class TabulatedRadiusModel:
             j = np.flatnonzero(~found.ravel())[0]
             raise ValueError(f"no table for sphere_radius_mm={R.ravel()[j]:g}, force_n={F.ravel()[j]:g}")
         lo, hi = self.modulus_range_mpa
-        mean[(E < lo) | (E > hi)] = np.nan
+        mean[(E < lo * (1 - 1e-9)) | (E > hi * (1 + 1e-9))] = np.nan  # ends reached through exp(log(.)) count
         return mean, np.full(E.shape, float(self.std_mm))
