@@ -17,24 +17,35 @@ def test_quick_pipeline_writes_every_stage(quick_study):
     hs = summary["films"]["HS"]
     assert 1500 < hs["modulus_mpa"]["median"] < 5000  # HS near the paper's 2800 MPa
     assert hs["modulus_mpa"]["ci90"][0] < hs["modulus_mpa"]["median"] < hs["modulus_mpa"]["ci90"][1]
-    with open(hs["curves_file"]) as fh:
+    with open(study / "curves" / "curves-HS.csv") as fh:
         rows = list(csv.DictReader(fh))
     assert {r["wheel"] for r in rows} == {"smooth", "rough Ra 1.5 um"}
     assert len(rows) == 2 * 3  # three offsets at 50 kN, smooth and rough wheel
     for row in rows:  # the film enlarges the patch, the band contains its median
         assert float(row["delta_area_lo_mm2"]) <= float(row["delta_area_median_mm2"]) <= float(row["delta_area_hi_mm2"])
         assert 0 < float(row["ratio_median"]) < 1
-    for name in ("settings.json", "design.json", "surrogate-validation.json", "fe-verification.json",
-                 "wheelrail-outlines.json", "crossval-HS.json", "summary.json", "report/report.html",
+    for name in ("study.json", "design.json", "fe-verification.json", "wheelrail-outlines.json",
+                 "crossval/crossval-HS.json", "comparison-HS.json", "summary.json", "report/report.html",
                  "report/report.pdf"):
         assert (study / name).exists(), name
+    # every artefact is recorded in the manifest with its SHA-256, and the file still matches it
+    from filmcal._io import sha256_file
+
+    manifest = json.loads((study / "study.json").read_text())
+    assert {e["kind"] for e in manifest["artefacts"].values()} >= {"posterior", "radius-surrogate", "curves"}
+    for rel, entry in manifest["artefacts"].items():
+        assert sha256_file(study / rel) == entry["sha256"], rel
+    # each imprint model was calibrated, compared, and the weights sum to one
+    comparison = json.loads((study / "comparison-HS.json").read_text())
+    assert set(comparison["weights"]) == {"edge/small", "activation/small"}
+    assert abs(sum(comparison["weights"].values()) - 1) < 1e-9
     verification = json.loads((study / "fe-verification.json").read_text())
     for case in verification["hertz"]:  # no film: the FE model reproduces Hertz (DESIGN: R450/75 kN 6.031 mm)
         a = hertz_radius_mm(case["radius_mm"], case["force_n"])
         assert abs(case["fe_radius_mm"] / a - 1) < 2e-3
     # leave-one-case-out on Table 1: the Hertz area (the truth) inside the corrected 90 % interval in >= 8 of 10
-    assert hs["crossval_hits"] >= 8
-    crossval = json.loads((study / "crossval-HS.json").read_text())
+    crossval = json.loads((study / "crossval" / "crossval-HS.json").read_text())
+    assert crossval["hits"] >= 8
     assert np.allclose(crossval["hertz_area_mm2"], np.pi * hertz_radius_mm(np.asarray(crossval["sphere_radius_mm"]),
                                                                              np.asarray(crossval["force_n"])) ** 2)
     design = json.loads((study / "design.json").read_text())
@@ -50,7 +61,8 @@ def test_quick_pipeline_resumes_by_reading(quick_study):
     second = json.loads(again.stdout)
     assert second["films"]["HS"]["modulus_mpa"] == summary["films"]["HS"]["modulus_mpa"]
     assert second["elapsed_s"] < summary["elapsed_s"] / 2
-    assert not re.search(r"\[(design|calibration|verification|curves|outlines|crossval|report)\]", again.stderr), \
+    assert not re.search(r"\[(design|calibration|comparison|verification|curves|outlines|crossval|report)\]",
+                         again.stderr), \
         again.stderr
 
 
@@ -71,24 +83,31 @@ def test_bad_input_exits_2(tmp_path):
 def test_correctors_from_the_study(quick_study, tmp_path):
     import pytest
 
+    from filmcal._errors import InputError
     from filmcal.calibration import load_table1
-    from filmcal.correction import SphereCorrector, WheelRailCorrector
     from filmcal.correction import read_curves_csv
+    from filmcal.study import Study, correctors
 
-    study, _, _ = quick_study
+    study, summary, _ = quick_study
     data = load_table1("HS")
-    sphere = SphereCorrector.from_study(study, "HS").correct(data.measured_radius_mm, data.sphere_radius_mm,
-                                                             data.force_n)
+    s = Study(study)
+    pinned = summary["films"]["HS"]["model"]
+    [(weight, sphere_corrector, spec)] = correctors(s, "HS", "sphere", model=pinned)
+    assert weight == 1.0 and spec["model"] == pinned
+    sphere = sphere_corrector.correct(data.measured_radius_mm, data.sphere_radius_mm, data.force_n)
     hertz_area = np.pi * data.hertz_radius_mm**2  # the truth of the Hertzian experiments
     inside = (sphere.area_ci90_mm2[:, 0] <= hertz_area) & (hertz_area <= sphere.area_ci90_mm2[:, 1])
     assert inside.sum() >= 8
     # the corrector and the correction curves are two propagations of the same posterior
-    row = next(r for r in read_curves_csv(study / "curves-HS.csv") if r["wheel"] == "smooth")
-    corrected = WheelRailCorrector.from_study(study, "HS").correct(row["area_film_median_mm2"], row["offset_mm"],
-                                                                   row["force_kn"] * 1e3)
+    row = next(r for r in read_curves_csv(study / "curves" / "curves-HS.csv") if r["wheel"] == "smooth")
+    [(_, wheel, _)] = correctors(s, "HS", "wheel-rail", model=pinned)
+    corrected = wheel.correct(row["area_film_median_mm2"], row["offset_mm"], row["force_kn"] * 1e3)
     assert abs(np.median(corrected.samples_mm2) / row["area_no_film_mm2"] - 1) < 0.01
-    with pytest.raises(FileNotFoundError, match="no posterior of MS"):
-        WheelRailCorrector.from_study(study, "MS")
+    with pytest.raises(InputError, match="no posterior of MS"):
+        correctors(s, "MS", "wheel-rail")
+    # unpinned: every compared model with its stacking weight
+    mixture = correctors(s, "HS", "sphere")
+    assert len(mixture) == 2 and abs(sum(w for w, _, _ in mixture) - 1) < 1e-9
 
 
 def test_curves_command_at_a_load_outside_the_pipeline_grid(quick_study):
@@ -103,7 +122,7 @@ def test_curves_command_at_a_load_outside_the_pipeline_grid(quick_study):
     row = dict(zip(out["columns"], out["rows"][0]))
     assert row["delta_area_lo_mm2"] <= row["delta_area_median_mm2"] <= row["delta_area_hi_mm2"]
     assert 0 < row["ratio_lo"] <= row["ratio_median"] <= row["ratio_hi"] < 1
-    at50 = next(r for r in read_curves_csv(study / "curves-HS.csv") if r["wheel"] == "smooth" and r["offset_mm"] == -3)
+    at50 = next(r for r in read_curves_csv(study / "curves" / "curves-HS.csv") if r["wheel"] == "smooth" and r["offset_mm"] == -3)
     # a rim of nearly constant width around a larger patch: more area added, a smaller share of the whole
     assert row["delta_area_median_mm2"] > at50["delta_area_median_mm2"]
     assert row["ratio_median"] > at50["ratio_median"]
@@ -127,14 +146,15 @@ def test_killed_pipeline_resumes_without_losing_finished_work(tmp_path):
         posterior = []
         while not posterior and first.poll() is None and time.monotonic() < deadline:
             time.sleep(0.2)
-            posterior = list(tmp_path.glob("posterior-HS-*.json"))
+            posterior = list(tmp_path.glob("posteriors/*.json"))
         first.send_signal(signal.SIGKILL)  # as hard as a power cut: after calibration, inside the curves stage
         first.wait(timeout=60)
     assert posterior and first.returncode == -signal.SIGKILL
-    assert not (tmp_path / "curves-HS.csv").exists()
+    assert not (tmp_path / "curves" / "curves-HS.csv").exists()
 
     def finished_runs():
-        with sqlite3.connect(tmp_path / "runs.sqlite") as db:
+        [store] = tmp_path.glob("runs/*.sqlite")
+        with sqlite3.connect(store) as db:
             return dict(db.execute("SELECT point_id, finished_at FROM runs WHERE status = 'ok'").fetchall())
 
     runs_before, posterior_before = finished_runs(), posterior[0].read_bytes()
@@ -143,28 +163,8 @@ def test_killed_pipeline_resumes_without_losing_finished_work(tmp_path):
     assert second.returncode == 0, second.stderr[-2000:]
     assert finished_runs() == runs_before  # no FE run was recomputed
     assert posterior[0].read_bytes() == posterior_before  # nor the calibration
-    assert "[calibration]" not in second.stdout and "[curves]" in second.stdout
-    assert (tmp_path / "curves-HS.csv").exists()
-
-
-def test_a_study_folder_keeps_its_settings_and_gathers_films(tmp_path):
-    import pytest
-
-    from dataclasses import asdict
-
-    from filmcal.pipeline import PipelineSettings, _check_settings, settings_hash
-
-    quick = PipelineSettings.quick()
-
-    def record(films, settings=quick, seed=0):
-        return {"settings": asdict(settings), "films": films, "seed": seed, "hash": settings_hash(settings, seed)}
-
-    assert _check_settings(tmp_path, record(["HS"]))["films"] == ["HS"]
-    assert _check_settings(tmp_path, record(["HHS", "MS"]))["films"] == ["MS", "HS", "HHS"]
-    assert json.loads((tmp_path / "settings.json").read_text())["films"] == ["MS", "HS", "HHS"]
-    assert settings_hash(quick, 0) != settings_hash(PipelineSettings(), 0) != settings_hash(PipelineSettings(), 1)
-    with pytest.raises(ValueError, match="other settings"):
-        _check_settings(tmp_path, record(["HS"], PipelineSettings()))
+    assert "[curves]" in second.stdout
+    assert (tmp_path / "curves" / "curves-HS.csv").exists()
 
 
 def test_correct_a_scanned_sphere_imprint(quick_study, tmp_path):

@@ -27,9 +27,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="film types, comma-separated (default MS,HS,HHS; others from --films-file)")
     p.add_argument("--films-file", metavar="TOML", help="user film types (name, activation pressure or range, "
                    "thickness, nu), recorded in the study")
-    p.add_argument("--imprint-models", default="edge,activation,capsule",
-                   help="what the film records, each calibrated and compared (default edge,activation,capsule)")
-    p.add_argument("--kinematics", default="small",
+    p.add_argument("--imprint-models", default=None,
+                   help="what the film records, each calibrated and compared: edge, activation, capsule, "
+                        "comma-separated (default all three; edge,activation with --quick)")
+    p.add_argument("--kinematics", default=None,
                    help="film kinematics of the FE model, each calibrated and compared: small, large or "
                         "small,large (default small)")
     p.add_argument("--workers", type=int, default=None, help="FE worker processes (default: all cores)")
@@ -56,8 +57,10 @@ def run(args: argparse.Namespace) -> int:
     if not 0 <= args.seed < 2**32:
         raise ValueError(f"--seed must be 0 to 2^32-1, got {args.seed}")
     settings = PipelineSettings.quick() if args.quick else PipelineSettings()
-    settings = replace(settings, imprint_models=tuple(m.strip() for m in args.imprint_models.split(",") if m.strip()),
-                       kinematics=tuple(k.strip() for k in args.kinematics.split(",") if k.strip()))
+    if args.imprint_models is not None:
+        settings = replace(settings, imprint_models=tuple(m.strip() for m in args.imprint_models.split(",")))
+    if args.kinematics is not None:
+        settings = replace(settings, kinematics=tuple(k.strip() for k in args.kinematics.split(",")))
     study_dir = args.study_dir or ("filmcal-study-quick" if args.quick else "filmcal-study")
     log = (lambda msg: (sys.stderr.write(msg + "\n"), sys.stderr.flush())) if args.json else (
         lambda msg: print(msg, flush=True))

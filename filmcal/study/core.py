@@ -283,11 +283,7 @@ class Study:
         options = fe.contact_options()
         train = design_points(domain, fe.n_train, seed_for(fe.seed, "design-train"), options)
         test = design_points(domain, fe.n_test, seed_for(fe.seed, "design-test"), options)
-        import inspect
-
         films = self._fe_films(fe.film_thickness_mm)
-        if "films" not in inspect.signature(evaluate_point).parameters:
-            films = ()
         for p in train + test:
             p["film_thickness_mm"] = fe.film_thickness_mm
         store_spec = self._store_spec(fe)
@@ -389,7 +385,8 @@ class Study:
 
         settings = SamplerSettings() if spec.max_steps is None else replace(SamplerSettings(), max_steps=spec.max_steps)
         result = calibrate(data, model, film=film.name, loads=spec.loads, poisson=spec.poisson,
-                           discrepancy=spec.discrepancy, priors=Priors(modulus_range_mpa=spec.fe.domain.modulus_mpa),
+                           discrepancy=spec.discrepancy,
+                           priors=Priors.for_film(film, modulus_range_mpa=spec.fe.domain.modulus_mpa),
                            seed=seed_for(spec.fe.seed, f"chain-{film.name}-{spec.model_label}"), backend_path=chain,
                            settings=settings, progress=bool(progress))
         save_result(result, path)
@@ -397,13 +394,49 @@ class Study:
         return result, path, full
 
     def dataset_rows(self, film: str, loads: str | None, dataset=None):
-        """The calibration data of one film (the study's dataset; Table 1 by default) and its record."""
-        from filmcal.calibration import load_table1
+        """The calibration data of one film and the record of their dataset.
 
+        Parameters
+        ----------
+        film : str
+        loads : str or None
+            Load range (kN), e.g. ``"50-100"``.
+        dataset : str or Path, optional
+            A CSV file of the documented dataset format, or a packaged dataset's
+            name; default the study's dataset (recorded at its first use), else
+            ``table1``.
+        """
+        from filmcal.calibration import load_dataset
+
+        recorded = self.manifest.data.get("dataset")
         if dataset is None:
-            data = load_table1(film, loads)
-            return data, {"name": "table1"}
-        raise InputError("datasets other than Table 1 need filmcal.calibration.load_dataset")
+            if recorded is not None and not recorded["source"].startswith("package:"):
+                dataset = recorded["source"]
+            else:
+                dataset = recorded["name"] if recorded else "table1"
+        ds = load_dataset(dataset)
+        meta = {k: v for k, v in ds.to_dict().items() if k in ("name", "source", "sha256", "measured_column")}
+        if recorded is not None and recorded["sha256"] != meta["sha256"]:
+            raise InputError(f"dataset {ds.source} differs from the one this study was made with "
+                             f"({recorded['source']}, sha256 {recorded['sha256'][:12]}...); use another --study-dir")
+        if recorded is None and self._lock.held:
+            self.manifest.data["dataset"] = meta
+        return ds.select(film, loads), meta
+
+    def problem(self, posterior_path: Path):
+        """The calibration problem (data, radius model, priors, options) of a recorded posterior."""
+        from filmcal.calibration import CalibrationProblem, Priors
+
+        entry = self.manifest.entry(self.layout.relative(posterior_path))
+        spec = entry["spec"]
+        film = self.film(spec["film"]["name"])
+        data, _ = self.dataset_rows(film.name, spec["loads"], spec["dataset"].get("source")
+                                    if not spec["dataset"].get("source", "package:").startswith("package:")
+                                    else spec["dataset"].get("name", "table1"))
+        model = _sphere_model(self, posterior_path)
+        priors = Priors.for_film(film, modulus_range_mpa=model.domain.modulus_mpa)
+        return CalibrationProblem(data, model, priors, poisson=spec["poisson"],
+                                  discrepancy="none" if spec["discrepancy"] is None else spec["discrepancy"])
 
     # ------------------------------------------------------------ reading posteriors
     def posteriors(self, film: str | None = None, **match: Any) -> list[tuple[Path, dict]]:

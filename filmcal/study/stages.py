@@ -84,9 +84,9 @@ class PipelineSettings:
 
     @classmethod
     def quick(cls) -> "PipelineSettings":
-        """Few FE runs, three offsets at 50 kN, short chains: a minute or two."""
-        return cls(train_runs=40, test_runs=12, offsets_mm=(-6.0, -3.0, 0.0), forces_kn=(50.0,),
-                   crossval_films=("HS",), max_steps=3000)
+        """Few FE runs, two imprint models, three offsets at 50 kN, short chains: a minute or two."""
+        return cls(train_runs=40, test_runs=12, imprint_models=("edge", "activation"), offsets_mm=(-6.0, -3.0, 0.0),
+                   forces_kn=(50.0,), crossval_films=("HS",), max_steps=3000)
 
     def fe(self, kinematics: str, seed: int) -> FESettings:
         return FESettings(kinematics=kinematics, n_train=self.train_runs, n_test=self.test_runs, seed=seed)
@@ -155,7 +155,7 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
         stage("verification", _verification_stage, study, settings, seed, medians, log)
         stage("curves", _curves_stage, study, settings, chosen, workers, log)
         stage("outlines", _outlines_stage, study, settings, medians, log)
-        stage("crossval", _crossval_stage, study, settings, chosen, seed, workers, log)
+        stage("crossval", _crossval_stage, study, settings, results, comparisons, seed, log)
         for film in films:
             result, path, spec = chosen[film]
             d = result.to_dict()
@@ -227,28 +227,35 @@ def _calibration_stage(study: Study, settings: PipelineSettings, films, seed: in
 
 
 def _comparison_stage(study: Study, settings: PipelineSettings, results: dict, log):
-    """Compare each film's models (PSIS-LOO, stacking) where the calibration library offers it."""
-    try:
-        from filmcal.calibration import compare_models
-    except ImportError:
-        return {}, False
+    """Compare each film's models by PSIS-LOO and weigh them by stacking (``comparison-<film>.json``)."""
+    from filmcal.calibration import compare_models
+    from filmcal.calibration.posterior import posterior_inference_data
+
     out, computed = {}, False
     for film, models in results.items():
         if len(models) < 2:
             continue
         path = study.layout.comparison(film)
-        spec = {"film": film, "posteriors": sorted(str(p.name) for _, p, _ in models.values())}
-        entry = study.manifest.entry(study.layout.relative(path))
-        if study.verified(path) and entry and entry["spec"] == spec:
+        spec = {"film": film, "posteriors": sorted(p.name for _, p, _ in models.values())}
+        entry = study.manifest.entry(study.layout.relative(path)) if path.exists() else None
+        if entry and entry["spec"] == spec and study.verified(path):
             out[film] = read_json(path)
             continue
         log(f"[comparison] {film}: {len(models)} models by PSIS-LOO and stacking")
-        comparison = compare_models({label: r for label, (r, _, _) in models.items()})
-        d = comparison.to_dict() if hasattr(comparison, "to_dict") else dict(comparison)
+        pairs = {}
+        for label, (result, ppath, _) in models.items():
+            problem = study.problem(ppath)
+            pairs[label] = (problem, posterior_inference_data(problem, result.samples, model_name=label,
+                                                              max_draws=500))
+        d = compare_models(pairs).to_dict()
+        for label, (result, _, _) in models.items():
+            d["models"][label]["modulus_mpa"] = result.modulus_mpa
+            d["models"][label]["oedometric_modulus_mpa"] = result.oedometric_modulus_mpa
         atomic_write_json(path, d, indent=1)
         study.record(path, "comparison", spec)
         out[film] = d
         computed = True
+        log(f"[comparison] {film}: weights " + ", ".join(f"{k} {v:.2f}" for k, v in d["weights"].items()))
     return out, computed
 
 
@@ -365,53 +372,48 @@ def _curves_stage(study: Study, settings: PipelineSettings, chosen: dict, worker
     return None, True
 
 
-def _crossval_fold(surrogate_stem: str, film: str, case: int, seed: int) -> dict:
-    from filmcal.calibration import Priors
-    from filmcal.correction.crossval import cross_validate_case
-    from filmcal.surrogate import load_surrogate
-    from filmcal.surrogate.radius import SurrogateDomain, SurrogateRadiusModel
+def _crossval_stage(study: Study, settings: PipelineSettings, results: dict, comparisons: dict, seed: int, log):
+    """Leave-one-case-out cross-validation of the combined correction (``crossval/crossval-<film>.json``).
 
-    model = SurrogateRadiusModel(load_surrogate(surrogate_stem), SurrogateDomain())
-    priors = Priors(modulus_range_mpa=SurrogateDomain().modulus_mpa)
-    return cross_validate_case(model, film, case, priors=priors, seed=seed)
+    Pareto-smoothed importance sampling of the full posteriors for each left-out
+    case (`filmcal.correction.crossval.psis_leave_one_case_out`), with an exact
+    recalibration only where the Pareto k exceeds 0.7.
+    """
+    from filmcal.calibration import SamplerSettings, calibrate
+    from filmcal.correction.crossval import psis_leave_one_case_out
 
-
-def _crossval_stage(study: Study, settings: PipelineSettings, chosen: dict, seed: int, workers, log):
-    """Leave-one-case-out cross-validation on the calibration data (one task per fold)."""
-    from filmcal.calibration import load_table1
-    from filmcal.correction.crossval import CaseCrossValidation
-
-    todo = []
-    for film in chosen:
+    computed = False
+    for film, models in results.items():
+        if film not in settings.crossval_films:
+            continue
         path = study.layout.crossval(film)
-        if film in settings.crossval_films and film in FILM_TYPES and not study.verified(path):
-            todo.append(film)
-    if not todo:
-        return None, False
-    n_cases = {film: len(load_table1(film)) for film in todo}
-    stems = {}
-    for film in todo:
-        entry = study.manifest.entry(study.layout.relative(chosen[film][1]))
-        stems[film] = str(study.layout.surrogate(entry["surrogate"]))
-    tasks = {(film, case): (_crossval_fold, (stems[film], film, case, seed_for(seed, f"crossval-{film}")))
-             for film in todo for case in range(n_cases[film])}
-    log(f"[crossval] leave-one-case-out: {len(tasks)} calibrations ({', '.join(todo)})")
-    folds: dict = {}
+        weights = (comparisons.get(film) or {}).get("weights") or {label: 1.0 for label in models}
+        spec = {"film": film, "posteriors": sorted(p.name for _, p, _ in models.values()), "weights": weights}
+        entry = study.manifest.entry(study.layout.relative(path)) if path.exists() else None
+        if entry and entry["spec"] == spec and study.verified(path):
+            continue
+        pairs = {label: (study.problem(p), r.samples) for label, (r, p, _) in models.items() if weights.get(label, 0) > 0}
+        max_steps = settings.max_steps
 
-    def done(key, result, k):
-        film = key[0]
-        folds[key] = result
-        if all((film, c) in folds for c in range(n_cases[film])):
-            cv = CaseCrossValidation.from_folds(film, [folds[film, c] for c in range(n_cases[film])])
-            path = study.layout.crossval(film)
-            path.parent.mkdir(parents=True, exist_ok=True)
-            atomic_write_json(path, cv.to_dict(), indent=1)
-            study.record(path, "crossval", {"film": film, "posterior": chosen[film][1].name})
-            log(f"[crossval] {film}: Hertz area inside the corrected 90 % interval in {cv.hits}/{n_cases[film]} "
-                f"cases ({k}/{len(tasks)} calibrations done)")
+        def refit(label, data, pairs=pairs, film=film):
+            problem = pairs[label][0]
+            sampler = SamplerSettings() if max_steps is None else SamplerSettings(max_steps=max_steps)
+            return calibrate(data, problem.model, film=film, poisson=problem.poisson_mode,
+                             discrepancy=None if problem.discrepancy == "none" else problem.discrepancy,
+                             priors=problem.priors, seed=seed_for(seed, f"crossval-{film}-{label}"),
+                             settings=sampler).samples
 
-    _parallel(tasks, workers, done)
-    return None, True
+        log(f"[crossval] {film}: leave-one-case-out by PSIS over {len(pairs)} model(s)")
+        cv = psis_leave_one_case_out(pairs, {k: weights[k] for k in pairs}, refit, film=film,
+                                     random_state=seed_for(seed, f"crossval-{film}"),
+                                     log=lambda msg: log(f"[crossval] {film}: {msg}"))
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_json(path, cv.to_dict(), indent=1)
+        study.record(path, "crossval", spec)
+        computed = True
+        log(f"[crossval] {film}: Hertz area inside the corrected 90 % interval in {cv.hits}/{len(cv.inside)} "
+            f"cases, {cv.n_refits} exact refit(s)")
+    return None, computed
 
 
 def _outlines_stage(study: Study, settings: PipelineSettings, medians: dict, log):
