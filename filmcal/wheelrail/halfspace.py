@@ -262,11 +262,22 @@ class _Convolution:
         self._symbols: dict[float, np.ndarray] = {}
 
     def __call__(self, values: np.ndarray) -> np.ndarray:
-        spec = sfft.rfft2(values, s=self.padded, workers=self.workers)
+        # the 2D transforms in two passes, skipping the rows that are zero on the
+        # way in (padding and unloaded rows) and not needed on the way out
+        nx, ny = self.shape
+        px, py = self.padded
+        rows = np.flatnonzero(values.any(axis=1))
+        if rows.size == 0:
+            return np.zeros(self.shape)
+        first, last = int(rows[0]), int(rows[-1]) + 1
+        spec = np.zeros((px, py // 2 + 1), dtype=complex)
+        spec[first:last] = sfft.rfft(values[first:last], n=py, axis=1, workers=self.workers)
+        spec = sfft.fft(spec, axis=0, workers=self.workers, overwrite_x=True)
         spec *= self.spectrum
-        out = sfft.irfft2(spec, s=self.padded, workers=self.workers)
+        spec = sfft.ifft(spec, axis=0, workers=self.workers, overwrite_x=True)
+        out = sfft.irfft(spec[:nx], n=py, axis=1, workers=self.workers)
         self.transforms += 2
-        return out[: self.shape[0], : self.shape[1]]
+        return out[:, :ny]
 
     def add_cells(self, out: np.ndarray, index: tuple[np.ndarray, np.ndarray],
                   values: np.ndarray) -> None:
@@ -277,18 +288,31 @@ class _Convolution:
             out += v * kernel[nx - 1 - i: 2 * nx - 1 - i, ny - 1 - j: 2 * ny - 1 - j]
 
     def precondition(self, residual: np.ndarray, diagonal: float) -> np.ndarray:
-        """Approximate ``(K + diagonal)^-1 residual`` (see the class notes)."""
+        """Approximate ``(K + diagonal)^-1 residual`` (see the class notes), on the
+        rows spanned by the non-zero residual (zero elsewhere)."""
         symbol = self._symbols.get(diagonal)
         if symbol is None:
             if len(self._symbols) >= 4:
                 self._symbols.pop(next(iter(self._symbols)))
             symbol = 1.0 / (self._compliance_symbol + diagonal)
             self._symbols[diagonal] = symbol
-        spec = sfft.rfft2(residual, s=self.periodic, workers=self.workers)
+        # only the rows holding loaded cells are transformed in and out (the
+        # result is used on the loaded cells only)
+        px, py = self.periodic
+        rows = np.flatnonzero(residual.any(axis=1))
+        out = np.zeros(self.shape)
+        if rows.size == 0:
+            return out
+        first, last = int(rows[0]), int(rows[-1]) + 1
+        spec = np.zeros((px, py // 2 + 1), dtype=complex)
+        spec[first:last] = sfft.rfft(residual[first:last], n=py, axis=1, workers=self.workers)
+        spec = sfft.fft(spec, axis=0, workers=self.workers, overwrite_x=True)
         spec *= symbol
-        out = sfft.irfft2(spec, s=self.periodic, workers=self.workers)
+        spec = sfft.ifft(spec, axis=0, workers=self.workers, overwrite_x=True)
+        out[first:last] = sfft.irfft(spec[first:last], n=py, axis=1,
+                                     workers=self.workers)[:, : self.shape[1]]
         self.transforms += 2
-        return out[: self.shape[0], : self.shape[1]]
+        return out
 
 
 @dataclass
