@@ -140,6 +140,20 @@ def write_synthetic_study(folder: Path) -> Path:
     summary = {"n": 12, "radius_rms_error_mm": 0.005, "radius_max_error_mm": 0.01, "area_rms_relative_error": 0.002,
                "area_max_relative_error": 0.005, "coverage90": 0.9, "q2": 0.9999}
     (folder / "surrogate-validation.json").write_text(json.dumps({"summary": summary, "points": points}))
+    hertz_area = np.array([np.pi * float(hertz_radius_mm(r, f)) ** 2 for r, f in CASES])
+    area = hertz_area * (1 + 0.02 * np.sin(np.arange(10)))
+    crossval = {"film": "HS", "sphere_radius_mm": [r for r, _ in CASES], "force_n": [f for _, f in CASES],
+                "measured_radius_mm": (np.sqrt(hertz_area / np.pi) + 1.0).tolist(),
+                "hertz_area_mm2": hertz_area.tolist(), "area_mm2": area.tolist(), "area_std_mm2": (0.01 * area).tolist(),
+                "area_ci90_mm2": np.column_stack([0.985 * area, 1.015 * area]).tolist(),
+                "modulus_median_mpa": [2800.0] * 10, "method": "refit"}
+    (folder / "crossval-HS.json").write_text(json.dumps(crossval))
+    t = np.linspace(0, 2 * np.pi, 60)
+    ring = lambda a, b, y0: np.column_stack([a * np.sin(t), y0 + b * np.cos(t)]).tolist()  # noqa: E731 (x, y)
+    cases = [{"offset_mm": eta, "no film": {"area_mm2": np.pi * 20, "outline_mm": [ring(5, 4, eta)]},
+              "HS": {"area_mm2": np.pi * 30, "outline_mm": [ring(6, 5, eta)]}} for eta in (-6.0, -3.0, 0.0, 2.0)]
+    (folder / "wheelrail-outlines.json").write_text(json.dumps({"force_n": 5e4, "films": {"HS": 2800.0},
+                                                                "cases": cases}))
     with open(folder / "curves-HS.csv", "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=CURVE_COLUMNS)
         writer.writeheader()
@@ -340,13 +354,18 @@ def test_quick_study_report_pdf_is_a4_with_every_caption(quick_study):
 
 
 def test_report_command_rewrites_from_the_study(tmp_path):
-    study = write_synthetic_study(tmp_path / "study")
+    full = write_synthetic_study(tmp_path / "full")
+    study = tmp_path / "study"  # settings and curves only: the other sections say what is missing
+    study.mkdir()
+    for name in ("settings.json", "curves-HS.csv"):
+        shutil.copy(full / name, study / name)
     out = subprocess.run([sys.executable, "-m", "filmcal.cli", "report", "--study-dir", str(study), "--out-dir",
                           str(tmp_path / "rep"), "--json"], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr[-2000:]
     answer = json.loads(out.stdout)
-    assert answer["pdf_engine"] == "chromium" and answer["figures"] >= 7
-    assert (tmp_path / "rep" / "report.html").stat().st_size > 100_000
+    assert answer["pdf_engine"] == "chromium" and answer["figures"] == 2  # area curves, correction factor
+    assert (tmp_path / "rep" / "report.html").stat().st_size > 50_000
+    assert "Not available: fe-verification.json missing" in (tmp_path / "rep" / "report.html").read_text()
     assert (tmp_path / "rep" / "report.pdf").read_bytes()[:5] == b"%PDF-"
 
 
@@ -356,3 +375,49 @@ def test_report_of_a_non_study_exits_2(tmp_path, study):
     p = subprocess.run([sys.executable, "-m", "filmcal.cli", "report", "--study-dir", str(tmp_path / study)],
                        capture_output=True, text=True, timeout=120)
     assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and "study_dir" in p.stderr
+
+
+def test_calibration_figures_name_parameters_as_an_engineer_reads_them():
+    """A short toy calibration with per-load discrepancies: the trace, pair, predictive and per-case figures."""
+    sys.path.insert(0, str(Path(__file__).parent))
+    from toymodels import ToyRadiusModel
+
+    from filmcal.calibration import calibrate, load_table1
+    from filmcal.calibration.sampling import SamplerSettings
+    from filmcal.report.study_report import calibration_section
+
+    cases = load_table1("HS")
+    result = calibrate(cases, ToyRadiusModel(), discrepancy="load", seed=0,
+                       settings=SamplerSettings(max_steps=500, check_every=250))
+    section = calibration_section("HS", result, "toy.json")
+    figures = [b for b in section.blocks if isinstance(b, FigureBlock)]
+    assert len(figures) == 4
+    for block in figures:
+        fig = block.figure
+        renderer = FigureCanvasAgg(fig).get_renderer()
+        fig.draw(renderer)
+        texts = [t.get_text() for ax in fig.axes for t in (ax.xaxis.label, ax.yaxis.label, ax.title)]
+        assert not [t for t in texts if re.search(r"\b(modulus_mpa|sigma_mm|delta_\w+|log10)\b", t)], texts
+        for ax in fig.axes:
+            for axis in (ax.xaxis, ax.yaxis):
+                labels = [t for t in axis.get_ticklabels() if t.get_visible() and t.get_text()]
+                assert not _overlaps([t.get_window_extent(renderer) for t in labels]), block.caption
+            # nothing drawn outside the figure (no clipped labels)
+            for text in (ax.xaxis.label, ax.yaxis.label, ax.title):
+                if text.get_text():
+                    box = text.get_window_extent(renderer)
+                    assert box.x0 >= -1 and box.y0 >= -1 and box.x1 <= fig.bbox.width + 1 \
+                        and box.y1 <= fig.bbox.height + 1, f"{block.caption}: {text.get_text()!r} clipped"
+    table = next(b for b in section.blocks if isinstance(b, Table))
+    assert "film Young's modulus E (MPa)" in [row[0] for row in table.rows]
+    assert any(row[0].startswith("model discrepancy at 25 kN") for row in table.rows)
+
+
+def test_pdf_falls_back_when_chromium_fails(tmp_path, monkeypatch):
+    broken = tmp_path / "chromium"
+    broken.write_text("#!/bin/sh\necho 'cannot start' >&2\nexit 1\n")
+    broken.chmod(0o755)
+    monkeypatch.setattr(document, "find_chromium", lambda: str(broken))
+    result = write_pdf(Report("T", "s", [Section("One").add(FigureBlock(_sine_figure(), "sine"))]), tmp_path / "r.pdf")
+    assert result.engine == "matplotlib" and "failed" in result.message and "cannot start" in result.message
+    assert len(page_sizes_pt(result.path)) == 2

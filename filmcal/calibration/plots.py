@@ -30,9 +30,10 @@ PARAMETER_LABELS = {
     "oedometric_modulus_mpa": "film oedometric modulus M (MPa)",
     "poisson": "film Poisson's ratio ν (-)",
     "sigma_mm": "scatter of the measured radius σ (mm)",
+    "case_sigma_mm": "scatter between cases σ_case (mm)",
 }
 _SHORT_LABELS = {"modulus_mpa": "E (MPa)", "oedometric_modulus_mpa": "M (MPa)", "poisson": "ν",
-                 "sigma_mm": "σ (mm)"}
+                 "sigma_mm": "σ (mm)", "case_sigma_mm": "σ_case (mm)"}
 _WIDTH_IN = 6.9  # text width of an A4 page with 16 mm margins
 
 
@@ -98,6 +99,11 @@ def _varying(result: CalibrationResult) -> list[str]:
     """Parameters worth a panel: not constant, and M only when nu is free (else M is E times a constant)."""
     skip = {"oedometric_modulus_mpa"} if result.poisson_mode == "fixed" else set()
     return [k for k, v in result.samples.items() if k not in skip and np.ptp(np.asarray(v)) > 0]
+
+
+def _num(value: float) -> str:
+    """A number for a label: whole numbers from 100 up, else three significant digits (never ``1e+03``)."""
+    return f"{value:.0f}" if abs(value) >= 100 else f"{value:.3g}"
 
 
 def _plain_numbers(axis: Axis) -> None:
@@ -170,7 +176,9 @@ def plot_corner(result: CalibrationResult, path: str | Path | None = None, max_p
                 for q in (lo, hi):
                     ax.axvline(q, color="C3", lw=0.8, ls="--")
                 ax.axvline(med, color="C3", lw=1.0)
-                ax.set_title(f"{parameter_label(xj, short=True)}\n{med:.4g} [{lo:.4g}, {hi:.4g}]", fontsize=8)
+                sep = "\n" if n > 3 else " "
+                ax.set_title(f"{parameter_label(xj, short=True)}\n{_num(med)}{sep}[{_num(lo)}, {_num(hi)}]",
+                             fontsize=8 if n <= 3 else 6.5)
                 ax.set_yticks([])
             else:
                 ax.plot(flat[xj][idx], flat[yi][idx], ".", ms=1.5, alpha=0.3, color="C0")

@@ -333,15 +333,18 @@ def write_pdf(report: Report, path: str | Path, timeout_s: float = 300.0) -> Pdf
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
     chromium = find_chromium()
-    if chromium is None:
-        reason = ("Chromium was not found, so the typeset PDF could not be printed (install Debian's chromium "
-                  "package, or any Chromium/Chrome on PATH).")
-        _write_matplotlib_pdf(report, tmp, reason)
-        tmp.replace(path)
-        return PdfResult(path, "matplotlib", reason)
-    _print_with_chromium(chromium, render_html(report), tmp, timeout_s)
-    pages = _section_pages(tmp, report)
-    if pages:
-        _print_with_chromium(chromium, render_html(report, page_numbers=pages), tmp, timeout_s)
+    reason = ("Chromium was not found, so the typeset PDF could not be printed (install Debian's chromium "
+              "package, or any Chromium/Chrome on PATH).")
+    if chromium is not None:
+        try:
+            _print_with_chromium(chromium, render_html(report), tmp, timeout_s)
+            pages = _section_pages(tmp, report)
+            if pages:
+                _print_with_chromium(chromium, render_html(report, page_numbers=pages), tmp, timeout_s)
+            tmp.replace(path)
+            return PdfResult(path, "chromium")
+        except (OSError, RuntimeError, subprocess.SubprocessError) as err:
+            reason = f"Chromium ({chromium}) failed to print the report: {err}"
+    _write_matplotlib_pdf(report, tmp, reason)
     tmp.replace(path)
-    return PdfResult(path, "chromium")
+    return PdfResult(path, "matplotlib", reason)

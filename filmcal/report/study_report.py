@@ -508,6 +508,14 @@ def film_records_section(comparison: dict | None) -> Section:
     return s
 
 
+def _crossval_method(cv) -> str:
+    method = getattr(cv, "method", "refit")
+    if method == "psis":
+        return (f" (Pareto-smoothed importance sampling of the full posterior; {cv.n_refits} of {len(cv.inside)} "
+                "folds refitted exactly where Pareto k > 0.7)")
+    return " (every fold calibrated anew)"
+
+
 def crossval_section(results: dict) -> Section:
     """Leave-one-case-out cross-validation of the sphere correction on Table 1."""
     s = Section("Leave-one-case-out cross-validation on Table 1")
@@ -527,7 +535,8 @@ def crossval_section(results: dict) -> Section:
                      for r, f, m, e, a, sd, ci, h, ok in zip(cv.sphere_radius_mm, cv.force_n, cv.measured_radius_mm,
                                                              cv.modulus_median_mpa, cv.area_mm2, cv.area_std_mm2,
                                                              cv.area_ci90_mm2, cv.hertz_area_mm2, cv.inside)],
-                    f"{film}: Hertz area inside the corrected 90 % interval in {cv.hits} of {len(cv.inside)} cases"))
+                    f"{film}: Hertz area inside the corrected 90 % interval in {cv.hits} of {len(cv.inside)} cases"
+                    + _crossval_method(cv)))
     return s
 
 
