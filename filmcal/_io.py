@@ -157,7 +157,15 @@ def sha256_file(path: str | os.PathLike[str], block_bytes: int = 1 << 20) -> str
 
 
 def _can_create_in(folder: Path) -> bool:
-    """True if a file can be created in `folder` (probed: permissions alone mislead root and /proc)."""
+    """True if a file can be created in `folder`.
+
+    Permissions answer for ordinary users. For root they always say yes, so a
+    file is created and removed to find out (read-only mounts, /proc).
+    """
+    if not os.access(folder, os.W_OK | os.X_OK):
+        return False
+    if not hasattr(os, "geteuid") or os.geteuid() != 0:
+        return True
     try:
         fd, name = tempfile.mkstemp(prefix=".filmcal-probe-", dir=folder)
     except OSError:
@@ -172,8 +180,9 @@ def check_output_file(path: str | os.PathLike[str], option: str = "--out") -> Pa
     """Check, before any work, that `path` can be written as a file.
 
     The path must not be a folder, its folder must exist and be writable, and
-    an existing file there must be writable. Nothing is left behind (the
-    folder is probed by creating and removing an empty temporary file).
+    an existing file there must be writable. Nothing is left behind (for
+    root, the folder is probed by creating and removing an empty temporary
+    file).
 
     Parameters
     ----------

@@ -56,6 +56,7 @@ ORDER = ["pipeline", "fem", "doe", "campaign", "calibrate", "profile", "wheelrai
 SIZE_BOUNDS: dict[str, tuple[float, float]] = {
     "workers": (1, 256),
     "seed": (0, 2**32 - 1),
+    "roughness_seed": (0, 2**32 - 1),
     "samples": (1, 2000),
     "iterations": (1, 10_000),
     "element_size_mm": (0.02, 5.0),
@@ -218,17 +219,29 @@ def _one_line(text: str) -> str:
     return "; ".join(p for p in parts if p)
 
 
+# Library parameters whose name differs from the option that feeds them.
+PARAMETER_ALIASES = {"force_n": "force_kn", "nominal_radius_mm": "wheel_radius_mm"}
+
+
 def _name_option(message: str, options: dict[str, str]) -> str:
-    """Prefix the option (``--force-kn: ``) to a message that names its parameter (``force_kn``)."""
+    """Prefix the option (``--force-kn: ``) to a message that names its parameter (``force_kn``).
+
+    A message naming a library parameter (``modulus_mpa``) is matched to the one
+    option whose destination ends with it (``film_modulus_mpa``).
+    """
     if "--" in message:
         return message
-    for dest in sorted(options, key=len, reverse=True):
-        opt = options[dest]
-        if not opt.startswith("--") or dest in ("help", "json"):
-            continue
+    usable = {d: o for d, o in options.items() if o.startswith("--") and d not in ("help", "json")}
+    for dest in sorted(usable, key=len, reverse=True):
         if message.startswith(dest + " ") or message.startswith(dest + ":") or (
                 "_" in dest and re.search(rf"(?<![\w-]){re.escape(dest)}(?![\w-])", message)):
-            return f"{opt}: {message}"
+            return f"{usable[dest]}: {message}"
+    lead = re.match(r"([a-z][a-z0-9]*(?:_[a-z0-9]+)*)\b", message)
+    if lead:
+        word = PARAMETER_ALIASES.get(lead.group(1), lead.group(1))
+        matches = [d for d in usable if d == word or d.endswith("_" + word)]
+        if len(matches) == 1 and (word in usable or "_" in word or word in ("poisson", "modulus")):
+            return f"{usable[matches[0]]}: {message}"
     return message
 
 

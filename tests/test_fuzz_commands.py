@@ -1,0 +1,271 @@
+"""Fuzzing the commands with values that parse but are wrong, and with damaged input files.
+
+Each case runs the real command in-process (`filmcal.cli.main`) in an empty
+working folder holding a few prepared files, and asserts the error contract:
+exit status 2, exactly one line on stderr that names the option or the file,
+no traceback, nothing on stdout, and no file created, changed or removed. Every
+case must be refused before any heavy work; a guard interrupts a case that runs
+longer than `CASE_LIMIT_S`.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import sqlite3
+from pathlib import Path
+
+import pytest
+
+from filmcal import cli
+
+CASE_LIMIT_S = 20
+
+
+class CaseTooLong(BaseException):
+    """Raised by the guard: the command started work instead of refusing its input."""
+
+
+@pytest.fixture
+def guard():
+    def alarm(signum, frame):
+        raise CaseTooLong(f"the command ran past {CASE_LIMIT_S} s instead of refusing its input")
+    old = signal.signal(signal.SIGALRM, alarm)
+    signal.alarm(CASE_LIMIT_S)
+    yield
+    signal.alarm(0)
+    signal.signal(signal.SIGALRM, old)
+
+
+def write_png(path: Path, truncate: bool = False) -> None:
+    import numpy as np
+    from PIL import Image
+
+    img = np.full((80, 80, 3), 245, dtype=np.uint8)
+    img[20:60, 20:60] = (215, 60, 120)
+    Image.fromarray(img).save(path, dpi=(600, 600))
+    if truncate:
+        data = path.read_bytes()
+        path.write_bytes(data[: len(data) // 2])
+
+
+@pytest.fixture
+def folder(tmp_path, monkeypatch):
+    """A working folder with good and bad inputs of every kind."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "design.csv").write_text("modulus_mpa,poisson,radius_mm,force_kn\n2800,0.33,450,75\n")
+    (tmp_path / "binary.csv").write_bytes(b"\x00\x01\xffgarbage\xfe")
+    (tmp_path / "empty.csv").write_bytes(b"")
+    (tmp_path / "wrongcols.csv").write_text("a,b\n1,2\n")
+    (tmp_path / "nan.csv").write_text("modulus_mpa,poisson,radius_mm,force_kn\nnan,0.33,450,75\n")
+    (tmp_path / "negative.csv").write_text("modulus_mpa,poisson,radius_mm,force_kn\n2800,0.33,-450,75\n")
+    (tmp_path / "ragged.csv").write_text("modulus_mpa,poisson,radius_mm,force_kn\n2800,0.33\n")
+    (tmp_path / "badprofile.csv").write_text("y_mm,z_mm\n0,nan\n1,2\n")
+    (tmp_path / "law.csv").write_text("closure_um,pressure_mpa\n1,abc\n")
+    (tmp_path / "films.toml").write_text('[LOT7]\nthickness_mm = "thick"\n')
+    (tmp_path / "notoml.toml").write_bytes(b"[[[\x00")
+    (tmp_path / "garbled.sqlite").write_bytes(os.urandom(4096))
+    (tmp_path / "empty.sqlite").write_bytes(b"")
+    with sqlite3.connect(tmp_path / "other.sqlite") as conn:  # a database, not a campaign store
+        conn.execute("create table t (x)")
+    conn.close()
+    good = (tmp_path / "design.csv").read_bytes()
+    (tmp_path / "truncated.sqlite").write_bytes(b"SQLite format 3\x00" + good[:40])
+    write_png(tmp_path / "cut.png", truncate=True)
+    (tmp_path / "notimage.png").write_text("not an image")
+    (tmp_path / "emptystudy").mkdir()
+    (tmp_path / "badstudy").mkdir()
+    (tmp_path / "badstudy" / "study.json").write_text('{"format": "filmcal-study", "films": {')
+    (tmp_path / "binstudy").mkdir()
+    (tmp_path / "binstudy" / "study.json").write_bytes(b"\xff\xfe\x00\x00")
+    (tmp_path / "adir").mkdir()
+    return tmp_path
+
+
+def snapshot(folder: Path) -> dict[str, tuple[int, int]]:
+    """Files (size, modification time) and folders; lock files beside a store or study are not output."""
+    return {str(p.relative_to(folder)): (0, 0) if p.is_dir() else (p.stat().st_size, p.stat().st_mtime_ns)
+            for p in folder.rglob("*") if not p.name.endswith(".lock")}
+
+
+def run(capsys, argv):
+    try:
+        code = cli.main(argv)
+    except SystemExit as exc:
+        code = exc.code
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def xfail(*values, reason):
+    return pytest.param(*values, marks=pytest.mark.xfail(reason=reason, strict=False))
+
+
+WHEEL = ["--force-kn", "100", "--measured-area-mm2", "150", "--offset-mm=-3"]
+SPHERE = ["--force-kn", "75", "--sphere-radius-mm", "450", "--measured-radius-mm", "7.1"]
+WR = ["--offset-mm=-3", "--force-kn", "100"]
+FEM = ["--radius-mm", "450", "--force-kn", "75"]
+DOE = ["--samples", "5", "--param", "a=0:1", "--out", "d.csv"]
+
+# (argv, words of which the stderr line must contain one)
+CASES = [
+    # fem
+    (["fem", "--radius-mm", "-1", "--force-kn", "75", "--no-film"], ["--radius-mm"]),
+    (["fem", "--radius-mm", "0", "--force-kn", "75", "--no-film"], ["--radius-mm"]),
+    (["fem", "--radius-mm", "450", "--force-kn", "0", "--no-film"], ["--force-kn", "force"]),
+    (["fem", *FEM, "--film-modulus-mpa", "-5"], ["--film-modulus-mpa"]),
+    (["fem", *FEM, "--film-modulus-mpa", "0"], ["--film-modulus-mpa"]),
+    (["fem", *FEM, "--film-modulus-mpa", "2800", "--film-poisson", "0.5"], ["--film-poisson"]),
+    (["fem", *FEM, "--film-modulus-mpa", "2800", "--film-poisson", "-1"], ["--film-poisson"]),
+    (["fem", *FEM, "--film-modulus-mpa", "2800", "--film-thickness-mm", "0"], ["--film-thickness-mm"]),
+    (["fem", *FEM, "--no-film", "--friction-coefficient", "-0.1"], ["--friction-coefficient"]),
+    (["fem", *FEM, "--no-film", "--film-modulus-mpa", "2800"], ["--film-modulus-mpa", "--no-film"]),
+    (["fem", *FEM], ["--film-modulus-mpa", "--no-film"]),
+    xfail(["fem", "--radius-mm", "1e300", "--force-kn", "75", "--no-film"], ["--radius-mm"],
+          reason="fem: a radius of 1e300 mm overflows in the mesh (no upper bound on --radius-mm)"),
+    # doe
+    (["doe", "--samples", "1", "--param", "a=0:1", "--out", "d.csv"], ["--samples"]),
+    (["doe", "--samples", "5", "--param", "a=1:0", "--out", "d.csv"], ["a:", "low"]),
+    (["doe", "--samples", "5", "--param", "a", "--out", "d.csv"], ["name=low:high"]),
+    (["doe", "--samples", "5", "--param", "a=0:1:cubic", "--out", "d.csv"], ["a:"]),
+    (["doe", "--samples", "5", "--param", "a=-1:1:log", "--out", "d.csv"], ["a:"]),
+    (["doe", "--samples", "5", "--param", "a=0:1", "--param", "a=0:2", "--out", "d.csv"], ["a"]),
+    (["doe", "--samples", "5", "--param", "a=nan:1", "--out", "d.csv"], ["a"]),
+    (["doe", "--samples", "5", *[f"--param=p{i}=0:1" for i in range(21)], "--out", "d.csv"], ["--param"]),
+    (["doe", *DOE, "--augment", "binary.csv"], ["--augment", "binary.csv"]),
+    (["doe", *DOE, "--augment", "empty.csv"], ["empty.csv"]),
+    (["doe", *DOE, "--augment", "wrongcols.csv"], ["--augment", "wrongcols.csv"]),
+    (["doe", *DOE, "--augment", "ragged.csv"], ["ragged.csv", "--augment"]),
+    # campaign
+    (["campaign", "run", "--design", "binary.csv", "--store", "r.sqlite"], ["--design", "binary.csv"]),
+    (["campaign", "run", "--design", "empty.csv", "--store", "r.sqlite"], ["empty.csv"]),
+    (["campaign", "run", "--design", "wrongcols.csv", "--store", "r.sqlite"], ["column"]),
+    (["campaign", "run", "--design", "nan.csv", "--store", "r.sqlite"], ["modulus_mpa"]),
+    (["campaign", "run", "--design", "negative.csv", "--store", "r.sqlite"], ["radius_mm"]),
+    (["campaign", "run", "--design", "ragged.csv", "--store", "r.sqlite"], ["ragged.csv", "row", "--design"]),
+    (["campaign", "run", "--design", "design.csv", "--store", "r.sqlite", "--model", "garbage"], ["--model"]),
+    (["campaign", "run", "--design", "design.csv", "--store", "r.sqlite", "--model", "nosuchmodule:f"],
+     ["--model", "nosuchmodule"]),
+    (["campaign", "run", "--design", "design.csv", "--store", "r.sqlite", "--dask", "garbage"], ["--dask"]),
+    (["campaign", "run", "--design", "design.csv", "--store", "garbled.sqlite"], ["garbled.sqlite"]),
+    (["campaign", "status", "--store", "garbled.sqlite"], ["garbled.sqlite"]),
+    (["campaign", "status", "--store", "truncated.sqlite"], ["truncated.sqlite"]),
+    (["campaign", "status", "--store", "empty.sqlite"], ["empty.sqlite"]),
+    (["campaign", "status", "--store", "design.csv"], ["design.csv"]),
+    (["campaign", "status", "--store", "other.sqlite"], ["other.sqlite"]),
+    (["campaign", "export", "--store", "garbled.sqlite", "--out", "e.csv"], ["garbled.sqlite"]),
+    (["campaign", "export", "--store", "empty.sqlite", "--out", "e.csv"], ["empty.sqlite"]),
+    # calibrate
+    (["calibrate", "--film", "XX", "--study-dir", "emptystudy"], ["XX", "--film"]),
+    (["calibrate", "--film", " HS", "--study-dir", "emptystudy"], ["HS", "--film"]),
+    (["calibrate", "--film", "", "--study-dir", "emptystudy"], ["film"]),
+    xfail(["calibrate", "--film", "HS", "--loads", "abc", "--study-dir", "emptystudy"], ["--loads"],
+          reason="calibrate writes study.json before refusing --loads"),
+    xfail(["calibrate", "--film", "HS", "--loads", "100-50", "--study-dir", "emptystudy"], ["--loads"],
+          reason="calibrate writes study.json before refusing --loads"),
+    (["calibrate", "--film", "LOT7", "--films-file", "films.toml", "--study-dir", "emptystudy"], ["films.toml"]),
+    (["calibrate", "--film", "LOT7", "--films-file", "notoml.toml", "--study-dir", "emptystudy"], ["notoml.toml"]),
+    xfail(["calibrate", "--film", "HS", "--data", "binary.csv", "--study-dir", "emptystudy"], ["binary.csv"],
+          reason="calibrate writes study.json before refusing --data"),
+    xfail(["calibrate", "--film", "HS", "--data", "wrongcols.csv", "--study-dir", "emptystudy"], ["wrongcols.csv"],
+          reason="calibrate writes study.json before refusing --data"),
+    (["calibrate", "--film", "HS", "--study-dir", "badstudy"], ["badstudy/study.json"]),
+    (["calibrate", "--film", "HS", "--study-dir", "binstudy"], ["binstudy/study.json"]),
+    # profile
+    (["profile", "UIC60"], ["UIC60"]),
+    (["profile", "badprofile.csv"], ["badprofile.csv"]),
+    (["profile", "missing.csv"], ["missing.csv"]),
+    (["profile", "binary.csv"], ["binary.csv"]),
+    (["profile", "empty.csv"], ["empty.csv"]),
+    (["profile", "S1002", "--step-mm", "0"], ["--step-mm"]),
+    (["profile", "S1002", "--step-mm", "100"], ["--step-mm"]),
+    # wheelrail
+    (["wheelrail", "--offset-mm", "100", "--force-kn", "100", "--no-film"], ["--offset-mm"]),
+    (["wheelrail", "--offset-mm", "0", "--force-kn", "-1", "--no-film"], ["--force-kn"]),
+    (["wheelrail", *WR, "--no-film", "--inclination", "1/0"], ["--inclination"]),
+    (["wheelrail", *WR, "--no-film", "--inclination", "abc"], ["--inclination"]),
+    (["wheelrail", *WR, "--no-film", "--inclination", "1"], ["--inclination"]),
+    (["wheelrail", *WR, "--no-film", "--rail", "missing.csv"], ["missing.csv"]),
+    (["wheelrail", *WR, "--no-film", "--rail", "badprofile.csv"], ["badprofile.csv"]),
+    (["wheelrail", *WR, "--no-film", "--rail", "binary.csv"], ["binary.csv"]),
+    (["wheelrail", *WR, "--no-film", "--wheel", "UIC60"], ["UIC60"]),
+    (["wheelrail", *WR, "--film-modulus-mpa", "2800", "--film-poisson", "0.7"], ["--film-poisson", "poisson"]),
+    (["wheelrail", *WR, "--film-modulus-mpa", "-1"], ["--film-modulus-mpa"]),
+    (["wheelrail", *WR, "--no-film", "--wheel-radius-mm", "0"], ["--wheel-radius-mm", "radius"]),
+    (["wheelrail", *WR, "--no-film", "--roughness-ra-um", "-1"], ["--roughness-ra-um"]),
+    # correct
+    (["correct", "--film", "XX", *WHEEL, "--study-dir", "emptystudy"], ["XX", "--film", "--study-dir"]),
+    (["correct", "--film", " HS", *WHEEL, "--study-dir", "emptystudy"], ["HS", "--film", "--study-dir"]),
+    (["correct", "--film", "HS", *WHEEL, "--study-dir", "missing"], ["--study-dir"]),
+    (["correct", "--film", "HS", *WHEEL, "--study-dir", "emptystudy"], ["--study-dir"]),
+    (["correct", "--film", "HS", *WHEEL, "--study-dir", "badstudy"], ["badstudy/study.json"]),
+    (["correct", "--film", "HS", *SPHERE, "--study-dir", "binstudy"], ["binstudy/study.json"]),
+    xfail(["correct", "--film", "HS", "--force-kn", "100", "--offset-mm=-3", "--study-dir", "badstudy"],
+          ["--measured-area-mm2", "--imprint"], reason="correct reads the study folder before it checks its measured values"),
+    (["correct", "--film", "HS", *WHEEL, "--measured-radius-mm", "7", "--study-dir", "badstudy"],
+     ["--measured", "either"]),
+    xfail(["correct", "--film", "HS", "--force-kn", "100", "--measured-area-mm2", "-5", "--offset-mm=-3",
+           "--study-dir", "badstudy"], ["--measured-area-mm2", "measured_area"], reason="correct reads the study folder before it checks its measured values"),
+    (["correct", "--film", "HS", *WHEEL, "--dpi", "600", "--study-dir", "badstudy"], ["--dpi"]),
+    (["correct", "--film", "HS", *WHEEL, "--imprint", "cut.png", "--study-dir", "badstudy"], ["--imprint"]),
+    xfail(["correct", "--film", "HS", *WHEEL, "--measurement-std-mm2", "-1", "--study-dir", "badstudy"],
+          ["--measurement-std-mm2", "measurement_std"], reason="correct reads the study folder before it checks its measured values"),
+    # curves
+    (["curves", "--film", "HS", "--offsets-mm=-7:2:1e-7", "--study-dir", "emptystudy"], ["--offsets-mm", "--study-dir"]),
+    (["curves", "--film", "HS", "--offsets-mm=abc", "--study-dir", "emptystudy"], ["--offsets-mm", "--study-dir"]),
+    (["curves", "--film", "HS", "--forces-kn=0", "--study-dir", "emptystudy"], ["--forces-kn", "--study-dir"]),
+    (["curves", "--film", "HS", "--roughness-law", "law.csv", "--study-dir", "emptystudy"],
+     ["law.csv", "--roughness-law", "--study-dir"]),
+    (["curves", "--film", "XX", "--study-dir", "emptystudy"], ["XX", "--film", "--study-dir"]),
+    (["curves", "--film", "HS", "--study-dir", "badstudy"], ["badstudy/study.json"]),
+    (["curves", "--film", "HS", "--study-dir", "missing"], ["--study-dir"]),
+    # pipeline
+    (["pipeline", "--films", "XX", "--study-dir", "emptystudy"], ["XX", "--films"]),
+    (["pipeline", "--films", "HS,HS", "--study-dir", "emptystudy"], ["--films"]),
+    (["pipeline", "--films", ",", "--study-dir", "emptystudy"], ["--films"]),
+    (["pipeline", "--films-file", "films.toml", "--study-dir", "emptystudy"], ["films.toml"]),
+    (["pipeline", "--study-dir", "badstudy"], ["badstudy/study.json"]),
+    # report
+    (["report", "--study-dir", "missing"], ["--study-dir", "study_dir"]),
+    (["report", "--study-dir", "emptystudy"], ["--study-dir", "study_dir", "emptystudy"]),
+    (["report", "--study-dir", "badstudy"], ["badstudy/study.json"]),
+    (["report", "--study-dir", "binstudy"], ["binstudy/study.json"]),
+]
+
+
+def _case_id(case) -> str:
+    values = case.values if hasattr(case, "values") else case
+    argv = values[0]
+    return " ".join(argv)[:90]
+
+
+@pytest.mark.parametrize("argv,names", CASES, ids=[_case_id(c) for c in CASES])
+def test_command_refuses_bad_input_cleanly(capsys, folder, guard, argv, names):
+    before = snapshot(folder)
+    code, out, err = run(capsys, argv)
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert code == 2, (code, err)
+    assert len(lines) == 1, err
+    assert "Traceback" not in err and out == ""
+    assert any(n in lines[0] for n in names), (names, lines[0])
+    assert snapshot(folder) == before, "a refused command created, changed or removed a file"
+
+
+def test_campaign_status_leaves_an_empty_file_alone(capsys, folder):
+    """A zero-byte file is not turned into a store by reading it."""
+    code, _, err = run(capsys, ["campaign", "status", "--store", "empty.sqlite", "--json"])
+    assert code == 2 and (folder / "empty.sqlite").stat().st_size == 0, err
+
+
+def cases_per_command() -> dict[str, int]:
+    counts: dict[str, int] = {}
+    for case in CASES:
+        argv = (case.values if hasattr(case, "values") else case)[0]
+        key = " ".join(argv[:2]) if argv[0] == "campaign" else argv[0]
+        counts[key] = counts.get(key, 0) + 1
+    return counts
+
+
+def test_every_command_has_cases():
+    counts = cases_per_command()
+    for name in cli.command_modules():
+        assert any(k.split()[0] == name for k in counts), name
