@@ -162,14 +162,22 @@ def test_killed_campaign_resumes_without_recomputing_finished_points(tmp_path):
     command = [sys.executable, "-m", "filmcal.cli", "campaign", "run", "--design", str(design),
                "--store", str(store), "--workers", "2", "--model", "test_campaign:counting_model", "--json"]
 
+    from test_campaign_parallel import alive, descendants
+
     with (tmp_path / "first.err").open("w") as stderr:
         first = subprocess.Popen(command, env=env, stdout=subprocess.DEVNULL, stderr=stderr)
         try:
             _wait_for_ok_rows(store, 4, first)
+            workers = descendants(first.pid)  # the workers and the resource tracker
         finally:
             first.send_signal(signal.SIGKILL)
             first.wait(timeout=30)
     assert first.returncode == -signal.SIGKILL, (tmp_path / "first.err").read_text()
+    killed_at = time.monotonic()
+    assert len(workers) >= 2
+    while any(alive(pid) for pid in workers) and time.monotonic() - killed_at < 5.0:
+        time.sleep(0.05)
+    assert not [pid for pid in workers if alive(pid)], "worker processes outlived the killed campaign by 5 s"
     ok_before = {point_key(inputs) for inputs, _ in stored_rows(store, "ok")}
     assert 4 <= len(ok_before) < len(points)  # killed midway
 
