@@ -65,6 +65,9 @@ SLOW_TESTS: dict[str, str] = {
     "test_study.py::": "14 s shared FE campaign and surrogate, 19 s refinement",
     "test_surrogate.py::test_same_random_state_same_fit_serial_or_parallel": "8 s: parallel refits",
     "test_wheelrail_contact.py::test_film_enlarges_the_area_at_every_offset": "11 s: a sweep of solves",
+    "test_wheelrail_cli.py::test_rough_wheel_grows_the_imprint_in_the_papers_order": "48 s: 12 wheel-rail solves, 3 BEM laws",
+    "test_film_law.py::test_large_strain_sphere_on_flat_matches_the_fe": "5-10 s each: FE large-strain solves",
+    "test_roughness.py::test_fully_plastic_limit_is_the_bearing_area_curve": "5 s: slow projected-gradient solves",
 }
 
 #: An unmarked test slower than this is named at the end of the run.

@@ -100,3 +100,29 @@ def test_series_law_adds_closures_and_inverts():
         LargeStrainFilm(-1.0)
     with pytest.raises(ValueError, match="poisson"):
         LargeStrainFilm(1000.0, 0.5)
+
+
+@pytest.mark.parametrize("modulus, force_kn", [(300.0, 50.0), (768.0, 100.0), (2739.0, 100.0)])
+def test_large_strain_sphere_on_flat_matches_the_fe(modulus, force_kn):
+    """Second method: the half-space with the large-strain film law against the FE model
+    with its large-strain (neo-Hookean) film, R450. The film shrinks the contact by
+    0.1-0.9 mm against the linear film; both methods agree on that shift within 0.02 mm
+    and on the radius within 0.06 mm (the Winkler film's pressure tail)."""
+    from filmcal.fem import ContactOptions, Film, solve_sphere_on_flat
+    from filmcal.wheelrail.halfspace import HalfSpaceContactSolver, sphere_on_flat_contact
+
+    solver = HalfSpaceContactSolver()
+    film = FilmLayer(modulus, 0.33, 0.09)
+    radius = {}
+    for large in (False, True):
+        fe = solve_sphere_on_flat(450.0, 1e3 * force_kn, Film(modulus, 0.33),
+                                  ContactOptions(large_strain=large))
+        assert fe.converged
+        f, law = film_law(film, None, large_strain=large)
+        hs = sphere_on_flat_contact(450.0, 1e3 * force_kn, film=f, law=law, solver=solver)
+        radius[large] = (fe.contact_radius_mm, hs.equivalent_radius_mm)
+    shift_fe = radius[True][0] - radius[False][0]
+    shift_hs = radius[True][1] - radius[False][1]
+    assert shift_fe < -0.05
+    assert shift_hs == pytest.approx(shift_fe, abs=0.02)
+    assert radius[True][1] == pytest.approx(radius[True][0], abs=0.06)

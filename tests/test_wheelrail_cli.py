@@ -86,6 +86,18 @@ def test_text_output(capsys):
     ["--offset-mm=-3", "--force-kn", "100", "--no-film", "--wheel", "/no/such/wheel.csv"],
     ["--offset-mm=-3", "--force-kn", "100"],
     ["--offset-mm=-3", "--force-kn", "100", "--no-film", "--film-modulus-mpa", "2800"],
+    ["--offset-mm=-3", "--force-kn", "100", "--no-film", "--large-strain"],
+    ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--film-type", "XS"],
+    ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--films-file",
+     "/no/such/films.toml", "--film-type", "HS"],
+    ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--imprint", "halo",
+     "--film-type", "HS"],
+    ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--roughness-ra-um",
+     "1.5", "--roughness-law", "/no/such/law.csv"],
+    ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--roughness-map",
+     "/no/such/map.csv", "--roughness-pixel-um", "1"],
+    ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--roughness-ra-um",
+     "1.5", "--hardness-mpa", "-5"],
 ])
 def test_bad_input_exits_2_with_one_line(capsys, argv):
     with pytest.raises(SystemExit) as info:
@@ -109,3 +121,84 @@ def test_malformed_csv_exits_2(capsys, tmp_path):
                                          (" 1/20 ", 0.05)])
 def test_parse_inclination(text, value):
     assert parse_inclination(text) == pytest.approx(value)
+
+
+def _json(capsys, *argv) -> dict:
+    code, out, err = _run(capsys, *argv, "--json")
+    assert code == 0, err
+    return json.loads(out)
+
+
+#: Posterior medians of the film moduli in the current study (MPa).
+CALIBRATED_MPA = {"MS": "768", "HS": "2739", "HHS": "6291"}
+
+
+def test_rough_wheel_grows_the_imprint_in_the_papers_order(capsys):
+    """Ra 1.5 um on the wheel, eta = -3 mm, 50 and 100 kN, each film at its calibrated
+    modulus: the reported imprint area of MS and HS grows by at least 2 %, that of HHS by
+    less than that of HS (the order of the paper's experiments)."""
+    growth = {}
+    for film, modulus in CALIBRATED_MPA.items():
+        for force in ("50", "100"):
+            args = ["--offset-mm=-3", "--force-kn", force, "--film-modulus-mpa", modulus,
+                    "--film-type", film]
+            smooth = _json(capsys, *args)
+            rough = _json(capsys, *args, "--roughness-ra-um", "1.5")
+            assert rough["roughness"]["model"] == "FFT boundary elements"
+            assert rough["imprint_model"] == "activation"
+            growth[film, force] = rough["imprint_area_mm2"] / smooth["imprint_area_mm2"] - 1.0
+            # the coloured spots lie within the rough contact
+            assert 0.0 < rough["stained_area_mm2"] < rough["support_area_mm2"]
+    for force in ("50", "100"):
+        assert growth["MS", force] >= 0.02
+        assert growth["HS", force] >= 0.02
+        assert growth["HHS", force] < growth["HS", force]
+
+
+def test_large_strain_film_stiffens_the_soft_film(capsys):
+    args = ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "768", "--film-type", "MS"]
+    small = _json(capsys, *args)
+    large = _json(capsys, *args, "--large-strain")
+    assert small["film"]["kinematics"] == "small" and large["film"]["kinematics"] == "large"
+    assert large["converged"]
+    # the neo-Hookean film stiffens in compression: a smaller, more loaded patch
+    assert large["contact_area_mm2"] < 0.97 * small["contact_area_mm2"]
+    assert large["max_pressure_mpa"] > small["max_pressure_mpa"]
+    assert large["imprint_area_mm2"] < small["imprint_area_mm2"]
+
+
+def test_user_film_and_imprint_models(capsys, tmp_path):
+    films = tmp_path / "films.toml"
+    films.write_text("[LOT7]\nrange_mpa = [30, 110]\nthickness_mm = 0.1\n")
+    base = ["--offset-mm=-3", "--force-kn", "50", "--film-modulus-mpa", "2739"]
+    hs = _json(capsys, *base, "--film-type", "HS")
+    lot = _json(capsys, *base, "--film-type", "LOT7", "--films-file", str(films))
+    assert lot["film"]["thickness_mm"] == 0.1 and lot["activation_pressure_mpa"] == 30.0
+    edge = _json(capsys, *base, "--film-type", "HS", "--imprint", "edge")
+    capsule = _json(capsys, *base, "--film-type", "HS", "--imprint", "capsule")
+    # a lower activation pressure colours more; the edge colours the most
+    assert hs["imprint_area_mm2"] < edge["imprint_area_mm2"]
+    assert capsule["imprint_model"] == "capsule"
+    assert 0.5 * hs["imprint_area_mm2"] < capsule["imprint_area_mm2"] < edge["imprint_area_mm2"]
+    thin = _json(capsys, *base, "--film-type", "LOT7", "--films-file", str(films),
+                 "--film-thickness-mm", "0.09")
+    assert lot["imprint_area_mm2"] > thin["imprint_area_mm2"] * 0.99  # thicker film, larger patch
+
+
+def test_measured_height_map_and_law(capsys, tmp_path):
+    """A measured height map (CSV) and a measured law (CSV) both act on the imprint."""
+    x = np.arange(64) * 1.0
+    heights = 2.0 * np.cos(2 * np.pi * x / 32.0)[:, None] * np.cos(2 * np.pi * x / 16.0)[None, :]
+    path = tmp_path / "wheel_heights.csv"
+    np.savetxt(path, heights, delimiter=",")
+    base = ["--offset-mm=-3", "--force-kn", "50", "--film-modulus-mpa", "2739", "--film-type", "HS"]
+    smooth = _json(capsys, *base)
+    mapped = _json(capsys, *base, "--roughness-map", str(path), "--roughness-pixel-um", "1")
+    assert mapped["roughness"]["pixel_um"] == 1.0
+    assert mapped["imprint_area_mm2"] > smooth["imprint_area_mm2"]
+    law = tmp_path / "law.csv"
+    law.write_text("closure_um,pressure_mpa\n0,0\n1,5\n2,40\n3,300\n")
+    measured = _json(capsys, *base, "--roughness-law", str(law))
+    assert measured["imprint_area_mm2"] > smooth["imprint_area_mm2"]
+    code, out, err = _run(capsys, *base, "--roughness-map", str(path), "--json")
+    assert code == 2 and "roughness-pixel-um" in err
