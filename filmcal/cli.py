@@ -247,6 +247,23 @@ def _name_option(message: str, options: dict[str, str]) -> str:
 
 _DECODE_ERRORS = ("JSONDecodeError", "DatabaseError", "OperationalError", "IntegrityError", "BadZipFile",
                   "UnidentifiedImageError", "DecompressionBombError", "UnicodeDecodeError", "EOFError")
+# Libraries that decode files: an error raised inside one of them while a file
+# of the user or of a study is open is that file's damage, not a bug.
+_DECODER_MODULES = ("h5py", "h5netcdf", "netCDF4", "xarray.backends", "zipfile", "PIL", "numpy.lib.format",
+                    "numpy.lib.npyio", "numpy.lib._format_impl", "numpy.lib._npyio_impl", "sqlite3", "json",
+                    "csv", "tomllib", "gzip", "emcee.backends")
+_DECODER_ERRORS = (RuntimeError, KeyError, IndexError, EOFError, OSError, ValueError)
+
+
+def _raised_in_decoder(exc: BaseException) -> bool:
+    """True if the innermost Python frame of `exc` belongs to a file-decoding library."""
+    frames = [f for f, _ in traceback.walk_tb(exc.__traceback__)]
+    if not frames:
+        return False
+    module = str(frames[-1].f_globals.get("__name__", ""))
+    return any(module == m or module.startswith(m + ".") for m in _DECODER_MODULES)
+
+
 _PATH_LOCALS = re.compile(r"(^|_)(path|file|filename|fname|store)$")
 
 
@@ -331,6 +348,10 @@ def user_error_message(exc: BaseException, args: argparse.Namespace, options: di
             return f"{_one_line(str(exc))}: another filmcal is writing the same file; wait for it to finish"
         if name == "OperationalError" and "unable to open" in str(exc):
             return f"cannot open the store ({_one_line(str(exc))}); check --store"
+        return _damaged_message(exc, args, options)
+    if type(exc).__module__ == "_csv" or (
+            isinstance(exc, _DECODER_ERRORS) and not isinstance(exc, ConnectionError)
+            and _raised_in_decoder(exc) and _file_of(exc) is not None):
         return _damaged_message(exc, args, options)
     if isinstance(exc, ValueError):
         text = exc.args[0] if len(exc.args) == 1 and isinstance(exc.args[0], str) else str(exc)
