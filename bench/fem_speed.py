@@ -14,6 +14,15 @@ Measures, in one run on this machine:
 Targets: sweep / t_factor <= 0.15, cold / t_factor <= 3.
 
     python bench/fem_speed.py [--radius-mm 450] [--force-kn 75]
+
+With ``--edge-table`` it prints instead the verification table of the edge and
+imprint readings: at h = 0.1 mm (the paper's mesh) against h = 0.0125 mm
+meshes read independently -- the edge bracketed by the last node with positive
+pressure and the first node without, the activation contours (MS 10, HS 50,
+HHS 130 MPa) by linear interpolation of the nodal pressures -- and, without a
+film, against Hertz's closed forms. It also times the reading against the solve.
+
+    python bench/fem_speed.py --edge-table [--radius-mm 450] [--force-kn 75] [--fine-mm 0.0125]
 """
 from __future__ import annotations
 
@@ -64,11 +73,96 @@ def full_stiffness(model: SphereOnFlat) -> sp.csc_matrix:
     return sp.csc_matrix(K.tocsr()[free][:, free])
 
 
+def edge_table(radius_mm: float, force_kn: float, fine_mm: float,
+               moduli=(None, 500.0, 1000.0, 2800.0, 6300.0, 10000.0)) -> None:
+    """Print h = 0.1 mm readings against the fine-mesh and analytic references."""
+    from filmcal.films import get_film
+    from filmcal.fem import MeshSettings
+    from filmcal.hertz import hertz_max_pressure_mpa, hertz_radius_mm
+
+    films = [get_film(n) for n in ("MS", "HS", "HHS")]
+    force_n = force_kn * 1e3
+    coarse_model = SphereOnFlat(radius_mm)
+    t0 = time.perf_counter()
+    fine_model = SphereOnFlat(radius_mm, MeshSettings(element_size_mm=fine_mm, contact_zone_mm=11.0))
+    print(f"R{radius_mm:g} / {force_kn:g} kN: h = 0.1 mm readings against h = {fine_mm:g} mm "
+          f"(model built in {time.perf_counter() - t0:.0f} s)")
+    print(f"{'E MPa':>7} {'edge 0.1':>9} {'ref':>9} {'bracket':>17} {'err':>7} {'old fit':>8} | "
+          + " | ".join(f"{f.name} act 0.1 / ref / err" for f in films))
+    worst_edge = worst_act = 0.0
+    read_s = solve_s = 0.0
+    for modulus in moduli:
+        film = None if modulus is None else Film(modulus, 0.33)
+        coarse = coarse_model.solve(film, force_n)
+        fine = fine_model.solve(film, force_n)
+        t1 = time.perf_counter()
+        coarse.profile()
+        read_s += time.perf_counter() - t1
+        solve_s += coarse.elapsed_s
+        k = int(np.flatnonzero(fine.pressure_mpa > 0)[-1])
+        lo, hi = float(fine.r_mm[k]), float(fine.r_mm[k + 1])
+        if modulus is None:
+            ref = hertz_radius_mm(radius_mm, force_n)
+            p0 = hertz_max_pressure_mpa(radius_mm, force_n)
+            act_ref = [ref * np.sqrt(1 - (f.activation_pressure_mpa / p0) ** 2) for f in films]
+        else:
+            ref = 0.5 * (lo + hi)
+            act_ref = [_crossing(fine, f.activation_pressure_mpa) for f in films]
+        err = coarse.contact_radius_mm - ref
+        worst_edge = max(worst_edge, abs(err))
+        old = _old_fit(coarse)
+        cells = []
+        for f, r_ref in zip(films, act_ref):
+            got = coarse.read_imprint("activation", f)
+            worst_act = max(worst_act, abs(got - r_ref))
+            cells.append(f"{got:7.4f} / {r_ref:7.4f} / {got - r_ref:+.4f}")
+        label = "none" if modulus is None else f"{modulus:g}"
+        print(f"{label:>7} {coarse.contact_radius_mm:9.4f} {ref:9.4f} [{lo:7.4f}, {hi:7.4f}] {err:+7.4f} "
+              f"{old:8.4f} | " + " | ".join(cells))
+    print(f"largest |error|: edge {worst_edge:.4f} mm, activation {worst_act:.4f} mm "
+          f"(reference: Hertz without film, else the bracket's middle, +-{fine_mm / 2:g} mm)")
+    print(f"reading cost: {1e3 * read_s / len(moduli):.1f} ms per evaluation against "
+          f"{1e3 * solve_s / len(moduli):.1f} ms per solve (noisy on a shared machine)")
+
+
+def _crossing(res, level: float) -> float:
+    """Outermost crossing of the nodal pressures with `level`, linear in p."""
+    k = int(np.flatnonzero(res.pressure_mpa >= level)[-1])
+    p0, p1 = res.pressure_mpa[k], res.pressure_mpa[k + 1]
+    return float(res.r_mm[k] + (res.r_mm[k + 1] - res.r_mm[k]) * (p0 - level) / (p0 - p1))
+
+
+def _old_fit(res) -> float:
+    """The reading this package used before: b (a^2 - r^2)^gamma fitted to the nodal
+    pressures between a - 1.0 and a - 0.2 mm (last node excluded), for the table only."""
+    from scipy.optimize import least_squares
+
+    r, p = res.r_mm, res.pressure_mpa
+    k = int(np.flatnonzero(p > 0)[-1])
+    a = float(r[k])
+    for _ in range(3):
+        sel = np.flatnonzero((r >= a - 1.0) & (r <= a - 0.2) & (p > 0))
+        sel = sel[sel < k]
+        b0 = p[sel[0]] / np.sqrt(max(a * a - r[sel[0]] ** 2, 1e-12))
+        fit = least_squares(lambda q: (q[1] * np.clip(q[0] ** 2 - r[sel] ** 2, 1e-300, None) ** q[2] - p[sel])
+                            / p[sel].max(), [max(a, r[sel[-1]] + 1e-6), b0, 0.5],
+                            bounds=([r[sel[-1]] + 1e-9, 0, 0.3], [r[k + 1] + 1.0, np.inf, 1.5]),
+                            x_scale=[0.1, b0, 0.1])
+        a = float(fit.x[0])
+    return a
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--radius-mm", type=float, default=450.0)
     ap.add_argument("--force-kn", type=float, default=75.0)
+    ap.add_argument("--edge-table", action="store_true", help="print the edge/imprint verification table")
+    ap.add_argument("--fine-mm", type=float, default=0.0125, help="element size of the reference mesh")
     args = ap.parse_args()
+    if args.edge_table:
+        with threadpool_limits(limits=1, user_api="blas"):
+            edge_table(args.radius_mm, args.force_kn, args.fine_mm)
+        return
     with threadpool_limits(limits=1, user_api="blas"):
         # warm the process (lazy imports, first-use set-up of numpy/scipy/skfem) on
         # another radius: "cold" below means no cached model for this radius

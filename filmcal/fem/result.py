@@ -68,8 +68,15 @@ class FEResult:
         return float(np.pi * self.hertz_radius_mm**2)
 
     def profile(self) -> RadialProfile:
-        """The continuous reading of the nodal pressure profile (edge, levels, integrals)."""
-        return read_radial_profile(self.r_mm, self.pressure_mpa, self.edge_tip_mm)
+        """The continuous reading of the nodal pressure profile (edge, levels, integrals).
+
+        Read once and kept (an attribute, not a field: it is not part of the summary).
+        """
+        cached = self.__dict__.get("_profile")
+        if cached is None or cached.r_mm is not self.r_mm or cached.pressure_mpa is not self.pressure_mpa:
+            cached = read_radial_profile(self.r_mm, self.pressure_mpa, self.edge_tip_mm)
+            self.__dict__["_profile"] = cached
+        return cached
 
     def read_imprint(self, model: str, film_type) -> float:
         """Imprint radius (mm) of `film_type` (a :class:`filmcal.films.FilmType`) under imprint `model`."""
