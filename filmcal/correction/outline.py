@@ -104,8 +104,9 @@ def _closed(ring: np.ndarray) -> np.ndarray:
 
 def _signed_area_mm2(ring: np.ndarray) -> float:
     """Shoelace area, positive counter-clockwise (closed or open ring)."""
-    x, y = ring[:, 0], ring[:, 1]
-    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+    from filmcal.contact.geometry import ring_signed_area_mm2
+
+    return ring_signed_area_mm2(ring)
 
 
 def outline_area_mm2(outline) -> float:
