@@ -512,3 +512,13 @@ def test_films_enter_through_their_interface_methods(solver):
     assert by_methods.newton_iterations == 0
     np.testing.assert_allclose(by_methods.pressure_mpa, direct.pressure_mpa,
                                atol=1e-9 * direct.max_pressure_mpa)
+
+
+def test_kernel_table_equals_love_coefficients(solver):
+    """The kernel built from one table of corner terms equals Love's formula at every lag."""
+    grid = SurfaceGrid(31, 22, 0.1, 0.07)
+    conv = solver._convolution(grid)
+    lag_x = np.arange(-(grid.nx - 1), grid.nx) * grid.dx_mm
+    lag_y = np.arange(-(grid.ny - 1), grid.ny) * grid.dy_mm
+    direct = rectangle_influence_mm(lag_x[:, None], lag_y[None, :], grid.dx_mm, grid.dy_mm)
+    np.testing.assert_allclose(conv.kernel * solver.contact_modulus_mpa, direct, rtol=1e-10)
