@@ -12,7 +12,7 @@ from numbers import Real
 from typing import Any, Callable
 
 __all__ = ["as_finite", "check_positive", "check_range", "check_poisson", "check_choice",
-           "check_count", "arg_finite", "arg_int_in", "arg_float_in"]
+           "check_count", "arg_finite", "arg_int_in", "arg_float_in", "parse_grid", "arg_grid"]
 
 
 def as_finite(name: str, value: object) -> float:
@@ -132,3 +132,60 @@ def arg_float_in(low: float, high: float) -> Callable[[str], float]:
             raise ValueError(what) from None
     return _argparse_type(convert, lambda x: _require(math.isfinite(x) and low <= x <= high, what), "float",
                           (low, high))
+
+
+def _grid(text: str, max_count: int) -> list[float]:
+    """`parse_grid` without the parameter's name in its messages."""
+    form = "must be a comma-separated list or start:stop:step (step > 0) of finite numbers"
+    if ":" in text:
+        try:
+            start, stop, step = (float(x) for x in text.split(":"))
+        except ValueError:
+            raise ValueError(f"{form}, got {text!r}") from None
+        if not all(math.isfinite(v) for v in (start, stop, step)) or step <= 0 or stop < start:
+            raise ValueError(f"{form}, got {text!r}")
+        count = math.floor((stop - start) / step + 0.5) + 1
+        if count > max_count:
+            raise ValueError(f"{text!r} gives {count} values; at most {max_count}")
+        return [round(start + i * step, 9) for i in range(count)]
+    try:
+        values = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise ValueError(f"{form}, got {text!r}") from None
+    if not values or not all(math.isfinite(v) for v in values):
+        raise ValueError(f"{form}, got {text!r}")
+    if len(values) > max_count:
+        raise ValueError(f"{text!r} gives {len(values)} values; at most {max_count}")
+    return values
+
+
+def parse_grid(name: str, text: str, max_count: int) -> list[float]:
+    """Values from ``a,b,c`` or ``start:stop:step`` (stop included), at most `max_count` of them.
+
+    The number of values of a range is counted before it is built, so a tiny
+    step is refused instead of exhausting memory.
+
+    Raises
+    ------
+    ValueError
+        Naming `name`, for text that is neither form, non-finite values, a
+        step <= 0, stop < start, no value, or more than `max_count` values.
+    """
+    try:
+        return _grid(text, max_count)
+    except ValueError as exc:
+        raise ValueError(f"{name}: {exc}") from None
+
+
+def arg_grid(max_count: int) -> Callable[[str], str]:
+    """An argparse ``type`` that checks a `parse_grid` text and returns it unchanged."""
+    def parse(text: str) -> str:
+        try:
+            _grid(text, max_count)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+        return text
+    parse.__name__ = "grid"
+    parse.filmcal_checked = True  # type: ignore[attr-defined]
+    parse.max_count = max_count  # type: ignore[attr-defined]
+    return parse

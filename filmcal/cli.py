@@ -6,8 +6,9 @@ A thin dispatcher: each subcommand lives in `filmcal.commands.<name>` with an
 
 This module is the command line's one error boundary:
 
-- Before any work, every option is checked: numbers are finite and size
-  options lie in their bounds (`SIZE_BOUNDS`, stated in ``--help``), output
+- Before any work, every option is checked: numbers are finite, size
+  options lie in their bounds (`SIZE_BOUNDS`) and lists of loads or offsets
+  are not too long (`GRID_BOUNDS`), both stated in ``--help``; output
   files are not folders and their folder exists and is writable, study
   folders are not files (`preflight`). A bad option ends the command before
   anything is computed or written.
@@ -35,7 +36,7 @@ from pathlib import Path
 
 import filmcal.commands
 from filmcal._errors import DamagedFileError
-from filmcal._validation import arg_finite, arg_float_in, arg_int_in
+from filmcal._validation import arg_finite, arg_float_in, arg_grid, arg_int_in
 
 __all__ = ["main", "build_parser", "preflight", "SIZE_BOUNDS",
            "EXIT_OK", "EXIT_USER", "EXIT_INTERNAL", "EXIT_INTERRUPTED"]
@@ -67,6 +68,10 @@ SIZE_BOUNDS: dict[str, tuple[float, float]] = {
     "max_steps": (1, 1_000_000),
     "timeout_s": (0.001, 7 * 24 * 3600.0),
 }
+
+# Options that take a list or a start:stop:step range, with the most values
+# each may give (curves: about 2 s per load, offset and wheel).
+GRID_BOUNDS: dict[str, int] = {"forces_kn": 50, "offsets_mm": 200}
 
 # Path options by destination: files that a command writes, folders it
 # writes into, and files it only reads. Checked before any work.
@@ -111,6 +116,11 @@ def _harden(parser: argparse.ArgumentParser) -> None:
                 _harden(sub)
             continue
         convert = action.type
+        if action.dest in GRID_BOUNDS and convert in (None, str) and action.nargs is None:
+            action.type = arg_grid(GRID_BOUNDS[action.dest])
+            if action.help and action.help is not argparse.SUPPRESS:
+                action.help = f"{action.help} [at most {GRID_BOUNDS[action.dest]} values]"
+            continue
         if convert is None or getattr(convert, "filmcal_checked", False):
             continue
         if action.dest in SIZE_BOUNDS and convert in (int, float):

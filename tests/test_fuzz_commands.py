@@ -210,8 +210,10 @@ CASES = [
     xfail(["correct", "--film", "HS", *WHEEL, "--measurement-std-mm2", "-1", "--study-dir", "badstudy"],
           ["--measurement-std-mm2", "measurement_std"], reason="correct reads the study folder before it checks its measured values"),
     # curves
-    (["curves", "--film", "HS", "--offsets-mm=-7:2:1e-7", "--study-dir", "emptystudy"], ["--offsets-mm", "--study-dir"]),
-    (["curves", "--film", "HS", "--offsets-mm=abc", "--study-dir", "emptystudy"], ["--offsets-mm", "--study-dir"]),
+    (["curves", "--film", "HS", "--offsets-mm=-7:2:1e-7", "--study-dir", "emptystudy"], ["--offsets-mm"]),
+    (["curves", "--film", "HS", "--offsets-mm=abc", "--study-dir", "emptystudy"], ["--offsets-mm"]),
+    (["curves", "--film", "HS", "--forces-kn=1:1e9:1", "--study-dir", "emptystudy"], ["--forces-kn"]),
+    (["curves", "--film", "HS", "--forces-kn=50,nan", "--study-dir", "emptystudy"], ["--forces-kn"]),
     (["curves", "--film", "HS", "--forces-kn=0", "--study-dir", "emptystudy"], ["--forces-kn", "--study-dir"]),
     (["curves", "--film", "HS", "--roughness-law", "law.csv", "--study-dir", "emptystudy"],
      ["law.csv", "--roughness-law", "--study-dir"]),

@@ -149,6 +149,27 @@ def test_choice_options_refuse_unknown_choices(capsys, no_work, case):
     assert not no_work
 
 
+GRID_OPTIONS = [(path, action) for path, sub in COMMANDS.items() for action in sub._actions
+                if getattr(action.type, "max_count", None)]
+
+
+@pytest.mark.parametrize("case", GRID_OPTIONS, ids=_id)
+@pytest.mark.parametrize("value", ["-7:2:1e-7", "0:1e12:1", "abc", "", "1:0:1", "0:1:0", "0:1:-1", "nan,1",
+                                   "1,inf", "a:b:c", "1:2", ",".join(["1"] * 1001)])
+def test_list_and_range_options_are_bounded(capsys, no_work, case, value):
+    path, action = case
+    code, out, err = run(capsys, [*path, f"{action.option_strings[-1]}={value}"])
+    assert_refused(code, out, err, action.option_strings[-1])
+    assert not no_work
+
+
+def test_list_options_state_their_bound(capsys):
+    assert GRID_OPTIONS
+    for path, action in GRID_OPTIONS:
+        code, out, _ = run(capsys, [*path, "--help"])
+        assert f"at most {action.type.max_count} values" in " ".join(out.split())
+
+
 NUMBERS_BY_COMMAND = {}
 for _path, _action in NUMBER_OPTIONS:
     NUMBERS_BY_COMMAND.setdefault(_path, []).append(_action.option_strings[-1])
