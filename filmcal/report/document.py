@@ -153,7 +153,7 @@ nav.toc li .dots { flex: 1; border-bottom: 1px dotted #999; margin: 0 0.4em 0.3e
 nav.toc li .page { min-width: 2em; text-align: right; }
 nav.toc li.figure { font-size: 8.5pt; margin: 0.15em 0 0.15em 1.6em; color: #333; }
 section.chapter { break-before: page; }
-section.chapter > h2 { margin-top: 0; }
+section.chapter > h2 { margin-top: 0; } section.brief { break-inside: avoid; }
 @media screen { section.chapter { border-top: 1px solid #ddd; margin-top: 2em; } }
 """
 
@@ -225,7 +225,9 @@ def render_html(report: Report, page_numbers: dict[str, int] | None = None) -> s
     if report.answer is not None:
         title.append(_table_html(report.answer))
     title += [f'<p class="remark">{html.escape(r)}</p>' for r in report.remarks]
-    parts = [f'<section class="chapter" id="{_anchor(i)}"><h2>{i}. {html.escape(s.title)}</h2>'
+    # a section with figures or tables starts a page; a few lines of text follow on the page before
+    parts = [f'<section class="{"chapter" if any(not isinstance(b, str) for b in s.blocks) else "brief"}" '
+             f'id="{_anchor(i)}"><h2>{i}. {html.escape(s.title)}</h2>'
              + "".join(_block_html(b, fig_no) for b in s.blocks) + "</section>"
              for i, s in enumerate(report.sections, 1)]
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"

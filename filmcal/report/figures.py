@@ -316,7 +316,7 @@ def plot_area_curves(rows: list[dict], film: str) -> Figure:
             hi = a0 + np.array([r["delta_area_hi_mm2"] for r in sel])
             med = np.array([r["area_film_median_mm2"] for r in sel])
             if k == 0:
-                ax.plot(eta, a0, "ko-", ms=3.5, lw=1.2, label="no film")
+                ax.plot(eta, a0, "ko-", ms=3.5, lw=1.2, label="no film" if force == forces[0] else None)
             ax.plot(eta, med, "s--", ms=3.5, lw=1.2, color=f"C{k + 1}",
                     label=f"{film} film, {_wheel_name(wheel)}: median, 90 % band" if force == forces[0] else None)
             ax.fill_between(eta, lo, hi, color=f"C{k + 1}", alpha=0.25, lw=0)
