@@ -59,7 +59,7 @@ SIZE_BOUNDS: dict[str, tuple[float, float]] = {
     "seed": (0, 2**32 - 1),
     "roughness_seed": (0, 2**32 - 1),
     "samples": (1, 2000),
-    "iterations": (1, 10_000),
+    "iterations": (1, 1000),
     "element_size_mm": (0.02, 5.0),
     "film_layers": (1, 8),
     "grid_mm": (0.02, 2.0),
@@ -353,6 +353,10 @@ def user_error_message(exc: BaseException, args: argparse.Namespace, options: di
     name = type(exc).__name__
     if isinstance(exc, DamagedFileError):
         return _one_line(str(exc))
+    if isinstance(exc, OSError) and "unable to lock file" in str(exc).lower():  # h5py's lock
+        held = _file_of(exc)
+        return (f"{held or 'a file'} is in use by another process ({_one_line(str(exc))}); wait for it "
+                "to finish, or use another study folder")
     if name in _DECODE_ERRORS or any(c.__name__ in _DECODE_ERRORS for c in type(exc).__mro__):
         if name == "OperationalError" and "locked" in str(exc):
             return f"{_one_line(str(exc))}: another filmcal is writing the same file; wait for it to finish"

@@ -25,3 +25,36 @@ def test_subcommand_help(name):
     p = subprocess.run([sys.executable, "-m", "filmcal.cli", name, "--help"], capture_output=True, text=True,
                        timeout=60)
     assert p.returncode == 0 and "usage: filmcal " + name in p.stdout, p.stderr
+
+
+def test_every_size_bound_is_used_and_stated():
+    """Each bound of `cli.SIZE_BOUNDS` belongs to an option of some command, whose help states it."""
+    import argparse
+
+    from filmcal import cli
+
+    parser = cli.build_parser()
+    seen = set()
+
+    def walk(p):
+        for sub in cli._subparsers(p).values():
+            walk(sub)
+            for action in sub._actions:
+                if action.dest in cli.SIZE_BOUNDS and getattr(action.type, "bounds", None):
+                    seen.add(action.dest)
+                    low, high = action.type.bounds
+                    assert action.help and (f"{low}-{high}" in action.help or f"{low:g}-{high:g}" in action.help)
+    walk(parser)
+    assert isinstance(parser, argparse.ArgumentParser)
+    assert seen == set(cli.SIZE_BOUNDS), set(cli.SIZE_BOUNDS) - seen
+
+
+def test_lock_and_busy_files_are_not_called_damaged(tmp_path):
+    import argparse
+
+    from filmcal import cli
+
+    busy = OSError(f"[Errno 11] Unable to synchronously open file (unable to lock file, errno = 11, "
+                   f"error message = 'Resource temporarily unavailable') (name = '{tmp_path / 'HS.h5'}')")
+    line = cli.user_error_message(busy, argparse.Namespace(), {})
+    assert "in use by another process" in line and "HS.h5" in line and "damaged" not in line
