@@ -1,0 +1,72 @@
+"""`filmcal fem` with film types and imprint models (in-process, through `filmcal.cli.main`)."""
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from filmcal import cli
+from filmcal.hertz import hertz_max_pressure_mpa, hertz_radius_mm
+
+BASE = ["fem", "--radius-mm", "450", "--force-kn", "75", "--json"]
+
+
+def _run(capsys, *args) -> tuple[int, dict | None, str]:
+    code = cli.main([*BASE, *args])
+    out = capsys.readouterr()
+    return code, (json.loads(out.out) if out.out.strip() else None), out.err
+
+
+def test_film_type_reports_the_activation_imprint(capsys):
+    code, out, _ = _run(capsys, "--film-modulus-mpa", "2800", "--film-type", "HS")
+    assert code == 0
+    assert out["imprint_model"] == "activation" and out["film_type"] == "HS"
+    assert out["activation_pressure_mpa"] == 50.0
+    assert 0 < out["imprint_radius_mm"] < out["contact_radius_mm"]
+    assert out["imprint_area_mm2"] == pytest.approx(math.pi * out["imprint_radius_mm"] ** 2)
+
+
+def test_no_film_imprint_is_the_hertz_contour(capsys):
+    code, out, _ = _run(capsys, "--no-film", "--film-type", "HHS")
+    a = hertz_radius_mm(450.0, 75e3)
+    p0 = hertz_max_pressure_mpa(450.0, 75e3)
+    assert code == 0
+    assert out["contact_radius_mm"] == pytest.approx(a, abs=0.01)
+    assert out["imprint_radius_mm"] == pytest.approx(a * math.sqrt(1 - (130.0 / p0) ** 2), abs=0.01)
+
+
+def test_imprint_models_and_user_films(capsys, tmp_path):
+    films = tmp_path / "films.toml"
+    films.write_text('[LOT7]\nactivation_pressure_mpa = 45\n\n[WIDE]\nrange_mpa = [40, 160]\n')
+    radii = {}
+    for model in ("edge", "activation", "capsule"):
+        code, out, _ = _run(capsys, "--film-modulus-mpa", "2800", "--films-file", str(films),
+                            "--film-type", "WIDE", "--imprint", model)
+        assert code == 0 and out["imprint_model"] == model
+        radii[model] = out["imprint_radius_mm"]
+    assert radii["edge"] == pytest.approx(out["contact_radius_mm"])
+    assert radii["edge"] > radii["activation"] > radii["capsule"]
+    code, out, _ = _run(capsys, "--film-modulus-mpa", "2800", "--films-file", str(films), "--film-type", "LOT7")
+    assert code == 0 and out["activation_pressure_mpa"] == 45.0
+    code, legacy, _ = _run(capsys, "--film-modulus-mpa", "2800", "--activation-pressure-mpa", "45")
+    assert code == 0 and legacy["imprint_radius_mm"] == pytest.approx(out["imprint_radius_mm"], abs=1e-12)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--film-type", "NOPE"], "unknown film 'NOPE'"),
+    (["--imprint", "capsule"], "--imprint needs --film-type"),
+    (["--activation-pressure-mpa", "-5"], "--activation-pressure-mpa must be > 0"),
+])
+def test_bad_input_is_one_line_and_status_2(capsys, args, message):
+    code, out, err = _run(capsys, "--film-modulus-mpa", "2800", *args)
+    assert code == 2 and out is None
+    assert message in err and err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_capsule_needs_a_range(capsys, tmp_path):
+    films = tmp_path / "films.toml"
+    films.write_text('[LOT7]\nactivation_pressure_mpa = 45\n')
+    code, _, err = _run(capsys, "--film-modulus-mpa", "2800", "--films-file", str(films), "--film-type", "LOT7",
+                        "--imprint", "capsule")
+    assert code == 2 and "LOT7 has no range_mpa" in err
