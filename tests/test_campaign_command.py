@@ -359,13 +359,27 @@ def test_workers_never_exceed_the_pending_points(tmp_path):
                            text=True)
     seen: dict[int, str] = {}
     while run.poll() is None:
-        seen.update({pid: _cmdline(pid) for pid in descendants(run.pid)
-                     if "multiprocessing" in _cmdline(pid) and pid not in seen})
+        # the campaign's own children: its workers and the resource tracker (commands are grandchildren)
+        seen.update({pid: _cmdline(pid) for pid in _children(run.pid) if pid not in seen})
         time.sleep(0.01)
     out, err = run.communicate()
     assert run.returncode == 0, err
     workers = {pid: cmd for pid, cmd in seen.items() if "resource_tracker" not in cmd}
     assert 1 <= len(workers) <= 2, workers
+
+
+def _children(pid: int) -> set[int]:
+    """Pids of the direct children of `pid` (from /proc)."""
+    found = set()
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat") as stream:
+                    if int(stream.read().rsplit(")", 1)[1].split()[1]) == pid:
+                        found.add(int(entry))
+            except (OSError, ValueError, IndexError):
+                continue
+    return found
 
 
 def _cmdline(pid: int) -> str:
