@@ -57,28 +57,36 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--loads", default="50,100")
     ap.add_argument("--ra-um", type=float, default=1.5)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--hardness-mpa", type=float, default=PET_HARDNESS_MPA,
+                    help="asperity pressure cap (a sensitivity; default the PET value)")
+    ap.add_argument("--rolloff-um", type=float, help="roll-off wavelength (sensitivity)")
+    ap.add_argument("--size-um", type=float, help="periodic cell side (sensitivity)")
+    ap.add_argument("--rms-slope", type=float, help="RMS slope, sets the cut-off (sensitivity)")
+    ap.add_argument("--no-sphere", action="store_true", help="wheel-rail only")
     ap.add_argument("--json", metavar="PATH")
     args = ap.parse_args(argv)
     offsets = [float(v) for v in args.offsets.split(",")]
     loads = [float(v) for v in args.loads.split(",")]
     model = get_imprint_model(args.imprint)
     d = WHEEL_SURFACE_DEFAULTS
-    surface = RoughSurface.synthetic(ra_um=args.ra_um, hurst=d["hurst"],
-                                     rolloff_wavelength_um=d["rolloff_wavelength_um"],
-                                     size_um=d["size_um"], n=d["n"], seed=args.seed)
+    surface = RoughSurface.synthetic(
+        ra_um=args.ra_um, hurst=d["hurst"], n=d["n"], seed=args.seed, rms_slope=args.rms_slope,
+        rolloff_wavelength_um=args.rolloff_um or d["rolloff_wavelength_um"],
+        size_um=args.size_um or d["size_um"])
     print("Rough surface:", surface.description)
     print(f"  Ra {surface.ra_um:.3f} um, RMS {surface.rms_um:.3f} um, RMS slope "
           f"{surface.rms_slope:.3f}, seed {args.seed}")
     print("  sources:", d["sources"])
-    print(f"  asperity pressure cap H = {PET_HARDNESS_MPA:g} MPa (Tabor H = 3 Y, Y = 100 MPa "
-          "for biaxially oriented PET)")
+    print(f"  asperity pressure cap H = {args.hardness_mpa:g} MPa (default {PET_HARDNESS_MPA:g}: "
+          "Tabor H = 3 Y, Y = 100 MPa for biaxially oriented PET)")
     print(f"  imprint model: {args.imprint}; film kinematics: "
           f"{'large strain' if args.large_strain else 'small strain'}")
     laws = {}
     for name, e in CALIBRATED_MODULUS_MPA.items():
         ft = get_film(name)
         t0 = time.perf_counter()
-        law = rough_contact_law(surface, e, ft.poisson, ft.thickness_mm)
+        law = rough_contact_law(surface, e, ft.poisson, ft.thickness_mm,
+                                hardness_mpa=args.hardness_mpa)
         laws[name] = law
         print(f"\nLaw for {name} (E {e:g} MPa, nu {ft.poisson:g}, t {ft.thickness_mm:g} mm, "
               f"activation {ft.activation_pressure_mpa:g} MPa), {time.perf_counter() - t0:.1f} s:")
@@ -115,6 +123,8 @@ def main(argv: list[str] | None = None) -> int:
                 print(f" {name:4s}  {eta:6g}  {f_kn:4g}  {a0:10.2f}  {a1:9.2f}  {row['growth_pct']:8.2f}"
                       f"  {s1:9.2f}  {row['spots_vs_smooth_pct']:14.2f}  {time.perf_counter() - t0:.1f}")
 
+    if args.no_sphere:
+        return _finish(args, rows, laws)
     print("\nSphere-on-flat R450, roughened flat (same surface), film-flat interface")
     print(" film  F kN  smooth mm2  rough mm2  growth %  spots mm2  spots/smooth %")
     for name, e in CALIBRATED_MODULUS_MPA.items():
@@ -135,6 +145,10 @@ def main(argv: list[str] | None = None) -> int:
             rows.append(row)
             print(f" {name:4s}  {f_kn:4g}  {a0:10.2f}  {a1:9.2f}  {row['growth_pct']:8.2f}  "
                   f"{s1:9.2f}  {row['spots_vs_smooth_pct']:14.2f}")
+    return _finish(args, rows, laws)
+
+
+def _finish(args: argparse.Namespace, rows: list, laws: dict) -> int:
     if args.json:
         with open(args.json, "w") as fh:
             json.dump({"rows": rows, "laws": {k: v.describe() for k, v in laws.items()}}, fh,

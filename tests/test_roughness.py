@@ -30,6 +30,38 @@ def test_layer_kernel_limits():
     assert np.all(np.diff(layer_compliance_factor(k, nu)) > 0)
 
 
+@pytest.mark.parametrize("qt", [0.3, 1.0, 3.0])
+def test_layer_kernel_against_plane_strain_fe(qt):
+    """Second method: a plane-strain FE model of the film (bonded at its base, cosine
+    pressure on top, symmetry at the quarter-waves) moves its top by the kernel's amount."""
+    from skfem import (Basis, ElementQuad2, ElementVector, FacetBasis, LinearForm, MeshQuad, asm,
+                       condense, solve)
+    from skfem.models.elasticity import lame_parameters, linear_elasticity
+
+    e, nu, t = 2739.0, 0.33, 90.0
+    q = qt / t
+    half = math.pi / q
+    mesh = MeshQuad.init_tensor(np.linspace(0, half, 33), np.linspace(0, t, 17)).with_boundaries({
+        "top": lambda x: np.isclose(x[1], t), "bottom": lambda x: np.isclose(x[1], 0),
+        "left": lambda x: np.isclose(x[0], 0), "right": lambda x: np.isclose(x[0], half)})
+    element = ElementVector(ElementQuad2())
+    basis = Basis(mesh, element)
+    stiffness = asm(linear_elasticity(*lame_parameters(e, nu)), basis)
+
+    @LinearForm
+    def pressure(v, w):
+        return -np.cos(q * w.x[0]) * v[1]
+
+    force = asm(pressure, FacetBasis(mesh, element, facets="top"))
+    fixed = np.concatenate([basis.get_dofs("bottom").all(), basis.get_dofs("left").nodal["u^1"],
+                            basis.get_dofs("right").nodal["u^1"]])
+    u = solve(*condense(stiffness, force, D=fixed))
+    node = np.nonzero(np.isclose(mesh.p[0], 0) & np.isclose(mesh.p[1], t))[0][0]
+    closure = -u[basis.nodal_dofs[1, node]]
+    kernel = 2 * layer_compliance_factor(np.array([qt]), nu)[0] * (1 - nu ** 2) / (e * q)
+    assert closure == pytest.approx(kernel, rel=0.01)
+
+
 def _wavy(n=256, wavelength_um=100.0, amplitude_um=1.0) -> RoughSurface:
     x = (np.arange(n) + 0.5) * wavelength_um / n
     h = amplitude_um * np.cos(2 * math.pi * x / wavelength_um)[:, None] * np.ones((1, 8))

@@ -120,8 +120,9 @@ WHEEL_SURFACE_DEFAULTS: dict[str, object] = {
         "Hurst exponent 0.8: typical of machined and worn steel (Persson et al. 2005, "
         "J. Phys.: Condens. Matter 17:R1; Jacobs, Junge & Pastewka 2017, Surf. Topogr. 5:013001); "
         "roll-off wavelength 50 um: about the mean profile-element spacing RSm of turned "
-        "and ground steel at Ra 1-2 um; short cut-off 4 pixels (0.8 um pixels), the "
-        "resolution of a stylus tip of 2 um radius; RMS height sqrt(pi/2) Ra (Gaussian heights)."),
+        "and ground steel at Ra 1-2 um; short cut-off 4 pixels = 3.1 um, near the ISO 3274 "
+        "short-wavelength filter (2.5 um) used with Ra 0.1-2 um; "
+        "RMS height sqrt(pi/2) Ra (Gaussian heights)."),
 }
 
 
