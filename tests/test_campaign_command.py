@@ -485,6 +485,12 @@ def test_a_template_change_makes_new_runs_and_a_rerun_recomputes_nothing(tmp_pat
 
     assert run(DECK).n_run == 2
     assert run(DECK).n_run == 0
+    calls = []
+    (tmp_path / "deck.inp.tmpl").write_text(DECK + "*STATIC\n")
+    model = CommandModel.from_files(case["template"], tmp_path / "work", [tmp_path / "deck.inp.tmpl"])
+    Campaign(model, case["store"], settings=model.settings(), executor=SerialExecutor(), group_by=()).run(
+        case["rows"], progress=lambda done, total: calls.append((done, total)))
+    assert calls == [(1, 2), (2, 2)]
     assert run(DECK + "*OUTPUT\n").n_run == 2  # another deck is another model setting
     with RunStore(case["store"], readonly=True) as store:
-        assert store.counts().total == 4 and len(store.settings_hashes()) == 2
+        assert store.counts().total == 6 and len(store.settings_hashes()) == 3

@@ -329,7 +329,7 @@ class Campaign:
         self.settings_hash = settings_hash(self.model_name, self.settings)
 
     def run(self, design: Any, *, retry_failed: bool = False, timeout_s: float | None = None,
-            progress: bool = True, lock_command: str | None = None) -> CampaignSummary:
+            progress: bool | Callable[[int, int], None] = True, lock_command: str | None = None) -> CampaignSummary:
         """Evaluate the design points that have no finished run yet.
 
         The store's lock is held for the whole run: a second campaign on the
@@ -346,9 +346,10 @@ class Campaign:
             ``"timeout after <timeout_s> s"``. A model that enforces its own
             deadline (``enforces_timeout = True``, e.g. `CommandModel`) gets
             a few seconds more from the executor as a backstop.
-        progress : bool
-            Show a progress bar on stderr (only when stderr is a terminal and
-            the run lasts more than a moment).
+        progress : bool or callable
+            True: show a progress bar on stderr (only when stderr is a
+            terminal and the run lasts more than a moment). A callable is
+            called as ``progress(done, total)`` after each stored point.
         lock_command : str, optional
             What to show a process refused by the lock (default: this
             process's command line).
@@ -385,7 +386,7 @@ class Campaign:
         return {"model": self.model_name, "settings": self.settings}
 
     def _evaluate(self, store: RunStore, todo: list[tuple[str, dict[str, DesignValue]]],
-                  timeout_s: float | None, progress: bool) -> tuple[int, int]:
+                  timeout_s: float | None, progress: bool | Callable[[int, int], None]) -> tuple[int, int]:
         """Evaluate the points; store each outcome as soon as it arrives."""
         if not todo:
             return 0, 0
@@ -396,8 +397,9 @@ class Campaign:
         if timeout_s is not None and getattr(self.model, "enforces_timeout", False):
             deadline = timeout_s + _BACKSTOP_S
         counts = {"ok": 0, "failed": 0}
+        report = progress if callable(progress) else None
         bar = tqdm(total=len(todo), desc="campaign", unit="pt", file=sys.stderr, delay=1.0,
-                   disable=not (progress and sys.stderr.isatty()))
+                   disable=report is not None or not (progress and sys.stderr.isatty()))
         finished = False
         try:
             task = functools.partial(evaluate_point_task, self.model)
@@ -408,6 +410,8 @@ class Campaign:
                 counts[result.status] += 1
                 bar.update(1)
                 bar.set_postfix(failed=counts["failed"], refresh=False)
+                if report is not None:
+                    report(counts["ok"] + counts["failed"], len(todo))
             finished = True
         finally:
             bar.close()
