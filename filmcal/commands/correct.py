@@ -193,6 +193,9 @@ def _corrected_outline(args: argparse.Namespace, imprint, result, corrector):
     if corrector is not None:
         from filmcal.wheelrail import FilmLayer
 
-        film = FilmLayer(float(np.median(corrector.modulus_mpa_)), corrector.poisson_, corrector.film_thickness_mm)
+        # the outline's shape from the linear film at the posterior median (the large-strain law changes the
+        # area, which the correction carries, more than the shape of its rim)
+        ft = corrector.film.film
+        film = FilmLayer(float(np.median(corrector.modulus_mpa_)), ft.poisson, ft.thickness_mm)
         model = wheel_rail_outlines(args.offset_mm, args.force_kn * 1e3, film, **corrector.settings)
     return correct_outline(imprint.outlines_mm, result, model, field_side=args.field_side)

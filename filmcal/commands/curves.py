@@ -38,18 +38,6 @@ def _measured_law(path: str):
     return TabularLaw(closure, pressure)
 
 
-def _posterior(study, film: str, args: argparse.Namespace):
-    """The film's posterior: pinned by --model, the only one, or the highest stacking weight."""
-    from filmcal.study.core import comparison_weights
-
-    found = study.posteriors(film, model=args.model, loads=args.loads)
-    if args.model is None and len(found) > 1:
-        weights = comparison_weights(study, film)
-        if weights:
-            return study.posterior(film, model=max(weights, key=weights.get), loads=args.loads)
-    return study.posterior(film, model=args.model, loads=args.loads)
-
-
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "curves", help="wheel-rail correction curves with 90 %% credible bands at any loads and offsets",
@@ -70,8 +58,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--loads", help="calibration data: load range in kN, e.g. 50-100 (default: all loads)")
     p.add_argument("--study-dir", default="filmcal-study", help="study folder with the posterior")
     p.add_argument("--model", metavar="IMPRINT/KINEMATICS",
-                   help="the calibrated model, e.g. activation/small (default: the study's only posterior or the "
-                        "one with the highest stacking weight)")
+                   help="pin one calibrated model, e.g. activation/small (default: the study's mixture of compared "
+                        "models, or its only posterior)")
     p.add_argument("--csv", help="write the curves to this CSV file")
     p.add_argument("--plot", help="write a PNG of the areas with and without film")
     p.add_argument("--json", action="store_true", help="print the rows as one JSON object")
@@ -92,9 +80,11 @@ def run(args: argparse.Namespace) -> int:
     if args.rough_ra_um is not None and not args.rough_ra_um > 0:
         raise ValueError(f"rough_ra_um must be > 0, got {args.rough_ra_um}")
     from filmcal.correction import CURVE_COLUMNS, curve_rows, wheel_label, write_curves_csv
+    from filmcal.study.core import chosen_posteriors, curve_components
+
     film = ft.name
-    result, path, spec = _posterior(study, film, args)
-    samples = result.samples
+    chosen = chosen_posteriors(study, film, model=args.model, loads=args.loads)
+    components = curve_components(study, film, model=args.model, loads=args.loads)
     wheels = [None] + ([args.rough_ra_um] if args.rough_ra_um else [])
     if args.roughness_law:
         wheels.append(_measured_law(args.roughness_law))
@@ -102,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
     for wheel in wheels:
         sys.stderr.write(f"[curves] {film}, {wheel_label(wheel)} wheel: {len(forces)} loads x {len(offsets)} "
                          "offsets\n")
-        rows += curve_rows(film, samples["modulus_mpa"], offsets, forces, wheel, ft.poisson, ft.thickness_mm)
+        rows += curve_rows(film, components, offsets, forces, wheel)
     if args.csv:
         write_curves_csv(args.csv, rows)
     if args.plot:
@@ -110,7 +100,8 @@ def run(args: argparse.Namespace) -> int:
 
         plot_area_curves([dict(zip(CURVE_COLUMNS, r)) for r in rows], film).savefig(args.plot, dpi=120)
     if args.json:
-        print_json({"film": film, "model": spec["model"], "posterior_file": str(path), "columns": list(CURVE_COLUMNS), "rows": rows})
+        print_json({"film": film, "models": {s["model"]: w for w, _, s in chosen},
+                    "posterior_files": [str(p) for _, p, _ in chosen], "columns": list(CURVE_COLUMNS), "rows": rows})
     else:
         print(f"{'wheel':>16} {'F kN':>6} {'eta mm':>7} {'A0 mm2':>8} {'dA median':>9} {'dA 90 %':>17} "
               f"{'A0/A':>7} {'A0/A 90 %':>17} {'interp %':>8}")

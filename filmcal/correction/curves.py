@@ -1,9 +1,11 @@
 """Correction curves: the film's effect on the wheel-rail contact area, with credible bands.
 
-For each (offset eta, force F) the wheel-rail model is solved without film and
-with the film at five posterior quantiles of its modulus; log(A_film / A_0) is
-interpolated quadratically in log E for every posterior sample, giving the
-posterior of Delta A = A_film - A_0 and of the ratio A_0 / A_film. The
+For each (offset eta, force F) the wheel-rail model is solved without film and,
+for each calibrated film model (imprint model and kinematics), with the film
+at five posterior quantiles of its modulus; log(A_film / A_0) is interpolated
+quadratically in log E for every posterior sample, where A_film is the area
+that model records. The models' samples are pooled by their weights, giving
+the posterior of Delta A = A_film - A_0 and of the ratio A_0 / A_film. The
 interpolation error is measured at two further quantiles (10 % and 90 %) and
 reported beside the bands.
 """
@@ -15,10 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from filmcal.wheelrail import FilmLayer, solve_wheel_rail
+from filmcal.wheelrail import solve_wheel_rail
 
 __all__ = ["CorrectionCurves", "correction_curves", "CURVE_COLUMNS", "curve_rows", "write_curves_csv",
-           "read_curves_csv", "rough_law", "wheel_label"]
+           "read_curves_csv", "rough_surface", "wheel_label"]
 
 SUPPORT_QUANTILES = (0.001, 0.25, 0.5, 0.75, 0.999)
 CHECK_QUANTILES = (0.1, 0.9)
@@ -52,56 +54,77 @@ class CorrectionCurves:
     interpolation_error_rel: np.ndarray
 
 
-def correction_curves(modulus_samples_mpa, offsets_mm, forces_n, *, poisson: float = 0.33,
-                      film_thickness_mm: float = 0.09, roughness=None, max_samples: int = 4000,
-                      **wheel_rail) -> CorrectionCurves:
-    """Posterior correction curves over offsets and forces.
-
-    Parameters
-    ----------
-    modulus_samples_mpa : array_like
-        Posterior samples of the film's Young's modulus.
-    offsets_mm, forces_n : array_like
-        The grid (lateral offsets eta in mm, forces in N).
-    poisson, film_thickness_mm : float
-        The film's Poisson's ratio (fixed, as calibrated) and thickness.
-    roughness : InterfaceLaw or callable, optional
-        Film-wheel interface law (rough wheel), applied with the film; a
-        callable ``roughness(modulus_mpa) -> InterfaceLaw`` builds it for each
-        film modulus (a Greenwood-Williamson law depends on the film's
-        stiffness, as the asperities press into the film).
-    **wheel_rail
-        Passed to `filmcal.wheelrail.solve_wheel_rail` (wheel, rail, rail_inclination, ...).
-    """
-    e = np.asarray(modulus_samples_mpa, dtype=float).ravel()
+def _thinned(samples, max_samples: int) -> np.ndarray:
+    e = np.asarray(samples, dtype=float).ravel()
     if len(e) > max_samples:
         e = e[np.linspace(0, len(e) - 1, max_samples).round().astype(int)]
     if not np.all(np.isfinite(e)) or np.any(e <= 0):
         raise ValueError("modulus_samples_mpa must be finite and > 0")
+    return e
+
+
+def correction_curves(components, offsets_mm, forces_n, *, roughness=None, max_samples: int = 4000,
+                      **wheel_rail) -> CorrectionCurves:
+    """Posterior correction curves over offsets and forces, of one film model or a mixture of models.
+
+    Parameters
+    ----------
+    components : sequence of (FilmModel, modulus samples, weight)
+        Calibrated film models (`filmcal.contact.film.FilmModel`: film type,
+        imprint model, kinematics), each with its posterior samples of E and
+        its weight in the mixture (e.g. stacking weights; normalised here).
+        Each model's film area is what that model records; the bands pool
+        the models' samples by weight, so they are as wide as the spread
+        between models that the data cannot tell apart.
+    offsets_mm, forces_n : array_like
+        The grid (lateral offsets eta in mm, forces in N).
+    roughness : None, RoughSurface or InterfaceLaw
+        The wheel: smooth, rough (law computed against each film modulus), or
+        a measured film-wheel law.
+    max_samples : int
+        Posterior samples used per model.
+    **wheel_rail
+        Passed to `filmcal.wheelrail.solve_wheel_rail` (wheel, rail, rail_inclination, ...).
+    """
+    parts = [(model, _thinned(samples, max_samples), float(w)) for model, samples, w in components]
+    weights = np.array([w for _, _, w in parts])
+    if not len(parts) or np.any(weights < 0) or not np.all(np.isfinite(weights)) or weights.sum() <= 0:
+        raise ValueError("components need non-negative finite weights, not all zero")
+    weights = weights / weights.sum()
+    n_pool = max(len(e) for _, e, _ in parts)
+    counts = np.floor(weights * n_pool).astype(int)
+    counts[np.argsort(-(weights * n_pool - counts), kind="stable")[:n_pool - counts.sum()]] += 1
     offsets = np.atleast_1d(np.asarray(offsets_mm, dtype=float))
     forces = np.atleast_1d(np.asarray(forces_n, dtype=float))
-    support = np.quantile(e, SUPPORT_QUANTILES)
-    check = np.quantile(e, CHECK_QUANTILES)
     shape = (len(forces), len(offsets))
     a0 = np.empty(shape)
     a_med = np.empty(shape)
     d_med, r_med = np.empty(shape), np.empty(shape)
     d_ci, r_ci = np.empty(shape + (2,)), np.empty(shape + (2,))
-    err = np.empty(shape)
+    err = np.zeros(shape)
 
-    def film_area(modulus, eta, force):
-        layer = FilmLayer(float(modulus), poisson, film_thickness_mm)
-        law = roughness(float(modulus)) if callable(roughness) else roughness
-        return solve_wheel_rail(eta, force, film=layer, roughness=law, **wheel_rail).area_mm2
+    def film_area(model, modulus, eta, force):
+        film, law, rough = model.interface(float(modulus), roughness)
+        return model.recorded_area_mm2(solve_wheel_rail(eta, force, film=film, roughness=law, **wheel_rail), rough)
 
     for i, force in enumerate(forces):
         for j, eta in enumerate(offsets):
             a0[i, j] = solve_wheel_rail(eta, force, **wheel_rail).area_mm2
-            log_ratio = np.log([film_area(m, eta, force) / a0[i, j] for m in support])
-            coef = np.polyfit(np.log(support), log_ratio, 2)
-            area = a0[i, j] * np.exp(np.polyval(coef, np.log(e)))
-            exact = np.array([film_area(m, eta, force) for m in check])
-            err[i, j] = np.max(np.abs(a0[i, j] * np.exp(np.polyval(coef, np.log(check))) / exact - 1.0))
+            pooled = []
+            for (model, e, _), count in zip(parts, counts):
+                if count == 0:
+                    continue
+                support = np.unique(np.quantile(e, SUPPORT_QUANTILES))
+                check = np.quantile(e, CHECK_QUANTILES)
+                log_ratio = np.log([film_area(model, m, eta, force) / a0[i, j] for m in support])
+                degree = min(2, len(support) - 1)
+                coef = np.polyfit(np.log(support), log_ratio, degree) if degree else np.array([log_ratio[0]])
+                area = a0[i, j] * np.exp(np.polyval(coef, np.log(e)))
+                exact = np.array([film_area(model, m, eta, force) for m in check])
+                err[i, j] = max(err[i, j], float(np.max(np.abs(
+                    a0[i, j] * np.exp(np.polyval(coef, np.log(check))) / exact - 1.0))))
+                pooled.append(area[np.linspace(0, len(area) - 1, count).round().astype(int)])
+            area = np.concatenate(pooled)
             delta, ratio = area - a0[i, j], a0[i, j] / area
             a_med[i, j] = np.median(area)
             d_med[i, j], r_med[i, j] = np.median(delta), np.median(ratio)
@@ -115,19 +138,14 @@ CURVE_COLUMNS = ("film", "wheel", "force_kn", "offset_mm", "area_no_film_mm2", "
                  "ratio_hi", "interpolation_error_rel")
 
 
-def rough_law(ra_um: float, film_poisson: float = 0.33):
-    """Film-wheel interface of a rough wheel: a Greenwood-Williamson law per film modulus.
+def rough_surface(ra_um: float, seed: int = 0):
+    """The synthetic rough wheel of roughness Ra (um): `filmcal.contact.roughness.RoughSurface` with the
+    wheel defaults (self-affine spectrum, `WHEEL_SURFACE_DEFAULTS`)."""
+    from filmcal.contact.roughness import WHEEL_SURFACE_DEFAULTS, RoughSurface
 
-    The wheel's asperities press into the film, so the law's contact modulus
-    is that of film against steel.
-    """
-    from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, contact_modulus_mpa
-    from filmcal.wheelrail import GreenwoodWilliamsonLaw
-
-    def law(modulus_mpa: float):
-        return GreenwoodWilliamsonLaw(ra_um, contact_modulus_mpa(modulus_mpa, film_poisson, STEEL_MODULUS_MPA,
-                                                                 STEEL_POISSON))
-    return law
+    d = WHEEL_SURFACE_DEFAULTS
+    return RoughSurface.synthetic(ra_um=float(ra_um), hurst=d["hurst"], rolloff_wavelength_um=d["rolloff_wavelength_um"],
+                                  size_um=d["size_um"], n=d["n"], seed=seed)
 
 
 def wheel_label(roughness=None) -> str:
@@ -139,30 +157,27 @@ def wheel_label(roughness=None) -> str:
     return "rough, measured law"
 
 
-def curve_rows(film: str, modulus_samples_mpa, offsets_mm, forces_kn, roughness=None, poisson: float = 0.33,
-               film_thickness_mm: float = 0.09, **wheel_rail) -> list[list]:
-    """Correction curves of one film's posterior as CSV rows (`CURVE_COLUMNS`), for one wheel.
+def curve_rows(film: str, components, offsets_mm, forces_kn, roughness=None, **wheel_rail) -> list[list]:
+    """Correction curves of one film as CSV rows (`CURVE_COLUMNS`), for one wheel.
 
     Parameters
     ----------
     film : str
         Film type (the rows' label).
-    modulus_samples_mpa : array_like
-        Posterior samples of the film modulus E.
+    components : sequence of (FilmModel, modulus samples, weight)
+        The film's calibrated models, as `correction_curves` takes them.
     offsets_mm, forces_kn : sequence of float
         The grid: lateral offsets eta (mm) and loads (kN).
     roughness : None, float or InterfaceLaw
-        The wheel: smooth (None), rough with this Ra in um (Greenwood-Williamson
-        law per film modulus, `rough_law`), or a measured film-wheel
-        pressure-overclosure law (e.g. `filmcal.wheelrail.TabularLaw`).
-    poisson, film_thickness_mm : float
-        The film's Poisson's ratio (as calibrated) and thickness.
+        The wheel: smooth (None), rough with this Ra in um (a synthetic surface
+        whose law is computed against each film modulus, `rough_surface`), or a
+        measured film-wheel pressure-closure law (e.g. `filmcal.wheelrail.TabularLaw`).
     **wheel_rail
         Passed on to `correction_curves` (profiles, inclination, ...).
     """
-    law = rough_law(float(roughness), poisson) if isinstance(roughness, (int, float)) else roughness
-    c = correction_curves(modulus_samples_mpa, offsets_mm, np.asarray(forces_kn, dtype=float) * 1e3,
-                          poisson=poisson, film_thickness_mm=film_thickness_mm, roughness=law, **wheel_rail)
+    law = rough_surface(float(roughness)) if isinstance(roughness, (int, float)) else roughness
+    c = correction_curves(components, offsets_mm, np.asarray(forces_kn, dtype=float) * 1e3, roughness=law,
+                          **wheel_rail)
     wheel = wheel_label(roughness)
     return [[film, wheel, force / 1e3, eta, c.area_no_film_mm2[i, j], c.area_film_median_mm2[i, j],
              c.delta_area_median_mm2[i, j], *c.delta_area_ci90_mm2[i, j], c.ratio_median[i, j], *c.ratio_ci90[i, j],

@@ -19,12 +19,29 @@ from __future__ import annotations
 
 import numpy as np
 
+from filmcal.contact.film import FilmModel
 from filmcal.correction.sphere import CorrectedArea, _summarise
-from filmcal.wheelrail import FilmLayer, solve_wheel_rail
+from filmcal.wheelrail import solve_wheel_rail
 
-__all__ = ["WheelRailCorrector"]
+__all__ = ["WheelRailCorrector", "nominal_modulus_mpa"]
 
 QUANTILES = (0.001, 0.25, 0.5, 0.75, 0.999)
+
+
+def nominal_modulus_mpa(posterior: dict, nominal_poisson: float) -> np.ndarray:
+    """Posterior samples of E at the film's nominal nu, with the same oedometric modulus M.
+
+    A thin film held laterally responds to M = E(1-nu)/((1+nu)(1-2nu)) alone,
+    so a posterior sampled with nu free is carried over to the film model
+    (which uses the nominal nu) sample by sample at equal M; with nu fixed at
+    the nominal value the samples are unchanged.
+    """
+    from filmcal.elastic import oedometric_ratio
+
+    e = np.asarray(posterior["modulus_mpa"], dtype=float).ravel()
+    nu = np.asarray(posterior.get("poisson", nominal_poisson), dtype=float)
+    nu = np.broadcast_to(nu.ravel() if nu.ndim else nu, e.shape)
+    return e * oedometric_ratio(nu) / oedometric_ratio(nominal_poisson)
 
 
 class WheelRailCorrector:
@@ -34,7 +51,10 @@ class WheelRailCorrector:
     ----------
     posterior : dict of ndarray
         Posterior samples ``modulus_mpa``, ``sigma_mm`` (and ``poisson``).
-    film_thickness_mm : float
+    film : FilmModel
+        The film model the posterior was calibrated under
+        (`filmcal.contact.film.FilmModel`: film type, imprint model,
+        kinematics): the film's area is what that model records.
     wheel, rail : str
         Profile names (or CSV paths) as `filmcal.wheelrail.solve_wheel_rail` takes them.
     rail_inclination, nominal_radius_mm, grid_mm : float
@@ -43,37 +63,32 @@ class WheelRailCorrector:
         Radius error of the film representation (see the module docstring).
     max_samples : int
     random_state : int or numpy.random.Generator
-    imprint_area : callable, optional
-        ``imprint_area(result) -> float``: the area that the film records of a
-        wheel-rail result with film (the calibration's imprint model, e.g. the
-        activation contour); default the contact area read at its edge.
     """
 
-    def __init__(self, posterior: dict, film_thickness_mm: float = 0.09, wheel: str = "S1002", rail: str = "60E2",
+    def __init__(self, posterior: dict, film: FilmModel, wheel: str = "S1002", rail: str = "60E2",
                  rail_inclination: float = 1 / 40, nominal_radius_mm: float = 460.0, grid_mm: float = 0.1,
-                 model_radius_std_mm: float = 0.01, max_samples: int = 2000, random_state=0,
-                 imprint_area=None) -> None:
-        modulus = np.asarray(posterior["modulus_mpa"], dtype=float).ravel()
+                 model_radius_std_mm: float = 0.01, max_samples: int = 2000, random_state=0) -> None:
+        modulus = nominal_modulus_mpa(posterior, film.film.poisson)
         take = np.unique(np.linspace(0, len(modulus) - 1, min(len(modulus), max_samples)).round().astype(int))
         self.modulus_mpa_ = modulus[take]
-        poisson = np.asarray(posterior.get("poisson", 0.33), dtype=float)
-        self.poisson_ = float(np.median(poisson)) if poisson.ndim else float(poisson)
         self.sigma_mm_ = np.asarray(posterior["sigma_mm"], dtype=float).ravel()[take]
-        self.film_thickness_mm = film_thickness_mm
+        self.film = film
         self.settings = dict(wheel=wheel, rail=rail, rail_inclination=rail_inclination,
                              nominal_radius_mm=nominal_radius_mm, grid_mm=grid_mm)
         self.model_radius_std_mm = model_radius_std_mm
         self.random_state = random_state
-        self.imprint_area = imprint_area
+
+    def film_area_mm2(self, modulus_mpa: float, offset_mm: float, force_n: float) -> float:
+        """The area the film records at modulus E (the film model's kinematics and imprint reading)."""
+        film, law, rough = self.film.interface(float(modulus_mpa))
+        result = solve_wheel_rail(offset_mm, force_n, film=film, roughness=law, **self.settings)
+        return self.film.recorded_area_mm2(result, rough)
 
     def area_ratio(self, offset_mm: float, force_n: float) -> tuple[np.ndarray, dict]:
         """A_0 / A_f(E) for every posterior sample, and the solved support points."""
         a0 = solve_wheel_rail(offset_mm, force_n, film=None, **self.settings).area_mm2
         e_grid = np.unique(np.quantile(self.modulus_mpa_, QUANTILES))
-        read = self.imprint_area or (lambda result: result.area_mm2)
-        a_f = np.array([read(solve_wheel_rail(offset_mm, force_n, film=FilmLayer(e, self.poisson_,
-                                                                                 self.film_thickness_mm),
-                                              **self.settings)) for e in e_grid])
+        a_f = np.array([self.film_area_mm2(e, offset_mm, force_n) for e in e_grid])
         log_ratio = np.log(a0 / a_f)
         degree = min(2, len(e_grid) - 1)
         coef = np.polyfit(np.log(e_grid), log_ratio, degree) if degree > 0 else log_ratio

@@ -29,7 +29,8 @@ from filmcal.films import FilmRegistry, FilmType, load_films_file
 from filmcal.study.layout import StudyLayout, spec_key
 from filmcal.study.manifest import Manifest, StudyLock, utc_now
 
-__all__ = ["Study", "FESettings", "CalibrationSpec", "IMPRINT_MODELS", "KINEMATICS", "seed_for", "output_column", "correctors", "comparison_weights", "report_view"]
+__all__ = ["Study", "FESettings", "CalibrationSpec", "IMPRINT_MODELS", "KINEMATICS", "seed_for", "output_column", "correctors", "comparison_weights", "report_view",
+           "chosen_posteriors", "curve_components", "film_model"]
 
 #: What the film records (`filmcal.contact.imprint`): the edge of contact, or where it colours.
 IMPRINT_MODELS = ("edge", "activation", "capsule")
@@ -234,12 +235,18 @@ class Study:
 
     def set_settings(self, settings: dict) -> None:
         """Record the study's settings on first use; refuse other settings later (naming what differs)."""
+        import json
+
+        from filmcal._json import json_safe
+
         self._require_writer()
+        settings = json.loads(json.dumps(json_safe(settings)))
         old = self.manifest.data.get("settings")
         if old is not None and old != settings:
-            diff = sorted(k for k in set(old) | set(settings) if old.get(k) != settings.get(k))
-            raise InputError(f"study {self.root} was made with other settings ({', '.join(diff)} differ: "
-                             f"{', '.join(f'{k} {old.get(k)!r} -> {settings.get(k)!r}' for k in diff)}); "
+            a, b = _flatten(old), _flatten(settings)
+            diff = sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k))
+            raise InputError(f"study {self.root} was made with other settings "
+                             f"({'; '.join(f'{k} {a.get(k)!r} -> {b.get(k)!r}' for k in diff)}); "
                              "use another --study-dir")
         self.manifest.data["settings"] = settings
         self.manifest.write()
@@ -482,6 +489,17 @@ class Study:
         return load_result(path), path, spec
 
 
+def _flatten(d: dict, prefix: str = "") -> dict:
+    """Nested settings as ``{"a.b": value}``."""
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, dict):
+            out.update(_flatten(v, f"{prefix}{k}."))
+        else:
+            out[f"{prefix}{k}"] = v
+    return out
+
+
 def json_key(value: Any) -> str:
     import json
 
@@ -535,14 +553,53 @@ def _sphere_model(study: Study, posterior_path: Path):
     return SurrogateRadiusModel(load_surrogate(stem), domain)
 
 
+def chosen_posteriors(study: Study, film: str, *, model: str | None = None,
+                      **match: Any) -> list[tuple[float, Path, dict]]:
+    """The recorded posteriors a correction of `film` uses, with their weights: ``[(weight, path, spec)]``.
+
+    With `model` (``"activation/small"``) or filters that leave one posterior,
+    that posterior alone (weight 1). Otherwise, when the study compared the
+    film's models, every compared model with its combination weight: the
+    correction is then their mixture. Several posteriors and no comparison is
+    an error that names the options that tell them apart.
+    """
+    found = study.posteriors(film, model=model, **match)
+    if not found:
+        study.posterior(film, model=model, **match)  # raises the message that says what to run
+    if len(found) == 1:
+        return [(1.0, found[0][0], found[0][1])]
+    weights = comparison_weights(study, film) if model is None else {}
+    chosen = [(weights[s["model"]], p, s) for p, s in found if weights.get(s["model"], 0) > 0]
+    if not chosen or len({s["model"] for _, _, s in chosen}) != len(chosen):
+        study.posterior(film, model=model, **match)  # several and no comparison: says which options differ
+    return chosen
+
+
+def film_model(study: Study, spec: dict):
+    """The `filmcal.contact.film.FilmModel` that a recorded posterior was calibrated under."""
+    from filmcal.contact.film import FilmModel
+
+    return FilmModel(study.film(spec["film"]["name"]), spec["imprint"], spec["fe"]["kinematics"])
+
+
+def curve_components(study: Study, film: str, *, model: str | None = None, **match: Any) -> list[tuple]:
+    """``[(FilmModel, modulus samples, weight)]`` of a film, for `filmcal.correction.correction_curves`."""
+    from filmcal.calibration import load_result
+
+    from filmcal.correction.wheelrail import nominal_modulus_mpa
+
+    out = []
+    for w, path, spec in chosen_posteriors(study, film, model=model, **match):
+        fm = film_model(study, spec)
+        out.append((fm, nominal_modulus_mpa(load_result(path).samples, fm.film.poisson), w))
+    return out
+
+
 def correctors(study: Study, film: str, kind: str = "sphere", *, model: str | None = None, random_state=0,
                wheel_rail: dict | None = None, **match: Any) -> list[tuple[float, Any, dict]]:
     """The correctors of a film, built from the study's recorded posteriors: ``[(weight, corrector, spec)]``.
 
-    With `model` (``"activation/small"``) or filters that leave one posterior,
-    that posterior alone (weight 1). Otherwise, when the study compared the
-    film's models, every compared model with its stacking weight: the
-    correction is then their mixture. Never calibrates.
+    Which posteriors: `chosen_posteriors`. Never calibrates.
 
     Parameters
     ----------
@@ -555,34 +612,15 @@ def correctors(study: Study, film: str, kind: str = "sphere", *, model: str | No
 
     if kind not in ("sphere", "wheel-rail"):
         raise InputError(f"kind must be sphere or wheel-rail, got {kind!r}")
-    ft = study.film(film)
-    found = study.posteriors(film, model=model, **match)
-    if not found:
-        study.posterior(film, model=model, **match)  # raises the message that says what to run
-    weights = comparison_weights(study, film) if model is None and len(found) > 1 else {}
-    if len(found) > 1:
-        chosen = [(weights[s["model"]], p, s) for p, s in found if s["model"] in weights]
-        if not chosen or len({s["model"] for _, _, s in chosen}) != len(chosen):
-            study.posterior(film, model=model, **match)  # several and no comparison: says which options differ
-    else:
-        chosen = [(1.0, found[0][0], found[0][1])]
     out = []
-    for w, path, spec in chosen:
+    for w, path, spec in chosen_posteriors(study, film, model=model, **match):
         study.verified(path)
         samples = load_result(path).samples
         if kind == "sphere":
             corrector = SphereCorrector(_sphere_model(study, path), samples, random_state=random_state)
         else:
-            reader = None
-            if spec["imprint"] != "edge":
-                from filmcal.contact.imprint import get_imprint_model
-
-                imprint = get_imprint_model(spec["imprint"])
-
-                def reader(result, imprint=imprint):
-                    return imprint.area_mm2(result.grid.x_mm, result.grid.y_mm, result.pressure_mpa, ft)
-            corrector = WheelRailCorrector(samples, film_thickness_mm=ft.thickness_mm, random_state=random_state,
-                                           imprint_area=reader, **(wheel_rail or {}))
+            corrector = WheelRailCorrector(samples, film_model(study, spec), random_state=random_state,
+                                           **(wheel_rail or {}))
         out.append((w, corrector, spec))
     return out
 

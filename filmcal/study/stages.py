@@ -153,7 +153,7 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
         chosen = {film: _preferred(results[film], comparisons.get(film)) for film in films}
         medians = {film: float(r.modulus_mpa["median"]) for film, (r, _, _) in chosen.items()}
         stage("verification", _verification_stage, study, settings, seed, medians, log)
-        stage("curves", _curves_stage, study, settings, chosen, workers, log)
+        stage("curves", _curves_stage, study, settings, films, workers, log)
         stage("outlines", _outlines_stage, study, settings, medians, log)
         stage("crossval", _crossval_stage, study, settings, results, comparisons, seed, log)
         for film in films:
@@ -331,30 +331,27 @@ def _parallel(tasks: dict, workers: int | None, on_done) -> None:
         raise RuntimeError(f"{len(errors)} task(s) failed, first {key}: {error!r}") from error
 
 
-def _curves_stage(study: Study, settings: PipelineSettings, chosen: dict, workers: int | None, log):
-    """Curves of the films without a recorded CSV of the same posterior: one task per (film, wheel)."""
+def _curves_stage(study: Study, settings: PipelineSettings, films, workers: int | None, log):
+    """Curves of each film's combined models (one task per film and wheel), recorded with what made them."""
     from filmcal.correction import curve_rows, wheel_label, write_curves_csv
+    from filmcal.study.core import chosen_posteriors, curve_components
 
     wheels = [None] + ([settings.rough_ra_um] if settings.rough_ra_um else [])
-    specs = {film: {"posterior": path.name, "offsets_mm": list(settings.offsets_mm),
-                    "forces_kn": list(settings.forces_kn), "rough_ra_um": settings.rough_ra_um}
-             for film, (_, path, _) in chosen.items()}
-    todo = []
-    for film in chosen:
+    specs, components = {}, {}
+    for film in films:
+        chosen = chosen_posteriors(study, film)
+        specs[film] = {"posteriors": sorted(p.name for _, p, _ in chosen),
+                       "weights": {s["model"]: w for w, _, s in chosen}, "offsets_mm": list(settings.offsets_mm),
+                       "forces_kn": list(settings.forces_kn), "rough_ra_um": settings.rough_ra_um}
         path = study.layout.curves(film)
         entry = study.manifest.entry(study.layout.relative(path)) if path.exists() else None
-        if not (study.verified(path) and entry and entry["spec"] == specs[film]):
-            todo.append(film)
-    tasks = {}
-    for film in todo:
-        ft = study.film(film)
-        samples = np.asarray(chosen[film][0].samples["modulus_mpa"], dtype=float)
-        for ra in wheels:
-            tasks[film, ra] = (curve_rows, (film, samples, settings.offsets_mm, settings.forces_kn, ra, ft.poisson,
-                                            ft.thickness_mm))
+        if not (entry and entry["spec"] == specs[film] and study.verified(path)):
+            components[film] = curve_components(study, film)
+    tasks = {(film, ra): (curve_rows, (film, components[film], settings.offsets_mm, settings.forces_kn, ra))
+             for film in components for ra in wheels}
     if not tasks:
         return None, False
-    log(f"[curves] {len(todo)} film(s) x {len(wheels)} wheel(s), {len(settings.forces_kn)} loads x "
+    log(f"[curves] {len(components)} film(s) x {len(wheels)} wheel(s), {len(settings.forces_kn)} loads x "
         f"{len(settings.offsets_mm)} offsets each")
     rows: dict = {}
 

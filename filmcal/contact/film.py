@@ -1,0 +1,103 @@
+"""The film as the contact models see it: how it deforms and what it records.
+
+A calibrated film model is a film type (`filmcal.films.FilmType`), an imprint
+model (`filmcal.contact.imprint`: what the film records) and the film's
+kinematics (small strain: linear springs ``t/M``; large strain: the
+neo-Hookean oedometric law of the FE model's ``large_strain`` film). The same
+`FilmModel` is used by the wheel-rail corrector, the correction curves and the
+``filmcal wheelrail`` command, so that a film is read identically wherever its
+calibration is used.
+
+With a rough surface (`filmcal.contact.roughness`), the film-wheel interface
+adds the rough law's closure in series, and a film colours in spots: the
+recorded area is then the imprint model's stain probability averaged over the
+local (asperity) pressures of each cell's nominal pressure.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from filmcal.films import FilmType
+
+__all__ = ["FilmModel", "KINEMATICS"]
+
+KINEMATICS = ("small", "large")
+
+
+@dataclass(frozen=True)
+class FilmModel:
+    """One calibrated film model: film type, imprint model and kinematics.
+
+    Parameters
+    ----------
+    film : FilmType
+    imprint : {"edge", "activation", "capsule"}
+    kinematics : {"small", "large"}
+    """
+
+    film: FilmType
+    imprint: str = "edge"
+    kinematics: str = "small"
+
+    def __post_init__(self) -> None:
+        from filmcal.contact.imprint import get_imprint_model
+
+        if self.kinematics not in KINEMATICS:
+            raise ValueError(f"kinematics must be small or large, got {self.kinematics!r}")
+        get_imprint_model(self.imprint).check_film(self.film)
+
+    @property
+    def label(self) -> str:
+        return f"{self.imprint}/{self.kinematics}"
+
+    def interface(self, modulus_mpa: float, roughness: Any = None):
+        """The (film, law) pair for the contact solvers, and the rough law used (or None).
+
+        Parameters
+        ----------
+        modulus_mpa : float
+            The film's Young's modulus (MPa).
+        roughness : None, RoughSurface or InterfaceLaw
+            Smooth, a rough surface (its law is computed against this film), or
+            a measured pressure-closure law taken as it is.
+
+        Returns
+        -------
+        (FilmLayer or None, InterfaceLaw or None, InterfaceLaw or None)
+            Solver film, solver law, and the roughness law.
+        """
+        from filmcal.contact.roughness import RoughSurface, rough_contact_law
+        from filmcal.wheelrail.interface import FilmLayer, film_law
+
+        layer = FilmLayer(float(modulus_mpa), self.film.poisson, self.film.thickness_mm)
+        law = roughness
+        if isinstance(roughness, RoughSurface):
+            law = rough_contact_law(roughness, layer.modulus_mpa, layer.poisson, layer.thickness_mm)
+        solver_film, solver_law = film_law(layer, law, large_strain=self.kinematics == "large")
+        return solver_film, solver_law, law
+
+    def recorded_area_mm2(self, result, rough_law=None) -> float:
+        """The area (mm^2) that the film records of a solved contact with film.
+
+        Parameters
+        ----------
+        result : WheelRailResult or ContactResult
+            A solved contact (``.contact`` of a wheel-rail result, or the
+            half-space result itself).
+        rough_law : InterfaceLaw, optional
+            The roughness law of `interface`; a law that knows its local
+            pressures (``expected_stain``) makes the film colour in spots.
+        """
+        from filmcal.contact.imprint import get_imprint_model
+
+        contact = getattr(result, "contact", result)
+        if self.imprint == "edge" and rough_law is None:
+            return float(result.area_mm2)
+        model = get_imprint_model(self.imprint)
+        if rough_law is not None and hasattr(rough_law, "expected_stain"):
+            p = contact.pressure_mpa
+            loaded = p > 0.0
+            fraction = rough_law.expected_stain(lambda q: model.stain_probability(q, self.film), p[loaded])
+            return float(fraction.sum() * contact.grid.cell_area_mm2)
+        return float(model.area_mm2(contact.grid.x_mm, contact.grid.y_mm, contact.pressure_mpa, self.film))
