@@ -112,7 +112,7 @@ def test_the_suite_covers_every_command():
 
 
 @pytest.mark.parametrize("case", NUMBER_OPTIONS, ids=_id)
-@pytest.mark.parametrize("value", ["nan", "inf", "-inf", "abc", "", "1e999", "0x10"])
+@pytest.mark.parametrize("value", ["nan", "-inf", "1e999", "abc"])
 def test_number_options_refuse_non_finite_and_text(capsys, no_work, tmp_path, monkeypatch, case, value):
     monkeypatch.chdir(tmp_path)
     path, action = case
@@ -183,21 +183,21 @@ def _not_a_number(text: str) -> bool:
         return True
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=60, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=st.data())
 def test_property_any_non_number_is_refused_naming_the_option(capsys, no_work, data):
     path = data.draw(st.sampled_from(sorted(NUMBERS_BY_COMMAND)))
     option = data.draw(st.sampled_from(NUMBERS_BY_COMMAND[path]))
     value = data.draw(st.one_of(
         st.text(min_size=0, max_size=12).filter(_not_a_number),
-        st.sampled_from(["nan", "NaN", "-inf", "Infinity", "1e400", "-1e400"]),
+        st.sampled_from(["nan", "NaN", "inf", "-inf", "Infinity", "1e400", "-1e400", "", "0x10"]),
     ))
     code, out, err = run(capsys, [*path, f"{option}={value}"])
     assert_refused(code, out, err, option)
     assert not no_work
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=40, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=st.data())
 def test_property_sizes_outside_bounds_are_refused(capsys, no_work, data):
     path, action = data.draw(st.sampled_from(BOUNDED_OPTIONS))
