@@ -4,14 +4,18 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from filmcal.contact.film import FilmModel
 from filmcal.correction import correction_curves
+from filmcal.films import get_film
 from filmcal.wheelrail import FilmLayer, solve_wheel_rail
+
+HS_EDGE = FilmModel(get_film("HS"), "edge", "small")
 
 
 def test_bands_match_direct_solves_at_their_quantiles():
     rng = np.random.default_rng(1)
     samples = np.exp(rng.normal(np.log(2800.0), 0.04, 3000))
-    c = correction_curves(samples, [-4.0], [50e3])
+    c = correction_curves([(HS_EDGE, samples, 1.0)], [-4.0], [50e3])
     a0 = solve_wheel_rail(-4.0, 50e3).area_mm2
     assert c.area_no_film_mm2[0, 0] == pytest.approx(a0, rel=1e-12)
     # the film area is monotone in E: the band's ends are the film areas at the 95 % / 5 % quantiles of E
@@ -24,4 +28,23 @@ def test_bands_match_direct_solves_at_their_quantiles():
 
 def test_bad_samples():
     with pytest.raises(ValueError, match="modulus_samples_mpa"):
-        correction_curves([2800.0, -1.0], [-4.0], [50e3])
+        correction_curves([(HS_EDGE, [2800.0, -1.0], 1.0)], [-4.0], [50e3])
+    with pytest.raises(ValueError, match="weights"):
+        correction_curves([(HS_EDGE, [2800.0], -1.0)], [-4.0], [50e3])
+
+
+def test_a_mixture_band_spans_the_models_it_pools():
+    """Two models that read the same contact differently (edge, activation contour), equal weights: the
+    pooled 90 % band reaches from one model's median to the other's (a property of a 50/50 mixture of two
+    well-separated, narrow components)."""
+    rng = np.random.default_rng(2)
+    samples = np.exp(rng.normal(np.log(2800.0), 0.02, 2000))
+    activation = FilmModel(get_film("HS"), "activation", "small")
+    edge_only = correction_curves([(HS_EDGE, samples, 1.0)], [-4.0], [50e3])
+    act_only = correction_curves([(activation, samples, 1.0)], [-4.0], [50e3])
+    mixed = correction_curves([(HS_EDGE, samples, 1.0), (activation, samples, 1.0)], [-4.0], [50e3])
+    # the activation contour lies inside the contact edge: a smaller recorded area
+    assert act_only.area_film_median_mm2[0, 0] < edge_only.area_film_median_mm2[0, 0]
+    lo, hi = mixed.delta_area_ci90_mm2[0, 0]
+    assert lo <= act_only.delta_area_median_mm2[0, 0] and edge_only.delta_area_median_mm2[0, 0] <= hi
+    assert hi - lo > edge_only.delta_area_ci90_mm2[0, 0, 1] - edge_only.delta_area_ci90_mm2[0, 0, 0]

@@ -8,10 +8,12 @@ import sys
 import numpy as np
 import pytest
 
+from filmcal.contact.film import FilmModel
 from filmcal.correction import WheelRailCorrector
-from filmcal.fem import ContactOptions
-from filmcal.study import posterior_tag
+from filmcal.films import get_film
 from filmcal.wheelrail import FilmLayer, solve_wheel_rail
+
+HS_EDGE = FilmModel(get_film("HS"), "edge", "small")
 
 
 def point_posterior(e_mpa=2800.0, sigma=0.0, n=500):
@@ -21,7 +23,7 @@ def point_posterior(e_mpa=2800.0, sigma=0.0, n=500):
 def test_single_modulus_without_scatter_scales_by_the_solved_area_ratio():
     a0 = solve_wheel_rail(-3.0, 100e3).area_mm2
     af = solve_wheel_rail(-3.0, 100e3, film=FilmLayer(2800.0, 0.33, 0.09)).area_mm2
-    out = WheelRailCorrector(point_posterior(), model_radius_std_mm=0.0).correct(150.0, -3.0, 100e3)
+    out = WheelRailCorrector(point_posterior(), HS_EDGE, model_radius_std_mm=0.0).correct(150.0, -3.0, 100e3)
     assert out.area_mm2 == pytest.approx(150.0 * a0 / af, rel=1e-9)
     assert out.area_std_mm2 == pytest.approx(0.0, abs=1e-9)
     assert af > a0  # the film enlarges the patch
@@ -30,7 +32,7 @@ def test_single_modulus_without_scatter_scales_by_the_solved_area_ratio():
 def test_ratio_interpolates_the_film_effect_across_the_posterior():
     rng = np.random.default_rng(0)
     post = {"modulus_mpa": np.exp(rng.normal(np.log(2800.0), 0.05, 800)), "sigma_mm": np.full(800, 0.05)}
-    corr = WheelRailCorrector(post)
+    corr = WheelRailCorrector(post, HS_EDGE)
     ratio, support = corr.area_ratio(-5.0, 50e3)
     e_check = float(np.quantile(corr.modulus_mpa_, 0.9))
     direct = support["area_no_film_mm2"] / solve_wheel_rail(-5.0, 50e3, film=FilmLayer(e_check, 0.33, 0.09)).area_mm2
@@ -42,21 +44,45 @@ def test_ratio_interpolates_the_film_effect_across_the_posterior():
 
 
 def test_bad_input():
-    corr = WheelRailCorrector(point_posterior())
+    corr = WheelRailCorrector(point_posterior(), HS_EDGE)
     with pytest.raises(ValueError, match="measured_area_mm2"):
         corr.correct(-1.0, -3.0, 100e3)
 
 
-def test_command_uses_the_study_posterior(tmp_path):
-    tag = posterior_tag("HS", None, ContactOptions())
-    samples = {"modulus_mpa": [2800.0] * 200, "sigma_mm": [0.05] * 200}
-    (tmp_path / f"posterior-{tag}.json").write_text(json.dumps({"samples": samples}))
-    cmd = [sys.executable, "-m", "filmcal.cli", "correct", "--film", "HS", "--measured-area-mm2", "150",
-           "--offset-mm=-3", "--force-kn", "100", "--study-dir", str(tmp_path), "--json"]
-    p = subprocess.run(cmd, capture_output=True, text=True)
+def test_free_poisson_posterior_is_carried_over_at_equal_oedometric_modulus():
+    """A sample (E, nu) with nu free acts on the film springs through M only: at the nominal nu the
+    corrector uses the E of the same M, so its ratio equals that of a film solved with (E, nu) itself."""
+    from filmcal.elastic import oedometric_modulus_mpa
+
+    post = {"modulus_mpa": np.full(50, 2500.0), "poisson": np.full(50, 0.36), "sigma_mm": np.zeros(50)}
+    corr = WheelRailCorrector(post, HS_EDGE, model_radius_std_mm=0.0)
+    assert oedometric_modulus_mpa(corr.modulus_mpa_[0], 0.33) == pytest.approx(oedometric_modulus_mpa(2500.0, 0.36))
+    ratio, support = corr.area_ratio(-3.0, 50e3)
+    direct = support["area_no_film_mm2"] / solve_wheel_rail(-3.0, 50e3, film=FilmLayer(2500.0, 0.36, 0.09)).area_mm2
+    assert ratio[0] == pytest.approx(direct, rel=1e-6)
+
+
+def test_command_uses_the_study_posterior_and_refuses_nonsense(quick_study, tmp_path):
+    study, summary, _ = quick_study
+    base = [sys.executable, "-m", "filmcal.cli", "correct", "--measured-area-mm2", "150", "--offset-mm=-3",
+            "--force-kn", "100", "--json"]
+    p = subprocess.run(base + ["--film", "HS", "--study-dir", str(study)], capture_output=True, text=True)
     assert p.returncode == 0, p.stderr
     out = json.loads(p.stdout)
-    assert {"area_mm2", "area_std_mm2", "area_ci90_mm2"} <= set(out)
+    assert {"area_mm2", "area_std_mm2", "area_ci90_mm2", "models"} <= set(out)
     assert out["area_ci90_mm2"][0] < out["area_mm2"] < out["area_ci90_mm2"][1] < 150.0
-    bad = subprocess.run(cmd[:5] + ["-1"] + cmd[6:], capture_output=True, text=True)
-    assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1
+    assert abs(sum(m["weight"] for m in out["models"].values()) - 1) < 1e-9
+    cases = {"a negative area": ["--film", "HS", "--study-dir", str(study), "--measured-area-mm2", "-1"],
+             "a stray space": ["--film", " HS", "--study-dir", str(study)],
+             "a mistyped study folder": ["--film", "HS", "--study-dir", str(tmp_path / "typo")],
+             "a film without posterior": ["--film", "MS", "--study-dir", str(study)],
+             "an absurd sphere radius": ["--film", "HS", "--study-dir", str(study), "--sphere-radius-mm", "450",
+                                         "--measured-radius-mm", "1e9"]}
+    for what, extra in cases.items():
+        args = base + extra
+        if "--sphere-radius-mm" in extra:
+            args = [a for a in args if a not in ("--measured-area-mm2", "150", "--offset-mm=-3")]
+        bad = subprocess.run(args, capture_output=True, text=True)
+        assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1, (what, bad.stderr)
+        assert "Traceback" not in bad.stderr
+    assert not (tmp_path / "typo").exists()  # no study was started
