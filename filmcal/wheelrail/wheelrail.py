@@ -41,10 +41,9 @@ solved again. So every contact point that the load brings into contact --
 a second patch at the gauge corner, a patch spread over a profile joint --
 is covered, whatever its shape. Grid sizes are rounded up (x: to an odd
 count in steps of 8, s: in steps of 8) so that neighbouring cases share the
-cached influence-coefficient spectra of the solver, and cell centres lie on
-the plane's lattice (multiples of the spacing from the first contact
-point), so that grids of one plane share cells. A larger region starts from
-the previous attempt's pressure instead of from scratch.
+cached influence-coefficient spectra of the solver. A larger region starts
+from the previous attempt's pressure (interpolated onto its grid) instead of
+from scratch.
 
 A patch narrower than the solver's ``min_cells_across`` cells in a
 direction (a flange contact) is solved again on a grid refined in that
@@ -538,9 +537,8 @@ def _grid(region: ContactRegion, spacing_mm: float, curves: _PlaneCurves,
           spacing_s_mm: float | None = None) -> SurfaceGrid:
     """Grid over the region, with cell counts rounded up for spectrum reuse.
 
-    Cell centres lie on the lattice ``(i dx, j ds)`` of the plane (``s = 0``
-    at its first contact point), so that grids of one plane share their
-    cells and a pressure moves between them by copying.
+    ``spacing_s_mm`` (default ``spacing_mm``) is the cell size across the
+    rail, refined for narrow patches.
     """
     hx = spacing_mm
     hs = spacing_mm if spacing_s_mm is None else spacing_s_mm
@@ -553,18 +551,16 @@ def _grid(region: ContactRegion, spacing_mm: float, curves: _PlaneCurves,
                          "allowed: use a larger grid_mm")
     centre = 0.5 * (region.s_min_mm + region.s_max_mm)
     lo, hi = curves.s_range
-    length = (ns - 1) * hs
-    first = int(round((centre - 0.5 * length) / hs))
+    half_s = 0.5 * (ns - 1) * hs
     # keep the grid inside the part of the plane where both profiles are graphs
-    if hi - lo > length + 2 * hs:
-        first = min(max(first, int(math.ceil(lo / hs))), int(math.floor((hi - length) / hs)))
-    return SurfaceGrid(nx, ns, hx, hs, -half * hx, first * hs)
+    centre = min(max(centre, lo + half_s), hi - half_s) if hi - lo > 2 * half_s else 0.5 * (lo + hi)
+    return SurfaceGrid(nx, ns, hx, hs, -half * hx, centre - half_s)
 
 
 def _transfer(previous: ContactResult, grid: SurfaceGrid) -> np.ndarray | None:
     """A neighbouring solution's pressure on `grid` (same plane coordinates), or None.
 
-    Copied cell by cell when the grids share spacing and lattice, else
+    Copied cell by cell when the grids share their cells (spacing and offsets), else
     bilinearly interpolated (zero outside the neighbour's grid).
     """
     source = previous.grid
@@ -689,8 +685,8 @@ class WheelRailModel:
             film modulus or roughness): its pressure, in its contact-plane
             coordinates ``(x, s)`` measured from its first contact point, is
             interpolated onto this case's grid (copied cell by cell when the
-            grids share a lattice: same offset and spacing) and scaled to
-            this force as the solver's starting pressure. The answer is the
+            grids share their cells) and scaled to this force as the
+            solver's starting pressure. The answer is the
             same as from a cold start to the solver tolerance; only the
             iteration count falls. :meth:`solve_many` does this along a
             list of cases.
