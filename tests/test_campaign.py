@@ -392,7 +392,7 @@ def test_cli_run_status_export(tmp_path, capsys):
     assert run_cli(run) == 0
     assert json.loads(capsys.readouterr().out)["n_run"] == 0
     assert run_cli(["campaign", "status", "--store", str(store), "--json"]) == 0
-    assert json.loads(capsys.readouterr().out) == {"ok": 3, "failed": 0, "pending": 0, "total": 3}
+    assert json.loads(capsys.readouterr().out) == {"ok": 3, "failed": 0, "pending": 0, "total": 3, "running": None}
     assert run_cli(["campaign", "export", "--store", str(store), "--out", str(tmp_path / "runs.csv")]) == 0
     with (tmp_path / "runs.csv").open() as stream:
         rows = list(csv.DictReader(stream))

@@ -311,11 +311,15 @@ def test_store_lock_names_its_holder_and_is_released_by_a_killed_holder(tmp_path
         assert holder.stdout.readline().strip() == "held"
         with pytest.raises(StoreBusyError, match=rf"in use by pid {holder.pid} on .*solver run 42"):
             StoreLock(store).acquire()
+        assert StoreLock(store).running_holder().pid == holder.pid
+        assert StoreLock(store).running_holder().command == "solver run 42"
     finally:
         holder.kill()
         holder.wait()
+    assert StoreLock(store).running_holder() is None  # its details are left behind, the lock is not
     with StoreLock(store) as lock:  # released by the OS when its holder died
         assert lock.held and lock.holder().pid == os.getpid()
+        assert StoreLock(store).running_holder().pid == os.getpid()
 
 
 def test_an_ok_run_is_never_downgraded(tmp_path):

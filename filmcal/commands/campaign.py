@@ -170,15 +170,19 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _status(args: argparse.Namespace) -> int:
-    from filmcal.campaign import RunStore
+    from dataclasses import asdict
+
+    from filmcal.campaign import RunStore, StoreLock
 
     with RunStore(args.store, readonly=True) as store:
         counts = store.counts()
+    holder = StoreLock(args.store).running_holder()
     if args.json:
-        print_json(counts.as_dict())
+        print_json({**counts.as_dict(), "running": None if holder is None else asdict(holder)})
     else:
+        running = "" if holder is None else f"; a campaign is running: {holder.describe()}"
         print(f"{args.store}: {counts.ok} ok, {counts.failed} failed, {counts.pending} pending "
-              f"({counts.total} total)")
+              f"({counts.total} total){running}")
     return 0
 
 
@@ -254,7 +258,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
     status_parser = actions.add_parser(
         "status", help="count the ok, failed and pending runs of a store",
-        description="Count the runs of a store by status (ok, failed, pending) and in total.",
+        description="Count the runs of a store by status (ok, failed, pending) and in total, and say which "
+                    "campaign is running on it, if any (JSON key running: pid, host, command, started_at). "
+                    "Reading never changes the store.",
     )
     status_parser.add_argument("--store", required=True, help="SQLite store of the runs")
     status_parser.add_argument("--json", action="store_true", help="print the counts as one JSON object")
