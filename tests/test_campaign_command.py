@@ -498,3 +498,73 @@ def test_a_template_change_makes_new_runs_and_a_rerun_recomputes_nothing(tmp_pat
     assert run(DECK + "*OUTPUT\n").n_run == 2  # another deck is another model setting
     with RunStore(case["store"], readonly=True) as store:
         assert store.counts().total == 6 and len(store.settings_hashes()) == 3
+
+
+@pytest.mark.parametrize("script, expected", [
+    ("print('step 1'); print('{\"r_mm\": 2.5, \"n\": 3, \"ok\": true, \"note\": \"x\"}')", {"r_mm": 2.5, "n": 3.0, "ok": True}),
+    ("print('[1, 2]')", "printed no JSON object"),
+    ("print('{\"note\": \"only text\"}')", "has no numeric value"),
+    ("print('{\"converged\": false, \"reason\": \"contact lost\", \"r_mm\": 1.0}')", "contact lost"),
+    ("open('outputs.json', 'w').write('[]')", "outputs.json holds a list"),
+    ("open('outputs.json', 'w').write('{\"r_mm\": 4.0}'); print('not json')", {"r_mm": 4.0}),
+    ("import os, signal; os.kill(os.getpid(), signal.SIGKILL)", "killed by signal 9"),
+    ("import sys; sys.stderr.write('\\n'.join(f'line {i}' for i in range(50))); sys.exit(1)",
+     "exit status 1); stderr: line 45 | line 46 | line 47 | line 48 | line 49"),
+])
+def test_command_outputs_and_failure_reasons(tmp_path, script, expected):
+    from filmcal._parallel import SerialExecutor
+
+    (tmp_path / "model.py").write_text(script + "\n")
+    model = CommandModel(f"{sys.executable} {tmp_path / 'model.py'} {{x}}", tmp_path / "work", timeout_s=30)
+    Campaign(model, tmp_path / "runs.sqlite", settings=model.settings(), executor=SerialExecutor(),
+             group_by=()).run([{"x": 1.0}], progress=False)
+    with RunStore(tmp_path / "runs.sqlite", readonly=True) as store:
+        (record,) = store.records()
+    if isinstance(expected, dict):
+        assert (record.status, record.outputs) == ("ok", expected)
+    else:
+        assert record.status == "failed" and expected in record.reason, record.reason
+
+
+def test_retry_reruns_failed_points_only_and_keeps_ok_ones(tmp_path):
+    from filmcal._parallel import SerialExecutor
+
+    case = make_case(tmp_path, ["ok", "fail", "garbage"], sleep_s=0.0)
+    model = CommandModel(case["template"], tmp_path / "work", timeout_s=30)
+
+    def run(retry: bool):
+        return Campaign(model, case["store"], settings=model.settings(), executor=SerialExecutor(),
+                        group_by=()).run(case["rows"], retry_failed=retry, progress=False)
+
+    assert (run(False).n_run, run(False).n_run, run(True).n_run) == (3, 0, 2)
+    with RunStore(case["store"], readonly=True) as store:
+        attempts = {r.inputs["key"]: (r.status, r.attempts) for r in store.records()}
+    assert attempts == {"p00": ("ok", 1), "p01": ("failed", 2), "p02": ("failed", 2)}
+    assert Counter(key for key, _ in starts(case["log"])) == {"p00": 1, "p01": 2, "p02": 2}
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--template-file", "deck.inp.tmpl"], "--template-file needs --command"),
+    (["--command", "echo {x}", "--template-file", "missing.tmpl"], "--template-file 'missing.tmpl' does not exist"),
+    (["--command", "echo {x}", "--template-file", "a/deck.inp", "--template-file", "b/deck.inp.tmpl"],
+     "render to the same name"),
+    (["--command", "echo {x}", "--model", "os:getcwd"], "not allowed with argument"),
+    (["--command", "   "], "--command must be a non-empty command template"),
+])
+def test_command_options_are_checked_before_anything_is_written(tmp_path, monkeypatch, capsys, extra, message):
+    from filmcal.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "d.csv").write_text("x\n1\n")
+    (tmp_path / "deck.inp.tmpl").write_text("X={x}\n")
+    for folder in ("a", "b"):
+        (tmp_path / folder).mkdir()
+    (tmp_path / "a" / "deck.inp").write_text("X={x}\n")
+    (tmp_path / "b" / "deck.inp.tmpl").write_text("X={x}\n")
+    try:
+        status = main(["campaign", "run", "--design", "d.csv", "--store", "runs.sqlite", *extra])
+    except SystemExit as exc:
+        status = exc.code
+    err = capsys.readouterr().err
+    assert status == 2 and message in err and err.count("\n") == 1, err
+    assert not (tmp_path / "runs.sqlite").exists() and not (tmp_path / "runs.work").exists()

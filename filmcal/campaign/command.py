@@ -40,6 +40,7 @@ import os
 import re
 import shlex
 import shutil
+import signal
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -103,6 +104,22 @@ def render_template(text: str, values: Mapping[str, DesignValue], *, quote: bool
         return shlex.quote(rendered) if quote else rendered
 
     return PLACEHOLDER.sub(substitute, text)
+
+
+def _signal_name(number: int) -> str:
+    try:
+        return signal.Signals(number).name
+    except ValueError:
+        return f"signal {number}"
+
+
+def _exit_text(code: int) -> str:
+    """An exit status in words; the shell reports a child killed by signal N as 128 + N."""
+    if code < 0:
+        return f"killed by signal {-code} ({_signal_name(-code)})"
+    if 128 < code <= 128 + 64:
+        return f"exit status {code}: killed by signal {code - 128} ({_signal_name(code - 128)})"
+    return f"exit status {code}"
 
 
 def _tail(text: str) -> str:
@@ -272,9 +289,7 @@ class CommandModel:
         if run.timed_out:
             raise ModelFailure(f"timeout after {self.timeout_s:g} s{said}")
         if run.returncode != 0:
-            how = (f"killed by signal {-run.returncode}" if run.returncode < 0
-                   else f"exit status {run.returncode}")
-            raise ModelFailure(f"command failed ({how}){said}")
+            raise ModelFailure(f"command failed ({_exit_text(run.returncode)}){said}")
         outputs_file = work_dir / OUTPUTS_FILE
         if outputs_file.is_file():
             try:
