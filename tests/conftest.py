@@ -36,8 +36,13 @@ from filmcal.fem import get_model
 
 TESTS_DIR = Path(__file__).resolve().parent
 
-#: Fixtures whose users are slow: each runs a whole (quick) pipeline or as much work.
-SLOW_FIXTURES: frozenset[str] = frozenset({"quick_study"})
+#: Fixtures whose users are slow: a quick pipeline, or a shared setup of as
+#: much work (wall time on the busy machine, as below).
+SLOW_FIXTURES: frozenset[str] = frozenset({
+    "quick_study",  # a quick pipeline in a subprocess: 2-5 minutes
+    "printed",      # test_report.py: a synthetic study's report printed by Chromium, 21 s
+    "fine_025",     # test_fem_imprint.py: FE solves on a 0.025 mm mesh, 16 s
+})
 
 #: Node-id prefixes (relative to tests/) of slow tests, with the time measured
 #: (setup + call, wall time on 2 cores shared with other work, so about 2-3x
@@ -60,6 +65,15 @@ SLOW_TESTS: dict[str, str] = {
     "test_correction_wheelrail.py::test_ratio_interpolates_the_film_effect_across_the_posterior": "4 s",
     "test_correction_wheelrail.py::test_command_uses_the_study_posterior": "5 s",
     "test_doe.py::test_cli_as_a_process": "5 s",
+    "test_fem_inputs.py::test_cli_json_contract": "6 s: FE solves in processes",
+    "test_fem_inputs.py::test_cli_bad_input_exits_2_with_one_line[args1]": "6 s",
+    "test_fem_film.py::test_flat_friction_lies_between_frictionless_and_tied": "5 s",
+    "test_fuzz_files.py::test_ctrl_c_of_a_running_command_exits_130_with_one_line": "5 s: interrupts a process",
+    "test_fuzz_options.py::test_property_any_non_number_is_refused_naming_the_option": "5 s: many examples",
+    "test_report.py::test_report_command_rewrites_from_the_study": "19 s: report of a study in a process",
+    "test_report.py::test_calibration_figures_name_parameters_as_an_engineer_reads_them": "8 s",
+    "test_report.py::test_long_table_flows_over_pages_with_its_header_repeated": "7 s: a PDF",
+    "test_report.py::test_report_of_a_non_study_exits_2": "6 s each: processes",
     "test_fem_film.py::test_mesh_convergence_with_film": "4 s: fine FE meshes",
     "test_fem_film.py::test_paper_friction_configuration_converges": "6 s: friction at both interfaces",
     "test_study.py::": "14 s shared FE campaign and surrogate, 19 s refinement",
