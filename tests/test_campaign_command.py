@@ -471,6 +471,12 @@ def test_output_columns_of_a_store_feed_a_surrogate(tmp_path):
     X = column.input_matrix()
     expected = [hertz_radius_mm(*x) for x in X]
     assert column.values == pytest.approx(expected, rel=1e-12)
+    # a Gaussian-process surrogate of the command's output, fitted on the store's column
+    from filmcal.surrogate import GPSurrogate
+
+    names = ["modulus_mpa", "radius_mm", "force_kn"]
+    gp = GPSurrogate(inputs=names, output="contact_radius_mm", n_restarts=1, random_state=0).fit(X, column.values)
+    assert gp.predict(X) == pytest.approx(column.values, rel=1e-3)
     deck = load_output_column(case["store"], "deck_modulus_mpa")
     assert len(deck) == 1 and deck.values[0] == deck.inputs["modulus_mpa"][0]  # rendered into the deck
     with pytest.raises(ValueError, match="outputs there: contact_radius_mm"):
