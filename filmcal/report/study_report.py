@@ -63,7 +63,8 @@ class StudyData:
     seed: int | None
     settings_hash: str
     settings: dict
-    posteriors: dict = field(default_factory=dict)  # film -> (CalibrationResult, file name)
+    posteriors: dict = field(default_factory=dict)  # film -> (CalibrationResult, file name, model label), preferred
+    other_posteriors: dict = field(default_factory=dict)  # film -> [(CalibrationResult, file name, model label)]
     curves: dict = field(default_factory=dict)  # film -> list of row dicts
     verification: dict | None = None
     design: DesignData | None = None
@@ -105,34 +106,51 @@ def _read_config(study: Path) -> tuple[list[str], int | None, str, dict]:
     manifest = _read_json(study / "study.json")
     if manifest is not None and isinstance(manifest.get("settings"), dict):
         s = manifest["settings"]
-        films = s.get("films") or list(manifest.get("films") or {})
-        text = json.dumps(s, sort_keys=True, default=str)
-        return list(films), s.get("seed"), hashlib.sha256(text.encode()).hexdigest()[:16], s
+        films = manifest.get("pipeline_films") or s.get("films") or sorted(
+            {e["spec"]["film"]["name"] for e in (manifest.get("artefacts") or {}).values()
+             if e.get("kind") == "posterior"})
+        text = json.dumps(s, sort_keys=True, separators=(",", ":"), default=str)
+        return list(films), s.get("seed"), hashlib.sha256(text.encode()).hexdigest()[:16], s.get("pipeline", s)
     raise FileNotFoundError(f"study_dir {study} has no settings.json or study.json with settings: not a study "
                             "folder made by `filmcal pipeline`")
 
 
+def _manifest_posteriors(study: Path, film: str) -> list[tuple[tuple, Path, str]]:
+    """(rank, file, model label) of a film's posteriors recorded in the manifest; the preferred one ranks first.
+
+    Preferred: the imprint model with the highest stacking weight in ``comparison-<film>.json``.
+    """
+    manifest = _read_json(study / "study.json") or {}
+    weights = (_read_json(_first(study, f"comparison-{film}.json")) or {}).get("weights") or {}
+    out = []
+    for rel, entry in (manifest.get("artefacts") or {}).items():
+        spec = entry.get("spec") or {}
+        if entry.get("kind") == "posterior" and (spec.get("film") or {}).get("name") == film:
+            model = str(spec.get("model") or spec.get("imprint") or "")
+            order = list(weights).index(model) if model in weights else len(weights)  # ties: the comparison's order
+            out.append(((-float(weights.get(model, 0.0)), order, spec.get("loads") not in (None, "all"), rel),
+                        study / rel, model))
+    return sorted(out, key=lambda c: c[0])
+
+
 def _read_posteriors(study: Path, films: list[str], seed: int | None, problems: list[str]) -> dict:
+    """Film -> [(CalibrationResult, file name, model label)], the preferred posterior first."""
     from filmcal.calibration import load_result
 
-    candidates: dict[str, list[tuple[tuple, Path]]] = {}
-    for path in sorted([*study.glob("posterior-*.json"), *study.glob("posteriors/*.json")]):
-        try:
-            head = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, ValueError) as err:
-            problems.append(f"{path.name}: {err}")
-            continue
-        film = head.get("film")
-        if film in films:
-            # prefer all loads, the study's seed, then the newest file
-            rank = (head.get("loads") not in (None, "all"), head.get("seed") != seed, -path.stat().st_mtime)
-            candidates.setdefault(film, []).append((rank, path))
-    out = {}
+    out: dict = {}
     for film in films:
-        for _, path in sorted(candidates.get(film, []), key=lambda c: c[0]):
+        candidates = [(path, model) for _, path, model in _manifest_posteriors(study, film)]
+        if not candidates:  # folders without a manifest: posterior-<film>-<tags>.json
+            ranked = []
+            for path in study.glob(f"posterior-{film}-*.json"):
+                head = _read_json(path) or {}
+                ranked.append(((head.get("loads") not in (None, "all"), head.get("seed") != seed,
+                                -path.stat().st_mtime), path))
+            candidates = [(path, "") for _, path in sorted(ranked, key=lambda c: c[0])]
+            candidates = candidates[:1]
+        for path, model in candidates:
             try:
-                out[film] = (load_result(path), path.name)
-                break
+                out.setdefault(film, []).append((load_result(path), path.name, model))
             except Exception as err:  # noqa: BLE001 (an unreadable file is reported, not fatal)
                 problems.append(f"{path.name}: {err}")
     return out
@@ -155,18 +173,28 @@ def _read_design(study: Path) -> DesignData | None:
 
 
 def _read_radius_model(study: Path):
+    """The study's contact-edge radius surrogate (the first one when the column is not recorded)."""
     from filmcal.surrogate import load_surrogate
 
     try:
         from filmcal.surrogate.radius import SurrogateRadiusModel
     except ImportError:  # older layout
         from filmcal.study import SurrogateRadiusModel
-    meta = [p for p in [*study.glob("surrogate-*.json"), *study.glob("surrogates/*.json")]
-            if not p.name.endswith("validation.json")]
+    meta = sorted(p for p in [*study.glob("surrogate-*.json"), *study.glob("surrogates/*.json")]
+                  if not p.name.endswith("validation.json"))
     if not meta:
         return None
-    path = sorted(meta)[0]
+    edge = [p for p in meta if (_read_json(p.with_name(p.name[:-len(".json")] + "-validation.json")) or {})
+            .get("column", "contact_radius_mm") == "contact_radius_mm"]
+    path = (edge or meta)[0]
     return SurrogateRadiusModel(load_surrogate(path.with_name(path.name[:-len(".json")])), _domain())
+
+
+def _read_surrogate_validation(study: Path) -> dict | None:
+    """The held-out validation of the contact-edge surrogate (or the first one)."""
+    found = [_read_json(p) for p in sorted(study.glob("surrogates/*-validation.json"))]
+    edge = [d for d in found if d.get("column", "contact_radius_mm") == "contact_radius_mm"]
+    return (edge or found or [None])[0] if found else _read_json(_first(study, "surrogate-validation.json"))
 
 
 def _read_crossval(study: Path, films: list[str]) -> dict:
@@ -213,7 +241,9 @@ def read_study(study_dir: str | Path) -> StudyData:
         raise FileNotFoundError(f"study_dir {study} is not a folder")
     films, seed, settings_hash, settings = _read_config(study)
     data = StudyData(study, films, seed, settings_hash, settings)
-    data.posteriors = _read_posteriors(study, films, seed, data.problems)
+    found = _read_posteriors(study, films, seed, data.problems)
+    data.posteriors = {film: results[0] for film, results in found.items()}
+    data.other_posteriors = {film: results[1:] for film, results in found.items() if len(results) > 1}
 
     def attempt(what: str, read: Callable[[], object]):
         try:
@@ -227,8 +257,7 @@ def read_study(study_dir: str | Path) -> StudyData:
         if (p := _first(study, f"curves-{film}.csv", f"curves/curves-{film}.csv")) is not None}) or {}
     data.verification = attempt("fe-verification.json", lambda: _read_json(_first(study, "fe-verification.json")))
     data.design = attempt("design.json", lambda: _read_design(study))
-    data.surrogate_validation = attempt("surrogate validation", lambda: _read_json(
-        _first(study, "surrogate-validation.json", "surrogates/*-validation.json")))
+    data.surrogate_validation = attempt("surrogate validation", lambda: _read_surrogate_validation(study))
     data.radius_model = attempt("surrogate", lambda: _read_radius_model(study))
     data.modulus_range_mpa = tuple(_domain().modulus_mpa)
     data.crossval = attempt("cross-validation", lambda: _read_crossval(study, films)) or {}
@@ -249,7 +278,7 @@ def _ci(d: dict, fmt: str = "{:.0f}") -> str:
 
 
 def _fixed_poisson(posteriors: dict) -> float | None:
-    values = {r.poisson.get("fixed") for r, _ in posteriors.values() if isinstance(r.poisson, dict)}
+    values = {r.poisson.get("fixed") for r, *_ in posteriors.values() if isinstance(r.poisson, dict)}
     values.discard(None)
     return values.pop() if len(values) == 1 else None
 
@@ -276,7 +305,8 @@ def answer_table(posteriors: dict, curves: dict) -> tuple[Table, list[str]]:
     for film in dict.fromkeys([*posteriors, *curves]):
         cells = [film]
         if film in posteriors:
-            r = posteriors[film][0]
+            r, _, model = posteriors[film]
+            cells[0] = f"{film} ({model})" if model else film
             cells += [f"{r.modulus_mpa['median']:.0f}", f"{r.modulus_mpa['ci90'][0]:.0f} to "
                       f"{r.modulus_mpa['ci90'][1]:.0f}", "pass" if r.diagnostics_ok else "FAILED"]
         else:
@@ -300,7 +330,11 @@ def answer_table(posteriors: dict, curves: dict) -> tuple[Table, list[str]]:
     remarks = ["Multiply a measured imprint area by the correction factor to obtain the contact area without "
                "film; the 90 % credible interval is the posterior uncertainty of E carried through the "
                "wheel-rail model (section 'Wheel-rail correction curves' gives every offset and load computed)."]
-    failed = [f for f, (r, _) in posteriors.items() if not r.diagnostics_ok]
+    if any(len(v) > 2 and v[2] for v in posteriors.values()):
+        remarks.append("Beside each film, in brackets, the imprint model whose posterior of E is quoted: the one "
+                       "with the highest stacking weight; where the study compared several imprint models, the "
+                       "correction combines them with their weights (section 'What the film records').")
+    failed = [f for f, (r, *_) in posteriors.items() if not r.diagnostics_ok]
     if failed:
         remarks.append(f"Sampler diagnostics FAILED for {', '.join(failed)}: the chains are too short or not "
                        "mixed (see the calibration sections and the glossary); the numbers are provisional and "
@@ -319,7 +353,7 @@ def summary_section(posteriors: dict, curves: dict) -> Section:
           "through a wheel-rail model (S1002 wheel on a 60E2 rail inclined 1:40) into correction curves with "
           "90 % credible bands.")
     rows = []
-    for film, (r, _) in posteriors.items():
+    for film, (r, *_) in posteriors.items():
         p = r.predictive
         rows.append([film, _ci(r.modulus_mpa), _ci(r.oedometric_modulus_mpa), f"{r.sigma_mm['median']:.3f}",
                      f"{r.rhat_max:.4f}", f"{r.ess_min:.0f}", "pass" if r.diagnostics_ok else "FAILED",
@@ -445,12 +479,12 @@ def surrogate_section(v: dict | None) -> Section:
     return s
 
 
-def calibration_section(film: str, result, source: str) -> Section:
+def calibration_section(film: str, result, source: str, model: str = "") -> Section:
     """Posterior, diagnostics, traces, pairs, predictive check and per-case E ranges of one film."""
     from filmcal.calibration.plots import (parameter_label, plot_case_intervals, plot_corner, plot_predictive,
                                            plot_trace)
 
-    s = Section(f"Calibration of {film} film")
+    s = Section(f"Calibration of {film} film" + (f" (imprint model {model})" if model else ""))
     rows = [[parameter_label(name), f"{np.median(v):.4g}", f"{np.quantile(v, 0.05):.4g}",
              f"{np.quantile(v, 0.95):.4g}", f"{result.rhat.get(name, np.nan):.4f}",
              f"{result.ess_bulk.get(name, np.nan):.0f}", f"{result.ess_tail.get(name, np.nan):.0f}"]
@@ -495,17 +529,29 @@ def film_records_section(comparison: dict | None) -> Section:
                      "in the study folder. The calibration above reads the imprint as the contact edge.")
     rows = []
     for film, d in comparison.items():
-        if isinstance(d, dict):
-            for model, v in (d.get("models") or {}).items():
-                if isinstance(v, dict):
-                    rows.append([film, model, *(f"{v[k]:.4g}" if isinstance(v.get(k), (int, float)) else ""
-                                                for k in ("elpd_loo", "weight", "rms_residual_mm"))])
+        if not isinstance(d, dict):
+            continue
+        weights = d.get("weights") or {}
+        for model, v in (d.get("models") or {}).items():
+            if not isinstance(v, dict):
+                continue
+            e = v.get("modulus_mpa")
+            rows.append([film, model, _ci(e) if isinstance(e, dict) and "ci90" in e else "",
+                         _fmt(v.get("elpd_loo"), "{:.2f}") + (f" ± {v['elpd_loo_se']:.2f}"
+                                                           if isinstance(v.get("elpd_loo_se"), (int, float)) else ""),
+                         _fmt(weights.get(model, v.get("weight")), "{:.2f}"), _fmt(v.get("pareto_k_max"), "{:.2f}"),
+                         _fmt(v.get("rms_residual_mm"), "{:.3f}")])
     if rows:
-        s.add(Table(["film", "imprint model", "ELPD-LOO", "stacking weight", "RMS residual (mm)"], rows,
-                    "Imprint models compared by leave-one-out predictive accuracy"))
+        s.add(Table(["film", "imprint model", "E (MPa), median [90 %]", "ELPD-LOO ± se", "stacking weight",
+                     "largest Pareto k", "RMS residual (mm)"], rows,
+                    "Imprint models compared by leave-one-out predictive accuracy (see the glossary)"))
     else:
         s.add("The imprint-model comparison is in the study folder but in a form this report does not yet show.")
     return s
+
+
+def _fmt(value, fmt: str) -> str:
+    return fmt.format(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else ""
 
 
 def _crossval_method(cv) -> str:
@@ -662,8 +708,9 @@ SECTION_BUILDERS: list[Callable[[StudyData], Section | list[Section]]] = [
     lambda d: preliminary_section(d.radius_model, d.modulus_range_mpa),
     lambda d: design_section(d.design),
     lambda d: surrogate_section(d.surrogate_validation),
-    lambda d: [calibration_section(film, *d.posteriors[film]) if film in d.posteriors else
-               _missing(Section(f"Calibration of {film} film"), f"posterior of {film}") for film in d.films],
+    lambda d: [section for film in d.films for section in (
+        [calibration_section(film, *p) for p in [d.posteriors[film], *d.other_posteriors.get(film, [])]]
+        if film in d.posteriors else [_missing(Section(f"Calibration of {film} film"), f"posterior of {film}")])],
     lambda d: film_records_section(d.imprint_comparison),
     lambda d: crossval_section(d.crossval),
     lambda d: wheel_rail_section(d.curves, d.outlines),
