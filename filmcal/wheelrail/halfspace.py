@@ -558,23 +558,37 @@ class _SeriesInterface:
         return self.linear_compliance + sum(float(part.initial_compliance_mm_per_mpa)
                                             for part in self.nonlinear)
 
+    # the nonlinear parts are evaluated on the loaded cells only: at zero
+    # pressure closure and energy vanish and the slope is the one at p = 0
+
     def closure(self, p: np.ndarray) -> np.ndarray:
         out = self.linear_compliance * p
-        for part in self.nonlinear:
-            out = out + np.asarray(part.closure_mm(p), dtype=float)
+        if self.nonlinear:
+            loaded = p > 0.0
+            values = p[loaded]
+            for part in self.nonlinear:
+                out[loaded] += np.asarray(part.closure_mm(values), dtype=float)
         return out
 
     def tangent(self, p: np.ndarray) -> np.ndarray:
         out = np.full(p.shape, self.linear_compliance)
-        for part in self.nonlinear:
-            out += np.asarray(part.tangent_compliance_mm_per_mpa(p), dtype=float)
+        if self.nonlinear:
+            loaded = p > 0.0
+            values = p[loaded]
+            for part in self.nonlinear:
+                at_zero = float(np.asarray(part.tangent_compliance_mm_per_mpa(np.zeros(1)),
+                                           dtype=float)[0])
+                out[~loaded] += at_zero
+                out[loaded] += np.asarray(part.tangent_compliance_mm_per_mpa(values), dtype=float)
         return out
 
     def energy(self, p: np.ndarray) -> float:
         """``sum int_0^p c(q) dq`` over the cells (per unit cell area)."""
         out = 0.5 * self.linear_compliance * _dot(p, p)
-        for part in self.nonlinear:
-            out += float(np.sum(part.closure_integral(p)))
+        if self.nonlinear:
+            values = p[p > 0.0]
+            for part in self.nonlinear:
+                out += float(np.sum(part.closure_integral(values)))
         return out
 
 
@@ -603,7 +617,7 @@ def _dot(a: np.ndarray, b: np.ndarray) -> float:
 
 def _pcg(conv: _Convolution, gap: np.ndarray, diagonal: np.ndarray | float,
          pressure: np.ndarray, force: float, cell_area: float, tol: float,
-         max_iter: int) -> tuple[np.ndarray, np.ndarray, int, float]:
+         max_iter: int, kp: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int, float]:
     """Preconditioned, projected conjugate gradients with prescribed force.
 
     Minimises ``p.(K + D) p / 2 + h.p`` over ``p >= 0`` with
@@ -628,12 +642,16 @@ def _pcg(conv: _Convolution, gap: np.ndarray, diagonal: np.ndarray | float,
     the re-activation are added by direct kernel sums when they are few
     (:meth:`_Convolution.add_cells`), else ``K p`` is recomputed.
 
-    Returns the pressure, ``K p``, the iteration count and the last relative
-    change ``sum|p - p_prev| / sum p``.
+    ``kp`` is ``K pressure`` when the caller has it (``pressure`` already
+    carrying the force). Returns the pressure, ``K p``, the iteration count and
+    the last relative change ``sum|p - p_prev| / sum p``.
     """
     total = force / cell_area
-    p = pressure * (total / pressure.sum())
-    u = conv(p)
+    if kp is None:
+        p = pressure * (total / pressure.sum())
+        u = conv(p)
+    else:
+        p, u = pressure, kp.copy()
     uniform = np.ndim(diagonal) == 0
     jacobi = 1.0 / (conv.self_influence + diagonal)
     if uniform:
@@ -721,7 +739,7 @@ def _newton(conv: _Convolution, gap: np.ndarray, interface: _SeriesInterface,
         shifted_gap = gap + interface.closure(p) - slope * p
         inner_tol = max(tol, min(1e-4, 1e-2 * change))
         target, u_target, its, _ = _pcg(conv, shifted_gap, slope, p, force, cell_area,
-                                        inner_tol, max_iter)
+                                        inner_tol, max_iter, kp=u)
         iterations += its
         alpha = 1.0
         while True:
