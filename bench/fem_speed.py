@@ -23,6 +23,7 @@ HHS 130 MPa) by linear interpolation of the nodal pressures -- and, without a
 film, against Hertz's closed forms. It also times the reading against the solve.
 
     python bench/fem_speed.py --edge-table [--radius-mm 450] [--force-kn 75] [--fine-mm 0.0125]
+                              [--large-strain] [--moduli none,500,2800]
 """
 from __future__ import annotations
 
@@ -74,10 +75,11 @@ def full_stiffness(model: SphereOnFlat) -> sp.csc_matrix:
 
 
 def edge_table(radius_mm: float, force_kn: float, fine_mm: float,
-               moduli=(None, 500.0, 1000.0, 2800.0, 6300.0, 10000.0)) -> None:
+               moduli=(None, 500.0, 1000.0, 2800.0, 6300.0, 10000.0), large_strain: bool = False) -> None:
     """Print h = 0.1 mm readings against the fine-mesh and analytic references."""
+    from filmcal.contact import read_radial_profile
     from filmcal.films import get_film
-    from filmcal.fem import MeshSettings
+    from filmcal.fem import ContactOptions, MeshSettings
     from filmcal.hertz import hertz_max_pressure_mpa, hertz_radius_mm
 
     films = [get_film(n) for n in ("MS", "HS", "HHS")]
@@ -85,18 +87,19 @@ def edge_table(radius_mm: float, force_kn: float, fine_mm: float,
     coarse_model = SphereOnFlat(radius_mm)
     t0 = time.perf_counter()
     fine_model = SphereOnFlat(radius_mm, MeshSettings(element_size_mm=fine_mm, contact_zone_mm=11.0))
-    print(f"R{radius_mm:g} / {force_kn:g} kN: h = 0.1 mm readings against h = {fine_mm:g} mm "
-          f"(model built in {time.perf_counter() - t0:.0f} s)")
+    options = ContactOptions(large_strain=large_strain)
+    print(f"R{radius_mm:g} / {force_kn:g} kN{', large-strain film' if large_strain else ''}: h = 0.1 mm "
+          f"readings against h = {fine_mm:g} mm (model built in {time.perf_counter() - t0:.0f} s)")
     print(f"{'E MPa':>7} {'edge 0.1':>9} {'ref':>9} {'bracket':>17} {'err':>7} {'old fit':>8} | "
           + " | ".join(f"{f.name} act 0.1 / ref / err" for f in films))
     worst_edge = worst_act = 0.0
     read_s = solve_s = 0.0
     for modulus in moduli:
         film = None if modulus is None else Film(modulus, 0.33)
-        coarse = coarse_model.solve(film, force_n)
-        fine = fine_model.solve(film, force_n)
+        coarse = coarse_model.solve(film, force_n, options)
+        fine = fine_model.solve(film, force_n, options)
         t1 = time.perf_counter()
-        coarse.profile()
+        read_radial_profile(coarse.r_mm, coarse.pressure_mpa, coarse.edge_tip_mm)
         read_s += time.perf_counter() - t1
         solve_s += coarse.elapsed_s
         k = int(np.flatnonzero(fine.pressure_mpa > 0)[-1])
@@ -158,10 +161,14 @@ def main() -> None:
     ap.add_argument("--force-kn", type=float, default=75.0)
     ap.add_argument("--edge-table", action="store_true", help="print the edge/imprint verification table")
     ap.add_argument("--fine-mm", type=float, default=0.0125, help="element size of the reference mesh")
+    ap.add_argument("--large-strain", action="store_true", help="edge table with the large-strain film")
+    ap.add_argument("--moduli", default="none,500,1000,2800,6300,10000",
+                    help="film moduli of the edge table (MPa; 'none' for no film)")
     args = ap.parse_args()
     if args.edge_table:
         with threadpool_limits(limits=1, user_api="blas"):
-            edge_table(args.radius_mm, args.force_kn, args.fine_mm)
+            moduli = tuple(None if m.strip() == "none" else float(m) for m in args.moduli.split(","))
+            edge_table(args.radius_mm, args.force_kn, args.fine_mm, moduli, args.large_strain)
         return
     with threadpool_limits(limits=1, user_api="blas"):
         # warm the process (lazy imports, first-use set-up of numpy/scipy/skfem) on
