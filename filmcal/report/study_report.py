@@ -221,7 +221,8 @@ def _study_files(study: Path) -> list[tuple[str, int, str]]:
     files = []
     for p in sorted(study.rglob("*")):
         rel = p.relative_to(study)
-        if p.is_file() and not p.name.endswith(".tmp") and rel.parts[0] != "report" and not p.name.startswith("."):
+        transient = p.name.endswith((".tmp", ".lock", "-shm", "-wal")) or p.name.startswith(".")
+        if p.is_file() and not transient and rel.parts[0] != "report":
             files.append((rel.as_posix(), p.stat().st_size, hashlib.sha256(p.read_bytes()).hexdigest()))
     return files
 
@@ -693,7 +694,7 @@ def provenance_section(folder: Path, settings_hash: str, seed: int | None, films
     s.add(Table(["software", "version"], versions, "Software"))
     rows = [["settings hash", settings_hash], ["seed", str(seed)], ["films", ", ".join(films)]]
     rows += [[k, json.dumps(v)] for k, v in settings.items()]
-    s.add(Table(["setting", "value"], rows, "Pipeline settings (the hash covers settings, films and seed)"))
+    s.add(Table(["setting", "value"], rows, "Pipeline settings (the hash is that of the recorded settings)"))
     s.add(Table(["file", "size (KiB)", "SHA-256 (first 16)"],
                 [[name, f"{size / 1024:.1f}", sha[:16]] for name, size, sha in files], f"Study folder {folder}"))
     if problems:
