@@ -102,6 +102,18 @@ def _subparsers(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentP
     return {}
 
 
+def _after(first, then):
+    """An argparse type: `first` converts and checks, `then` checks the bounds of the same text."""
+    def parse(text: str):
+        value = first(text)
+        then(text)
+        return value
+    parse.__name__ = then.__name__
+    parse.filmcal_checked = True  # type: ignore[attr-defined]
+    parse.bounds = then.bounds  # type: ignore[attr-defined]
+    return parse
+
+
 def _harden(parser: argparse.ArgumentParser) -> None:
     """Bounds and finite checks on a parser's options, recursively; help without '%%'.
 
@@ -123,11 +135,15 @@ def _harden(parser: argparse.ArgumentParser) -> None:
             continue
         if convert is None or getattr(convert, "filmcal_checked", False):
             continue
-        if action.dest in SIZE_BOUNDS and convert in (int, float):
+        if action.dest in SIZE_BOUNDS and convert is not str:
             low, high = SIZE_BOUNDS[action.dest]
-            action.type = (arg_int_in if convert is int else arg_float_in)(low, high)
+            integer = convert is int or isinstance(low, int) and isinstance(high, int)
+            bounded = (arg_int_in if integer else arg_float_in)(low, high)
+            if convert not in (int, float):  # the command's own type first, then the bounds
+                bounded = _after(convert, bounded)
+            action.type = bounded
             if action.help and action.help is not argparse.SUPPRESS:
-                shown = f"{low}-{high}" if convert is int else f"{low:g}-{high:g}"
+                shown = f"{low}-{high}" if integer else f"{low:g}-{high:g}"
                 action.help = f"{action.help} [allowed {shown}]"
         elif convert is float:
             action.type = arg_finite()
