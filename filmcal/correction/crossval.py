@@ -278,6 +278,8 @@ def psis_leave_one_case_out(models: Mapping[str, tuple], weights: Mapping[str, f
     if not models:
         raise ValueError("models must hold at least one (problem, posterior) pair")
     names = list(models)
+    if weights is not None and set(weights) != set(names):
+        raise ValueError(f"weights must name the same models as models: {sorted(weights)} vs {sorted(names)}")
     w = np.ones(len(names)) if weights is None else np.array([float(weights[n]) for n in names])
     if not np.all(np.isfinite(w)) or np.any(w < 0) or w.sum() <= 0:
         raise ValueError(f"weights must be finite, >= 0 and not all 0, got {weights}")
