@@ -36,6 +36,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--workers", type=int, default=None, help="FE worker processes (default: all cores)")
     p.add_argument("--seed", type=int, default=0, help="seed of designs, surrogate and chains (default 0)")
     p.add_argument("--no-report", action="store_true", help="skip the HTML/PDF report")
+    p.add_argument("--progress", choices=["auto", "live", "log", "quiet"], default="auto",
+                   help="progress on stderr: live bars on a terminal, plain lines (a heartbeat at least every 10 s) "
+                        "for logs and CI, or quiet (default auto: live on a terminal, log otherwise)")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object (progress on stderr)")
     p.set_defaults(func=run)
 
@@ -62,10 +65,16 @@ def run(args: argparse.Namespace) -> int:
     if args.kinematics is not None:
         settings = replace(settings, kinematics=tuple(k.strip() for k in args.kinematics.split(",")))
     study_dir = args.study_dir or ("filmcal-study-quick" if args.quick else "filmcal-study")
-    log = (lambda msg: (sys.stderr.write(msg + "\n"), sys.stderr.flush())) if args.json else (
-        lambda msg: print(msg, flush=True))
-    summary = run_pipeline(study_dir, settings, films, args.seed, args.workers, log, report=not args.no_report,
+    from filmcal._progress import Progress
+
+    progress = Progress(args.progress)
+    summary = run_pipeline(study_dir, settings, films, args.seed, args.workers, progress, report=not args.no_report,
                            films_file=args.films_file)
+    for film, s in summary["films"].items():
+        if not s["diagnostics_ok"]:
+            progress.warnings.append(f"{film}: the sampler's diagnostics failed (R-hat {s['rhat']:.4f} above 1.01 "
+                                     f"or ESS {s['ess']:.0f} below its target): treat this posterior as "
+                                     "provisional, or run without --quick")
     if args.json:
         print_json(summary)
     else:
@@ -75,10 +84,8 @@ def run(args: argparse.Namespace) -> int:
             print(f"{film} ({s['model']}): E = {m:.0f} MPa [{ci[0]:.0f}, {ci[1]:.0f}], R-hat {s['rhat']:.4f}, "
                   f"ESS {s['ess']:.0f}, cases in their 90 % predictive interval {s['predictive_hits']}/{s['n_cases']}"
                   + (", stacking weights " + ", ".join(f"{k} {v:.2f}" for k, v in weights.items()) if weights else ""))
-            if not s["diagnostics_ok"]:
-                sys.stderr.write(f"warning: {film}: the sampler's diagnostics failed (R-hat {s['rhat']:.4f}, "
-                                 f"ESS {s['ess']:.0f}); treat this posterior as provisional\n")
         if "report" in summary:
             print(f"report: {summary['report']['html']} and {summary['report']['pdf']}")
         print(f"summary: {study_dir}/summary.json ({summary['elapsed_s']:.0f} s)")
+    progress.summary()
     return 0

@@ -298,7 +298,7 @@ class Study:
         store.parent.mkdir(parents=True, exist_ok=True)
         model = partial(evaluate_point, films=films) if films else evaluate_point
         campaign = Campaign(model, store, settings={"spec": store_spec})
-        campaign.run(train + test, progress=progress if progress is not None else False)
+        campaign.run(train + test, progress=progress or False)
         results = campaign.results(status=None)
         rows = _match_rows(results, train + test)
         ok = rows >= 0
@@ -395,7 +395,7 @@ class Study:
                            discrepancy=spec.discrepancy,
                            priors=Priors.for_film(film, modulus_range_mpa=spec.fe.domain.modulus_mpa),
                            seed=seed_for(spec.fe.seed, f"chain-{film.name}-{spec.model_label}"), backend_path=chain,
-                           settings=settings, progress=bool(progress))
+                           settings=settings, progress=False)
         save_result(result, path)
         self.record(path, "posterior", full, surrogate=skey)
         return result, path, full

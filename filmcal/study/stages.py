@@ -101,7 +101,7 @@ def _models_for(study: Study, film: str, settings: PipelineSettings) -> tuple[st
 
 
 def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM_TYPES, seed: int = 0,
-                 workers: int | None = None, log: Callable[[str], None] = print, report: bool = True,
+                 workers: int | None = None, progress=None, report: bool = True,
                  films_file=None) -> dict:
     """Run (or resume) the pipeline in a study folder; return the summary also written to ``summary.json``.
 
@@ -117,14 +117,17 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
         The study's seed; every stage draws from its own stream of it.
     workers : int, optional
         Worker processes (default: all cores).
-    log : callable
-        Progress messages.
+    progress : filmcal._progress.Progress, optional
+        The run's progress display (default: ``auto``, on stderr).
     report : bool
         Write the HTML and PDF report at the end.
     films_file : str or Path, optional
         TOML file of user film types.
     """
+    from filmcal._progress import Progress
+
     settings = settings or PipelineSettings()
+    progress = progress or Progress()
     if seed < 0 or seed >= 2**32:
         raise InputError(f"seed must be in 0..{2**32 - 1}, got {seed}")
     study = Study(study_dir, create=True, films_file=films_file)
@@ -140,22 +143,23 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
 
         def stage(name: str, fn, *args):
             t = time.perf_counter()
-            out, computed = fn(*args)
+            with progress.stage(name) as st:
+                out, computed = fn(*args, st)
             elapsed = time.perf_counter() - t
             summary["stages_s"][name] = elapsed
             if computed:
                 study.stage_done(name, elapsed)
             return out
 
-        stage("design", _design_stage, study, settings, seed, log)
-        results = stage("calibration", _calibration_stage, study, settings, films, seed, workers, log)
-        comparisons = stage("comparison", _comparison_stage, study, settings, results, log)
+        stage("design", _design_stage, study, settings, seed)
+        results = stage("calibration", _calibration_stage, study, settings, films, seed, workers)
+        comparisons = stage("comparison", _comparison_stage, study, settings, results)
         chosen = {film: _preferred(results[film], comparisons.get(film)) for film in films}
         medians = {film: float(r.modulus_mpa["median"]) for film, (r, _, _) in chosen.items()}
-        stage("verification", _verification_stage, study, settings, seed, medians, log)
-        stage("curves", _curves_stage, study, settings, films, workers, log)
-        stage("outlines", _outlines_stage, study, settings, medians, log)
-        stage("crossval", _crossval_stage, study, settings, results, comparisons, seed, log)
+        stage("verification", _verification_stage, study, settings, seed, medians)
+        stage("curves", _curves_stage, study, settings, films, workers)
+        stage("outlines", _outlines_stage, study, settings, medians)
+        stage("crossval", _crossval_stage, study, settings, results, comparisons, seed)
         for film in films:
             result, path, spec = chosen[film]
             d = result.to_dict()
@@ -167,7 +171,7 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
                 s["imprint_weights"] = comparisons[film].get("weights")
             summary["films"][film] = s
         if report:
-            summary["report"] = stage("report", _report_stage, study, log)
+            summary["report"] = stage("report", _report_stage, study)
         summary["stage_timings_of_computing_runs"] = study.manifest.data["stages"]
         summary["elapsed_s"] = time.perf_counter() - t0
         atomic_write_json(study.layout.summary, summary, indent=1)
@@ -184,7 +188,7 @@ def _preferred(models: dict, comparison: dict | None):
 
 
 # ------------------------------------------------------------------ stages
-def _design_stage(study: Study, settings: PipelineSettings, seed: int, log):
+def _design_stage(study: Study, settings: PipelineSettings, seed: int, st):
     path = study.layout.design
     if study.verified(path):
         return None, False
@@ -193,7 +197,8 @@ def _design_stage(study: Study, settings: PipelineSettings, seed: int, log):
     from filmcal.doe import design_quality, latin_design
     from filmcal.surrogate.radius import SurrogateDomain
 
-    log("[design] optimal Latin hypercubes and their quality")
+    st.log("[design] optimal Latin hypercubes and their quality")
+    st.set_total(2)
     space = SurrogateDomain().space()
     out = {"names": list(space.names)}
     for name, n in (("train", settings.train_runs), ("test", settings.test_runs)):
@@ -205,33 +210,41 @@ def _design_stage(study: Study, settings: PipelineSettings, seed: int, log):
         out[name] = {"n": n, "seed": s, "quality": design.quality.as_dict(), "unit": design.unit,
                      "physical": design.points, "random_lhs_median": {k: float(np.median([r[k] for r in ref]))
                                                                       for k in ref[0] if k != "latin"}}
+        st.advance(note=f"{name} design")
     atomic_write_json(path, out, indent=None)
     study.record(path, "design", {"train_runs": settings.train_runs, "test_runs": settings.test_runs, "seed": seed})
     return None, True
 
 
-def _calibration_stage(study: Study, settings: PipelineSettings, films, seed: int, workers, log):
+def _calibration_stage(study: Study, settings: PipelineSettings, films, seed: int, workers, st):
     results: dict = {}
     computed = False
-    for film in films:
-        results[film] = {}
-        for spec in settings.specs(film, _models_for(study, film, settings), seed):
-            before = len(study.manifest.artefacts("posterior"))
-            log(f"[calibration] {film} under {spec.model_label}")
-            result, path, full = study.calibrate(spec, workers=workers, progress=False)
-            computed |= len(study.manifest.artefacts("posterior")) > before
-            results[film][spec.model_label] = (result, path, full)
-            log(f"[calibration] {film} {spec.model_label}: E = {result.modulus_mpa['median']:.0f} MPa "
-                f"[{result.modulus_mpa['ci90'][0]:.0f}, {result.modulus_mpa['ci90'][1]:.0f}]")
+    specs = [(film, spec) for film in films for spec in settings.specs(film, _models_for(study, film, settings), seed)]
+    st.set_total(len(specs))
+    for film, spec in specs:
+        results.setdefault(film, {})
+        before = len(study.manifest.artefacts("posterior"))
+        st.note = f"{film} {spec.model_label}"
+
+        def fe_progress(done, total, st=st, film=film, spec=spec):
+            st.note = f"{film} {spec.model_label}: FE run {done}/{total}"
+
+        result, path, full = study.calibrate(spec, workers=workers, progress=fe_progress)
+        computed |= len(study.manifest.artefacts("posterior")) > before
+        results[film][spec.model_label] = (result, path, full)
+        st.log(f"[calibration] {film} {spec.model_label}: E = {result.modulus_mpa['median']:.0f} MPa "
+               f"[{result.modulus_mpa['ci90'][0]:.0f}, {result.modulus_mpa['ci90'][1]:.0f}]")
+        st.advance(note=f"{film} {spec.model_label}")
     return results, computed
 
 
-def _comparison_stage(study: Study, settings: PipelineSettings, results: dict, log):
+def _comparison_stage(study: Study, settings: PipelineSettings, results: dict, st):
     """Compare each film's models by PSIS-LOO and weigh them by stacking (``comparison-<film>.json``)."""
     from filmcal.calibration import compare_models
     from filmcal.calibration.posterior import posterior_inference_data
 
     out, computed = {}, False
+    st.set_total(sum(len(m) >= 2 for m in results.values()))
     for film, models in results.items():
         if len(models) < 2:
             continue
@@ -241,7 +254,7 @@ def _comparison_stage(study: Study, settings: PipelineSettings, results: dict, l
         if entry and entry["spec"] == spec and study.verified(path):
             out[film] = read_json(path)
             continue
-        log(f"[comparison] {film}: {len(models)} models by PSIS-LOO and stacking")
+        st.log(f"[comparison] {film}: {len(models)} models by PSIS-LOO and stacking")
         pairs = {}
         for label, (result, ppath, _) in models.items():
             problem = study.problem(ppath)
@@ -255,22 +268,25 @@ def _comparison_stage(study: Study, settings: PipelineSettings, results: dict, l
         study.record(path, "comparison", spec)
         out[film] = d
         computed = True
-        log(f"[comparison] {film}: weights " + ", ".join(f"{k} {v:.2f}" for k, v in d["weights"].items()))
+        st.log(f"[comparison] {film}: weights " + ", ".join(f"{k} {v:.2f}" for k, v in d["weights"].items()))
+        st.advance(note=film)
     return out, computed
 
 
-def _verification_stage(study: Study, settings: PipelineSettings, seed: int, medians: dict, log):
+def _verification_stage(study: Study, settings: PipelineSettings, seed: int, medians: dict, st):
     path = study.layout.verification
     if study.verified(path) and set(read_json(path)["films"]) >= set(medians):
         return None, False
     from filmcal.calibration import load_table1
     from filmcal.fem import Film, get_model
 
-    log("[verification] FE without film against Hertz; FE against the surrogate at the posterior medians")
+    st.log("[verification] FE without film against Hertz; FE against the surrogate at the posterior medians")
     data = load_table1("HS")  # the ten (R, F) cases of Table 1
     cases = [(float(r), float(f)) for r, f in zip(data.sphere_radius_mm, data.force_n)]
+    st.set_total(len(cases) * (1 + len(medians)))
     hertz = []
     for r, f in cases:
+        st.advance(note=f"no film, R{r:.0f}/{f / 1e3:.0f} kN")
         res = get_model(r).solve(None, f)
         hertz.append({"radius_mm": r, "force_n": f, "fe_radius_mm": res.contact_radius_mm,
                       "hertz_radius_mm": res.hertz_radius_mm, "fe_max_pressure_mpa": res.max_pressure_mpa,
@@ -283,6 +299,7 @@ def _verification_stage(study: Study, settings: PipelineSettings, seed: int, med
         nu = study.film(film).poisson
         rows = []
         for r, f in cases:
+            st.advance(note=f"{film}, R{r:.0f}/{f / 1e3:.0f} kN")
             res = get_model(r).solve(Film(e, nu), f, options)
             mean, std = model.predict(e, nu, r, f)
             rows.append({"radius_mm": r, "force_n": f, "fe_radius_mm": res.contact_radius_mm,
@@ -331,7 +348,7 @@ def _parallel(tasks: dict, workers: int | None, on_done) -> None:
         raise RuntimeError(f"{len(errors)} task(s) failed, first {key}: {error!r}") from error
 
 
-def _curves_stage(study: Study, settings: PipelineSettings, films, workers: int | None, log):
+def _curves_stage(study: Study, settings: PipelineSettings, films, workers: int | None, st):
     """Curves of each film's combined models (one task per film and wheel), recorded with what made them."""
     from filmcal.correction import curve_rows, wheel_label, write_curves_csv
     from filmcal.study.core import chosen_posteriors, curve_components
@@ -351,14 +368,15 @@ def _curves_stage(study: Study, settings: PipelineSettings, films, workers: int 
              for film in components for ra in wheels}
     if not tasks:
         return None, False
-    log(f"[curves] {len(components)} film(s) x {len(wheels)} wheel(s), {len(settings.forces_kn)} loads x "
+    st.set_total(len(tasks))
+    st.log(f"[curves] {len(components)} film(s) x {len(wheels)} wheel(s), {len(settings.forces_kn)} loads x "
         f"{len(settings.offsets_mm)} offsets each")
     rows: dict = {}
 
     def done(key, result, k):
         film, ra = key
         rows[key] = result
-        log(f"[curves] {film}, {wheel_label(ra)} wheel done ({k}/{len(tasks)})")
+        st.advance(note=f"{film}, {wheel_label(ra)} wheel")
         if all((film, w) in rows for w in wheels):
             path = study.layout.curves(film)
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -369,7 +387,7 @@ def _curves_stage(study: Study, settings: PipelineSettings, films, workers: int 
     return None, True
 
 
-def _crossval_stage(study: Study, settings: PipelineSettings, results: dict, comparisons: dict, seed: int, log):
+def _crossval_stage(study: Study, settings: PipelineSettings, results: dict, comparisons: dict, seed: int, st):
     """Leave-one-case-out cross-validation of the combined correction (``crossval/crossval-<film>.json``).
 
     Pareto-smoothed importance sampling of the full posteriors for each left-out
@@ -380,6 +398,7 @@ def _crossval_stage(study: Study, settings: PipelineSettings, results: dict, com
     from filmcal.correction.crossval import psis_leave_one_case_out
 
     computed = False
+    st.set_total(sum(film in settings.crossval_films for film in results))
     for film, models in results.items():
         if film not in settings.crossval_films:
             continue
@@ -400,29 +419,32 @@ def _crossval_stage(study: Study, settings: PipelineSettings, results: dict, com
                              priors=problem.priors, seed=seed_for(seed, f"crossval-{film}-{label}"),
                              settings=sampler).samples
 
-        log(f"[crossval] {film}: leave-one-case-out by PSIS over {len(pairs)} model(s)")
+        st.log(f"[crossval] {film}: leave-one-case-out by PSIS over {len(pairs)} model(s)")
         cv = psis_leave_one_case_out(pairs, {k: weights[k] for k in pairs}, refit, film=film,
                                      random_state=seed_for(seed, f"crossval-{film}"),
-                                     log=lambda msg: log(f"[crossval] {film}: {msg}"))
+                                     log=lambda msg: st.log(f"[crossval] {film}: {msg}"))
         path.parent.mkdir(parents=True, exist_ok=True)
         atomic_write_json(path, cv.to_dict(), indent=1)
         study.record(path, "crossval", spec)
         computed = True
-        log(f"[crossval] {film}: Hertz area inside the corrected 90 % interval in {cv.hits}/{len(cv.inside)} "
+        st.advance(note=film)
+        st.log(f"[crossval] {film}: Hertz area inside the corrected 90 % interval in {cv.hits}/{len(cv.inside)} "
             f"cases, {cv.n_refits} exact refit(s)")
     return None, computed
 
 
-def _outlines_stage(study: Study, settings: PipelineSettings, medians: dict, log):
+def _outlines_stage(study: Study, settings: PipelineSettings, medians: dict, st):
     path = study.layout.outlines
     if study.verified(path) and set(read_json(path)["films"]) >= set(medians):
         return None, False
     from filmcal.wheelrail import FilmLayer, solve_wheel_rail
 
     force = settings.outline_force_kn * 1e3
-    log(f"[outlines] wheel-rail contact outlines at {settings.outline_force_kn:g} kN")
+    st.log(f"[outlines] wheel-rail contact outlines at {settings.outline_force_kn:g} kN")
     cases = []
+    st.set_total(len(settings.offsets_mm))
     for eta in settings.offsets_mm:
+        st.advance(note=f"eta {eta:+g} mm")
         bare = solve_wheel_rail(eta, force)
         case = {"offset_mm": eta, "contact_y_mm": bare.placement.contact.y_mm,
                 "no film": {"area_mm2": bare.area_mm2, "outline_mm": bare.outline_mm}}
@@ -436,7 +458,7 @@ def _outlines_stage(study: Study, settings: PipelineSettings, medians: dict, log
     return None, True
 
 
-def _report_stage(study: Study, log):
+def _report_stage(study: Study, st):
     from filmcal.report import write_report
 
     out = study.layout.report_dir
@@ -445,7 +467,7 @@ def _report_stage(study: Study, log):
     html, pdf = out / "report.html", out / "report.pdf"
     if current and current.get("inputs") == inputs and html.exists() and pdf.exists():
         return {"html": str(html), "pdf": str(pdf)}, False
-    log("[report] HTML and PDF")
+    st.log("[report] HTML and PDF")
     study.manifest.data.pop("report", None)
     study.manifest.write()
     paths = write_report(study.root, out)
