@@ -82,6 +82,7 @@ SLOW_TESTS: dict[str, str] = {
     "test_wheelrail_cli.py::test_rough_wheel_grows_the_imprint_in_the_papers_order": "48 s: 12 wheel-rail solves, 3 BEM laws",
     "test_film_law.py::test_large_strain_sphere_on_flat_matches_the_fe": "5-10 s each: FE large-strain solves",
     "test_roughness.py::test_fully_plastic_limit_is_the_bearing_area_curve": "5 s: slow projected-gradient solves",
+    "test_roughness.py::test_law_lies_above_the_rigid_plastic_bearing_curve_and_tends_to_it": "12 s: three BEM laws",
     "test_roughness_sphere.py::test_rough_flat_grows_the_sphere_imprint_in_the_papers_order": "37 s: 3 BEM laws, 12 sphere solves",
 }
 

@@ -217,3 +217,16 @@ def test_bad_law_parameters(tmp_path):
         RoughSurface.from_csv(tmp_path / "missing.csv", pixel_um=1.0)
     with pytest.raises(ValueError, match="flat"):
         RoughSurface(np.ones((16, 16)), 1.0)
+
+
+def test_law_lies_above_the_rigid_plastic_bearing_curve_and_tends_to_it():
+    """Elastic deformation only adds closure to the rigid-plastic (Abbott-Firestone) limit;
+    the stiffer the film, the closer the law comes to it (HHS within 10 % at 10-130 MPa)."""
+    surf = RoughSurface.synthetic(ra_um=1.5, seed=0, n=128, size_um=100.0, rolloff_wavelength_um=25.0)
+    p = np.array([10.0, 50.0, 130.0])
+    bearing = bearing_area_closure_mm(surf, p, PET_HARDNESS_MPA)
+    closures = [rough_contact_law(surf, e, 0.33, 0.09).closure_mm(p) for e in (768.0, 2739.0, 6291.0)]
+    for c in closures:
+        assert np.all(c >= 0.99 * bearing)
+    assert np.all(closures[0] > closures[1]) and np.all(closures[1] > closures[2])
+    assert closures[2] == pytest.approx(bearing, rel=0.10)
