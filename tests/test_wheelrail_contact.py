@@ -210,3 +210,29 @@ def test_warm_started_sweep_gives_the_cold_answers(model):
         r.contact.iterations for r in cold[1:3])
     with pytest.raises(ValueError, match="initial"):
         model.solve(-3.0, 50e3, initial=cold[0].contact)
+
+
+def test_pressure_transfer_between_grids():
+    """Copy on shared cells, bilinear interpolation otherwise, zero outside the source."""
+    from filmcal.wheelrail.halfspace import SurfaceGrid
+    from filmcal.wheelrail.wheelrail import _transfer
+
+    class _Result:  # the two fields the transfer reads
+        def __init__(self, grid, pressure_mpa):
+            self.grid, self.pressure_mpa = grid, pressure_mpa
+
+    source = SurfaceGrid(6, 5, 0.1, 0.1, -0.25, 1.0)
+    x, y = source.mesh()
+    p = 100.0 + 30.0 * x - 20.0 * y  # linear: reproduced exactly by bilinear weights
+    same = _transfer(_Result(source, p), source)
+    np.testing.assert_array_equal(same, p)
+    wider = SurfaceGrid(8, 7, 0.1, 0.1, -0.35, 0.9)  # shares cells, one more ring
+    out = _transfer(_Result(source, p), wider)
+    np.testing.assert_allclose(out[1:-1, 1:-1], p)
+    assert np.all(out[0] == 0.0) and np.all(out[:, -1] == 0.0)
+    shifted = SurfaceGrid(5, 4, 0.05, 0.1, -0.2, 1.05)  # finer, half-cell offsets
+    xs, ys = shifted.mesh()
+    np.testing.assert_allclose(_transfer(_Result(source, p), shifted),
+                               100.0 + 30.0 * xs - 20.0 * ys, rtol=1e-12)
+    far = SurfaceGrid(4, 4, 0.1, 0.1, 5.0, 5.0)
+    assert _transfer(_Result(source, p), far) is None

@@ -927,7 +927,8 @@ def solve_wheel_rail(offset_mm: float, force_n: float, *, wheel: str | Profile =
                      rail: str | Profile = "60E2", rail_inclination: float = 1.0 / 40.0,
                      nominal_radius_mm: float = 460.0, film: FilmLayer | None = None,
                      roughness: InterfaceLaw | None = None, grid_mm: float = 0.1,
-                     region: ContactRegion | None = None) -> WheelRailResult:
+                     region: ContactRegion | None = None,
+                     initial: WheelRailResult | None = None) -> WheelRailResult:
     """Wheel-rail normal contact at lateral offset eta under vertical load F.
 
     Parameters
@@ -951,6 +952,9 @@ def solve_wheel_rail(offset_mm: float, force_n: float, *, wheel: str | Profile =
         Cell size (mm).
     region : ContactRegion, optional
         Grid region in the contact plane; automatic by default.
+    initial : WheelRailResult, optional
+        Warm start from a neighbouring solution (see
+        :meth:`WheelRailModel.solve`).
 
     Returns
     -------
@@ -963,16 +967,17 @@ def solve_wheel_rail(offset_mm: float, force_n: float, *, wheel: str | Profile =
     influence-coefficient spectra.
     """
     model = get_wheel_rail_model(wheel, rail, rail_inclination, nominal_radius_mm, grid_mm)
-    return model.solve(offset_mm, force_n, film=film, roughness=roughness, region=region)
+    return model.solve(offset_mm, force_n, film=film, roughness=roughness, region=region,
+                       initial=initial)
 
 
 def solve_wheel_rail_many(cases: Iterable[WheelRailCase | Mapping | tuple], *,
                           wheel: str | Profile = "S1002", rail: str | Profile = "60E2",
                           rail_inclination: float = 1.0 / 40.0, nominal_radius_mm: float = 460.0,
-                          grid_mm: float = 0.1) -> list[WheelRailResult]:
+                          grid_mm: float = 0.1, warm_start: bool = True) -> list[WheelRailResult]:
     """Solve many (offset_mm, force_n, film, roughness) cases with one cached model.
 
     See :meth:`WheelRailModel.solve_many`.
     """
     model = get_wheel_rail_model(wheel, rail, rail_inclination, nominal_radius_mm, grid_mm)
-    return model.solve_many(cases)
+    return model.solve_many(cases, warm_start=warm_start)
