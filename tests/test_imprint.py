@@ -209,3 +209,45 @@ def test_radial_reading_input_checks():
     with pytest.raises(ValueError, match="samples"):
         read_radial_profile(r, r, samples="cells")
     assert read_radial_profile(r, np.zeros_like(r)).edge_mm == 0.0
+
+
+def test_tip_length():
+    """No film: a Hertzian edge (infinite tip); a film: about one thickness, growing with M / E*."""
+    from filmcal.contact import film_tip_length_mm
+    from filmcal.hertz import contact_modulus_mpa
+
+    assert math.isinf(film_tip_length_mm(None))
+    assert film_tip_length_mm(0.09) == pytest.approx(0.09)
+    e_star = float(contact_modulus_mpa())
+    assert film_tip_length_mm(0.09, e_star / 4) == pytest.approx(0.18)
+    assert film_tip_length_mm(0.09, 1000.0) < film_tip_length_mm(0.09, 5000.0) < film_tip_length_mm(0.18, 5000.0)
+    with pytest.raises(ValueError, match="thickness_mm"):
+        film_tip_length_mm(-0.1)
+    with pytest.raises(ValueError, match="oedometric_modulus_mpa"):
+        film_tip_length_mm(0.09, 0.0)
+
+
+def test_level_reading_is_continuous_across_the_fit_window():
+    """Levels from the bulk (interpolated p^2) and from the fitted tail meet without a jump."""
+    a, p0 = 6.0, 900.0
+    r = np.round(np.arange(0, 9.0, 0.1), 10)
+    p = _nodal(r, lambda x: p0 * math.sqrt(max(1 - x * x / a / a, 0.0)))
+    prof = read_radial_profile(r, p)
+    levels = np.linspace(5.0, 600.0, 120)
+    radii = np.array([prof.level_radius_mm(v) for v in levels])
+    exact = a * np.sqrt(1 - (levels / p0) ** 2)
+    assert np.all(np.diff(radii) < 0)
+    assert np.max(np.abs(radii - exact)) < 2e-3
+    with pytest.raises(ValueError, match="level_mpa"):
+        prof.level_radius_mm(-1.0)
+    assert prof.level_radius_mm(2 * p0) == 0.0
+
+
+def test_single_cell_wide_contact_is_read():
+    """A loaded strip one cell wide (no inner neighbour to extrapolate from) still has an area."""
+    x = np.arange(0, 3, 0.1) + 0.05
+    y = np.arange(0, 3, 0.1) + 0.05
+    p = np.zeros((x.size, y.size))
+    p[10:20, 15] = 100.0
+    area = get_imprint_model("edge").area_mm2(x, y, p, HS)
+    assert 0.5 * 1.0 * 0.1 < area < 1.5 * 1.0 * 0.1
