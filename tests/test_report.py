@@ -371,6 +371,24 @@ def test_report_command_rewrites_from_the_study(tmp_path):
     assert (tmp_path / "rep" / "report.pdf").read_bytes()[:5] == b"%PDF-"
 
 
+def test_report_command_without_chromium_says_so_and_writes_the_figures_pdf(tmp_path):
+    import os
+
+    full = write_synthetic_study(tmp_path / "full")
+    study = tmp_path / "study"
+    study.mkdir()
+    for name in ("settings.json", "curves-HS.csv"):
+        shutil.copy(full / name, study / name)
+    env = {**os.environ, "PATH": str(tmp_path / "empty-bin")}  # no chromium, no git on PATH
+    out = subprocess.run([sys.executable, "-m", "filmcal.cli", "report", "--study-dir", str(study), "--json"],
+                         capture_output=True, text=True, timeout=300, env=env)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert json.loads(out.stdout)["pdf_engine"] == "matplotlib"
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Chromium was not found" in lines[0] and "Traceback" not in out.stderr
+    assert len(page_sizes_pt(study / "report" / "report.pdf")) == 3  # the cover and the two figures
+
+
 @pytest.mark.parametrize("study", ["missing-folder", "empty-folder"])
 def test_report_of_a_non_study_exits_2(tmp_path, study):
     (tmp_path / "empty-folder").mkdir()

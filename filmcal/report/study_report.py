@@ -20,6 +20,7 @@ import hashlib
 import json
 import platform
 import subprocess
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from importlib import metadata
@@ -750,7 +751,8 @@ def write_report(study_dir: str | Path, out_dir: str | Path | None = None) -> di
     -------
     dict
         ``{"html": Path, "pdf": Path, "figures": int, "pdf_engine": "chromium" | "matplotlib",
-        "pdf_message": str}`` (the message says why the PDF fell back, else it is empty).
+        "pdf_message": str}`` (the message says why the PDF fell back, else it is empty; it is
+        also issued as a `RuntimeWarning`, so that callers that do not look still show it).
     """
     import matplotlib
 
@@ -763,5 +765,7 @@ def write_report(study_dir: str | Path, out_dir: str | Path | None = None) -> di
         tmp.write_text(render_html(report), encoding="utf-8")
         tmp.replace(html_path)
         pdf = write_pdf(report, out / "report.pdf")
+    if pdf.message:
+        warnings.warn(f"report PDF: {pdf.message}", RuntimeWarning, stacklevel=2)
     return {"html": html_path, "pdf": pdf.path, "figures": len(report.figures), "pdf_engine": pdf.engine,
             "pdf_message": pdf.message}
