@@ -225,7 +225,6 @@ class _Case:
 def _kill_and_rerun(case: _Case, extra: list[str], label: str) -> None:
     import collections
     import json
-    import signal
     import subprocess
     import threading
 

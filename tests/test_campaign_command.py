@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import csv
 import json
-import math
 import os
 import signal
 import sqlite3
@@ -28,6 +27,7 @@ import pytest
 
 from filmcal.campaign import Campaign, CommandModel, RunStore, StoreBusyError, StoreLock, load_output_column
 from filmcal.campaign.command import render_template
+from test_campaign_parallel import alive, descendants
 
 STANDIN = r'''
 import argparse, json, math, os, sys, time
@@ -116,37 +116,7 @@ def finished_count(store: Path) -> int:
         return 0
 
 
-def alive(pid: int) -> bool:
-    """True if the process exists and is not a zombie."""
-    try:
-        with open(f"/proc/{pid}/stat") as stream:
-            state = stream.read().rsplit(")", 1)[1].split()[0]
-    except OSError:
-        return False
-    return state != "Z"
-
-
-def descendants(root: int) -> set[int]:
-    """Pids of all living descendants of `root` (from /proc)."""
-    children: dict[int, list[int]] = {}
-    for entry in os.listdir("/proc"):
-        if entry.isdigit():
-            try:
-                with open(f"/proc/{entry}/stat") as stream:
-                    ppid = int(stream.read().rsplit(")", 1)[1].split()[1])
-            except (OSError, ValueError, IndexError):
-                continue
-            children.setdefault(ppid, []).append(int(entry))
-    found, todo = set(), [root]
-    while todo:
-        for child in children.get(todo.pop(), []):
-            if child not in found:
-                found.add(child)
-                todo.append(child)
-    return found
-
-
-def watch_tree(root: int, stop: threading.Event, seen: set[int]) -> None:
+def watch_tree(root: int, stop: threading.Event, seen: set) -> None:
     """Collect every descendant of `root` until `stop` (processes come and go)."""
     while not stop.is_set():
         seen |= descendants(root)
@@ -197,7 +167,7 @@ def test_twenty_points_killed_midway_and_rerun(tmp_path):
     case = make_case(tmp_path, MODES_20)
     command = cli(case, "--workers", "2", "--timeout-s", "3", "--template-file", str(tmp_path / "deck.inp.tmpl"),
                   "--json")
-    seen: set[int] = set()
+    seen: set = set()
     stop = threading.Event()
     with (tmp_path / "first.err").open("w") as err:
         first = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=err)
@@ -421,7 +391,7 @@ def test_ctrl_c_stops_within_two_seconds_and_keeps_finished_points(tmp_path):
     case = make_case(tmp_path, ["ok"] * 4 + ["hang"] * 2 + ["ok"] * 4, sleep_s=0.3)
     run = subprocess.Popen(cli(case, "--workers", "2", "--timeout-s", "60"), stdout=subprocess.PIPE,
                            stderr=subprocess.PIPE, text=True)
-    seen: set[int] = set()
+    seen: set = set()
     wait_until(lambda: bool(seen.update(descendants(run.pid)) or True) and "p05" in dict(starts(case["log"])),
                120, run)
     seen |= descendants(run.pid)
@@ -434,7 +404,9 @@ def test_ctrl_c_stops_within_two_seconds_and_keeps_finished_points(tmp_path):
     rows = stored(case["store"])
     assert sum(s == "ok" for s, _, _ in rows.values()) == 4  # the points before the hanging ones
     pids = seen | {pid for _, pid in starts(case["log"])}
-    assert not [pid for pid in pids if alive(pid)]
+    while any(alive(pid) for pid in pids) and time.monotonic() - sent < 2.0:
+        time.sleep(0.02)
+    assert not [pid for pid in pids if alive(pid)]  # within 2 s of Ctrl-C
 
 
 def test_placeholders_are_shell_quoted_and_checked_before_any_work(tmp_path):
@@ -458,6 +430,7 @@ def test_placeholders_are_shell_quoted_and_checked_before_any_work(tmp_path):
     assert not store.exists() and not (tmp_path / "runs.work").exists()
 
 
+@pytest.mark.slow(reason="5 s: six commands and a GP fit")
 def test_output_columns_of_a_store_feed_a_surrogate(tmp_path):
     case = make_case(tmp_path, ["ok", "fail", "ok", "nanout", "ok", "file"], sleep_s=0.0)
     model = CommandModel.from_files(case["template"], tmp_path / "work", [tmp_path / "deck.inp.tmpl"], timeout_s=30)

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import _thread
 import os
-import signal
 import subprocess
 import sys
 import textwrap
@@ -46,30 +45,43 @@ def sleep_s(seconds: float) -> float:
     return seconds
 
 
-def alive(pid: int) -> bool:
+def _stat(pid: int) -> list[str] | None:
+    """Fields of /proc/<pid>/stat after the command name (state, ppid, ...), or None if gone."""
     try:
         with open(f"/proc/{pid}/stat") as stream:
-            return stream.read().rsplit(")", 1)[1].split()[0] != "Z"
-    except OSError:
+            return stream.read().rsplit(")", 1)[1].split()
+    except (OSError, IndexError):
+        return None
+
+
+def alive(process: int | tuple[int, str]) -> bool:
+    """True if the process exists and is not a zombie.
+
+    `process` is a pid, or a ``(pid, start time)`` identity from `descendants`,
+    which does not mistake a new process that reuses the pid for the old one.
+    """
+    pid, started = process if isinstance(process, tuple) else (process, None)
+    fields = _stat(pid)
+    if fields is None or fields[0] == "Z":
         return False
+    return started is None or fields[19] == started
 
 
-def descendants(root: int) -> set[int]:
-    children: dict[int, list[int]] = {}
+def descendants(root: int) -> set[tuple[int, str]]:
+    """Identities ``(pid, start time)`` of all living descendants of `root` (from /proc)."""
+    children: dict[int, list[tuple[int, str]]] = {}
     for entry in os.listdir("/proc"):
         if entry.isdigit():
-            try:
-                with open(f"/proc/{entry}/stat") as stream:
-                    ppid = int(stream.read().rsplit(")", 1)[1].split()[1])
-            except (OSError, ValueError, IndexError):
-                continue
-            children.setdefault(ppid, []).append(int(entry))
-    found, todo = set(), [root]
+            fields = _stat(int(entry))
+            if fields is not None and len(fields) > 19:
+                children.setdefault(int(fields[1]), []).append((int(entry), fields[19]))
+    found: set[tuple[int, str]] = set()
+    todo = [root]
     while todo:
         for child in children.get(todo.pop(), []):
             if child not in found:
                 found.add(child)
-                todo.append(child)
+                todo.append(child[0])
     return found
 
 
