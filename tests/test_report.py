@@ -38,6 +38,11 @@ A4_PT = (210 / 25.4 * 72, 297 / 25.4 * 72)
 CURVE_COLUMNS = ("film", "wheel", "force_kn", "offset_mm", "area_no_film_mm2", "area_film_median_mm2",
                  "delta_area_median_mm2", "delta_area_lo_mm2", "delta_area_hi_mm2", "ratio_median", "ratio_lo",
                  "ratio_hi", "interpolation_error_rel")
+# slow tier (python3 -m pytest -m "not slow" leaves these out); measured on a busy 2-core machine
+PRINTED = pytest.mark.slow(reason="uses the synthetic study's report, printed once by Chromium (about 25 s)")
+CHROMIUM = pytest.mark.slow(reason="two Chromium prints, about 5 s")
+MCMC = pytest.mark.slow(reason="a short toy calibration, about 8 s")
+COMMAND = pytest.mark.slow(reason="filmcal report in a subprocess, about 15 s")
 CASES = [(r, f) for f in (25e3, 50e3, 75e3, 100e3) for r in (300.0, 450.0, 600.0)][:10]
 
 
@@ -191,6 +196,7 @@ def test_html_escapes_text_and_embeds_figures():
     assert "<table>" in page and "<pre" not in page  # tables are tables
 
 
+@PRINTED
 def test_pdf_is_a4_on_every_page(printed):
     _, paths = printed
     assert paths["pdf_engine"] == "chromium"
@@ -200,6 +206,7 @@ def test_pdf_is_a4_on_every_page(printed):
         assert abs(w - A4_PT[0]) < 1.0 and abs(h - A4_PT[1]) < 1.0
 
 
+@PRINTED
 def test_pdf_text_has_every_section_title_and_figure_caption(printed):
     report, paths = printed
     text = _words(" ".join(page_texts(paths["pdf"])))
@@ -215,6 +222,7 @@ def test_pdf_text_has_every_section_title_and_figure_caption(printed):
         assert term in text
 
 
+@PRINTED
 def test_each_figure_is_printed_on_the_page_of_its_caption(printed):
     report, paths = printed
     pages = [_words(t) for t in page_texts(paths["pdf"])]
@@ -224,6 +232,7 @@ def test_each_figure_is_printed_on_the_page_of_its_caption(printed):
         assert f"Figure {n}." in pages[page - 1], f"figure {n} is on page {page}, its caption is not"
 
 
+@PRINTED
 def test_contents_lists_the_page_each_section_starts_on(printed):
     report, paths = printed
     pages = page_texts(paths["pdf"])
@@ -236,6 +245,7 @@ def test_contents_lists_the_page_each_section_starts_on(printed):
             f"section {i} is not on page {page}"
 
 
+@PRINTED
 def test_report_pages_are_not_blank_and_html_loads_every_figure(printed, tmp_path):
     _, paths = printed
     assert all(p.std() > 0.01 for p in pdf_pages(paths["pdf"], tmp_path))
@@ -248,6 +258,7 @@ def _overlaps(boxes) -> list[tuple[int, int]]:
             if boxes[i].width > 0 and boxes[j].width > 0 and boxes[i].overlaps(boxes[j])]
 
 
+@PRINTED
 def test_figures_have_units_readable_ticks_and_legends_outside_the_axes(printed):
     report, _ = printed
     for block in report.figures:
@@ -272,6 +283,7 @@ def test_figures_have_units_readable_ticks_and_legends_outside_the_axes(printed)
                     assert not box.overlaps(ax.get_window_extent(renderer)), f"{block.caption}: legend on the data"
 
 
+@PRINTED
 def test_design_pairs_are_in_physical_units(printed):
     report, _ = printed
     fig = next(b.figure for b in report.figures if "physical units" in b.caption)
@@ -294,6 +306,7 @@ def test_pdf_falls_back_to_figures_without_chromium(tmp_path, monkeypatch):
     assert "Chromium" in page_texts(result.path)[0]
 
 
+@CHROMIUM
 def test_long_table_flows_over_pages_with_its_header_repeated(tmp_path):
     rows = [[f"row {i}", f"{i:.3f}"] for i in range(150)]
     report = Report("Long", "many rows", [Section("Table").add(Table(["name", "value (mm)"], rows, "long"))])
@@ -355,6 +368,7 @@ def test_quick_study_report_pdf_is_a4_with_every_caption(quick_study):
     assert "Calibration of HS film" in text and "Glossary" in text
 
 
+@COMMAND
 def test_report_command_rewrites_from_the_study(tmp_path):
     full = write_synthetic_study(tmp_path / "full")
     study = tmp_path / "study"  # settings and curves only: the other sections say what is missing
@@ -371,6 +385,7 @@ def test_report_command_rewrites_from_the_study(tmp_path):
     assert (tmp_path / "rep" / "report.pdf").read_bytes()[:5] == b"%PDF-"
 
 
+@COMMAND
 def test_report_command_without_chromium_says_so_and_writes_the_figures_pdf(tmp_path):
     import os
 
@@ -397,6 +412,7 @@ def test_report_of_a_non_study_exits_2(tmp_path, study):
     assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and "study_dir" in p.stderr
 
 
+@MCMC
 def test_calibration_figures_name_parameters_as_an_engineer_reads_them():
     """A short toy calibration with per-load discrepancies: the trace, pair, predictive and per-case figures."""
     sys.path.insert(0, str(Path(__file__).parent))
