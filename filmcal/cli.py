@@ -32,6 +32,7 @@ import pkgutil
 import re
 import sys
 import traceback
+import warnings
 from pathlib import Path
 
 import filmcal.commands
@@ -77,7 +78,8 @@ GRID_BOUNDS: dict[str, int] = {"forces_kn": 50, "offsets_mm": 200}
 # writes into, and files it only reads. Checked before any work.
 OUTPUT_FILE_DESTS = ("out", "csv", "plot", "pressure_csv", "outline_out")
 OUTPUT_DIR_DESTS = ("study_dir", "out_dir", "plots", "work_dir")
-INPUT_FILE_DESTS = ("design", "augment", "imprint", "roughness_law", "data", "films_file", "template_file")
+INPUT_FILE_DESTS = ("design", "augment", "imprint", "roughness_law", "roughness_map", "data", "films_file",
+                    "template_file")
 PLOT_SUFFIXES = (".png", ".pdf", ".svg")
 
 
@@ -272,7 +274,8 @@ def _name_option(message: str, options: dict[str, str]) -> str:
 
 
 _DECODE_ERRORS = ("JSONDecodeError", "DatabaseError", "OperationalError", "IntegrityError", "BadZipFile",
-                  "UnidentifiedImageError", "DecompressionBombError", "UnicodeDecodeError", "EOFError")
+                  "UnidentifiedImageError", "DecompressionBombError", "DecompressionBombWarning", "UnicodeDecodeError",
+                  "EOFError")
 # Libraries that decode files: an error raised inside one of them while a file
 # of the user or of a study is open is that file's damage, not a bug.
 _DECODER_MODULES = ("h5py", "h5netcdf", "netCDF4", "xarray.backends", "zipfile", "PIL", "numpy.lib.format",
@@ -428,7 +431,10 @@ def main(argv: list[str] | None = None) -> int:
     options = _option_strings(actions)
     try:
         preflight(args, actions)
-        return int(args.func(args) or 0)
+        with warnings.catch_warnings():
+            # an image above Pillow's pixel limit is refused, not decoded with a warning
+            warnings.filterwarnings("error", message=r".*decompression bomb", category=RuntimeWarning)
+            return int(args.func(args) or 0)
     except KeyboardInterrupt:
         sys.stderr.write(f"{prog}: interrupted\n")
         return EXIT_INTERRUPTED

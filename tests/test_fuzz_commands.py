@@ -48,8 +48,18 @@ def write_png(path: Path, truncate: bool = False) -> None:
         path.write_bytes(data[: len(data) // 2])
 
 
+@pytest.fixture(scope="module")
+def bomb_png(tmp_path_factory) -> bytes:
+    """A PNG of 90 million pixels in 11 kB (above Pillow's decompression-bomb limit)."""
+    from PIL import Image
+
+    path = tmp_path_factory.mktemp("bomb") / "bomb.png"
+    Image.new("1", (9500, 9500)).save(path)
+    return path.read_bytes()
+
+
 @pytest.fixture
-def folder(tmp_path, monkeypatch):
+def folder(tmp_path, monkeypatch, bomb_png):
     """A working folder with good and bad inputs of every kind."""
     monkeypatch.chdir(tmp_path)
     (tmp_path / "design.csv").write_text("modulus_mpa,poisson,radius_mm,force_kn\n2800,0.33,450,75\n")
@@ -71,6 +81,7 @@ def folder(tmp_path, monkeypatch):
     good = (tmp_path / "design.csv").read_bytes()
     (tmp_path / "truncated.sqlite").write_bytes(b"SQLite format 3\x00" + good[:40])
     write_png(tmp_path / "cut.png", truncate=True)
+    (tmp_path / "bomb.png").write_bytes(bomb_png)
     (tmp_path / "notimage.png").write_text("not an image")
     (tmp_path / "emptystudy").mkdir()
     (tmp_path / "badstudy").mkdir()
@@ -192,6 +203,14 @@ CASES = [
     (["wheelrail", *WR, "--film-modulus-mpa", "-1"], ["--film-modulus-mpa"]),
     (["wheelrail", *WR, "--no-film", "--wheel-radius-mm", "0"], ["--wheel-radius-mm", "radius"]),
     (["wheelrail", *WR, "--no-film", "--roughness-ra-um", "-1"], ["--roughness-ra-um"]),
+    (["wheelrail", *WR, "--no-film", "--roughness-map", "bomb.png", "--roughness-pixel-um", "1",
+      "--roughness-height-range-um", "5"], ["bomb.png"]),
+    (["wheelrail", *WR, "--no-film", "--roughness-map", "cut.png", "--roughness-pixel-um", "1",
+      "--roughness-height-range-um", "5"], ["cut.png"]),
+    (["wheelrail", *WR, "--no-film", "--roughness-map", "notimage.png", "--roughness-pixel-um", "1",
+      "--roughness-height-range-um", "5"], ["notimage.png"]),
+    (["wheelrail", *WR, "--no-film", "--roughness-map", "binary.csv", "--roughness-pixel-um", "1"],
+     ["binary.csv"]),
     # correct
     (["correct", "--film", "XX", *WHEEL, "--study-dir", "emptystudy"], ["XX", "--film", "--study-dir"]),
     (["correct", "--film", " HS", *WHEEL, "--study-dir", "emptystudy"], ["HS", "--film", "--study-dir"]),
