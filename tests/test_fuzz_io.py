@@ -110,3 +110,14 @@ def test_atomic_write_gives_ordinary_permissions(tmp_path):
     old.chmod(0o640)
     atomic_write_text(old, "z")
     assert old.stat().st_mode & 0o777 == 0o640 and old.read_text() == "z"
+
+
+def test_json_safe_paths_and_numpy(tmp_path):
+    import math
+
+    from filmcal._json import json_safe
+
+    value = json_safe({"p": tmp_path / "x.csv", "a": np.array([1.5, np.nan]), "i": np.int64(3),
+                       "t": (np.float32(0.5), math.inf)})
+    assert value == {"p": str(tmp_path / "x.csv"), "a": [1.5, None], "i": 3, "t": [0.5, None]}
+    json.dumps(value, allow_nan=False)
