@@ -27,11 +27,12 @@ tell apart: for two models with the same predictive densities its objective
 is flat and the optimiser returns a corner (weight 1 and 0, measured on two
 such toy models), so the combination would inherit one model's band only.
 The combination weights (``ModelComparison.weights``) therefore pool the
-stacking weight of models whose leave-one-out difference is small, ``|elpd
-difference| < max(4, 2 se of the difference)`` (the scale below which
-differences are not reliable, Sivula, Magnusson, Matamoros & Vehtari,
-"Uncertainty in Bayesian leave-one-out cross-validation based model
-comparison", 2022), and share it evenly within such a group; the raw
+stacking weight of the best model (largest ELPD-LOO) and of every model whose
+leave-one-out difference from it is small, ``elpd difference < max(4, 2 se of
+the difference)`` (the scale below which differences are not reliable,
+Sivula, Magnusson, Matamoros & Vehtari, "Uncertainty in Bayesian
+leave-one-out cross-validation based model comparison", 2022), and share it
+evenly within that group; other models keep their stacking weight. The raw
 stacking weights and pseudo-BMA+ weights are reported beside them.
 
 `combine_posteriors` then draws the mixture: each sample carries the label
@@ -174,12 +175,13 @@ class ModelComparison:
     pseudo_bma_weights : dict of str -> float
         Pseudo-BMA+ weights (Bayesian bootstrap), for comparison.
     groups : list of list of str
-        Models the data cannot tell apart (each group shares its weight).
+        The best model with those the data cannot tell from it (sharing
+        their weight), then every other model alone.
     table : list of dict
         ArviZ's ``compare`` rows, best first: ``name``, ``rank``,
         ``elpd_loo``, ``p_loo``, ``elpd_diff``, ``weight``, ``se``, ``dse``.
     preferred : str
-        The model of largest weight.
+        The model of largest weight (ties: largest stacking weight, then ELPD).
     """
 
     assessments: dict
@@ -199,24 +201,19 @@ class ModelComparison:
 
 def _indistinguishable_groups(names: list[str], pointwise: dict[str, np.ndarray], elpd: dict[str, float],
                               min_elpd: float) -> list[list[str]]:
-    """Connected groups of models whose pairwise |elpd difference| < max(min_elpd, 2 se)."""
-    parent = {n: n for n in names}
-
-    def root(n: str) -> str:
-        while parent[n] != n:
-            n = parent[n]
-        return n
-
-    for i, a in enumerate(names):
-        for b in names[i + 1:]:
-            diff = pointwise[a] - pointwise[b]
-            se = math.sqrt(diff.size * float(np.var(diff)))
-            if abs(elpd[a] - elpd[b]) < max(min_elpd, 2.0 * se):
-                parent[root(b)] = root(a)
-    groups: dict[str, list[str]] = {}
+    """The best model (largest ELPD) with every model within max(min_elpd, 2 se of the difference) of it;
+    every other model on its own."""
+    best = max(names, key=lambda n: elpd[n])
+    top = [best]
     for n in names:
-        groups.setdefault(root(n), []).append(n)
-    return list(groups.values())
+        if n == best:
+            continue
+        diff = pointwise[best] - pointwise[n]
+        se = math.sqrt(diff.size * float(np.var(diff)))
+        if elpd[best] - elpd[n] < max(min_elpd, 2.0 * se):
+            top.append(n)
+    top = [n for n in names if n in top]
+    return [top] + [[n] for n in names if n not in top]
 
 
 def compare_models(models: Mapping[str, tuple[CalibrationProblem, object]], max_samples: int = 2000,
@@ -230,9 +227,9 @@ def compare_models(models: Mapping[str, tuple[CalibrationProblem, object]], max_
     max_samples : int
         As in `assess_model`.
     indistinguishable_elpd : float, default 4
-        Models closer than this in ELPD-LOO (or than twice the standard error
-        of their difference) share their weight (module docstring); 0 keeps
-        the stacking weights as they are.
+        Models closer than this in ELPD-LOO to the best one (or than twice
+        the standard error of their difference) share its weight (module
+        docstring); 0 keeps the stacking weights as they are.
     random_state : int
         Seed of the Bayesian bootstrap of the pseudo-BMA+ weights.
 
@@ -287,7 +284,7 @@ def compare_models(models: Mapping[str, tuple[CalibrationProblem, object]], max_
         table.append({"name": str(name), "rank": int(row["rank"]), "elpd_loo": float(row["elpd_loo"]),
                       "p_loo": float(row["p_loo"]), "elpd_diff": float(row["elpd_diff"]),
                       "weight": weights[str(name)], "se": float(row["se"]), "dse": float(row["dse"])})
-    preferred = max(weights, key=weights.get)
+    preferred = max(names, key=lambda n: (weights[n], stacking[n], elpd[n]))
     return ModelComparison(assessments=assessments, weights=weights, stacking_weights=stacking,
                            pseudo_bma_weights=pseudo_bma, groups=groups, table=table, preferred=preferred)
 
