@@ -286,12 +286,20 @@ def test_as_processes(tmp_path):
     assert sorted(os.listdir(tmp_path)) == []
 
 
+@pytest.mark.skipif(not Path("/proc/self/maps").exists(), reason="watches the process through /proc")
 def test_ctrl_c_of_a_running_command_exits_130_with_one_line(tmp_path):
     out = tmp_path / "d.csv"
     proc = subprocess.Popen([sys.executable, "-m", "filmcal.cli", "doe", "--samples", "2000", "--iterations",
                              "1000", "--param", "a=0:1", "--param", "b=0:1", "--out", str(out)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(4.0)  # imported and optimising
+    # wait until the optimiser's libraries are loaded (the command is working), not a fixed time
+    maps = Path(f"/proc/{proc.pid}/maps")
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and proc.poll() is None:
+        if maps.exists() and "scipy/spatial" in maps.read_text(errors="replace"):
+            break
+        time.sleep(0.1)
+    time.sleep(1.0)
     sent = time.monotonic()
     proc.send_signal(signal.SIGINT)
     stdout, stderr = proc.communicate(timeout=30)
