@@ -12,8 +12,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from filmcal.calibration.data import load_table1
+from filmcal.calibration.data import RadiusErrorData, load_table1
 from filmcal.calibration.likelihood import RadiusModel
+from filmcal.films import FILM_POISSON
 
 __all__ = ["LeastSquaresFit", "least_squares_modulus"]
 
@@ -31,14 +32,15 @@ class LeastSquaresFit:
     evaluations: int
 
 
-def least_squares_modulus(film: str, model: RadiusModel, loads: str | None = None, poisson: float = 0.33,
+def least_squares_modulus(film: str, model: RadiusModel, loads: str | None = None, poisson: float = FILM_POISSON,
                           modulus_range_mpa: tuple[float, float] = (400.0, 20000.0),
-                          xtol: float = 1e-4) -> LeastSquaresFit:
+                          xtol: float = 1e-4, data: RadiusErrorData | None = None) -> LeastSquaresFit:
     """E minimising the sum of squared radius residuals over the film's cases.
 
     Parameters
     ----------
-    film : {"MS", "HS", "HHS"}
+    film : str
+        Film name: a Table 1 film (MS, HS, HHS) unless `data` is given.
     model : RadiusModel
         FE in the loop (`filmcal.study.FERadiusModel`) or a surrogate adapter.
     loads : str, optional
@@ -49,8 +51,12 @@ def least_squares_modulus(film: str, model: RadiusModel, loads: str | None = Non
         Search bracket (bounded scalar minimisation in log E).
     xtol : float
         Tolerance in log E (1e-4: 0.01 % in E).
+    data : RadiusErrorData, optional
+        The film's measured radii (e.g. ``load_dataset(path).select(film)``);
+        default Table 1's rows of `film` and `loads`.
     """
-    data = load_table1(film, loads)
+    given = data is not None
+    data = data if given else load_table1(film, loads)
     calls = 0
 
     def cost(log_e: float) -> float:
@@ -60,11 +66,11 @@ def least_squares_modulus(film: str, model: RadiusModel, loads: str | None = Non
                                 data.force_n)
         if not np.all(np.isfinite(mean)):
             return np.inf
-        return float(np.sum((mean - data.measured_radius_mm) ** 2))
+        return float(np.sum((mean - data.target_radius_mm) ** 2))
 
     lo, hi = np.log(modulus_range_mpa[0]), np.log(modulus_range_mpa[1])
     fit = minimize_scalar(cost, bounds=(lo, hi), method="bounded", options={"xatol": xtol})
     e = float(np.exp(fit.x))
     mean, _ = model.predict(np.full(len(data.force_n), e), poisson, data.sphere_radius_mm, data.force_n)
-    res = mean - data.measured_radius_mm
-    return LeastSquaresFit(film.upper(), loads, e, poisson, float(np.sqrt(np.mean(res**2))), res, calls)
+    res = mean - data.target_radius_mm
+    return LeastSquaresFit(film if given else film.upper(), loads, e, poisson, float(np.sqrt(np.mean(res**2))), res, calls)
