@@ -202,3 +202,10 @@ def test_measured_height_map_and_law(capsys, tmp_path):
     assert measured["imprint_area_mm2"] > smooth["imprint_area_mm2"]
     code, out, err = _run(capsys, *base, "--roughness-map", str(path), "--json")
     assert code == 2 and "roughness-pixel-um" in err
+
+
+def test_imprint_choices_are_the_imprint_models():
+    from filmcal.commands.wheelrail import IMPRINT_CHOICES
+    from filmcal.contact.imprint import IMPRINT_MODELS
+
+    assert set(IMPRINT_CHOICES) == set(IMPRINT_MODELS)
