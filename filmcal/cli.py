@@ -412,7 +412,13 @@ def main(argv: list[str] | None = None) -> int:
     """
     argv = sys.argv[1:] if argv is None else list(argv)
     try:
-        parser = build_parser()
+        try:
+            parser = build_parser()
+        except Exception:  # noqa: BLE001 - a command that cannot register itself is a bug
+            traceback.print_exc(file=sys.stderr)
+            sys.stderr.write("filmcal: internal error while building the command line; this is a bug in "
+                             "filmcal, please report it with the traceback above\n")
+            return EXIT_INTERNAL
         if not argv:
             parser.print_usage(sys.stderr)
             sys.stderr.write("filmcal: error: a command is required (filmcal --help lists them)\n")

@@ -308,3 +308,14 @@ def test_ctrl_c_of_a_running_command_exits_130_with_one_line(tmp_path):
     assert stderr.strip() == "filmcal doe: interrupted" and stdout == ""
     assert waited < 2.0, waited
     assert sorted(os.listdir(tmp_path)) == []  # no partial design, no temporary file
+
+
+def test_a_command_that_cannot_register_is_an_internal_error(monkeypatch, capsys):
+    module = importlib.import_module("filmcal.commands.profile")
+
+    def broken(subparsers):
+        raise AttributeError("typo in a parser")
+    monkeypatch.setattr(module, "add_parser", broken)
+    assert cli.main(["fem", "--help"]) == 70
+    err = capsys.readouterr().err
+    assert "Traceback" in err and "AttributeError" in err
