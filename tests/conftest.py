@@ -64,7 +64,6 @@ SLOW_TESTS: dict[str, str] = {
     "test_correction_imprint.py::test_command_rejects_bad_imprint_input": "9 s: seven processes",
     "test_correction_outline.py::test_command_reads_an_imprint_and_writes_the_corrected_outline": "10 s",
     "test_correction_wheelrail.py::test_ratio_interpolates_the_film_effect_across_the_posterior": "4 s",
-    "test_correction_wheelrail.py::test_command_uses_the_study_posterior": "5 s",
     "test_doe.py::test_cli_as_a_process": "5 s",
     "test_fem_inputs.py::test_cli_json_contract": "6 s: FE solves in processes",
     "test_fem_inputs.py::test_cli_bad_input_exits_2_with_one_line[args1]": "6 s",
