@@ -473,7 +473,8 @@ def surrogate_section(v: dict | None) -> Section:
                  "max area error (%)", "inside the 90 % interval", "Q2"],
                 [[str(m["n"]), f"{m['radius_rms_error_mm']:.4f}", f"{m['radius_max_error_mm']:.4f}",
                   f"{100 * m['area_rms_relative_error']:.3f}", f"{100 * m['area_max_relative_error']:.3f}",
-                  f"{100 * m['coverage90']:.0f} %", f"{m['q2']:.4f}"]], "Surrogate against held-out FE runs"),
+                  f"{100 * m['coverage90']:.0f} %", f"{m['q2']:.6f}" if m["q2"] > 0.999 else f"{m['q2']:.4f}"]],
+                "Surrogate against held-out FE runs"),
           FigureBlock(F.plot_surrogate_validation(v["points"]), "Held-out FE runs against the surrogate: parity of "
                       "the radius excess over Hertz (top left), the surrogate's error with its 90 % interval (top "
                       "right) and the standardised errors against the standard normal density (bottom).",
