@@ -75,6 +75,13 @@ def run(args: argparse.Namespace) -> int:
     from filmcal.study import Study, output_column
 
     spec = _spec(args)
+    from filmcal.calibration.data import parse_load_range
+    from filmcal.calibration.datasets import load_dataset
+
+    if args.loads is not None:
+        parse_load_range(args.loads)  # refused before the study folder is written
+    if args.data is not None:
+        load_dataset(args.data)
     study = Study(args.study_dir, create=True, films_file=args.films_file)
     film = study.film(args.film)
     if args.plots:
