@@ -621,6 +621,8 @@ def _worker_main(conn: Connection, parent_pid: int) -> None:
     global _worker_parent_pid
     _worker_parent_pid = parent_pid
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
+    if hasattr(signal, "pthread_sigmask"):  # blocked since the start (see _manage); a pending one is discarded
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     signal.signal(signal.SIGTERM, _die_with_children)
     _set_parent_death_signal(signal.SIGKILL)
     threading.Thread(target=_watch_parent, args=(parent_pid,), name="filmcal-parent-watch", daemon=True).start()
@@ -815,6 +817,15 @@ class LocalPoolExecutor(Executor):
             self._wake_writer.send_bytes(b"\0")
 
     def _start_worker(self) -> _Worker:
+        if hasattr(signal, "pthread_sigmask"):
+            # Workers inherit this (manager) thread's signal mask: a Ctrl-C that reaches a worker
+            # while it is still starting, before it ignores SIGINT, then waits and is discarded
+            # instead of printing a traceback; the main thread still receives the user's Ctrl-C.
+            # The resource tracker is started first: starting it unblocks SIGINT in this thread.
+            from multiprocessing import resource_tracker
+
+            resource_tracker.ensure_running()
+            signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
         parent_conn, child_conn = self._context.Pipe(duplex=True)
         process = self._context.Process(target=_worker_main, args=(child_conn, os.getpid()),
                                         name="filmcal-worker", daemon=True)

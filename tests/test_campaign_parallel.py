@@ -202,3 +202,39 @@ def test_workers_and_their_children_die_with_a_killed_parent(tmp_path):
     while any(alive(pid) for pid in seen) and time.monotonic() - killed < 5.0:
         time.sleep(0.05)
     assert not [pid for pid in seen if alive(pid)]
+
+
+INTERRUPTED_SCRIPT = textwrap.dedent("""
+    import sys
+    sys.path.insert(0, {tests!r})
+    from filmcal._parallel import LocalPoolExecutor
+    from test_campaign_parallel import sleep_s
+
+    if __name__ == "__main__":
+        pool = LocalPoolExecutor(2)
+        print("started", flush=True)
+        try:
+            for outcome in pool.map_unordered(sleep_s, [30.0, 30.0]):
+                pass
+        except KeyboardInterrupt:
+            sys.stderr.write("interrupted\\n")
+""")
+
+
+@pytest.mark.slow(reason="4 s: three interpreters interrupted while their workers start")
+@pytest.mark.parametrize("delay_s", [0.05, 0.15, 0.3])
+def test_ctrl_c_while_workers_start_prints_no_worker_traceback(tmp_path, delay_s):
+    """A terminal's Ctrl-C reaches the whole process group, workers that are still starting included."""
+    import signal
+
+    script = tmp_path / "interrupted.py"
+    script.write_text(INTERRUPTED_SCRIPT.format(tests=str(TESTS_DIR)))
+    parent = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True, start_new_session=True)
+    assert parent.stdout.readline().strip() == "started"
+    time.sleep(delay_s)
+    os.killpg(parent.pid, signal.SIGINT)
+    sent = time.monotonic()
+    _, err = parent.communicate(timeout=30)
+    assert err == "interrupted\n", err
+    assert time.monotonic() - sent < 2.0
