@@ -61,6 +61,14 @@ where the real contact covers ``saturation_fraction`` of the area (default
 stays constant), since an elastic-perfectly-plastic *surface* model would let
 a confined film sink without limit as the nominal pressure approaches ``H``.
 
+The closure is measured from the first touch of the highest summit of the
+sampled surface, an extreme value that differs between realisations (by about
+1.5 um at 10 MPa between two 200 um samples of the same spectrum); the
+pressure-closure shape above a few MPa, and the imprint growth it causes,
+vary much less (seeds 0-2: growth within 0.3 percentage points). The law is
+converged in the grid: the same surface on 512 instead of 256 pixels changes
+the closure by < 0.1 % and the contact fractions by < 1 %.
+
 What the film records
 ---------------------
 The same solves give the distribution of local pressures at each nominal
