@@ -31,7 +31,8 @@ Options: ``--synthetic`` (quadratic-gap cases with and without film and a
 rough wheel), ``--paper-table`` (the 20 cases of the paper),
 ``--accuracy`` (Hertz grid convergence, film sphere table), ``--fe-table``
 (film springs against the axisymmetric FE model), ``--hertz-table``
-(wheel-rail areas against local Hertz over eta).
+(wheel-rail areas against local Hertz over eta), ``--dump-areas PATH`` (areas
+of 56 wheel-rail cases as JSON, to compare two versions case by case).
 
 Run: ``OMP_NUM_THREADS=1 python bench/wheelrail_speed.py [--repeats 5] [--workers N]
 [--skip-sweeps] [--synthetic] [--paper-table] [--accuracy] [--fe-table] [--hertz-table]``
@@ -262,6 +263,31 @@ def peer(workers: int | None) -> None:
           f"{peer_s / ours_s:.1f}")
 
 
+def dump_areas(path: str, workers: int | None) -> None:
+    """Areas of 56 cases as JSON (to compare two versions of the solver case by case).
+
+    S1002 on 60E2 at eta = -7 ... 2 mm and on 60E1 at eta = -6, -3, 0, 2 mm,
+    50 and 100 kN, without and with the HS film: positive-pressure area (the
+    solver's own), reported area, peak pressure and CG iterations.
+    """
+    import json
+
+    rows = []
+    for rail, offsets in (("60E2", range(-7, 3)), ("60E1", (-6, -3, 0, 2))):
+        model = WheelRailModel(rail=rail, solver=HalfSpaceContactSolver(workers=workers))
+        for force in PAPER_FORCES_N:
+            for eta in offsets:
+                for film in (None, HS_FILM):
+                    res = model.solve(float(eta), force, film=film)
+                    rows.append({"rail": rail, "offset_mm": float(eta), "force_n": force,
+                                 "film": film is not None, "support_area_mm2": res.support_area_mm2,
+                                 "area_mm2": res.area_mm2, "max_pressure_mpa": res.max_pressure_mpa,
+                                 "iterations": res.contact.iterations})
+    with open(path, "w", encoding="utf-8") as handle:
+        json.dump(rows, handle, indent=1)
+    print(f"\n{len(rows)} cases written to {path}")
+
+
 SYNTHETIC_CASES = {  # gap coefficients A, B (1/mm) and region (mm)
     "wheel-rail": ((1.0 / 920.0, 1.0 / 500.0), (24.0, 24.0)),
     "elongated": ((1.0 / 2000.0, 1.0 / 200.0), (32.0, 16.0)),
@@ -490,6 +516,8 @@ def main() -> int:
                              "model (30 cases)")
     parser.add_argument("--hertz-table", action="store_true",
                         help="also print the wheel-rail areas against local Hertz over eta")
+    parser.add_argument("--dump-areas", metavar="PATH",
+                        help="also write the areas of 56 wheel-rail cases to a JSON file")
     args = parser.parse_args()
     print(f"start: {_load()}")
     acceptance(args.repeats, args.workers)
@@ -511,6 +539,8 @@ def main() -> int:
         fe_film_table(args.workers)
     if args.hertz_table:
         hertz_table(args.workers)
+    if args.dump_areas:
+        dump_areas(args.dump_areas, args.workers)
     print(f"end: {_load()}")
     return 0
 
