@@ -115,8 +115,6 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("give either --measured-area-mm2 (or --imprint) with --offset-mm (wheel-rail) or "
                          "--measured-radius-mm (or --imprint) with --sphere-radius-mm (sphere on flat)")
     _check_imprint_options(args)
-    study = Study(args.study_dir)  # an existing study: a mistyped folder is an error, not a new study
-    study.film(args.film)
     for name in ("force_kn", "measured_area_mm2", "measured_radius_mm", "sphere_radius_mm"):
         value = getattr(args, name)
         if value is not None and not (value > 0 and value < float("inf")):
@@ -126,6 +124,8 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(f"{name} must be >= 0, got {getattr(args, name)}")
     if not 0 <= args.seed < 2**32:
         raise ValueError(f"--seed must be 0 to 2^32-1, got {args.seed}")
+    study = Study(args.study_dir)  # an existing study: a mistyped folder is an error, not a new study
+    study.film(args.film)
     imprint = None if args.imprint is None else _read_imprint(args)
     match = {"model": args.model, "poisson": args.poisson, "loads": args.loads}
     corrector = None
