@@ -307,6 +307,20 @@ def test_pdf_falls_back_to_figures_without_chromium(tmp_path, monkeypatch):
 
 
 @CHROMIUM
+def test_a_figure_taller_than_a_page_is_scaled_onto_the_page_of_its_caption(tmp_path):
+    tall = Figure(figsize=(6.9, 14.0))
+    for k, ax in enumerate(tall.subplots(8, 1)):
+        ax.plot(np.arange(10), np.arange(10) ** (k / 4))
+    report = Report("Tall", "one tall figure after some text", [
+        Section("Tall").add(*[f"Paragraph {k} of text before the figure." for k in range(12)],
+                            FigureBlock(tall, "a figure twice as tall as it is wide"))])
+    result = write_pdf(report, tmp_path / "tall.pdf")
+    pages = page_texts(result.path)
+    (page,) = image_pages(result.path)
+    assert "Figure 1. a figure twice as tall as it is wide" in _words(pages[page - 1])
+
+
+@CHROMIUM
 def test_long_table_flows_over_pages_with_its_header_repeated(tmp_path):
     rows = [[f"row {i}", f"{i:.3f}"] for i in range(150)]
     report = Report("Long", "many rows", [Section("Table").add(Table(["name", "value (mm)"], rows, "long"))])

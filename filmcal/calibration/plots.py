@@ -121,7 +121,7 @@ def plot_trace(result: CalibrationResult, path: str | Path | None = None, dpi: i
         The figure, also written as PNG to ``path`` when given.
     """
     names = _varying(result)
-    fig = Figure(figsize=(_WIDTH_IN, 1.75 * len(names) + 0.7), layout="constrained")
+    fig = Figure(figsize=(_WIDTH_IN, min(1.75 * len(names) + 0.7, 9.0)), layout="constrained")
     axes = fig.subplots(len(names), 2, squeeze=False, width_ratios=[3.2, 1], sharey="row")
     for (ax_t, ax_h), name in zip(axes, names):
         values = np.asarray(result.samples[name])

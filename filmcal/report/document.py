@@ -29,6 +29,8 @@ FIGURE_DPI = 150
 #: Width and height of the printed text area of an A4 page (inches): figures are drawn at most this size.
 TEXT_WIDTH_IN = 6.9
 TEXT_HEIGHT_IN = 9.4
+#: Tallest printed figure image (inches), leaving room for a caption of a few lines on the same page.
+FIGURE_MAX_HEIGHT_IN = 8.6
 #: Flags of a headless, offline Chromium that prints a local page.
 CHROMIUM_FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-background-networking",
                   "--disable-component-update", "--disable-sync", "--disable-quic", "--no-pdf-header-footer",
@@ -174,7 +176,9 @@ def _table_html(block: Table) -> str:
 
 
 def _figure_html(block: FigureBlock, n: int) -> str:
-    width_in = min(float(block.figure.get_figwidth()), TEXT_WIDTH_IN)
+    w, h = (float(v) for v in block.figure.get_size_inches())
+    # printed at its drawn size, scaled down only to fit the text width and, with its caption, one page
+    width_in = min(w, TEXT_WIDTH_IN, w * FIGURE_MAX_HEIGHT_IN / h)
     return (f'<figure id="fig{n}"><img style="width: {width_in:.2f}in" '
             f'alt="Figure {n}: {html.escape(block.caption, quote=True)}" '
             f'src="data:image/png;base64,{block.png_base64()}">'
