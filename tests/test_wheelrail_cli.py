@@ -165,6 +165,10 @@ def test_large_strain_film_stiffens_the_soft_film(capsys):
     assert large["contact_area_mm2"] < 0.97 * small["contact_area_mm2"]
     assert large["max_pressure_mpa"] > small["max_pressure_mpa"]
     assert large["imprint_area_mm2"] < small["imprint_area_mm2"]
+    # linear: p/M at the peak; large strain: less at a higher peak pressure
+    assert small["film"]["max_strain"] == pytest.approx(
+        small["max_pressure_mpa"] / small["film"]["oedometric_modulus_mpa"])
+    assert 0.0 < large["film"]["max_strain"] < small["film"]["max_strain"]
 
 
 def test_user_film_and_imprint_models(capsys, tmp_path):

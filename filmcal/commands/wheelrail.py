@@ -202,6 +202,15 @@ def stained_area_mm2(model_name: str, result, film_type, law) -> float:
     return float(fraction.sum() * result.contact.grid.cell_area_mm2)
 
 
+def _film_strain(film, pressure_mpa: float, large_strain: bool) -> float:
+    """Compressive strain of the film at a pressure (linear: p/M; large: the neo-Hookean law)."""
+    from filmcal.wheelrail.interface import LargeStrainFilm
+
+    if large_strain:
+        return float(LargeStrainFilm.from_film(film).strain(pressure_mpa))
+    return float(pressure_mpa / film.oedometric_modulus_mpa)
+
+
 def run(args: argparse.Namespace) -> int:
     """Solve the case and print the result."""
     from filmcal.films import FILM_POISSON, FILM_THICKNESS_MM
@@ -253,7 +262,8 @@ def run(args: argparse.Namespace) -> int:
         out["film"] = {"modulus_mpa": film.modulus_mpa, "poisson": film.poisson,
                        "thickness_mm": film.thickness_mm,
                        "oedometric_modulus_mpa": film.oedometric_modulus_mpa,
-                       "kinematics": "large" if args.large_strain else "small"}
+                       "kinematics": "large" if args.large_strain else "small",
+                       "max_strain": _film_strain(film, result.max_pressure_mpa, args.large_strain)}
     out["roughness"] = rough_info
     if args.roughness_ra_um is not None:
         out["roughness_ra_um"] = args.roughness_ra_um
