@@ -218,13 +218,14 @@ def check_output_file(path: str | os.PathLike[str], option: str = "--out") -> Pa
 
 
 def check_output_dir(path: str | os.PathLike[str], option: str = "--study-dir",
-                     must_exist: bool = False) -> Path:
+                     must_exist: bool = False, writable: bool = True) -> Path:
     """Check, before any work, that `path` can be used as an output folder.
 
     It must not be an existing file; if it exists it must be writable; if it
     does not exist, `must_exist` must be False and its parent must be an
-    existing writable folder (so that one ``mkdir`` makes it). Nothing is
-    created.
+    existing writable folder (so that one ``mkdir`` makes it). With
+    ``writable=False`` (a folder that may only be read) only the kind of path
+    is checked. Nothing is created.
 
     Raises
     ------
@@ -237,7 +238,7 @@ def check_output_dir(path: str | os.PathLike[str], option: str = "--study-dir",
     if p.exists():
         if not p.is_dir():
             raise InputError(f"{option} {str(p)!r} is a file, not a folder")
-        if not _can_create_in(p):
+        if writable and not _can_create_in(p):
             raise InputError(f"{option} {str(p)!r} is not writable")
         return p
     if must_exist:
@@ -245,7 +246,7 @@ def check_output_dir(path: str | os.PathLike[str], option: str = "--study-dir",
     parent = p.parent if str(p.parent) else Path(".")
     if not parent.is_dir():
         raise InputError(f"{option} {str(p)!r}: parent folder {str(parent)!r} does not exist")
-    if not _can_create_in(parent):
+    if writable and not _can_create_in(parent):
         raise InputError(f"{option} {str(p)!r}: parent folder {str(parent)!r} is not writable")
     return p
 

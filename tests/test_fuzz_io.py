@@ -98,6 +98,9 @@ def test_path_checks(tmp_path):
 def test_unwritable_system_folder_refused():
     with pytest.raises(InputError, match="not writable"):
         check_output_file("/proc/x.sqlite", option="--store")
+    with pytest.raises(InputError, match="not writable"):
+        check_output_dir("/proc", option="--out-dir")
+    assert str(check_output_dir("/proc", option="--study-dir", writable=False)) == "/proc"
 
 
 def test_atomic_write_gives_ordinary_permissions(tmp_path):
@@ -121,3 +124,18 @@ def test_json_safe_paths_and_numpy(tmp_path):
                        "t": (np.float32(0.5), math.inf)})
     assert value == {"p": str(tmp_path / "x.csv"), "a": [1.5, None], "i": 3, "t": [0.5, None]}
     json.dumps(value, allow_nan=False)
+
+
+@pytest.mark.skipif(hasattr(os, "geteuid") and os.geteuid() == 0, reason="root may write anywhere")
+def test_read_only_folder(tmp_path):
+    folder = tmp_path / "ro"
+    folder.mkdir()
+    folder.chmod(0o555)
+    try:
+        with pytest.raises(InputError, match="not writable"):
+            check_output_file(folder / "x.csv")
+        with pytest.raises(InputError, match="not writable"):
+            check_output_dir(folder)
+        assert check_output_dir(folder, writable=False) == folder
+    finally:
+        folder.chmod(0o755)
