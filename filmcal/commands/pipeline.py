@@ -32,7 +32,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "comma-separated (default all three; edge,activation with --quick)")
     p.add_argument("--kinematics", default=None,
                    help="film kinematics of the FE model, each calibrated and compared: small, large or "
-                        "small,large (default small)")
+                        "small,large (default small,large; small with --quick)")
     p.add_argument("--workers", type=int, default=None, help="FE worker processes (default: all cores)")
     p.add_argument("--seed", type=int, default=0, help="seed of designs, surrogate and chains (default 0)")
     p.add_argument("--no-report", action="store_true", help="skip the HTML/PDF report")

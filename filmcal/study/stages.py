@@ -64,7 +64,7 @@ class PipelineSettings:
     train_runs: int = 200
     test_runs: int = 100
     imprint_models: tuple[str, ...] = IMPRINT_MODELS
-    kinematics: tuple[str, ...] = ("small",)
+    kinematics: tuple[str, ...] = ("small", "large")
     offsets_mm: tuple[float, ...] = tuple(float(x) for x in np.arange(-7.0, 2.01, 1.0))
     forces_kn: tuple[float, ...] = (50.0, 100.0)
     rough_ra_um: float | None = 1.5
@@ -85,8 +85,8 @@ class PipelineSettings:
     @classmethod
     def quick(cls) -> "PipelineSettings":
         """Few FE runs, two imprint models, three offsets at 50 kN, short chains: a minute or two."""
-        return cls(train_runs=40, test_runs=12, imprint_models=("edge", "activation"), offsets_mm=(-6.0, -3.0, 0.0),
-                   forces_kn=(50.0,), crossval_films=("HS",), max_steps=3000)
+        return cls(train_runs=40, test_runs=12, imprint_models=("edge", "activation"), kinematics=("small",),
+                   offsets_mm=(-6.0, -3.0, 0.0), forces_kn=(50.0,), crossval_films=("HS",), max_steps=3000)
 
     def fe(self, kinematics: str, seed: int) -> FESettings:
         return FESettings(kinematics=kinematics, n_train=self.train_runs, n_test=self.test_runs, seed=seed)
@@ -262,8 +262,12 @@ def _comparison_stage(study: Study, settings: PipelineSettings, results: dict, s
                                                               max_draws=500))
         d = compare_models(pairs).to_dict()
         for label, (result, _, _) in models.items():
-            d["models"][label]["modulus_mpa"] = result.modulus_mpa
-            d["models"][label]["oedometric_modulus_mpa"] = result.oedometric_modulus_mpa
+            p = result.predictive
+            d["models"][label].update(
+                modulus_mpa=result.modulus_mpa, oedometric_modulus_mpa=result.oedometric_modulus_mpa,
+                sigma_mm=result.sigma_mm, rhat=result.to_dict()["rhat"],
+                cases={"sphere_radius_mm": p.sphere_radius_mm, "force_kn": np.asarray(p.force_n) / 1e3,
+                       "standardized_residual": p.standardized_residual, "inside_90": ~np.asarray(p.outside)})
         atomic_write_json(path, d, indent=1)
         study.record(path, "comparison", spec)
         out[film] = d
