@@ -310,9 +310,9 @@ class WheelRailResult:
             "rail_inclination": self.placement.rail_inclination,
             "nominal_radius_mm": self.placement.nominal_radius_mm,
             "film": None if self.film is None else {
-                "modulus_mpa": self.film.modulus_mpa, "poisson": self.film.poisson,
-                "thickness_mm": self.film.thickness_mm,
-                "oedometric_modulus_mpa": self.film.oedometric_modulus_mpa},
+                key: getattr(self.film, key, None)
+                for key in ("modulus_mpa", "poisson", "thickness_mm", "oedometric_modulus_mpa")}
+                | {"kinematics": getattr(self.film, "kinematics", "small")},
             "roughness": None if self.roughness is None else repr(self.roughness),
             "contact_area_mm2": self.area_mm2,
             "support_area_mm2": self.support_area_mm2,
