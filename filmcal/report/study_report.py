@@ -488,6 +488,7 @@ def calibration_section(film: str, result, source: str, model: str = "") -> Sect
                                            plot_trace)
 
     s = Section(f"Calibration of {film} film" + (f" (imprint model {model})" if model else ""))
+    who = f"{film} ({model})" if model else film
     rows = [[parameter_label(name), f"{np.median(v):.4g}", f"{np.quantile(v, 0.05):.4g}",
              f"{np.quantile(v, 0.95):.4g}", f"{result.rhat.get(name, np.nan):.4f}",
              f"{result.ess_bulk.get(name, np.nan):.0f}", f"{result.ess_tail.get(name, np.nan):.0f}"]
@@ -502,9 +503,9 @@ def calibration_section(film: str, result, source: str, model: str = "") -> Sect
     for note in result.notes:
         s.add(note)
     s.add(FigureBlock(plot_trace(result), f"{film}: traces of the kept samples per walker and their histograms.",
-                      f"{film}: posterior traces"),
+                      f"{who}: posterior traces"),
           FigureBlock(plot_corner(result), f"{film}: pairwise posterior samples and marginal histograms.",
-                      f"{film}: posterior pairs"))
+                      f"{who}: posterior pairs"))
     p = result.predictive
     rows = [[f"R{r:g}", f"{f / 1e3:g}", f"{m - h:+.3f}", f"{mu - h:+.3f}", f"[{lo - h:+.3f}, {hi - h:+.3f}]",
              "no" if out else "yes"]
@@ -513,10 +514,10 @@ def calibration_section(film: str, result, source: str, model: str = "") -> Sect
     s.add(Table(["sphere", "F (kN)", "Table 1 error (mm)", "predicted (mm)", "90 % PPI (mm)", "inside"], rows,
                 f"Posterior predictive check of {film} against Table 1 (radius errors a − a Hertz)"),
           FigureBlock(plot_predictive(result), f"{film}: Table 1's radius errors against the posterior predictive "
-                      "90 % intervals.", f"{film}: posterior predictive check against Table 1"),
+                      "90 % intervals.", f"{who}: posterior predictive check against Table 1"),
           FigureBlock(plot_case_intervals(result), f"{film}: the paper's Fig. 3 in kind: per case, the range of E "
                       "that reproduces the measured radius within the inferred scatter, beside the pooled "
-                      "posterior.", f"{film}: E reproducing each case (Fig. 3)"))
+                      "posterior.", f"{who}: E reproducing each case (Fig. 3)"))
     return s
 
 
