@@ -58,3 +58,19 @@ def test_lock_and_busy_files_are_not_called_damaged(tmp_path):
                    f"error message = 'Resource temporarily unavailable') (name = '{tmp_path / 'HS.h5'}')")
     line = cli.user_error_message(busy, argparse.Namespace(), {})
     assert "in use by another process" in line and "HS.h5" in line and "damaged" not in line
+
+
+def test_every_checked_path_option_exists():
+    """The path options checked before work name options that some command has (no stale names)."""
+    from filmcal import cli
+
+    parser = cli.build_parser()
+    dests = set()
+
+    def walk(p):
+        for sub in cli._subparsers(p).values():
+            walk(sub)
+            dests.update(a.dest for a in sub._actions)
+    walk(parser)
+    for name in (*cli.OUTPUT_FILE_DESTS, *cli.OUTPUT_DIR_DESTS, *cli.INPUT_FILE_DESTS, *cli.GRID_BOUNDS):
+        assert name in dests, name
