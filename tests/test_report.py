@@ -471,3 +471,18 @@ def test_pdf_falls_back_when_chromium_fails(tmp_path, monkeypatch):
     result = write_pdf(Report("T", "s", [Section("One").add(FigureBlock(_sine_figure(), "sine"))]), tmp_path / "r.pdf")
     assert result.engine == "matplotlib" and "failed" in result.message and "cannot start" in result.message
     assert len(page_sizes_pt(result.path)) == 2
+
+
+def test_an_unreadable_file_is_reported_and_the_rest_of_the_report_kept(tmp_path):
+    full = write_synthetic_study(tmp_path / "full")
+    study = tmp_path / "study"
+    study.mkdir()
+    for name in ("settings.json", "fe-verification.json"):
+        shutil.copy(full / name, study / name)
+    (study / "design.json").write_text('{"names": ["modulus_mpa"], "train": ')  # cut short
+    report = build_report(study)
+    sections = {s.title: s for s in report.sections}
+    assert "Not available" in sections["Design of the FE campaign"].blocks[0]
+    assert any(isinstance(b, FigureBlock) for b in sections["FE model verification"].blocks)
+    problems = [b for b in sections["Provenance"].blocks if isinstance(b, str)]
+    assert problems and "design.json" in problems[0]
