@@ -486,3 +486,17 @@ def test_an_unreadable_file_is_reported_and_the_rest_of_the_report_kept(tmp_path
     assert any(isinstance(b, FigureBlock) for b in sections["FE model verification"].blocks)
     problems = [b for b in sections["Provenance"].blocks if isinstance(b, str)]
     assert problems and "design.json" in problems[0]
+
+
+def test_preferred_imprint_model_first_and_unused_models_left_out(tmp_path):
+    from filmcal.report.study_report import _manifest_posteriors
+
+    artefacts = {f"posteriors/{m}.json": {"kind": "posterior", "spec": {"film": {"name": "HS"}, "model": m}}
+                 for m in ("edge/small", "activation/small", "edge/large")}
+    artefacts["posteriors/other.json"] = {"kind": "posterior", "spec": {"film": {"name": "MS"}, "model": "edge/small"}}
+    (tmp_path / "study.json").write_text(json.dumps({"artefacts": artefacts}))
+    (tmp_path / "comparison-HS.json").write_text(json.dumps({
+        "weights": {"edge/small": 0.3, "activation/small": 0.7, "edge/large": 0.0}, "preferred": "activation/small"}))
+    assert [m for _, _, m in _manifest_posteriors(tmp_path, "HS")] == ["activation/small", "edge/small"]
+    (tmp_path / "comparison-HS.json").unlink()  # not compared: every posterior, in file order
+    assert [m for _, _, m in _manifest_posteriors(tmp_path, "HS")] == ["activation/small", "edge/large", "edge/small"]

@@ -117,21 +117,28 @@ def _read_config(study: Path) -> tuple[list[str], int | None, str, dict]:
 
 
 def _manifest_posteriors(study: Path, film: str) -> list[tuple[tuple, Path, str]]:
-    """(rank, file, model label) of a film's posteriors recorded in the manifest; the preferred one ranks first.
+    """(rank, file, model label) of a film's posteriors recorded in the manifest; the preferred one first.
 
-    Preferred: the imprint model with the highest stacking weight in ``comparison-<film>.json``.
+    Preferred: the comparison's ``preferred`` model in ``comparison-<film>.json``, else the highest
+    stacking weight. When the film's models were compared, those with zero weight (not used by the
+    correction) are left out; the comparison table still lists them.
     """
     manifest = _read_json(study / "study.json") or {}
-    weights = (_read_json(_first(study, f"comparison-{film}.json")) or {}).get("weights") or {}
+    comparison = _read_json(_first(study, f"comparison-{film}.json")) or {}
+    weights = comparison.get("weights") or {}
+    preferred = comparison.get("preferred")
     out = []
     for rel, entry in (manifest.get("artefacts") or {}).items():
         spec = entry.get("spec") or {}
         if entry.get("kind") == "posterior" and (spec.get("film") or {}).get("name") == film:
             model = str(spec.get("model") or spec.get("imprint") or "")
             order = list(weights).index(model) if model in weights else len(weights)  # ties: the comparison's order
-            out.append(((-float(weights.get(model, 0.0)), order, spec.get("loads") not in (None, "all"), rel),
-                        study / rel, model))
-    return sorted(out, key=lambda c: c[0])
+            out.append(((model != preferred, -float(weights.get(model, 0.0)), order,
+                         spec.get("loads") not in (None, "all"), rel), study / rel, model))
+    out.sort(key=lambda c: c[0])
+    if weights:
+        out = out[:1] + [c for c in out[1:] if float(weights.get(c[2], 0.0)) > 0]
+    return out
 
 
 def _read_posteriors(study: Path, films: list[str], seed: int | None, problems: list[str]) -> dict:
