@@ -501,7 +501,7 @@ def main() -> int:
     parser.add_argument("--repeats", type=int, default=5,
                         help="timed solves per case after the warm-up (default 5)")
     parser.add_argument("--workers", type=int, default=None,
-                        help="FFT threads (default: all CPUs)")
+                        help="FFT threads (default: chosen per grid by the solver)")
     parser.add_argument("--skip-sweeps", action="store_true",
                         help="skip the warm-start sweeps (for code without them)")
     parser.add_argument("--skip-peer", action="store_true", help="skip the tamaas comparison")
