@@ -391,10 +391,12 @@ def _nnls_contact(gap, force, grid, e_star, compliance=0.0):
     return pressure(delta).reshape(grid.shape), delta
 
 
-@pytest.mark.parametrize("film", [None, FilmLayer(20000.0)])
-def test_pressure_equals_an_independent_nnls_solution(solver, film):
-    """Same contact problem solved by non-negative least squares on the dense matrix."""
-    grid = SurfaceGrid.centred(3.4, 2.6, 0.2)
+@pytest.mark.parametrize("film, spacing_y_mm", [(None, 0.2), (FilmLayer(20000.0), 0.2),
+                                                (None, 0.08)])
+def test_pressure_equals_an_independent_nnls_solution(solver, film, spacing_y_mm):
+    """Same contact problem solved by non-negative least squares on the dense matrix
+    (square cells, and cells 2.5 times longer than wide as on a refined grid)."""
+    grid = SurfaceGrid.centred(3.4, 2.6, 0.2, spacing_y_mm=spacing_y_mm)
     x, y = grid.mesh()
     gap = (x ** 2 + 2.0 * y ** 2) / 900.0 + 2e-4 * np.sin(3.0 * x)
     res = solver.solve(gap, 300.0, grid, film=film, check_resolution=False)
