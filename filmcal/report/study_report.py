@@ -340,8 +340,8 @@ def answer_table(posteriors: dict, curves: dict) -> tuple[Table, list[str]]:
                "film; the 90 % credible interval is the posterior uncertainty of E carried through the "
                "wheel-rail model (section 'Wheel-rail correction curves' gives every offset and load computed)."]
     if any(len(v) > 2 and v[2] for v in posteriors.values()):
-        remarks.append("Beside each film, in brackets, the imprint model whose posterior of E is quoted: the one "
-                       "with the highest stacking weight; where the study compared several imprint models, the "
+        remarks.append("Beside each film, in brackets, the imprint model whose posterior of E is quoted: the "
+                       "comparison's preferred one (highest combination weight); where the study compared several imprint models, the "
                        "correction combines them with their weights (section 'What the film records').")
     failed = [f for f, (r, *_) in posteriors.items() if not r.diagnostics_ok]
     if failed:
