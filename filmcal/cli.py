@@ -62,6 +62,7 @@ SIZE_BOUNDS: dict[str, tuple[float, float]] = {
     "samples": (1, 2000),
     "iterations": (1, 1000),
     "element_size_mm": (0.02, 5.0),
+    "radius_mm": (1.0, 1e5),
     "film_layers": (1, 8),
     "grid_mm": (0.02, 2.0),
     "train_runs": (20, 5000),

@@ -115,6 +115,10 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("give either --measured-area-mm2 (or --imprint) with --offset-mm (wheel-rail) or "
                          "--measured-radius-mm (or --imprint) with --sphere-radius-mm (sphere on flat)")
     _check_imprint_options(args)
+    if sphere and (args.sphere_radius_mm is None or (args.measured_radius_mm is None and args.imprint is None)):
+        raise ValueError("sphere-on-flat needs --measured-radius-mm (or --imprint) and --sphere-radius-mm")
+    if wheel_rail and (args.offset_mm is None or (args.measured_area_mm2 is None and args.imprint is None)):
+        raise ValueError("wheel-rail needs --measured-area-mm2 (or --imprint) and --offset-mm")
     for name in ("force_kn", "measured_area_mm2", "measured_radius_mm", "sphere_radius_mm"):
         value = getattr(args, name)
         if value is not None and not (value > 0 and value < float("inf")):

@@ -181,27 +181,6 @@ def _surface(args: argparse.Namespace):
                                   size_um=d["size_um"], n=d["n"], seed=args.roughness_seed)
 
 
-def imprint_area_mm2(model_name: str, result, film_type) -> float:
-    """Area (mm^2) that the imprint model colours on the solved pressure field."""
-    from filmcal.contact.imprint import get_imprint_model
-
-    contact = result.contact
-    return float(get_imprint_model(model_name).area_mm2(contact.grid.x_mm, contact.grid.y_mm,
-                                                       contact.pressure_mpa, film_type))
-
-
-def stained_area_mm2(model_name: str, result, film_type, law) -> float:
-    """Area (mm^2) of the coloured spots under a rough surface: the imprint model's stain
-    probability averaged over the local (asperity) pressures at each cell's nominal pressure."""
-    from filmcal.contact.imprint import get_imprint_model
-
-    model = get_imprint_model(model_name)
-    p = result.contact.pressure_mpa
-    loaded = p > 0.0
-    fraction = law.expected_stain(lambda q: model.stain_probability(q, film_type), p[loaded])
-    return float(fraction.sum() * result.contact.grid.cell_area_mm2)
-
-
 def _film_strain(film, pressure_mpa: float, large_strain: bool) -> float:
     """Compressive strain of the film at a pressure (linear: p/M; large: the neo-Hookean law)."""
     from filmcal.wheelrail.interface import LargeStrainFilm
@@ -270,11 +249,14 @@ def run(args: argparse.Namespace) -> int:
     if film_type is not None:
         out["film_type"] = film_type.name
         out["imprint_model"] = args.imprint_model
-        out["imprint_area_mm2"] = imprint_area_mm2(args.imprint_model, result, film_type)
+        from filmcal.contact.film import FilmModel
+
+        film_model = FilmModel(film_type, args.imprint_model, "large" if args.large_strain else "small")
+        out["imprint_area_mm2"] = film_model.recorded_area_mm2(result)
         if film_type.activation_pressure_mpa is not None:
             out["activation_pressure_mpa"] = film_type.activation_pressure_mpa
         if hasattr(roughness, "expected_stain"):
-            out["stained_area_mm2"] = stained_area_mm2(args.imprint_model, result, film_type,
+            out["stained_area_mm2"] = film_model.stained_area_mm2(result,
                                                        roughness)
     if args.plot:
         plot_pressure_map(result, args.plot)

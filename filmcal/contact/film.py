@@ -9,9 +9,13 @@ neo-Hookean oedometric law of the FE model's ``large_strain`` film). The same
 calibration is used.
 
 With a rough surface (`filmcal.contact.roughness`), the film-wheel interface
-adds the rough law's closure in series, and a film colours in spots: the
-recorded area is then the imprint model's stain probability averaged over the
-local (asperity) pressures of each cell's nominal pressure.
+adds the rough law's closure in series: the nominal pressure spreads, and the
+imprint model reads the nominal pressure field as it does for a smooth wheel.
+(The area of the coloured asperity spots alone, `RoughContactLaw.expected_stain`,
+is smaller than the nominal patch inside which they lie; at a scanner's
+resolution of tens of micrometres the spots merge into the patch, so the
+nominal reading is the one that a scanned imprint is compared with.
+``filmcal wheelrail`` reports the spot area beside it.)
 """
 from __future__ import annotations
 
@@ -77,7 +81,7 @@ class FilmModel:
         solver_film, solver_law = film_law(layer, law, large_strain=self.kinematics == "large")
         return solver_film, solver_law, law
 
-    def recorded_area_mm2(self, result, rough_law=None) -> float:
+    def recorded_area_mm2(self, result) -> float:
         """The area (mm^2) that the film records of a solved contact with film.
 
         Parameters
@@ -85,19 +89,27 @@ class FilmModel:
         result : WheelRailResult or ContactResult
             A solved contact (``.contact`` of a wheel-rail result, or the
             half-space result itself).
-        rough_law : InterfaceLaw, optional
-            The roughness law of `interface`; a law that knows its local
-            pressures (``expected_stain``) makes the film colour in spots.
+        """
+        from filmcal.contact.imprint import get_imprint_model
+
+        if self.imprint == "edge":
+            return float(result.area_mm2)
+        contact = getattr(result, "contact", result)
+        model = get_imprint_model(self.imprint)
+        return float(model.area_mm2(contact.grid.x_mm, contact.grid.y_mm, contact.pressure_mpa, self.film))
+
+    def stained_area_mm2(self, result, rough_law) -> float:
+        """The area (mm^2) of the coloured asperity spots under a rough surface.
+
+        The imprint model's stain probability averaged over the local
+        (asperity) pressures at each cell's nominal pressure
+        (`RoughContactLaw.expected_stain`), summed over the cells.
         """
         from filmcal.contact.imprint import get_imprint_model
 
         contact = getattr(result, "contact", result)
-        if self.imprint == "edge" and rough_law is None:
-            return float(result.area_mm2)
         model = get_imprint_model(self.imprint)
-        if rough_law is not None and hasattr(rough_law, "expected_stain"):
-            p = contact.pressure_mpa
-            loaded = p > 0.0
-            fraction = rough_law.expected_stain(lambda q: model.stain_probability(q, self.film), p[loaded])
-            return float(fraction.sum() * contact.grid.cell_area_mm2)
-        return float(model.area_mm2(contact.grid.x_mm, contact.grid.y_mm, contact.pressure_mpa, self.film))
+        p = contact.pressure_mpa
+        loaded = p > 0.0
+        fraction = rough_law.expected_stain(lambda q: model.stain_probability(q, self.film), p[loaded])
+        return float(fraction.sum() * contact.grid.cell_area_mm2)

@@ -104,8 +104,8 @@ def correction_curves(components, offsets_mm, forces_n, *, roughness=None, max_s
     err = np.zeros(shape)
 
     def film_area(model, modulus, eta, force):
-        film, law, rough = model.interface(float(modulus), roughness)
-        return model.recorded_area_mm2(solve_wheel_rail(eta, force, film=film, roughness=law, **wheel_rail), rough)
+        film, law, _ = model.interface(float(modulus), roughness)
+        return model.recorded_area_mm2(solve_wheel_rail(eta, force, film=film, roughness=law, **wheel_rail))
 
     for i, force in enumerate(forces):
         for j, eta in enumerate(offsets):

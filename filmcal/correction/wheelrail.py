@@ -80,9 +80,9 @@ class WheelRailCorrector:
 
     def film_area_mm2(self, modulus_mpa: float, offset_mm: float, force_n: float) -> float:
         """The area the film records at modulus E (the film model's kinematics and imprint reading)."""
-        film, law, rough = self.film.interface(float(modulus_mpa))
+        film, law, _ = self.film.interface(float(modulus_mpa))
         result = solve_wheel_rail(offset_mm, force_n, film=film, roughness=law, **self.settings)
-        return self.film.recorded_area_mm2(result, rough)
+        return self.film.recorded_area_mm2(result)
 
     def area_ratio(self, offset_mm: float, force_n: float) -> tuple[np.ndarray, dict]:
         """A_0 / A_f(E) for every posterior sample, and the solved support points."""
