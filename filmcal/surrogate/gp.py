@@ -5,8 +5,8 @@ kernels) to transformed data: each input optionally log-transformed, then
 scaled to the unit cube or to z-scores; the output optionally log-transformed,
 then standardised. The hyperparameters maximise the log marginal likelihood
 over several L-BFGS starts (the kernel's initial values plus `n_restarts`
-random ones), run in parallel with joblib while BLAS is pinned to one thread in
-each start. Predictions are returned in physical output units; their standard
+random ones), run through the package's one executor (`filmcal._parallel`) with
+BLAS pinned to one thread in each start. Predictions are returned in physical output units; their standard
 deviation includes the Jacobian of the output transform.
 
 The white-noise term models the numerical noise of the model being emulated
@@ -20,7 +20,6 @@ import warnings
 from collections.abc import Mapping, Sequence
 
 import numpy as np
-from joblib import Parallel, delayed
 from scipy.linalg import cho_solve, cholesky, solve_triangular
 from scipy.stats import norm
 from sklearn.base import BaseEstimator
@@ -47,6 +46,31 @@ _START_LENGTH_SCALE = (0.1, 3.0)
 _START_CONSTANT = (0.1, 10.0)
 _START_NOISE = (1e-8, 1e-2)
 _MIN_POINTS = 3
+
+
+def _optimise_task(task: tuple) -> tuple[np.ndarray, float, list[str]]:
+    """`_optimise_from` of one ``(kernel, theta0, T, z)`` task (an executor's unit)."""
+    return _optimise_from(*task)
+
+
+def _run_starts(template: Kernel, starts: np.ndarray, T: np.ndarray, z: np.ndarray,
+                n_jobs: int | None) -> list[tuple[np.ndarray, float, list[str]]]:
+    """Every optimiser start, in the calling process (``n_jobs`` None or 1) or on worker processes.
+
+    The results are in the order of `starts` whatever the order of completion,
+    so the fit does not depend on the number of workers.
+    """
+    from filmcal._parallel import open_executor
+
+    tasks = [(template, theta0, T, z) for theta0 in starts]
+    if n_jobs is None or n_jobs == 1:
+        return [_optimise_task(t) for t in tasks]
+    workers = None if n_jobs == -1 else int(n_jobs)
+    results: list = [None] * len(tasks)
+    with open_executor(workers, n_tasks=len(tasks)) as executor:
+        for outcome in executor.map_unordered(_optimise_task, tasks):
+            results[outcome.index] = outcome.result()
+    return results
 
 
 def _optimise_from(kernel: Kernel, theta0: np.ndarray, T: np.ndarray, z: np.ndarray
@@ -98,7 +122,7 @@ class GPSurrogate(BaseEstimator):
     n_restarts : int, default 8
         Random optimiser starts in addition to the first one.
     n_jobs : int, optional
-        Parallel optimiser starts (joblib, processes by default); None means 1,
+        Parallel optimiser starts (worker processes of `filmcal._parallel`); None means 1,
         -1 all CPUs. Every start runs with BLAS pinned to one thread, which is
         what matters most for these small matrices; processes help only when
         cores are idle (about 1.6x on 2 idle cores for 8 starts, slower than
@@ -228,8 +252,7 @@ class GPSurrogate(BaseEstimator):
 
         template = self._template_kernel(len(names))
         starts = self._starts(template, np.random.default_rng(self.random_state))
-        results = Parallel(n_jobs=self.n_jobs)(
-            delayed(_optimise_from)(template, theta0, T, z) for theta0 in starts)
+        results = _run_starts(template, starts, T, z, self.n_jobs)
         lml = np.array([r[1] for r in results])
         if not np.any(np.isfinite(lml)):
             raise ValueError("the GP fit failed from every start (kernel matrix not positive definite); "
