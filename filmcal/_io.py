@@ -28,7 +28,7 @@ from filmcal._json import json_safe
 
 __all__ = [
     "atomic_path", "atomic_write_bytes", "atomic_write_text", "atomic_write_json",
-    "read_json", "sha256_file",
+    "read_json", "sha256_file", "canonical_json", "json_hash",
     "check_output_file", "check_output_dir", "check_input_file",
 ]
 
@@ -145,6 +145,29 @@ def read_json(path: str | os.PathLike[str], recomputable: bool = True) -> Any:
         return json.loads(text)
     except (json.JSONDecodeError, RecursionError) as exc:
         raise damaged(path, exc, recomputable) from exc
+
+
+def canonical_json(obj: Any) -> str:
+    """JSON text with sorted keys and no spaces: equal objects give equal text.
+
+    Raises
+    ------
+    ValueError
+        If `obj` holds non-finite floats or values JSON cannot represent.
+    """
+    try:
+        return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"cannot represent as JSON: {exc}") from None
+
+
+def json_hash(obj: Any, digits: int = 16) -> str:
+    """The package's one settings hash: SHA-256 (first `digits` hex digits) of `obj`'s canonical JSON.
+
+    Numpy values are converted first (`filmcal._json.json_safe`), so that equal
+    settings give equal hashes however they were built.
+    """
+    return hashlib.sha256(canonical_json(json_safe(obj)).encode()).hexdigest()[:digits]
 
 
 def sha256_file(path: str | os.PathLike[str], block_bytes: int = 1 << 20) -> str:

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import csv
 import hashlib
-import json
 import os
 from collections.abc import Mapping, Sequence
 from numbers import Real
@@ -19,6 +18,7 @@ from typing import Any, Union
 
 import numpy as np
 
+from filmcal._io import canonical_json, json_hash
 from filmcal._validation import as_finite
 
 __all__ = [
@@ -35,20 +35,6 @@ _TRUE_WORDS = ("true", "yes")
 _FALSE_WORDS = ("false", "no")
 
 
-def canonical_json(obj: Any) -> str:
-    """JSON text with sorted keys and no spaces: equal objects give equal text.
-
-    Raises
-    ------
-    ValueError
-        If `obj` holds non-finite floats or values JSON cannot represent.
-    """
-    try:
-        return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=False)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"cannot represent as JSON: {exc}") from None
-
-
 def settings_hash(model_name: str, settings: Mapping[str, Any]) -> str:
     """Hash (16 hex digits) of a model's name and settings.
 
@@ -59,8 +45,7 @@ def settings_hash(model_name: str, settings: Mapping[str, Any]) -> str:
     settings : mapping
         JSON-representable settings that change the model's outputs.
     """
-    text = canonical_json({"model": str(model_name), "settings": dict(settings)})
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
+    return json_hash({"model": str(model_name), "settings": dict(settings)})
 
 
 def point_id(inputs: Mapping[str, DesignValue], settings_hash_: str) -> str:

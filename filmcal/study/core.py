@@ -15,7 +15,6 @@ made it and recorded in the manifest with its SHA-256:
 from __future__ import annotations
 
 import contextlib
-import functools
 import zlib
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path

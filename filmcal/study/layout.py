@@ -22,12 +22,10 @@ for it. The manifest maps each file to its spec and its own SHA-256.
 """
 from __future__ import annotations
 
-import hashlib
-import json
 from pathlib import Path
 from typing import Any
 
-from filmcal._json import json_safe
+from filmcal._io import json_hash
 
 __all__ = ["StudyLayout", "spec_key", "MANIFEST_NAME"]
 
@@ -35,9 +33,8 @@ MANIFEST_NAME = "study.json"
 
 
 def spec_key(spec: dict[str, Any]) -> str:
-    """The 12-hex-digit key of a spec (SHA-256 of its canonical JSON)."""
-    text = json.dumps(json_safe(spec), sort_keys=True, separators=(",", ":"))
-    return hashlib.sha256(text.encode()).hexdigest()[:12]
+    """The 12-hex-digit key of a spec (`filmcal._io.json_hash`, the package's one settings hash)."""
+    return json_hash(spec, digits=12)
 
 
 class StudyLayout:
