@@ -6,7 +6,7 @@ the flat), tabulated at Table 1's ten (R, F) cases on a ladder of moduli and int
 model's std). Every imprint model (edge, activation, capsule) of every film type is read from the same
 solves; small- and large-strain film kinematics are two sets of solves. Nothing depends on a study folder.
 
-Three steps (each prints its own timings; the machine's load average is printed with them):
+Four steps (each prints its own timings; the machine's load average is printed with them):
 
     python bench/calibration_speed.py tables [--kinematics small large] [--nodes 9] [--cache FILE]
         FE tables (10 cases x nodes x kinematics), cached as JSON.
@@ -17,6 +17,10 @@ Three steps (each prints its own timings; the machine's load average is printed 
         Leave-one-case-out of the sphere correction: PSIS from one posterior (refits where k > 0.7)
         against ten exact refits (one model); time ratio, refits, hits, band width as % of the area,
         largest difference of the corrected areas. ``combined``: every model, weighted as `compare`.
+    python bench/calibration_speed.py lot [--seeds 5]
+        A user film lot (0.1 mm) from FE imprints at E = 2600 MPa off Table 1's grid (R 350/500 mm,
+        F 40/60/90 kN, two repeats, scatter 0.03 mm, stated 0.01 mm), calibrated back from its CSV per
+        noise seed: how often the known E is inside the 90 % interval, the median's error.
 """
 from __future__ import annotations
 
@@ -190,9 +194,57 @@ def cmd_crossval(args, tables) -> None:
           f"{np.min(psis.area_std_mm2 / std):.2f}-{np.max(psis.area_std_mm2 / std):.2f}")
 
 
+def cmd_lot(args) -> None:
+    """A user film lot (thickness 0.1 mm) from FE imprints at E = 2600 MPa, calibrated back from its CSV."""
+    import tempfile
+
+    from filmcal.calibration import load_dataset
+    from filmcal.fem import Film, solve_sphere_on_flat
+    from filmcal.films import FilmType
+
+    film = FilmType("LOT7", activation_pressure_mpa=45.0, thickness_mm=0.1)
+    e_true, scatter, stated = 2600.0, 0.03, 0.01
+    lot_cases = [(R, F) for R in (350.0, 500.0) for F in (40e3, 60e3, 90e3)]
+
+    def fe_radius(E, nu, R, F):
+        return solve_sphere_on_flat(R, F, Film(E, nu), film_thickness_mm=film.thickness_mm).contact_radius_mm
+
+    t0 = time.perf_counter()
+    truth = {case: fe_radius(e_true, film.poisson, *case) for case in lot_cases}
+    model = TabulatedRadiusModel.from_function(fe_radius, lot_cases, [1200.0, 1800.0, 2700.0, 4000.0, 6000.0],
+                                               film.poisson)
+    model.std_mm = max(model.max_error_mm(fe_radius, [1500.0, 2200.0, 3300.0, 4900.0]), 0.002)
+    print(f"LOT7 FE tables in {time.perf_counter() - t0:.1f} s; interpolation error {model.std_mm:.4f} mm ({load()})")
+    inside, errors = 0, []
+    with tempfile.TemporaryDirectory() as folder:
+        for seed in range(args.seeds):
+            rng = np.random.default_rng(seed)
+            lines = ["film,sphere_radius_mm,force_kn,measured_radius_mm,repeat,measurement_std_mm"]
+            for (R, F), r in truth.items():
+                for repeat in (1, 2):
+                    noisy = r + np.hypot(scatter, stated) * rng.standard_normal()
+                    lines.append(f"LOT7,{R:g},{F / 1e3:g},{noisy:.4f},{repeat},{stated}")
+            path = Path(folder) / f"lot7-{seed}.csv"
+            path.write_text("\n".join(lines) + "\n")
+            data = load_dataset(path).select(film)
+            t1 = time.perf_counter()
+            result = calibrate(data, model, film=film.name, seed=seed,
+                               priors=Priors.for_film(film, modulus_range_mpa=model.modulus_range_mpa))
+            lo, hi = result.modulus_mpa["ci90"]
+            med = result.modulus_mpa["median"]
+            inside += int(lo < e_true < hi)
+            errors.append(100 * (med / e_true - 1))
+            print(f"noise seed {seed}: E median {med:.0f} MPa ({errors[-1]:+.2f} %), 90 % [{lo:.0f}, {hi:.0f}], "
+                  f"sigma {result.sigma_mm['median']:.4f} mm, case sigma {result.case_sigma_mm['median']:.4f} mm, "
+                  f"{time.perf_counter() - t1:.1f} s")
+    print(f"known E inside the 90 % interval in {inside}/{args.seeds}; |median error| max "
+          f"{max(abs(e) for e in errors):.2f} %")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("step", choices=("tables", "compare", "crossval"))
+    parser.add_argument("step", choices=("tables", "compare", "crossval", "lot"))
+    parser.add_argument("--seeds", type=int, default=5, help="lot: noise seeds")
     parser.add_argument("--cache", type=Path, default=DEFAULT_CACHE)
     parser.add_argument("--kinematics", nargs="+", choices=("small", "large"), default=["small"])
     parser.add_argument("--nodes", type=int, default=9)
@@ -204,6 +256,9 @@ def main() -> None:
     args = parser.parse_args()
     if args.step == "tables":
         build_tables(args.kinematics, args.nodes, args.cache)
+        return
+    if args.step == "lot":
+        cmd_lot(args)
         return
     if not args.cache.exists():
         parser.error(f"no FE tables at {args.cache}; run the 'tables' step first")
