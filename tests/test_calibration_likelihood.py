@@ -108,3 +108,23 @@ def test_film_type_sets_nu_and_must_match_the_data():
     assert Priors.for_film(lot).poisson == 0.36
     with pytest.raises(ValueError, match="besides HS"):
         CalibrationProblem(repeated_data(), ToyRadiusModel(), film=FilmType("HS", activation_pressure_mpa=50.0))
+
+
+def test_priors_round_trip_and_table1_configuration_is_unchanged():
+    priors = Priors(case_scale_mm=0.05, poisson=0.35)
+    assert Priors.from_dict(priors.to_dict()) == priors
+    old_style = priors.to_dict()
+    old_style.pop("case_sigma_mm")  # a result saved before the case-level scatter existed
+    assert Priors.from_dict(old_style).case_scale_mm == Priors().case_scale_mm
+    # Table 1 (one imprint per case, steel, nothing stated): the stored chain configuration keeps its keys,
+    # so chains stored before the dataset extensions still match and resume
+    from filmcal.calibration.data import load_table1
+
+    described = CalibrationProblem(load_table1("HS"), ToyRadiusModel()).describe()
+    assert set(described) == {"film", "sphere_radius_mm", "force_n", "measured_radius_mm", "poisson",
+                              "discrepancy", "priors", "parameter_names"}
+    assert "case_sigma_mm" not in described["priors"]
+    np.testing.assert_array_equal(described["measured_radius_mm"], load_table1("HS").measured_radius_mm)
+    with_repeats = CalibrationProblem(repeated_data(), ToyRadiusModel()).describe()
+    assert with_repeats["case_index"] == [0, 1, 0, 2, 1, 0]
+    assert with_repeats["measurement_std_mm"][2] == 0.03
