@@ -11,7 +11,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from conftest import SLOW_TESTS, STAGES, TESTS_DIR, collected_items, key_matches, relative_nodeid, slow_reason
+from conftest import SLOW_FIXTURES, SLOW_TESTS, STAGES, TESTS_DIR, collected_items, key_matches, relative_nodeid, slow_reason
 
 ROOT = TESTS_DIR.parent
 
@@ -29,6 +29,12 @@ def test_every_slow_key_names_a_collected_test(request):
     ids = [relative_nodeid(item) for item in whole_suite(request.config)]
     stale = [key for key in SLOW_TESTS if not any(key_matches(key, nodeid) for nodeid in ids)]
     assert not stale, f"SLOW_TESTS in tests/conftest.py names tests that no longer exist: {stale}"
+
+
+def test_every_slow_fixture_is_used(request):
+    used = {name for item in whole_suite(request.config) for name in getattr(item, "fixturenames", ())}
+    stale = sorted(SLOW_FIXTURES - used)
+    assert not stale, f"SLOW_FIXTURES in tests/conftest.py names fixtures no test uses: {stale}"
 
 
 def test_fast_tier_covers_every_stage(request):
