@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import csv
 import hashlib
+import io
 import json
 import re
 import shutil
@@ -110,13 +111,19 @@ def _curve_rows(film: str) -> list[dict]:
     return rows
 
 
-def write_synthetic_study(folder: Path) -> Path:
-    """A study folder with settings, FE verification, design, surrogate validation and curves (no posteriors)."""
+SYNTHETIC_PARTS = ("verification", "design", "surrogate_validation", "crossval", "outlines", "curves")
+
+
+def write_synthetic_study(folder: Path, parts=SYNTHETIC_PARTS) -> Path:
+    """A study folder (manifest and recorded artefacts) with the chosen parts: settings, FE verification,
+    design, surrogate validation, cross-validation, outlines and curves (no posteriors)."""
     from scipy.stats import qmc
 
-    folder.mkdir(parents=True, exist_ok=True)
-    (folder / "settings.json").write_text(json.dumps({"settings": {"train_runs": 30, "test_runs": 10},
-                                                      "films": ["HS"], "seed": 0, "hash": "feedc0ffee"}))
+    from filmcal.study import Study
+
+    study = Study(folder, create=True)
+    lay = study.layout
+    files = {}
     hertz = [{"radius_mm": r, "force_n": f, "hertz_radius_mm": float(hertz_radius_mm(r, f)),
               "fe_radius_mm": float(hertz_radius_mm(r, f)) * (1 + 2e-4 * (k - 4))} for k, (r, f) in enumerate(CASES)]
     a = float(hertz_radius_mm(450.0, 75e3))
@@ -127,14 +134,14 @@ def write_synthetic_study(folder: Path) -> Path:
         {"radius_mm": r, "force_n": f, "fe_radius_mm": float(hertz_radius_mm(r, f)) + 1.0,
          "surrogate_mean_mm": float(hertz_radius_mm(r, f)) + 1.0 + 0.004 * np.sin(k), "surrogate_std_mm": 0.004}
         for k, (r, f) in enumerate(CASES)]}}
-    (folder / "fe-verification.json").write_text(json.dumps({"hertz": hertz, "profiles": profiles, "films": films,
-                                                             "profile_case": {"radius_mm": 450.0, "force_n": 75e3}}))
+    files["verification"] = (lay.verification, json.dumps({"hertz": hertz, "profiles": profiles, "films": films,
+                                                            "profile_case": {"radius_mm": 450.0, "force_n": 75e3}}))
     quality = {"min_distance": 0.2, "phi_p": 5.0, "centered_l2": 0.01, "max_abs_correlation": 0.1}
     design = {"names": ["modulus_mpa", "poisson", "radius_mm", "force_kn"]}
     for part, n, seed in (("train", 30, 1), ("test", 10, 2)):
         design[part] = {"n": n, "seed": seed, "unit": qmc.LatinHypercube(d=4, seed=seed).random(n).tolist(),
                         "quality": quality, "random_lhs_median": quality}
-    (folder / "design.json").write_text(json.dumps(design))
+    files["design"] = (lay.design, json.dumps(design))
     rng = np.random.default_rng(3)
     radius = rng.choice([300.0, 450.0, 600.0], 12)
     force = rng.uniform(25, 100, 12)
@@ -145,7 +152,8 @@ def write_synthetic_study(folder: Path) -> Path:
               "radius_mean_mm": (fe + rng.normal(0, 0.005, 12)).tolist(), "radius_std_mm": [0.005] * 12}
     summary = {"n": 12, "radius_rms_error_mm": 0.005, "radius_max_error_mm": 0.01, "area_rms_relative_error": 0.002,
                "area_max_relative_error": 0.005, "coverage90": 0.9, "q2": 0.9999}
-    (folder / "surrogate-validation.json").write_text(json.dumps({"summary": summary, "points": points}))
+    files["surrogate_validation"] = (lay.surrogate_validation("0123456789ab"),
+                                     json.dumps({"summary": summary, "points": points, "column": "contact_radius_mm"}))
     hertz_area = np.array([np.pi * float(hertz_radius_mm(r, f)) ** 2 for r, f in CASES])
     area = hertz_area * (1 + 0.02 * np.sin(np.arange(10)))
     crossval = {"film": "HS", "sphere_radius_mm": [r for r, _ in CASES], "force_n": [f for _, f in CASES],
@@ -153,17 +161,26 @@ def write_synthetic_study(folder: Path) -> Path:
                 "hertz_area_mm2": hertz_area.tolist(), "area_mm2": area.tolist(), "area_std_mm2": (0.01 * area).tolist(),
                 "area_ci90_mm2": np.column_stack([0.985 * area, 1.015 * area]).tolist(),
                 "modulus_median_mpa": [2800.0] * 10, "method": "refit"}
-    (folder / "crossval-HS.json").write_text(json.dumps(crossval))
+    files["crossval"] = (lay.crossval("HS"), json.dumps(crossval))
     t = np.linspace(0, 2 * np.pi, 60)
     ring = lambda a, b, y0: np.column_stack([a * np.sin(t), y0 + b * np.cos(t)]).tolist()  # noqa: E731 (x, y)
     cases = [{"offset_mm": eta, "no film": {"area_mm2": np.pi * 20, "outline_mm": [ring(5, 4, eta)]},
               "HS": {"area_mm2": np.pi * 30, "outline_mm": [ring(6, 5, eta)]}} for eta in (-6.0, -3.0, 0.0, 2.0)]
-    (folder / "wheelrail-outlines.json").write_text(json.dumps({"force_n": 5e4, "films": {"HS": 2800.0},
-                                                                "cases": cases}))
-    with open(folder / "curves-HS.csv", "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=CURVE_COLUMNS)
-        writer.writeheader()
-        writer.writerows(_curve_rows("HS"))
+    files["outlines"] = (lay.outlines, json.dumps({"force_n": 5e4, "films": {"HS": 2800.0}, "cases": cases}))
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=CURVE_COLUMNS)
+    writer.writeheader()
+    writer.writerows(_curve_rows("HS"))
+    files["curves"] = (lay.curves("HS"), buffer.getvalue())
+    with study.writing():
+        study.set_settings({"pipeline": {"train_runs": 30, "test_runs": 10}, "seed": 0})
+        study.manifest.data["pipeline_films"] = ["HS"]
+        for part in parts:
+            path, text = files[part]
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(text)
+            study.record(path, part, {"synthetic": part}, **({"column": "contact_radius_mm"}
+                                                              if part == "surrogate_validation" else {}))
     return folder
 
 
@@ -370,7 +387,7 @@ def test_report_opens_in_chromium_with_every_figure(quick_study, tmp_path):
     # Hertz's radius for R450 / 75 kN, computed here from the closed form, is in the verification table
     assert f"{hertz_radius_mm(450.0, 75e3):.4f}" in text and "6.031" in text
     # provenance: the checksum of the design file, computed here
-    assert hashlib.sha256((Path(study) / "design.json").read_bytes()).hexdigest()[:16] in text
+    assert hashlib.sha256((Path(study) / "design.json").read_bytes()).hexdigest()[:16] in text  # as recorded
 
 
 def test_quick_study_report_pdf_is_a4_with_every_caption(quick_study):
@@ -384,11 +401,7 @@ def test_quick_study_report_pdf_is_a4_with_every_caption(quick_study):
 
 @COMMAND
 def test_report_command_rewrites_from_the_study(tmp_path):
-    full = write_synthetic_study(tmp_path / "full")
-    study = tmp_path / "study"  # settings and curves only: the other sections say what is missing
-    study.mkdir()
-    for name in ("settings.json", "curves-HS.csv"):
-        shutil.copy(full / name, study / name)
+    study = write_synthetic_study(tmp_path / "study", parts=("curves",))  # the other sections say what is missing
     out = subprocess.run([sys.executable, "-m", "filmcal.cli", "report", "--study-dir", str(study), "--out-dir",
                           str(tmp_path / "rep"), "--json"], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr[-2000:]
@@ -403,11 +416,7 @@ def test_report_command_rewrites_from_the_study(tmp_path):
 def test_report_command_without_chromium_says_so_and_writes_the_figures_pdf(tmp_path):
     import os
 
-    full = write_synthetic_study(tmp_path / "full")
-    study = tmp_path / "study"
-    study.mkdir()
-    for name in ("settings.json", "curves-HS.csv"):
-        shutil.copy(full / name, study / name)
+    study = write_synthetic_study(tmp_path / "study", parts=("curves",))
     env = {**os.environ, "PATH": str(tmp_path / "empty-bin")}  # no chromium, no git on PATH
     out = subprocess.run([sys.executable, "-m", "filmcal.cli", "report", "--study-dir", str(study), "--json"],
                          capture_output=True, text=True, timeout=300, env=env)
@@ -423,7 +432,7 @@ def test_report_of_a_non_study_exits_2(tmp_path, study):
     (tmp_path / "empty-folder").mkdir()
     p = subprocess.run([sys.executable, "-m", "filmcal.cli", "report", "--study-dir", str(tmp_path / study)],
                        capture_output=True, text=True, timeout=120)
-    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and "study_dir" in p.stderr
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and "--study-dir" in p.stderr
 
 
 @MCMC
@@ -474,12 +483,8 @@ def test_pdf_falls_back_when_chromium_fails(tmp_path, monkeypatch):
 
 
 def test_an_unreadable_file_is_reported_and_the_rest_of_the_report_kept(tmp_path):
-    full = write_synthetic_study(tmp_path / "full")
-    study = tmp_path / "study"
-    study.mkdir()
-    for name in ("settings.json", "fe-verification.json"):
-        shutil.copy(full / name, study / name)
-    (study / "design.json").write_text('{"names": ["modulus_mpa"], "train": ')  # cut short
+    study = write_synthetic_study(tmp_path / "study", parts=("verification", "design"))
+    (study / "design.json").write_text('{"names": ["modulus_mpa"], "train": ')  # cut short after it was recorded
     report = build_report(study)
     sections = {s.title: s for s in report.sections}
     assert "Not available" in sections["Design of the FE campaign"].blocks[0]
@@ -489,14 +494,23 @@ def test_an_unreadable_file_is_reported_and_the_rest_of_the_report_kept(tmp_path
 
 
 def test_preferred_imprint_model_first_and_unused_models_left_out(tmp_path):
-    from filmcal.report.study_report import _manifest_posteriors
+    from filmcal.report.study_report import _ordered_posteriors
+    from filmcal.study import Study
 
-    artefacts = {f"posteriors/{m}.json": {"kind": "posterior", "spec": {"film": {"name": "HS"}, "model": m}}
-                 for m in ("edge/small", "activation/small", "edge/large")}
-    artefacts["posteriors/other.json"] = {"kind": "posterior", "spec": {"film": {"name": "MS"}, "model": "edge/small"}}
-    (tmp_path / "study.json").write_text(json.dumps({"artefacts": artefacts}))
-    (tmp_path / "comparison-HS.json").write_text(json.dumps({
-        "weights": {"edge/small": 0.3, "activation/small": 0.7, "edge/large": 0.0}, "preferred": "activation/small"}))
-    assert [m for _, _, m in _manifest_posteriors(tmp_path, "HS")] == ["activation/small", "edge/small"]
-    (tmp_path / "comparison-HS.json").unlink()  # not compared: every posterior, in file order
-    assert [m for _, _, m in _manifest_posteriors(tmp_path, "HS")] == ["activation/small", "edge/large", "edge/small"]
+    study = Study(tmp_path / "s", create=True)
+    with study.writing():
+        for name, film, model in (("a", "HS", "edge/small"), ("b", "HS", "activation/small"),
+                                  ("c", "HS", "edge/large"), ("d", "MS", "edge/small")):
+            path = study.layout.posterior(name)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text("{}")
+            study.record(path, "posterior", {"film": {"name": film}, "model": model, "loads": None, "fe": {}})
+        comparison = study.layout.comparison("HS")
+        comparison.write_text(json.dumps({"weights": {"edge/small": 0.3, "activation/small": 0.7, "edge/large": 0.0},
+                                          "preferred": "activation/small"}))
+        study.record(comparison, "comparison", {})
+    assert [m for _, m in _ordered_posteriors(study, "HS")] == ["activation/small", "edge/small"]
+    with study.writing():
+        study.manifest.forget(study.layout.relative(comparison))
+        comparison.unlink()  # not compared: every posterior, in file order
+    assert [m for _, m in _ordered_posteriors(study, "HS")] == ["edge/small", "activation/small", "edge/large"]

@@ -16,7 +16,6 @@ writes the self-contained HTML and the A4 PDF printed from the same page.
 from __future__ import annotations
 
 import datetime as _dt
-import hashlib
 import json
 import platform
 import subprocess
@@ -80,92 +79,42 @@ class StudyData:
 
 
 def _read_json(path: Path | None) -> dict | None:
-    return json.loads(path.read_text(encoding="utf-8")) if path is not None and path.exists() else None
+    from filmcal._io import read_json
 
-
-def _first(study: Path, *patterns: str) -> Path | None:
-    """The first file matching one of the glob patterns (in order), or None."""
-    for pattern in patterns:
-        found = sorted(p for p in study.glob(pattern) if p.is_file() and not p.name.endswith(".tmp"))
-        if found:
-            return found[0]
-    return None
+    return read_json(path) if path is not None and path.exists() else None
 
 
 def _domain():
-    try:
-        from filmcal.surrogate.radius import SurrogateDomain
-    except ImportError:  # older layout
-        from filmcal.study import SurrogateDomain
+    from filmcal.surrogate.radius import SurrogateDomain
+
     return SurrogateDomain()
 
 
-def _read_config(study: Path) -> tuple[list[str], int | None, str, dict]:
-    settings = _read_json(study / "settings.json")
-    if settings is not None:
-        return list(settings["films"]), settings.get("seed"), str(settings.get("hash", "")), settings["settings"]
-    manifest = _read_json(study / "study.json")
-    if manifest is not None and isinstance(manifest.get("settings"), dict):
-        s = manifest["settings"]
-        films = manifest.get("pipeline_films") or s.get("films") or sorted(
-            {e["spec"]["film"]["name"] for e in (manifest.get("artefacts") or {}).values()
-             if e.get("kind") == "posterior"})
-        text = json.dumps(s, sort_keys=True, separators=(",", ":"), default=str)
-        return list(films), s.get("seed"), hashlib.sha256(text.encode()).hexdigest()[:16], s.get("pipeline", s)
-    raise FileNotFoundError(f"study_dir {study} has no settings.json or study.json with settings: not a study "
-                            "folder made by `filmcal pipeline`")
+def _ordered_posteriors(study, film: str) -> list[tuple[Path, str]]:
+    """(file, model label) of a film's recorded posteriors, the preferred one first.
 
-
-def _manifest_posteriors(study: Path, film: str) -> list[tuple[tuple, Path, str]]:
-    """(rank, file, model label) of a film's posteriors recorded in the manifest; the preferred one first.
-
-    Preferred: the comparison's ``preferred`` model in ``comparison-<film>.json``, else the highest
-    stacking weight. When the film's models were compared, those with zero weight (not used by the
-    correction) are left out; the comparison table still lists them.
+    Preferred: the comparison's ``preferred`` model, else the highest weight.
+    When the film's models were compared, those with zero weight (not used by
+    the correction) are left out; the comparison table still lists them.
     """
-    manifest = _read_json(study / "study.json") or {}
-    comparison = _read_json(_first(study, f"comparison-{film}.json")) or {}
-    weights = comparison.get("weights") or {}
+    from filmcal.study.core import comparison_weights
+
+    found = study.posteriors(film)
+    weights = comparison_weights(study, film)
+    comparison = _read_json(study.verified(study.layout.comparison(film))) or {}
     preferred = comparison.get("preferred")
-    out = []
-    for rel, entry in (manifest.get("artefacts") or {}).items():
-        spec = entry.get("spec") or {}
-        if entry.get("kind") == "posterior" and (spec.get("film") or {}).get("name") == film:
-            model = str(spec.get("model") or spec.get("imprint") or "")
-            order = list(weights).index(model) if model in weights else len(weights)  # ties: the comparison's order
-            out.append(((model != preferred, -float(weights.get(model, 0.0)), order,
-                         spec.get("loads") not in (None, "all"), rel), study / rel, model))
-    out.sort(key=lambda c: c[0])
+    order = list(weights)
+    ranked = sorted(found, key=lambda f: (f[1]["model"] != preferred, -weights.get(f[1]["model"], 0.0),
+                                          order.index(f[1]["model"]) if f[1]["model"] in order else len(order),
+                                          f[1].get("loads") is not None, f[0].name))
+    out = [(path, spec["model"]) for path, spec in ranked]
     if weights:
-        out = out[:1] + [c for c in out[1:] if float(weights.get(c[2], 0.0)) > 0]
+        out = out[:1] + [c for c in out[1:] if weights.get(c[1], 0.0) > 0]
     return out
 
 
-def _read_posteriors(study: Path, films: list[str], seed: int | None, problems: list[str]) -> dict:
-    """Film -> [(CalibrationResult, file name, model label)], the preferred posterior first."""
-    from filmcal.calibration import load_result
-
-    out: dict = {}
-    for film in films:
-        candidates = [(path, model) for _, path, model in _manifest_posteriors(study, film)]
-        if not candidates:  # folders without a manifest: posterior-<film>-<tags>.json
-            ranked = []
-            for path in study.glob(f"posterior-{film}-*.json"):
-                head = _read_json(path) or {}
-                ranked.append(((head.get("loads") not in (None, "all"), head.get("seed") != seed,
-                                -path.stat().st_mtime), path))
-            candidates = [(path, "") for _, path in sorted(ranked, key=lambda c: c[0])]
-            candidates = candidates[:1]
-        for path, model in candidates:
-            try:
-                out.setdefault(film, []).append((load_result(path), path.name, model))
-            except Exception as err:  # noqa: BLE001 (an unreadable file is reported, not fatal)
-                problems.append(f"{path.name}: {err}")
-    return out
-
-
-def _read_design(study: Path) -> DesignData | None:
-    d = _read_json(_first(study, "design.json"))
+def _read_design(path: Path | None) -> DesignData | None:
+    d = _read_json(path)
     if d is None:
         return None
     from filmcal.calibration.plots import PARAMETER_LABELS
@@ -180,99 +129,69 @@ def _read_design(study: Path) -> DesignData | None:
                       {k: d[k] for k in ("train", "test")})
 
 
-def _read_radius_model(study: Path):
-    """The study's contact-edge radius surrogate (the first one when the column is not recorded)."""
-    from filmcal.surrogate import load_surrogate
-
-    try:
-        from filmcal.surrogate.radius import SurrogateRadiusModel
-    except ImportError:  # older layout
-        from filmcal.study import SurrogateRadiusModel
-    meta = sorted(p for p in [*study.glob("surrogate-*.json"), *study.glob("surrogates/*.json")]
-                  if not p.name.endswith("validation.json"))
-    if not meta:
-        return None
-    edge = [p for p in meta if (_read_json(p.with_name(p.name[:-len(".json")] + "-validation.json")) or {})
-            .get("column", "contact_radius_mm") == "contact_radius_mm"]
-    path = (edge or meta)[0]
-    return SurrogateRadiusModel(load_surrogate(path.with_name(path.name[:-len(".json")])), _domain())
-
-
-def _read_surrogate_validation(study: Path) -> dict | None:
-    """The held-out validation of the contact-edge surrogate (or the first one)."""
-    found = [_read_json(p) for p in sorted(study.glob("surrogates/*-validation.json"))]
-    edge = [d for d in found if d.get("column", "contact_radius_mm") == "contact_radius_mm"]
-    return (edge or found or [None])[0] if found else _read_json(_first(study, "surrogate-validation.json"))
-
-
-def _read_crossval(study: Path, films: list[str]) -> dict:
-    from filmcal.correction.crossval import CaseCrossValidation
-
-    out = {}
-    for film in films:
-        d = _read_json(_first(study, f"crossval-{film}.json", f"crossval/crossval-{film}.json"))
-        if d is not None:
-            out[film] = CaseCrossValidation.from_dict(d)
-    return out
-
-
-def _read_imprint_comparison(study: Path, films: list[str]) -> dict | None:
-    d = _read_json(_first(study, "imprint-comparison.json"))
-    if d is not None:
-        return d
-    per_film = {film: _read_json(_first(study, f"comparison-{film}.json")) for film in films}
-    per_film = {k: v for k, v in per_film.items() if v is not None}
-    return per_film or None
-
-
-def _study_files(study: Path) -> list[tuple[str, int, str]]:
-    files = []
-    for p in sorted(study.rglob("*")):
-        rel = p.relative_to(study)
-        transient = p.name.endswith((".tmp", ".lock", "-shm", "-wal")) or p.name.startswith(".")
-        if p.is_file() and not transient and rel.parts[0] != "report":
-            files.append((rel.as_posix(), p.stat().st_size, hashlib.sha256(p.read_bytes()).hexdigest()))
-    return files
-
-
 def read_study(study_dir: str | Path) -> StudyData:
-    """Read a study folder into plain data (the one place that knows the folder's file names).
+    """Read a study folder into plain data, through its `filmcal.study.Study` (which knows the file names).
+
+    Every file is checked against the SHA-256 the study recorded: a changed or
+    unreadable file is left out with a line in ``StudyData.problems``.
 
     Raises
     ------
-    FileNotFoundError
-        If `study_dir` is not a folder or has no settings (not made by the pipeline).
+    ValueError
+        If `study_dir` is not a study folder.
     """
+    from filmcal.calibration import load_result
     from filmcal.correction import read_curves_csv
+    from filmcal.correction.crossval import CaseCrossValidation
+    from filmcal.study import Study
+    from filmcal.study.core import report_view
+    from filmcal.surrogate import load_surrogate
+    from filmcal.surrogate.radius import SurrogateRadiusModel
 
-    study = Path(study_dir)
-    if not study.is_dir():
-        raise FileNotFoundError(f"study_dir {study} is not a folder")
-    films, seed, settings_hash, settings = _read_config(study)
-    data = StudyData(study, films, seed, settings_hash, settings)
-    found = _read_posteriors(study, films, seed, data.problems)
-    data.posteriors = {film: results[0] for film, results in found.items()}
-    data.other_posteriors = {film: results[1:] for film, results in found.items() if len(results) > 1}
+    study = Study(study_dir)
+    view = report_view(study)
+    config = view["config"]
+    data = StudyData(study.root, config["films"], config["seed"], config["hash"], config["settings"])
 
     def attempt(what: str, read: Callable[[], object]):
         try:
             return read()
         except Exception as err:  # noqa: BLE001 (one unreadable file must not hide the rest of the report)
-            data.problems.append(f"{what}: {type(err).__name__}: {err}")
+            data.problems.append(f"{what}: {err}")
             return None
 
-    data.curves = attempt("curves", lambda: {
-        film: read_curves_csv(p) for film in films
-        if (p := _first(study, f"curves-{film}.csv", f"curves/curves-{film}.csv")) is not None}) or {}
-    data.verification = attempt("fe-verification.json", lambda: _read_json(_first(study, "fe-verification.json")))
-    data.design = attempt("design.json", lambda: _read_design(study))
-    data.surrogate_validation = attempt("surrogate validation", lambda: _read_surrogate_validation(study))
-    data.radius_model = attempt("surrogate", lambda: _read_radius_model(study))
+    def verified(path: Path | None) -> Path | None:
+        return None if path is None else study.verified(path)
+
+    for film in data.films:
+        results = []
+        for path, model in attempt(f"posteriors of {film}", lambda film=film: _ordered_posteriors(study, film)) or []:
+            result = attempt(path.name, lambda path=path: load_result(verified(path)))
+            if result is not None:
+                results.append((result, path.name, model))
+        if results:
+            data.posteriors[film] = results[0]
+            if len(results) > 1:
+                data.other_posteriors[film] = results[1:]
+    data.curves = {film: r for film, path in view["curves"].items()
+                   if (r := attempt(path.name, lambda path=path: read_curves_csv(verified(path)))) is not None}
+    data.verification = attempt("fe-verification.json", lambda: _read_json(verified(view["verification"])))
+    data.design = attempt("design.json", lambda: _read_design(verified(view["design"])))
+    data.surrogate_validation = attempt("surrogate validation",
+                                        lambda: _read_json(verified(view["surrogate_validation"])))
+    stem = view["surrogate"]
+    data.radius_model = None if stem is None else attempt("surrogate", lambda: SurrogateRadiusModel(
+        load_surrogate(verified(stem.with_name(stem.name + ".json")).with_suffix("")), _domain()))
     data.modulus_range_mpa = tuple(_domain().modulus_mpa)
-    data.crossval = attempt("cross-validation", lambda: _read_crossval(study, films)) or {}
-    data.outlines = attempt("wheelrail-outlines.json", lambda: _read_json(_first(study, "wheelrail-outlines.json")))
-    data.imprint_comparison = attempt("imprint comparison", lambda: _read_imprint_comparison(study, films))
-    data.files = _study_files(study)
+    data.crossval = {film: cv for film, path in view["crossval"].items()
+                     if (cv := attempt(path.name, lambda path=path: CaseCrossValidation.from_dict(
+                         _read_json(verified(path))))) is not None}
+    data.outlines = attempt("wheelrail-outlines.json", lambda: _read_json(verified(view["outlines"])))
+    comparisons = {film: d for film, path in view["comparison"].items()
+                   if (d := attempt(path.name, lambda path=path: _read_json(verified(path)))) is not None}
+    data.imprint_comparison = comparisons or None
+    data.files = [(rel, (study.root / rel).stat().st_size, entry["sha256"])
+                  for rel, entry in sorted(study.manifest.data["artefacts"].items()) if (study.root / rel).exists()]
     return data
 
 
