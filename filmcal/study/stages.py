@@ -20,6 +20,7 @@ interrupted run loses no finished work and a second run only reads:
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -142,8 +143,10 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
 
         def stage(name: str, fn, *args):
             t = time.perf_counter()
-            with progress.stage(name) as st:
+            with progress.stage(name) as st, warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
                 out, computed = fn(*args, st)
+                _summarise_warnings(st, name, caught)
             elapsed = time.perf_counter() - t
             summary["stages_s"][name] = elapsed
             if computed:
@@ -175,6 +178,16 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
         summary["elapsed_s"] = time.perf_counter() - t0
         atomic_write_json(study.layout.summary, summary, indent=1)
     return summary
+
+
+def _summarise_warnings(st, name: str, caught: list) -> None:
+    """Libraries' warnings of a stage as one line (numerical notes, e.g. a GP restart that did not converge)."""
+    if not caught:
+        return
+    kinds = sorted({type(w.message).__name__ if isinstance(w.message, Warning) else w.category.__name__
+                    for w in caught})
+    first = str(caught[0].message).splitlines()[0][:160]
+    st.log(f"[{name}] {len(caught)} library warning(s) ({', '.join(kinds)}), first: {first}")
 
 
 def _preferred(models: dict, comparison: dict | None):
