@@ -87,7 +87,9 @@ def test_psis_folds_match_exact_leave_one_out_posteriors(clean):
     # the same importance weights give ArviZ's PSIS-LOO elpd of each case: compare with quadrature
     idata = posterior_inference_data(problem, result.samples, "toy")
     assessment = assess_model(problem, idata)
-    loo_i = az.loo(idata, pointwise=True, var_name="case").loo_i.values
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the high-k case is checked through cv.pareto_k
+        loo_i = az.loo(idata, pointwise=True, var_name="case").loo_i.values
     exact_i = np.array([exact_fold(data, c)["elpd"] for c in range(len(data))])
     np.testing.assert_allclose(loo_i[good], exact_i[good], atol=0.05)
     np.testing.assert_allclose(assessment.pareto_k, cv.pareto_k, atol=0.05)
