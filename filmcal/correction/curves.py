@@ -1,13 +1,16 @@
 """Correction curves: the film's effect on the wheel-rail contact area, with credible bands.
 
-For each (offset eta, force F) the wheel-rail model is solved without film and,
-for each calibrated film model (imprint model and kinematics), with the film
-at five posterior quantiles of its modulus; log(A_film / A_0) is interpolated
-quadratically in log E for every posterior sample, where A_film is the area
-that model records. The models' samples are pooled by their weights, giving
-the posterior of Delta A = A_film - A_0 and of the ratio A_0 / A_film. The
-interpolation error is measured at two further quantiles (10 % and 90 %) and
-reported beside the bands.
+For each (offset eta, force F) the wheel-rail model is solved without film and
+with the film at five moduli spanning the posteriors (0.1 % to 99.9 %
+quantiles, log-spaced); models of one film kinematics differ only in what they
+read of a solve (edge, activation contour, capsule), so one solve per modulus
+serves them all. For each calibrated model log(A_film / A_0) is fitted
+quadratically in log E over the five moduli, A_film being the area that model
+records, and evaluated at every posterior sample; the models' samples are
+pooled by their weights, giving the posterior of Delta A = A_film - A_0 and of
+the ratio A_0 / A_film. The fit's error is measured by two more solves
+(between the first two and the last two moduli) and reported beside the
+bands.
 """
 from __future__ import annotations
 
@@ -23,7 +26,6 @@ __all__ = ["CorrectionCurves", "correction_curves", "CURVE_COLUMNS", "curve_rows
            "read_curves_csv", "rough_surface", "wheel_label"]
 
 SUPPORT_QUANTILES = (0.001, 0.25, 0.5, 0.75, 0.999)
-CHECK_QUANTILES = (0.1, 0.9)
 
 
 @dataclass
@@ -103,27 +105,44 @@ def correction_curves(components, offsets_mm, forces_n, *, roughness=None, max_s
     d_ci, r_ci = np.empty(shape + (2,)), np.empty(shape + (2,))
     err = np.zeros(shape)
 
-    def film_area(model, modulus, eta, force):
+    # Models of one film type and kinematics read the same contact: one solve per modulus serves them all.
+    groups: dict = {}
+    for k, (model, e, _) in enumerate(parts):
+        if counts[k] > 0:
+            groups.setdefault((model.film, model.kinematics), []).append(k)
+    grids = {}
+    for key, members in groups.items():
+        lo = min(float(np.quantile(parts[k][1], SUPPORT_QUANTILES[0])) for k in members)
+        hi = max(float(np.quantile(parts[k][1], SUPPORT_QUANTILES[-1])) for k in members)
+        nodes = np.geomspace(lo, hi, len(SUPPORT_QUANTILES)) if hi > lo * (1 + 1e-9) else np.array([lo])
+        checks = np.sqrt(nodes[:-1] * nodes[1:])[[0, -1]] if len(nodes) > 2 else np.array([])
+        grids[key] = (nodes, checks)
+
+    def recorded(key, modulus, eta, force) -> list[float]:
+        """The area each model of the group records at one modulus (one solve)."""
+        model = parts[groups[key][0]][0]
         film, law, _ = model.interface(float(modulus), roughness)
-        return model.recorded_area_mm2(solve_wheel_rail(eta, force, film=film, roughness=law, **wheel_rail))
+        result = solve_wheel_rail(eta, force, film=film, roughness=law, **wheel_rail)
+        return [parts[k][0].recorded_area_mm2(result) for k in groups[key]]
 
     for i, force in enumerate(forces):
         for j, eta in enumerate(offsets):
             a0[i, j] = solve_wheel_rail(eta, force, **wheel_rail).area_mm2
             pooled = []
-            for (model, e, _), count in zip(parts, counts):
-                if count == 0:
-                    continue
-                support = np.unique(np.quantile(e, SUPPORT_QUANTILES))
-                check = np.quantile(e, CHECK_QUANTILES)
-                log_ratio = np.log([film_area(model, m, eta, force) / a0[i, j] for m in support])
-                degree = min(2, len(support) - 1)
-                coef = np.polyfit(np.log(support), log_ratio, degree) if degree else np.array([log_ratio[0]])
-                area = a0[i, j] * np.exp(np.polyval(coef, np.log(e)))
-                exact = np.array([film_area(model, m, eta, force) for m in check])
-                err[i, j] = max(err[i, j], float(np.max(np.abs(
-                    a0[i, j] * np.exp(np.polyval(coef, np.log(check))) / exact - 1.0))))
-                pooled.append(area[np.linspace(0, len(area) - 1, count).round().astype(int)])
+            for key, members in groups.items():
+                nodes, checks = grids[key]
+                at_nodes = np.log(np.array([recorded(key, m, eta, force) for m in nodes]) / a0[i, j])
+                at_checks = np.log(np.array([recorded(key, m, eta, force) for m in checks]).reshape(len(checks), -1)
+                                   / a0[i, j])
+                degree = min(2, len(nodes) - 1)
+                for col, k in enumerate(members):
+                    e = parts[k][1]
+                    coef = np.polyfit(np.log(nodes), at_nodes[:, col], degree) if degree else at_nodes[:1, col]
+                    area = a0[i, j] * np.exp(np.polyval(coef, np.log(e)))
+                    if len(checks):
+                        err[i, j] = max(err[i, j], float(np.max(np.abs(
+                            np.exp(np.polyval(coef, np.log(checks)) - at_checks[:, col]) - 1.0))))
+                    pooled.append(area[np.linspace(0, len(area) - 1, counts[k]).round().astype(int)])
             area = np.concatenate(pooled)
             delta, ratio = area - a0[i, j], a0[i, j] / area
             a_med[i, j] = np.median(area)
