@@ -152,3 +152,14 @@ def test_compare_refuses_models_of_different_data(calibrated):
         compare_models({"A": (problem, idata), "X": (other_problem, idata)})
     with pytest.raises(ValueError, match="at least 2"):
         compare_models({"A": (problem, idata)})
+
+
+def test_three_models_the_tie_shares_and_the_worse_one_stays_out(calibrated):
+    comparison = compare_models({k: calibrated[k][:2] for k in ("A", "B", "A2")})
+    assert comparison.groups == [["A", "A2"], ["B"]]
+    assert comparison.weights["B"] < 0.05
+    assert comparison.weights["A"] == pytest.approx(comparison.weights["A2"])
+    assert sum(comparison.weights.values()) == pytest.approx(1.0)
+    assert sum(comparison.pseudo_bma_weights.values()) == pytest.approx(1.0)
+    d = comparison.to_dict()
+    assert set(d["models"]) == {"A", "B", "A2"} and d["preferred"] in ("A", "A2")
