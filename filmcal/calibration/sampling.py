@@ -356,6 +356,36 @@ def _assess(problem: CalibrationProblem, chain: np.ndarray, settings: SamplerSet
     return tau, burn, thin, tau_ok, diagnostics
 
 
+def _run_steps(sampler, state, n_steps: int, progress: bool, desc: str) -> None:
+    """``sampler.run_mcmc(state, n_steps)``, but Ctrl-C ends the run cleanly after the current step.
+
+    emcee reports an interrupt inside the likelihood as an error of the
+    likelihood function (printing the walkers' positions) and may leave a step
+    half stored. Here Ctrl-C (SIGINT) only sets a flag while the steps run;
+    the step under way finishes (a few milliseconds), the chain stays
+    consistent for resuming, and a plain `KeyboardInterrupt` is raised.
+    """
+    import signal
+    import threading
+
+    interrupted = []
+    in_main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: interrupted.append(signum)) if in_main else None
+    try:
+        initial = state if state is not None else sampler._previous_state  # as run_mcmc resumes
+        last = None
+        for last in sampler.sample(initial, iterations=n_steps, progress=progress, progress_kwargs={"desc": desc}):
+            if interrupted:
+                break
+        if last is not None:
+            sampler._previous_state = last
+    finally:
+        if in_main:
+            signal.signal(signal.SIGINT, previous)
+    if interrupted:
+        raise KeyboardInterrupt
+
+
 def run_chain(problem: CalibrationProblem, settings: SamplerSettings | None = None, seed: int = 0,
               backend_path: str | Path | None = None, reset: bool = False, progress: bool = False) -> ChainRun:
     """Sample the posterior of `problem` until converged or capped.
@@ -406,8 +436,7 @@ def run_chain(problem: CalibrationProblem, settings: SamplerSettings | None = No
                 break
         target = min((n // settings.check_every + 1) * settings.check_every, settings.max_steps)
         try:
-            sampler.run_mcmc(state, target - n, progress=progress,
-                             progress_kwargs={"desc": f"emcee steps {n}-{target}"})
+            _run_steps(sampler, state, target - n, progress, f"emcee steps {n}-{target}")
         finally:  # keep the steps done so far, also when interrupted
             if isinstance(backend, _ChunkedHDFBackend):
                 backend.flush()
