@@ -109,7 +109,7 @@ def fit_radius_surrogate(X: dict, radius_mm: np.ndarray, domain: SurrogateDomain
     from filmcal.surrogate.gp import GPSurrogate
 
     y = radius_excess_mm(X, radius_mm)
-    transform = "log" if np.all(y > 0) else "identity"
+    transform = "log" if np.all(y > 0) else "standardize"
     return GPSurrogate(list(INPUTS), output="radius_excess_mm", log_inputs=list(LOG_INPUTS),
                        output_transform=transform, input_bounds=domain.bounds(), n_restarts=n_restarts,
                        random_state=random_state).fit(X, y)
