@@ -42,7 +42,7 @@ def least_squares_modulus(film: str, model: RadiusModel, loads: str | None = Non
     film : str
         Film name: a Table 1 film (MS, HS, HHS) unless `data` is given.
     model : RadiusModel
-        FE in the loop (`filmcal.study.FERadiusModel`) or a surrogate adapter.
+        FE in the loop (`filmcal.surrogate.radius.FERadiusModel`) or a surrogate adapter.
     loads : str, optional
         Load range in kN, e.g. ``"50-100"``.
     poisson : float

@@ -139,7 +139,7 @@ def cross_validate_case(model, film: str, case: int, loads: str | None = None, p
     ----------
     model : RadiusModel
         ``predict(E, nu, R, F) -> (mean, std)`` of the printed radius (e.g. a
-        `filmcal.study.SurrogateRadiusModel`).
+        `filmcal.surrogate.radius.SurrogateRadiusModel`).
     film : str
         MS, HS or HHS.
     case : int
