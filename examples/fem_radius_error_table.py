@@ -14,7 +14,7 @@ import csv
 import time
 from pathlib import Path
 
-from filmcal.calibration.data import load_table1
+from filmcal.calibration.datasets import load_table1
 from filmcal.fem import ContactOptions, Film, get_model
 
 MODULI_MPA = (1000.0, 2000.0, 2800.0, 4000.0)

@@ -6,7 +6,8 @@ from importlib import resources
 import numpy as np
 import pytest
 
-from filmcal.calibration.data import FILM_TYPES, load_table1, parse_load_range
+from filmcal.calibration.data import FILM_TYPES, parse_load_range
+from filmcal.calibration.datasets import load_table1
 from filmcal.hertz import contact_modulus_mpa, hertz_max_pressure_mpa, hertz_radius_mm
 
 

@@ -118,7 +118,7 @@ def test_priors_round_trip_and_table1_configuration_is_unchanged():
     assert Priors.from_dict(old_style).case_scale_mm == Priors().case_scale_mm
     # Table 1 (one imprint per case, steel, nothing stated): the stored chain configuration keeps its keys,
     # so chains stored before the dataset extensions still match and resume
-    from filmcal.calibration.data import load_table1
+    from filmcal.calibration.datasets import load_table1
 
     described = CalibrationProblem(load_table1("HS"), ToyRadiusModel()).describe()
     assert set(described) == {"film", "sphere_radius_mm", "force_n", "measured_radius_mm", "poisson",

@@ -19,7 +19,8 @@ import pytest
 from scipy.stats import kstest
 
 from filmcal.calibration.pipeline import calibrate
-from filmcal.calibration.data import RadiusErrorData, load_table1
+from filmcal.calibration.data import RadiusErrorData
+from filmcal.calibration.datasets import load_table1
 from filmcal.hertz import hertz_radius_mm
 from filmcal.elastic import oedometric_ratio
 from toymodels import ToyRadiusModel
@@ -172,7 +173,7 @@ def test_ctrl_c_during_sampling_stops_cleanly_and_keeps_whole_steps(tmp_path):
         import numpy as np
         from toymodels import ToyRadiusModel
         from filmcal.calibration.pipeline import calibrate
-        from filmcal.calibration.data import load_table1
+        from filmcal.calibration.datasets import load_table1
         from filmcal.calibration.sampling import SamplerSettings
 
         class Slow(ToyRadiusModel):

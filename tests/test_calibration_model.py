@@ -21,7 +21,8 @@ from scipy.stats import halfcauchy, norm
 
 from filmcal.calibration.pipeline import calibrate_film
 from filmcal.calibration.checks import case_modulus_intervals, predictive_check
-from filmcal.calibration.data import RadiusErrorData, load_table1
+from filmcal.calibration.data import RadiusErrorData
+from filmcal.calibration.datasets import load_table1
 from filmcal.hertz import hertz_max_pressure_mpa, hertz_radius_mm
 from filmcal.calibration.likelihood import CalibrationProblem, Priors, RadiusModel
 from filmcal.elastic import oedometric_ratio

@@ -18,7 +18,8 @@ import numpy as np
 import pytest
 
 from filmcal.calibration.pipeline import calibrate
-from filmcal.calibration.data import RadiusErrorData, load_table1
+from filmcal.calibration.data import RadiusErrorData
+from filmcal.calibration.datasets import load_table1
 from filmcal.hertz import hertz_radius_mm
 from filmcal.elastic import oedometric_ratio
 from toymodels import ToyRadiusModel

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from filmcal.calibration.comparison import combine_posteriors, compare_models
-from filmcal.calibration.data import RadiusErrorData, load_table1
+from filmcal.calibration.data import RadiusErrorData
+from filmcal.calibration.datasets import load_table1
 from filmcal.calibration.likelihood import CalibrationProblem
 from filmcal.calibration.pipeline import calibrate
 from filmcal.calibration.posterior import (load_posterior_netcdf, posterior_inference_data,

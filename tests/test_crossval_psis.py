@@ -16,7 +16,8 @@ import pytest
 from scipy.special import logsumexp
 
 from filmcal.calibration.comparison import assess_model
-from filmcal.calibration.data import RadiusErrorData, load_table1
+from filmcal.calibration.data import RadiusErrorData
+from filmcal.calibration.datasets import load_table1
 from filmcal.calibration.likelihood import CalibrationProblem
 from filmcal.calibration.pipeline import calibrate
 from filmcal.calibration.posterior import posterior_inference_data

@@ -8,7 +8,7 @@ from importlib import resources
 import numpy as np
 import pytest
 
-from filmcal.calibration.data import load_table1
+from filmcal.calibration.datasets import load_table1
 from filmcal.calibration.datasets import PACKAGED_DATASETS, load_dataset
 from filmcal.films import FilmType
 

@@ -51,7 +51,7 @@ import numpy as np
 
 from filmcal.calibration.checks import predictive_check
 from filmcal.calibration.likelihood import CalibrationProblem
-from filmcal.calibration.posterior import LOG_LIKELIHOOD_CASE, posterior_inference_data
+from filmcal.calibration.posterior import LOG_LIKELIHOOD_CASE
 
 __all__ = ["ModelAssessment", "ModelComparison", "MixturePosterior", "assess_model", "compare_models",
            "combine_posteriors"]

@@ -30,7 +30,6 @@ __all__ = [
     "STEEL_MODULUS_MPA",
     "STEEL_POISSON",
     "RadiusErrorData",
-    "load_table1",
     "parse_load_range",
 ]
 
@@ -224,41 +223,3 @@ def parse_load_range(loads: str | tuple[float, float]) -> tuple[float, float]:
     if low > high:
         raise ValueError(f"loads must have low <= high, got {low:g}-{high:g} kN")
     return low, high
-
-
-def load_table1(film: str | None = None, loads: str | tuple[float, float] | None = None) -> RadiusErrorData:
-    """Load Table 1 of the reference paper, optionally filtered.
-
-    Parameters
-    ----------
-    film : str, optional
-        Film type, one of ``MS``, ``HS``, ``HHS`` (case-insensitive). All films
-        when omitted.
-    loads : str or (float, float), optional
-        Load range in kN, inclusive, e.g. ``"50-100"``; see `parse_load_range`.
-        All loads when omitted.
-
-    Returns
-    -------
-    RadiusErrorData
-        The selected rows with the Hertz and measured radii of each.
-
-    Raises
-    ------
-    ValueError
-        For an unknown film type (the message lists the known ones) or a load
-        range that cannot be parsed.
-    """
-    from filmcal.calibration.datasets import load_dataset
-
-    data = load_dataset("table1").data
-    mask = np.ones(len(data), dtype=bool)
-    if film is not None:
-        key = str(film).strip().upper()
-        if key not in FILM_TYPES:
-            raise ValueError(f"film must be one of {', '.join(FILM_TYPES)} (case-insensitive); got {film!r}")
-        mask &= data.film == key
-    if loads is not None:
-        low_kn, high_kn = parse_load_range(loads)
-        mask &= (data.force_kn >= low_kn) & (data.force_kn <= high_kn)
-    return data.select(mask)

@@ -49,10 +49,10 @@ from pathlib import Path
 import numpy as np
 
 from filmcal.calibration.data import _FIELDS, RadiusErrorData, parse_load_range
-from filmcal.films import FilmType
+from filmcal.films import FILM_TYPES, FilmType
 from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, hertz_radius_mm
 
-__all__ = ["Dataset", "load_dataset", "PACKAGED_DATASETS", "REQUIRED_COLUMNS", "MEASURED_COLUMNS",
+__all__ = ["Dataset", "load_dataset", "load_table1", "PACKAGED_DATASETS", "REQUIRED_COLUMNS", "MEASURED_COLUMNS",
            "OPTIONAL_COLUMNS"]
 
 #: Packaged datasets by name: resource path inside the package.
@@ -329,3 +329,38 @@ def _parse(raw: bytes, name: str, source: str) -> Dataset:
     return Dataset(name=name, source=source, sha256=sha256, measured_column=measured_column,
                    columns=tuple(header), data=data)
 
+
+def load_table1(film: str | None = None, loads: str | tuple[float, float] | None = None) -> RadiusErrorData:
+    """Load Table 1 of the reference paper, optionally filtered.
+
+    Parameters
+    ----------
+    film : str, optional
+        Film type, one of ``MS``, ``HS``, ``HHS`` (case-insensitive). All films
+        when omitted.
+    loads : str or (float, float), optional
+        Load range in kN, inclusive, e.g. ``"50-100"``; see `parse_load_range`.
+        All loads when omitted.
+
+    Returns
+    -------
+    RadiusErrorData
+        The selected rows with the Hertz and measured radii of each.
+
+    Raises
+    ------
+    ValueError
+        For an unknown film type (the message lists the known ones) or a load
+        range that cannot be parsed.
+    """
+    data = load_dataset("table1").data
+    mask = np.ones(len(data), dtype=bool)
+    if film is not None:
+        key = str(film).strip().upper()
+        if key not in FILM_TYPES:
+            raise ValueError(f"film must be one of {', '.join(FILM_TYPES)} (case-insensitive); got {film!r}")
+        mask &= data.film == key
+    if loads is not None:
+        low_kn, high_kn = parse_load_range(loads)
+        mask &= (data.force_kn >= low_kn) & (data.force_kn <= high_kn)
+    return data.select(mask)

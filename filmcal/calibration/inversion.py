@@ -12,7 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from filmcal.calibration.data import RadiusErrorData, load_table1
+from filmcal.calibration.data import RadiusErrorData
+from filmcal.calibration.datasets import load_table1
 from filmcal.calibration.likelihood import RadiusModel
 from filmcal.films import FILM_POISSON
 

@@ -19,7 +19,8 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from filmcal.calibration.checks import case_modulus_intervals, predictive_check
-from filmcal.calibration.data import RadiusErrorData, load_table1, parse_load_range
+from filmcal.calibration.data import RadiusErrorData, parse_load_range
+from filmcal.calibration.datasets import load_table1
 from filmcal.calibration.likelihood import CalibrationProblem, Priors, RadiusModel
 from filmcal.calibration.posterior import CalibrationResult, summarize
 from filmcal.calibration.sampling import SamplerSettings, run_chain

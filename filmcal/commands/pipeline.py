@@ -66,8 +66,11 @@ def run(args: argparse.Namespace) -> int:
     study_dir = args.study_dir or ("filmcal-study-quick" if args.quick else "filmcal-study")
     from filmcal._progress import Progress
 
+    from filmcal.report import write_report
+
     progress = Progress(args.progress)
-    summary = run_pipeline(study_dir, settings, films, args.seed, args.workers, progress, report=not args.no_report,
+    summary = run_pipeline(study_dir, settings, films, args.seed, args.workers, progress,
+                           report=None if args.no_report else write_report,
                            films_file=args.films_file)
     for film, s in summary["films"].items():
         if not s["diagnostics_ok"]:

@@ -101,8 +101,7 @@ def _models_for(study: Study, film: str, settings: PipelineSettings) -> tuple[st
 
 
 def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM_TYPES, seed: int = 0,
-                 workers: int | None = None, progress=None, report: bool = True,
-                 films_file=None) -> dict:
+                 workers: int | None = None, progress=None, report=None, films_file=None) -> dict:
     """Run (or resume) the pipeline in a study folder; return the summary also written to ``summary.json``.
 
     Parameters
@@ -119,8 +118,10 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
         Worker processes (default: all cores).
     progress : filmcal._progress.Progress, optional
         The run's progress display (default: ``auto``, on stderr).
-    report : bool
-        Write the HTML and PDF report at the end.
+    report : callable, optional
+        ``report(study_dir, out_dir) -> {"html", "pdf", ...}``: writes the report
+        at the end (`filmcal.report.write_report`; the study stages do not import
+        the report, which reads studies); None: no report.
     films_file : str or Path, optional
         TOML file of user film types.
     """
@@ -172,8 +173,8 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
             if film in comparisons:
                 s["imprint_weights"] = comparisons[film].get("weights")
             summary["films"][film] = s
-        if report:
-            summary["report"] = stage("report", _report_stage, study)
+        if report is not None:
+            summary["report"] = stage("report", _report_stage, study, report)
         summary["stage_timings_of_computing_runs"] = study.manifest.data["stages"]
         summary["elapsed_s"] = time.perf_counter() - t0
         atomic_write_json(study.layout.summary, summary, indent=1)
@@ -474,9 +475,7 @@ def _outlines_stage(study: Study, settings: PipelineSettings, medians: dict, st)
     return None, True
 
 
-def _report_stage(study: Study, st):
-    from filmcal.report import write_report
-
+def _report_stage(study: Study, write_report, st):
     out = study.layout.report_dir
     current = study.manifest.data.get("report")
     inputs = {rel: e["sha256"] for rel, e in study.manifest.data["artefacts"].items()}
