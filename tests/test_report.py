@@ -373,6 +373,32 @@ def test_film_records_hook_says_not_computed_without_its_file():
     assert any("Not computed in this study" in b for b in section.blocks if isinstance(b, str))
 
 
+def test_film_records_section_states_the_preference_and_the_rough_growth():
+    """Two models, the second clearly better and holding R600/25 kN; a rough wheel 5 % larger than the smooth."""
+    cases = {"sphere_radius_mm": [300.0, 600.0], "force_kn": [50.0, 25.0]}
+    models = {
+        "edge/small": {"modulus_mpa": {"median": 6900.0, "ci90": [6000.0, 8000.0]}, "rms_residual_mm": 0.097,
+                       "ppc_inside_90": 9, "n_data": 10, "elpd_loo": 6.8, "elpd_loo_se": 2.5, "pareto_k_max": 0.71,
+                       "cases": {**cases, "standardized_residual": [0.1, -1.7], "inside_90": [True, False]}},
+        "activation/small": {"modulus_mpa": {"median": 3400.0, "ci90": [3300.0, 3500.0]}, "rms_residual_mm": 0.019,
+                             "ppc_inside_90": 10, "n_data": 10, "elpd_loo": 23.4, "elpd_loo_se": 1.1,
+                             "pareto_k_max": 0.52,
+                             "cases": {**cases, "standardized_residual": [0.2, -0.38], "inside_90": [True, True]}}}
+    comparison = {"HHS": {"models": models, "weights": {"edge/small": 0.0, "activation/small": 1.0},
+                          "stacking_weights": {"edge/small": 0.0, "activation/small": 1.0},
+                          "groups": [["edge/small"], ["activation/small"]], "preferred": "activation/small"}}
+    curve = {"film": "HHS", "force_kn": 50.0, "offset_mm": -3.0}
+    curves = {"HHS": [{**curve, "wheel": "smooth", "area_film_median_mm2": 100.0},
+                      {**curve, "wheel": "rough Ra 1.5 um", "area_film_median_mm2": 105.0}]}
+    section = film_records_section(comparison, curves)
+    text = " ".join(b for b in section.blocks if isinstance(b, str))
+    assert "HHS: the data prefer activation/small" in text and "-0.38 (inside)" in text
+    tables = [b for b in section.blocks if isinstance(b, Table)]
+    assert [r[1] for r in tables[0].rows] == ["edge/small", "activation/small"]
+    assert tables[0].rows[0][-1] == "-1.70 (outside)"
+    assert tables[1].rows == [["HHS", "50", "-3", "100.0", "105.0", "+5.0"]]
+
+
 def test_report_opens_in_chromium_with_every_figure(quick_study, tmp_path):
     study, summary, _ = quick_study
     html = Path(summary["report"]["html"])

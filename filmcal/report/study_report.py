@@ -447,36 +447,94 @@ def calibration_section(film: str, result, source: str, model: str = "") -> Sect
     return s
 
 
-def film_records_section(comparison: dict | None) -> Section:
-    """What the film records: imprint models, their comparison by evidence, roughness laws.
+_IMPRINT_TEXT = (
+    "A Prescale film colours where its microcapsules break, not where contact begins. Three readings of the "
+    "same FE pressure field are calibrated and compared: edge, where the contact pressure falls to zero (read "
+    "without the bias of the mesh); activation, the contour where the pressure equals the film type's "
+    "activation pressure (the lower end of its measurement range: MS 10, HS 50, HHS 130 MPa); capsule, the "
+    "expected coloured area when the capsules' burst strengths are spread log-normally over the measurement "
+    "range (2 % of them break at its lower end, 98 % at its upper end). Each is calibrated with a small-strain "
+    "(linear) and a large-strain (neo-Hookean) film. The same model reads the wheel-rail pressure field in "
+    "the correction, so the film is read alike where it is calibrated and where it is used.")
 
-    `comparison` is the study's imprint-model comparison (``imprint-comparison.json``,
-    film -> comparison), or None when the study did not compute it.
+
+def _case_verdict(v: dict, radius_mm: float = 600.0, force_kn: float = 25.0) -> str:
+    """The standardised residual of one case (R600/25 kN) under a model, and whether it is inside 90 %."""
+    cases = v.get("cases") or {}
+    for r, f, z, inside in zip(cases.get("sphere_radius_mm", []), cases.get("force_kn", []),
+                               cases.get("standardized_residual", []), cases.get("inside_90", [])):
+        if abs(r - radius_mm) < 1e-6 and abs(f - force_kn) < 1e-6:
+            return f"{z:+.2f} ({'inside' if inside else 'outside'})"
+    return ""
+
+
+def film_records_section(comparison: dict | None, curves: dict | None = None) -> Section:
+    """What the film records: imprint models, their comparison by evidence, roughness and its effect.
+
+    `comparison` is film -> the study's comparison of that film's models
+    (``filmcal.calibration.compare_models`` with each model's posterior
+    summary and per-case residuals), or None when the study did not compute
+    it; `curves` are film -> curve rows (smooth and rough wheel).
     """
     s = Section("What the film records")
+    s.add(_IMPRINT_TEXT)
     if comparison is None:
-        return s.add("Not computed in this study: the imprint-model comparison (imprint-comparison.json) is not "
-                     "in the study folder. The calibration above reads the imprint as the contact edge.")
-    rows = []
+        return s.add("Not computed in this study: the film's imprint models were not compared (the pipeline "
+                     "writes the comparison when more than one model is calibrated per film).")
+    rows, verdicts = [], []
     for film, d in comparison.items():
         if not isinstance(d, dict):
             continue
         weights = d.get("weights") or {}
+        stacking = d.get("stacking_weights") or {}
         for model, v in (d.get("models") or {}).items():
             if not isinstance(v, dict):
                 continue
             e = v.get("modulus_mpa")
             rows.append([film, model, _ci(e) if isinstance(e, dict) and "ci90" in e else "",
-                         _fmt(v.get("elpd_loo"), "{:.2f}") + (f" ± {v['elpd_loo_se']:.2f}"
+                         _fmt(v.get("rms_residual_mm"), "{:.3f}"),
+                         f"{v.get('ppc_inside_90', '')}/{v.get('n_data', '')}",
+                         _fmt(v.get("elpd_loo"), "{:.1f}") + (f" ± {v['elpd_loo_se']:.1f}"
                                                            if isinstance(v.get("elpd_loo_se"), (int, float)) else ""),
-                         _fmt(weights.get(model, v.get("weight")), "{:.2f}"), _fmt(v.get("pareto_k_max"), "{:.2f}"),
-                         _fmt(v.get("rms_residual_mm"), "{:.3f}")])
+                         _fmt(v.get("pareto_k_max"), "{:.2f}"), _fmt(stacking.get(model), "{:.2f}"),
+                         _fmt(weights.get(model), "{:.2f}"), _case_verdict(v)])
+        preferred = d.get("preferred", "")
+        shared = [g for g in d.get("groups", []) if preferred in g]
+        group = shared[0] if shared else [preferred]
+        p = (d.get("models") or {}).get(preferred, {})
+        verdicts.append(
+            f"{film}: the data prefer {preferred} (largest ELPD-LOO)"
+            + (f"; {', '.join(m for m in group if m != preferred)} cannot be told apart from it (ELPD within "
+               f"max(4, 2 se)) and share its weight" if len(group) > 1 else "")
+            + f". R600/25 kN under {preferred}: standardised residual {_case_verdict(p) or 'n/a'}.")
     if rows:
-        s.add(Table(["film", "imprint model", "E (MPa), median [90 %]", "ELPD-LOO ± se", "stacking weight",
-                     "largest Pareto k", "RMS residual (mm)"], rows,
-                    "Imprint models compared by leave-one-out predictive accuracy (see the glossary)"))
-    else:
-        s.add("The imprint-model comparison is in the study folder but in a form this report does not yet show.")
+        s.add(Table(["film", "model (imprint/kinematics)", "E (MPa), median [90 %]", "RMS residual (mm)",
+                     "inside 90 % PPI", "ELPD-LOO ± se", "largest Pareto k", "stacking weight",
+                     "combination weight", "R600/25 kN residual"], rows,
+                    "Each film under each imprint model and film kinematics: fit, leave-one-out predictive "
+                    "accuracy and the weights of the combined correction"))
+        s.add(" ".join(verdicts) + " The combination weight pools the stacking weight of models the data cannot "
+              "tell apart (stacking alone gives such models weights of 1 and 0): the correction then uses their "
+              "mixture, so its band is as wide as their spread. A Pareto k above 0.7 marks a case whose "
+              "leave-one-out term is rough; the cross-validation refits those folds exactly.")
+    if curves:
+        growth = []
+        for film, rows_ in curves.items():
+            smooth = {(r["force_kn"], r["offset_mm"]): r for r in rows_ if r["wheel"] == "smooth"}
+            for r in rows_:
+                k = (r["force_kn"], r["offset_mm"])
+                if r["wheel"] != "smooth" and k in smooth:
+                    growth.append([film, f"{r['force_kn']:g}", f"{r['offset_mm']:+g}",
+                                   f"{smooth[k]['area_film_median_mm2']:.1f}", f"{r['area_film_median_mm2']:.1f}",
+                                   f"{100 * (r['area_film_median_mm2'] / smooth[k]['area_film_median_mm2'] - 1):+.1f}"])
+        if growth:
+            s.add("Roughness acts through the film-wheel interface: a synthetic steel surface of the wheel's Ra "
+                  "(self-affine, Hurst exponent 0.8, roll-off 50 um) is pressed into the film by periodic FFT "
+                  "boundary elements, with asperity pressures capped at the PET carrier's hardness (300 MPa, "
+                  "about three times its yield stress); its pressure-closure law acts in series with the film and "
+                  "spreads the nominal pressure, which the imprint model reads.")
+            s.add(Table(["film", "F (kN)", "eta (mm)", "recorded area, smooth (mm²)", "rough (mm²)", "growth (%)"],
+                        growth, "Recorded (imprint) area with film, posterior medians: smooth against rough wheel"))
     return s
 
 
@@ -641,7 +699,7 @@ SECTION_BUILDERS: list[Callable[[StudyData], Section | list[Section]]] = [
     lambda d: [section for film in d.films for section in (
         [calibration_section(film, *p) for p in [d.posteriors[film], *d.other_posteriors.get(film, [])]]
         if film in d.posteriors else [_missing(Section(f"Calibration of {film} film"), f"posterior of {film}")])],
-    lambda d: film_records_section(d.imprint_comparison),
+    lambda d: film_records_section(d.imprint_comparison, d.curves),
     lambda d: crossval_section(d.crossval),
     lambda d: wheel_rail_section(d.curves, d.outlines),
     lambda d: glossary_section(),
