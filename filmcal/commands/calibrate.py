@@ -22,9 +22,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--data", metavar="CSV", help="your own sphere-on-flat dataset (columns film, sphere_radius_mm, "
                    "force_kn and one of measured_radius_mm, measured_area_mm2, radius_error_mm; optional repeat, "
                    "measurement_std_mm, flat_ra_um); default: the paper's Table 1")
-    p.add_argument("--imprint", choices=["edge", "activation", "capsule"], default="edge",
+    p.add_argument("--imprint", choices=["edge", "activation", "capsule", "stacked"], default="edge",
                    help="what the film records: the contact edge (default), the contour of the film's activation "
-                        "pressure, or the capsule model's expected stained area")
+                        "pressure, the capsule model's expected stained area, or stacked: every model the film "
+                        "allows, compared by PSIS-LOO and combined by stacking weights (imprint_weights)")
     p.add_argument("--loads", help="load range in kN, e.g. 50-100 (the paper's choice); all loads by default")
     p.add_argument("--poisson", choices=["fixed", "free"], default="fixed",
                    help="nu fixed at the film's nominal value (default, 0.33 as the paper) or uniform over "
@@ -66,7 +67,7 @@ def _spec(args: argparse.Namespace):
                     friction_coefficient=args.friction_coefficient,
                     kinematics="large" if args.large_strain else "small", n_train=args.train_runs,
                     n_test=args.test_runs, seed=args.seed)
-    return CalibrationSpec(args.film, imprint=args.imprint, fe=fe, loads=args.loads, poisson=args.poisson,
+    return CalibrationSpec(args.film, imprint="edge" if args.imprint == "stacked" else args.imprint, fe=fe, loads=args.loads, poisson=args.poisson,
                            discrepancy=None if args.discrepancy == "none" else args.discrepancy,
                            max_steps=args.max_steps)
 
@@ -88,37 +89,71 @@ def run(args: argparse.Namespace) -> int:
         from filmcal._io import check_output_dir
 
         check_output_dir(args.plots, "--plots")
-    with study.writing("filmcal calibrate"):
-        if spec.fe.film_thickness_mm != film.thickness_mm:
-            from dataclasses import replace
+    from dataclasses import replace
 
-            spec = replace(spec, fe=replace(spec.fe, film_thickness_mm=film.thickness_mm))
-        result, path, full = study.calibrate(spec, dataset=args.data, workers=args.workers, progress=not args.json)
-        _, validation, _ = study.radius_model(spec.fe, output_column(spec.imprint, spec.film), args.workers, progress=False)
+    from filmcal.study import IMPRINT_MODELS
+
+    spec = replace(spec, fe=replace(spec.fe, film_thickness_mm=film.thickness_mm))
+    stacked = args.imprint == "stacked"
+    imprints = [m for m in IMPRINT_MODELS if m == "edge" or film.has_activation] if stacked else [args.imprint]
+    with study.writing("filmcal calibrate"):
+        calibrated = {}
+        for imprint in imprints:
+            one = replace(spec, imprint=imprint)
+            calibrated[one.model_label] = study.calibrate(one, dataset=args.data, workers=args.workers,
+                                                          progress=False)
+        if stacked and len(calibrated) > 1:
+            comparison, _ = study.compare(film.name, calibrated)
+            label = comparison["preferred"]
+            assessment = comparison["models"][label]
+        else:
+            comparison = None
+            label = next(iter(calibrated))
+            assessment = study.assess(calibrated[label][1], calibrated[label][0]).to_dict()
+        result, path, full = calibrated[label]
+        _, validation, _ = study.radius_model(spec.fe, output_column(full["imprint"], film.name), args.workers,
+                                              progress=False)
     if args.plots:
         _plots(result, Path(args.plots), path.stem)
     out = result.to_dict()
+    out.update(rms_residual_mm=assessment["rms_residual_mm"], ppc_inside_90=assessment["ppc_inside_90"],
+               elpd_loo=assessment["elpd_loo"], elpd_loo_se=assessment["elpd_loo_se"])
+    out["imprint_model"] = "stacked" if stacked else full["imprint"]
+    if comparison is not None:
+        from filmcal.calibration import combine_posteriors
+        from filmcal.calibration.posterior import summarize
+
+        weights = comparison["weights"]
+        mixture = combine_posteriors({k: r.samples for k, (r, _, _) in calibrated.items()}, weights)
+        out.update(modulus_mpa=summarize(mixture.samples["modulus_mpa"]),
+                   oedometric_modulus_mpa=summarize(mixture.samples["oedometric_modulus_mpa"]),
+                   imprint_weights=weights, preferred_model=label,
+                   models={k: {key: v[key] for key in ("modulus_mpa", "rms_residual_mm", "ppc_inside_90",
+                                                       "elpd_loo", "elpd_loo_se", "pareto_k_max")}
+                           for k, v in comparison["models"].items()})
     out["surrogate_validation"] = validation.to_dict()
     out["fe_options"] = full["fe"]
-    out["imprint_model"] = spec.imprint
     out["film"] = film.to_dict()
     out["dataset"] = full["dataset"]
-    from filmcal.surrogate.radius import SurrogateDomain
-
-    out["prior_modulus_range_mpa"] = list(SurrogateDomain().modulus_mpa)
+    out["prior_modulus_range_mpa"] = list(spec.fe.domain.modulus_mpa)
     out["posterior_file"] = str(path)
     if args.json:
         print_json(out)
     else:
         m, ci = out["modulus_mpa"]["median"], out["modulus_mpa"]["ci90"]
         om, oci = out["oedometric_modulus_mpa"]["median"], out["oedometric_modulus_mpa"]["ci90"]
-        print(f"film {film.name}, imprint model {spec.imprint}, loads {args.loads or 'all'}, {out['n_data']} cases")
+        print(f"film {film.name}, imprint model {out['imprint_model']}, loads {args.loads or 'all'}, "
+              f"{out['n_data']} cases")
+        if "imprint_weights" in out:
+            print("weights " + ", ".join(f"{k} {v:.2f}" for k, v in out["imprint_weights"].items()))
         print(f"E  = {m:.0f} MPa   90 % [{ci[0]:.0f}, {ci[1]:.0f}]")
         print(f"M  = {om:.0f} MPa   90 % [{oci[0]:.0f}, {oci[1]:.0f}]")
         print(f"sigma = {out['sigma_mm']['median']:.3f} mm; R-hat {out['rhat']:.4f}, ESS {out['ess']:.0f}, "
               f"diagnostics {'ok' if out.get('diagnostics_ok', True) else 'NOT ok'}")
         print(f"surrogate: held-out area error RMS {100 * validation.area_rms_relative_error:.3f} %, "
               f"max {100 * validation.area_max_relative_error:.3f} %, 90 % coverage {validation.coverage90:.2f}")
+        print(f"rms residual {out['rms_residual_mm']:.3f} mm, {out['ppc_inside_90']}/{out['n_data']} inside their 90 % "
+              f"predictive interval, ELPD-LOO {out['elpd_loo']:.1f} +/- {out['elpd_loo_se']:.1f}")
         print(f"posterior saved to {path}")
     return 0
 

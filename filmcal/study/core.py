@@ -444,6 +444,60 @@ class Study:
         return CalibrationProblem(data, model, priors, poisson=spec["poisson"],
                                   discrepancy="none" if spec["discrepancy"] is None else spec["discrepancy"])
 
+    def assess(self, path: Path, result=None):
+        """Fit and PSIS-LOO of one recorded posterior (`filmcal.calibration.assess_model`)."""
+        from filmcal.calibration import assess_model, load_result
+        from filmcal.calibration.posterior import posterior_inference_data
+
+        entry = self.manifest.entry(self.layout.relative(path))
+        result = result if result is not None else load_result(self.verified(path))
+        problem = self.problem(path)
+        label = entry["spec"]["model"]
+        return assess_model(problem, posterior_inference_data(problem, result.samples, model_name=label,
+                                                              max_draws=500), label)
+
+    def compare(self, film: str, models: dict) -> tuple[dict, bool]:
+        """Compare a film's calibrated models by PSIS-LOO and stacking; reuse the recorded comparison.
+
+        Parameters
+        ----------
+        film : str
+        models : dict of label -> (CalibrationResult, path, spec)
+            At least two posteriors of the film, on the same data.
+
+        Returns
+        -------
+        (dict, bool)
+            `filmcal.calibration.ModelComparison.to_dict` with, per model, its
+            posterior summary and per-case predictive residuals
+            (``comparison-<film>.json``); and whether it was computed now.
+        """
+        from filmcal._io import atomic_write_json, read_json
+        from filmcal.calibration import compare_models
+        from filmcal.calibration.posterior import posterior_inference_data
+
+        path = self.layout.comparison(film)
+        spec = {"film": film, "posteriors": sorted(p.name for _, p, _ in models.values())}
+        entry = self.manifest.entry(self.layout.relative(path)) if path.exists() else None
+        if entry and entry["spec"] == spec and self.verified(path):
+            return read_json(path), False
+        pairs = {}
+        for label, (result, ppath, _) in models.items():
+            problem = self.problem(ppath)
+            pairs[label] = (problem, posterior_inference_data(problem, result.samples, model_name=label,
+                                                              max_draws=500))
+        d = compare_models(pairs).to_dict()
+        for label, (result, _, _) in models.items():
+            p = result.predictive
+            d["models"][label].update(
+                modulus_mpa=result.modulus_mpa, oedometric_modulus_mpa=result.oedometric_modulus_mpa,
+                sigma_mm=result.sigma_mm, rhat=result.to_dict()["rhat"],
+                cases={"sphere_radius_mm": p.sphere_radius_mm, "force_kn": np.asarray(p.force_n) / 1e3,
+                       "standardized_residual": p.standardized_residual, "inside_90": ~np.asarray(p.outside)})
+        atomic_write_json(path, d, indent=1)
+        self.record(path, "comparison", spec)
+        return read_json(path), True
+
     # ------------------------------------------------------------ reading posteriors
     def posteriors(self, film: str | None = None, **match: Any) -> list[tuple[Path, dict]]:
         """Recorded posteriors (file, spec), optionally of one film and matching spec fields.

@@ -253,38 +253,15 @@ def _calibration_stage(study: Study, settings: PipelineSettings, films, seed: in
 
 def _comparison_stage(study: Study, settings: PipelineSettings, results: dict, st):
     """Compare each film's models by PSIS-LOO and weigh them by stacking (``comparison-<film>.json``)."""
-    from filmcal.calibration import compare_models
-    from filmcal.calibration.posterior import posterior_inference_data
-
     out, computed = {}, False
     st.set_total(sum(len(m) >= 2 for m in results.values()))
     for film, models in results.items():
         if len(models) < 2:
             continue
-        path = study.layout.comparison(film)
-        spec = {"film": film, "posteriors": sorted(p.name for _, p, _ in models.values())}
-        entry = study.manifest.entry(study.layout.relative(path)) if path.exists() else None
-        if entry and entry["spec"] == spec and study.verified(path):
-            out[film] = read_json(path)
-            continue
-        st.log(f"[comparison] {film}: {len(models)} models by PSIS-LOO and stacking")
-        pairs = {}
-        for label, (result, ppath, _) in models.items():
-            problem = study.problem(ppath)
-            pairs[label] = (problem, posterior_inference_data(problem, result.samples, model_name=label,
-                                                              max_draws=500))
-        d = compare_models(pairs).to_dict()
-        for label, (result, _, _) in models.items():
-            p = result.predictive
-            d["models"][label].update(
-                modulus_mpa=result.modulus_mpa, oedometric_modulus_mpa=result.oedometric_modulus_mpa,
-                sigma_mm=result.sigma_mm, rhat=result.to_dict()["rhat"],
-                cases={"sphere_radius_mm": p.sphere_radius_mm, "force_kn": np.asarray(p.force_n) / 1e3,
-                       "standardized_residual": p.standardized_residual, "inside_90": ~np.asarray(p.outside)})
-        atomic_write_json(path, d, indent=1)
-        study.record(path, "comparison", spec)
+        st.note = f"{film}: {len(models)} models"
+        d, now = study.compare(film, models)
+        computed |= now
         out[film] = d
-        computed = True
         st.log(f"[comparison] {film}: weights " + ", ".join(f"{k} {v:.2f}" for k, v in d["weights"].items()))
         st.advance(note=film)
     return out, computed
