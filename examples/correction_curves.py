@@ -1,15 +1,22 @@
 """Correction curves with credible bands: how much the calibrated film enlarges the
 S1002/60E2 contact area over the lateral offset, at 50 and 100 kN.
 
-For each film type the posterior of its modulus (from the study folder;
-calibrated first when missing) is propagated through the wheel-rail model:
-Delta A = A_film - A_no_film and the correction factor A_no_film / A_film,
-medians and 90 % credible bands, smooth wheel (and rough wheel with
+For each film type the posterior of its modulus under one calibrated model
+(--model, default edge/small) is asked of the study folder
+(`filmcal.study.Study.calibrate`: a posterior recorded with the same settings
+is reused, a missing one is calibrated there; a folder made by `filmcal
+pipeline` keeps its FE sizes, seed and step cap). With ``--model mixture`` the
+study's compared models are used instead, weighted as `filmcal pipeline`
+weighed them (read only: run the pipeline first). The posterior is propagated
+through the wheel-rail model (`filmcal.correction.correction_curves`, the area
+each model records): Delta A = A_film - A_no_film and the correction factor
+A_no_film / A_film, medians and 90 % credible bands, smooth wheel (and the
+synthetic rough wheel of `filmcal.correction.rough_surface` with
 --rough-ra-um). The interpolation error of the propagation is printed beside
 the bands.
 
-    python examples/correction_curves.py [--films HS] [--study-dir filmcal-study] [--out-dir out/curves]
-        [--loads 50-100] [--rough-ra-um 1.5]
+    python examples/correction_curves.py [--films HS] [--model edge/small|mixture] [--study-dir filmcal-study]
+        [--out-dir out/curves] [--loads 50-100] [--rough-ra-um 1.5] [--offsets-mm -7,-6,...,2] [--forces-kn 50,100]
 """
 from __future__ import annotations
 
@@ -19,43 +26,75 @@ from pathlib import Path
 
 import numpy as np
 
-from filmcal.correction import correction_curves
-from filmcal.study import load_or_calibrate
+from filmcal.correction import correction_curves, rough_surface
+from filmcal.correction.wheelrail import nominal_modulus_mpa
+from filmcal.study import CalibrationSpec, FESettings, Study
+from filmcal.study.core import curve_components, film_model
 
-OFFSETS_MM = np.arange(-7.0, 2.01, 1.0)
-FORCES_N = (50e3, 100e3)
+OFFSETS_MM = tuple(float(x) for x in np.arange(-7.0, 2.01, 1.0))
+FORCES_KN = (50.0, 100.0)
+
+
+def calibration_spec(study: Study, film: str, loads: str | None, model: str) -> CalibrationSpec:
+    """The calibration of `film` asked of the study: the FE sizes, seed and step cap of the study's pipeline
+    when it has them (its posteriors are then reused), else those of `filmcal calibrate`."""
+    imprint, _, kinematics = model.partition("/")
+    recorded = study.manifest.data.get("settings") or {}
+    pipeline = recorded.get("pipeline") or {}
+    fe = FESettings(kinematics=kinematics or "small", n_train=pipeline.get("train_runs", 200),
+                    n_test=pipeline.get("test_runs", 100), seed=recorded.get("seed", 0))
+    return CalibrationSpec(film, imprint=imprint, fe=fe, loads=loads, max_steps=pipeline.get("max_steps"))
+
+
+def components_of(study: Study, film: str, loads: str | None, model: str) -> list[tuple]:
+    """``[(FilmModel, modulus samples, weight)]`` of a film: one calibrated model, or the study's mixture."""
+    if model == "mixture":
+        return curve_components(study, film, loads=loads)
+    with study.writing("examples/correction_curves.py"):
+        result, _, spec = study.calibrate(calibration_spec(study, film, loads, model))
+    fm = film_model(study, spec)
+    return [(fm, nominal_modulus_mpa(result.samples, fm.film.poisson), 1.0)]
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--films", default="HS")
-    ap.add_argument("--study-dir", default="filmcal-study")
+    ap.add_argument("--model", default="edge/small", metavar="IMPRINT/KINEMATICS",
+                    help="calibrated model, e.g. activation/small (default edge/small; calibrated when missing), "
+                         "or 'mixture': the study's compared models with their weights (from `filmcal pipeline`)")
+    ap.add_argument("--study-dir", default="filmcal-study", help="study folder (created when missing)")
     ap.add_argument("--out-dir", default="out/curves")
-    ap.add_argument("--loads", default=None)
-    ap.add_argument("--rough-ra-um", type=float, default=None, help="also a rough wheel (Greenwood-Williamson)")
+    ap.add_argument("--loads", default=None, help="calibration data: load range in kN, e.g. 50-100 (default all)")
+    ap.add_argument("--rough-ra-um", type=float, default=None,
+                    help="also a rough wheel of this Ra (um), the synthetic surface of filmcal.correction.rough_surface")
+    ap.add_argument("--offsets-mm", default=",".join(f"{x:g}" for x in OFFSETS_MM),
+                    help="lateral offsets eta in mm, comma-separated (default -7 to 2 in steps of 1)")
+    ap.add_argument("--forces-kn", default=",".join(f"{x:g}" for x in FORCES_KN),
+                    help="loads in kN, comma-separated (default 50,100)")
     args = ap.parse_args()
+    try:
+        offsets_mm = np.array([float(x) for x in args.offsets_mm.split(",")])
+        forces_n = np.array([float(x) * 1e3 for x in args.forces_kn.split(",")])
+    except ValueError:
+        ap.error("--offsets-mm and --forces-kn take comma-separated numbers")
+    if args.rough_ra_um is not None and not args.rough_ra_um > 0:
+        ap.error("--rough-ra-um must be > 0")
+    study = Study(args.study_dir, create=args.model != "mixture")
     from matplotlib.figure import Figure
 
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     variants = [("smooth wheel", None)]
     if args.rough_ra_um:
-        from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, contact_modulus_mpa
-        from filmcal.wheelrail import GreenwoodWilliamsonLaw
-
-        def rough_law(modulus_mpa: float, ra_um: float = args.rough_ra_um) -> GreenwoodWilliamsonLaw:
-            # the wheel's asperities press into the film: film-steel contact modulus
-            return GreenwoodWilliamsonLaw(ra_um, contact_modulus_mpa(modulus_mpa, 0.33, STEEL_MODULUS_MPA,
-                                                                     STEEL_POISSON))
-        variants.append((f"rough wheel, Ra {args.rough_ra_um:g} um", rough_law))
+        variants.append((f"rough wheel, Ra {args.rough_ra_um:g} um", rough_surface(args.rough_ra_um)))
     rows = []
     for film in args.films.split(","):
-        e = np.asarray(load_or_calibrate(args.study_dir, film, args.loads).samples["modulus_mpa"], dtype=float)
-        fig = Figure(figsize=(11, 7.5), layout="constrained")
-        axes = fig.subplots(2, len(FORCES_N), sharex=True)
+        components = components_of(study, film, args.loads, args.model)
+        fig = Figure(figsize=(max(8.0, 5.5 * len(forces_n)), 7.5), layout="constrained")
+        axes = fig.subplots(2, len(forces_n), sharex=True, squeeze=False)
         for label, law in variants:
-            c = correction_curves(e, OFFSETS_MM, FORCES_N, roughness=law)
-            for k, force in enumerate(FORCES_N):
+            c = correction_curves(components, offsets_mm, forces_n, roughness=law)
+            for k, force in enumerate(forces_n):
                 line = axes[0, k].plot(c.offsets_mm, c.delta_area_median_mm2[k], "o-", label=label)[0]
                 axes[0, k].fill_between(c.offsets_mm, *c.delta_area_ci90_mm2[k].T, color=line.get_color(), alpha=0.25)
                 axes[1, k].plot(c.offsets_mm, c.ratio_median[k], "o-", color=line.get_color(), label=label)
@@ -83,7 +122,7 @@ def main() -> None:
             ax.set_ylabel("correction factor A(no film) / A(film)")
             ax.set_xlabel("lateral offset eta (mm)")
             ax.grid(lw=0.3)
-        fig.suptitle(f"{film} film on S1002/60E2: posterior medians and 90 % credible bands")
+        fig.suptitle(f"{film} film ({args.model}) on S1002/60E2: posterior medians and 90 % credible bands")
         fig.savefig(out / f"correction_curves_{film}.png", dpi=120)
     with open(out / "correction_curves.csv", "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))

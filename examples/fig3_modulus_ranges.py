@@ -1,16 +1,20 @@
 """The paper's Fig. 3 in kind: the range of film modulus E that reproduces each
 measured radius of Table 1 on its own, per film type, beside the pooled posterior.
 
-For each film type (MS, HS, HHS) the posterior of E is read from the study
-folder (calibrated first on the FE surrogate when missing, which takes a few
-minutes the first time). Its per-case intervals are the E for which the model
+For each film type (MS, HS, HHS) the posterior of E under one calibrated model
+(--model, default edge/small) is asked of the study folder
+(`filmcal.study.Study.calibrate`): a posterior recorded with the same settings
+is reused, a missing one is calibrated there on the FE surrogate (which takes a
+few minutes the first time, FE runs and surrogate included). A folder made by
+`filmcal pipeline` keeps its FE sizes, seed and step cap, so its posteriors are
+the ones read. Its per-case intervals are the E for which the model
 radius lies within +/- the posterior median sigma of the measured radius
 (`CalibrationResult.case_intervals`). A case disagrees with the pooled
 posterior when its range and the pooled 90 % interval do not overlap; the
 paper found this at 25 kN, where the E needed depended on the sphere's
 curvature. The dashed line marks the paper's HS value, E = 2800 MPa.
 
-    python examples/fig3_modulus_ranges.py [--films MS,HS,HHS] [--loads 50-100]
+    python examples/fig3_modulus_ranges.py [--films MS,HS,HHS] [--loads 50-100] [--model edge/small]
         [--study-dir filmcal-study] [--out-dir out/fig3_modulus_ranges]
 
 Writes fig3_<film>.png per film, fig3_modulus_ranges.csv and fig3_modulus_ranges.md.
@@ -25,9 +29,20 @@ from pathlib import Path
 
 from filmcal.calibration import FILM_TYPES, CalibrationResult
 from filmcal.calibration.plots import plot_case_intervals
-from filmcal.study import load_or_calibrate
+from filmcal.study import CalibrationSpec, FESettings, Study
 
 PAPER_HS_MODULUS_MPA = 2800.0  # the paper's calibrated HS film (dashed line of its Fig. 3)
+
+
+def calibration_spec(study: Study, film: str, loads: str | None, model: str) -> CalibrationSpec:
+    """The calibration of `film` asked of the study: the FE sizes, seed and step cap of the study's pipeline
+    when it has them (its posteriors are then reused), else those of `filmcal calibrate`."""
+    imprint, _, kinematics = model.partition("/")
+    recorded = study.manifest.data.get("settings") or {}
+    pipeline = recorded.get("pipeline") or {}
+    fe = FESettings(kinematics=kinematics or "small", n_train=pipeline.get("train_runs", 200),
+                    n_test=pipeline.get("test_runs", 100), seed=recorded.get("seed", 0))
+    return CalibrationSpec(film, imprint=imprint, fe=fe, loads=loads, max_steps=pipeline.get("max_steps"))
 
 
 def case_rows(result: CalibrationResult) -> list[dict]:
@@ -87,7 +102,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--films", default="MS,HS,HHS", help="comma-separated film types (default MS,HS,HHS)")
     ap.add_argument("--loads", default=None, help="load range in kN of the calibration, e.g. 50-100 (default all)")
-    ap.add_argument("--study-dir", default="filmcal-study", help="study folder with surrogate and posteriors")
+    ap.add_argument("--model", default="edge/small", metavar="IMPRINT/KINEMATICS",
+                    help="calibrated model: imprint edge, activation or capsule / film kinematics small or large "
+                         "(default edge/small)")
+    ap.add_argument("--study-dir", default="filmcal-study",
+                    help="study folder (created when missing); its posteriors are reused, missing ones calibrated")
     ap.add_argument("--out-dir", default="out/fig3_modulus_ranges", help="output folder")
     args = ap.parse_args()
     films = [f.strip().upper() for f in args.films.split(",")]
@@ -97,8 +116,9 @@ def main() -> None:
     t0 = time.perf_counter()
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    results = {film: load_or_calibrate(Path(args.study_dir), film, args.loads)
-               for film in films}
+    study = Study(args.study_dir, create=True)
+    with study.writing("examples/fig3_modulus_ranges.py"):
+        results = {film: study.calibrate(calibration_spec(study, film, args.loads, args.model))[0] for film in films}
     rows = []
     for film, result in results.items():
         fig = plot_case_intervals(result)

@@ -2,15 +2,18 @@
 the measured radius error (Table 1) beside the posterior predictive mean and
 90 % interval of the calibrated model, and how many cases fall inside.
 
-The posterior of each film type is read from the study folder (calibrated
-first on the FE surrogate when missing). The predictive distribution
+The posterior of each film type under one calibrated model (--model, default
+edge/small) is asked of the study folder (`filmcal.study.Study.calibrate`): a
+posterior recorded with the same settings is reused (a folder made by
+`filmcal pipeline` keeps its FE sizes, seed and step cap), a missing one is
+calibrated there on the FE surrogate. The predictive distribution
 (`CalibrationResult.predictive`) includes the posterior of E, the inferred
 experimental scatter sigma and the surrogate's own uncertainty; the data it
 is checked against are the data it was calibrated on, so this is a
 goodness-of-fit check, not a test on new cases (examples/loo_sphere_correction.py
 is the held-out one).
 
-    python examples/table1_comparison.py [--films MS,HS,HHS] [--loads 50-100]
+    python examples/table1_comparison.py [--films MS,HS,HHS] [--loads 50-100] [--model edge/small]
         [--study-dir filmcal-study] [--out-dir out/table1_comparison]
 
 Writes table1_comparison.csv, table1_comparison.md and
@@ -27,7 +30,18 @@ import numpy as np
 
 from filmcal.calibration import FILM_TYPES, CalibrationResult
 from filmcal.calibration.plots import plot_predictive
-from filmcal.study import load_or_calibrate
+from filmcal.study import CalibrationSpec, FESettings, Study
+
+
+def calibration_spec(study: Study, film: str, loads: str | None, model: str) -> CalibrationSpec:
+    """The calibration of `film` asked of the study: the FE sizes, seed and step cap of the study's pipeline
+    when it has them (its posteriors are then reused), else those of `filmcal calibrate`."""
+    imprint, _, kinematics = model.partition("/")
+    recorded = study.manifest.data.get("settings") or {}
+    pipeline = recorded.get("pipeline") or {}
+    fe = FESettings(kinematics=kinematics or "small", n_train=pipeline.get("train_runs", 200),
+                    n_test=pipeline.get("test_runs", 100), seed=recorded.get("seed", 0))
+    return CalibrationSpec(film, imprint=imprint, fe=fe, loads=loads, max_steps=pipeline.get("max_steps"))
 
 
 def comparison_rows(result: CalibrationResult) -> list[dict]:
@@ -72,7 +86,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--films", default="MS,HS,HHS", help="comma-separated film types (default MS,HS,HHS)")
     ap.add_argument("--loads", default=None, help="load range in kN of the calibration, e.g. 50-100 (default all)")
-    ap.add_argument("--study-dir", default="filmcal-study", help="study folder with surrogate and posteriors")
+    ap.add_argument("--model", default="edge/small", metavar="IMPRINT/KINEMATICS",
+                    help="calibrated model: imprint edge, activation or capsule / film kinematics small or large "
+                         "(default edge/small)")
+    ap.add_argument("--study-dir", default="filmcal-study",
+                    help="study folder (created when missing); its posteriors are reused, missing ones calibrated")
     ap.add_argument("--out-dir", default="out/table1_comparison", help="output folder")
     args = ap.parse_args()
     films = [f.strip().upper() for f in args.films.split(",")]
@@ -82,8 +100,9 @@ def main() -> None:
     t0 = time.perf_counter()
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    results = {film: load_or_calibrate(Path(args.study_dir), film, args.loads)
-               for film in films}
+    study = Study(args.study_dir, create=True)
+    with study.writing("examples/table1_comparison.py"):
+        results = {film: study.calibrate(calibration_spec(study, film, args.loads, args.model))[0] for film in films}
     rows = []
     for film, result in results.items():
         plot_predictive(result, out / f"table1_predictive_{film}.png", dpi=130)
