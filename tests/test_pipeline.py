@@ -133,38 +133,101 @@ def test_curves_command_at_a_load_outside_the_pipeline_grid(quick_study):
         assert q.returncode == 2 and len(q.stderr.strip().splitlines()) == 1, (bad, q.stderr)
 
 
+def _children(pid: int) -> set[int]:
+    """Processes whose parent is `pid` (from /proc), and theirs."""
+    from pathlib import Path
+
+    kids = set()
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            kids.add(int(stat.parent.name))
+    return kids | {g for k in kids for g in _children(k)}
+
+
+def _alive(pid: int) -> bool:
+    from pathlib import Path
+
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+def _start_until(cmd, log, marker: str, timeout_s: float = 900):
+    """Start `cmd` with stderr to `log`; return the process once `marker` appears in its stderr."""
+    import time
+
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=open(log, "w"))
+    deadline = time.monotonic() + timeout_s
+    while marker not in log.read_text() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert proc.poll() is None, log.read_text()[-3000:]
+    return proc
+
+
 def test_killed_pipeline_resumes_without_losing_finished_work(tmp_path):
+    """SIGKILL inside the curves stage (worker processes running): no process of the run alive 5 s later;
+    the rerun recomputes no FE run, calibration or comparison and finishes the curves."""
     import signal
     import sqlite3
     import time
 
+    study = tmp_path / "study"
     cmd = [sys.executable, "-m", "filmcal.cli", "pipeline", "--quick", "--films", "HS", "--workers", "2",
-           "--study-dir", str(tmp_path), "--no-report"]
-    with open(tmp_path.parent / "killed.err", "w") as err:
-        first = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=err)
-        deadline = time.monotonic() + 600
-        posterior = []
-        while not posterior and first.poll() is None and time.monotonic() < deadline:
-            time.sleep(0.2)
-            posterior = list(tmp_path.glob("posteriors/*.json"))
-        first.send_signal(signal.SIGKILL)  # as hard as a power cut: after calibration, inside the curves stage
-        first.wait(timeout=60)
-    assert posterior and first.returncode == -signal.SIGKILL
-    assert not (tmp_path / "curves" / "curves-HS.csv").exists()
+           "--study-dir", str(study), "--no-report", "--progress", "log"]
+    first = _start_until(cmd, tmp_path / "first.err", "[curves] 1 film(s)")
+    time.sleep(1.0)
+    family = _children(first.pid)
+    assert family, "the curves stage runs on worker processes"
+    first.send_signal(signal.SIGKILL)  # as hard as a power cut
+    first.wait(timeout=60)
+    time.sleep(5.0)
+    assert not [p for p in family if _alive(p)]
+    assert not (study / "curves" / "curves-HS.csv").exists()
 
     def finished_runs():
-        [store] = tmp_path.glob("runs/*.sqlite")
+        [store] = study.glob("runs/*.sqlite")
         with sqlite3.connect(store) as db:
             return dict(db.execute("SELECT point_id, finished_at FROM runs WHERE status = 'ok'").fetchall())
 
-    runs_before, posterior_before = finished_runs(), posterior[0].read_bytes()
-    assert len(runs_before) == 40 + 12
-    second = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    runs_before = finished_runs()
+    kept = {p: p.read_bytes() for p in [*study.glob("posteriors/*.json"), study / "comparison-HS.json"]}
+    assert len(runs_before) == 40 + 12 and len(kept) == 3
+    second = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
     assert second.returncode == 0, second.stderr[-2000:]
     assert finished_runs() == runs_before  # no FE run was recomputed
-    assert posterior[0].read_bytes() == posterior_before  # nor the calibration
-    assert "[curves]" in second.stdout
-    assert (tmp_path / "curves" / "curves-HS.csv").exists()
+    assert all(p.read_bytes() == b for p, b in kept.items())  # nor a calibration or the comparison
+    assert "[curves]" in second.stderr
+    assert (study / "curves" / "curves-HS.csv").exists()
+
+
+def test_ctrl_c_in_a_parallel_stage_and_a_second_writer(tmp_path):
+    """Ctrl-C inside the curves stage: exit 130 within 2 s with one line, no worker left. A second pipeline on
+    the same folder while the first runs: refused at once with exit 2, one line naming the holder."""
+    import signal
+    import time
+
+    study = tmp_path / "study"
+    cmd = [sys.executable, "-m", "filmcal.cli", "pipeline", "--quick", "--films", "HS", "--workers", "2",
+           "--study-dir", str(study), "--no-report", "--progress", "log"]
+    first = _start_until(cmd, tmp_path / "first.err", "[curves] 1 film(s)")
+    t0 = time.monotonic()
+    second = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+    assert second.returncode == 2 and len(second.stderr.strip().splitlines()) == 1, second.stderr
+    assert "being written by pid" in second.stderr and time.monotonic() - t0 < 30
+    family = _children(first.pid)
+    sent = time.monotonic()
+    first.send_signal(signal.SIGINT)
+    first.wait(timeout=30)
+    assert time.monotonic() - sent < 2.0 and first.returncode == 130
+    err = (tmp_path / "first.err").read_text().strip().splitlines()
+    assert err[-1] == "filmcal pipeline: interrupted" and "Traceback" not in "\n".join(err)
+    time.sleep(1.0)
+    assert not [p for p in family if _alive(p)]
 
 
 def test_correct_a_scanned_sphere_imprint(quick_study, tmp_path):

@@ -392,10 +392,10 @@ def test_film_records_section_states_the_preference_and_the_rough_growth():
                       {**curve, "wheel": "rough Ra 1.5 um", "area_film_median_mm2": 105.0}]}
     section = film_records_section(comparison, curves)
     text = " ".join(b for b in section.blocks if isinstance(b, str))
-    assert "HHS: the data prefer activation/small" in text and "-0.38 (inside)" in text
+    assert "HHS: the data prefer activation/small" in text and "-0.38 (in)" in text
     tables = [b for b in section.blocks if isinstance(b, Table)]
     assert [r[1] for r in tables[0].rows] == ["edge/small", "activation/small"]
-    assert tables[0].rows[0][-1] == "-1.70 (outside)"
+    assert tables[0].rows[0][-1] == "-1.70 (out)" and tables[0].rows[1][-2] == "1.00 / 1.00"
     assert tables[1].rows == [["HHS", "50", "-3", "100.0", "105.0", "+5.0"]]
 
 

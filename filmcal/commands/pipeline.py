@@ -85,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
             weights = s.get("imprint_weights") or {}
             print(f"{film} ({s['model']}): E = {m:.0f} MPa [{ci[0]:.0f}, {ci[1]:.0f}], R-hat {s['rhat']:.4f}, "
                   f"ESS {s['ess']:.0f}, cases in their 90 % predictive interval {s['predictive_hits']}/{s['n_cases']}"
-                  + (", stacking weights " + ", ".join(f"{k} {v:.2f}" for k, v in weights.items()) if weights else ""))
+                  + (", model weights " + ", ".join(f"{k} {v:.2f}" for k, v in weights.items()) if weights else ""))
         if "report" in summary:
             print(f"report: {summary['report']['html']} and {summary['report']['pdf']}")
         print(f"summary: {study_dir}/summary.json ({summary['elapsed_s']:.0f} s)")

@@ -464,7 +464,7 @@ def _case_verdict(v: dict, radius_mm: float = 600.0, force_kn: float = 25.0) -> 
     for r, f, z, inside in zip(cases.get("sphere_radius_mm", []), cases.get("force_kn", []),
                                cases.get("standardized_residual", []), cases.get("inside_90", [])):
         if abs(r - radius_mm) < 1e-6 and abs(f - force_kn) < 1e-6:
-            return f"{z:+.2f} ({'inside' if inside else 'outside'})"
+            return f"{z:+.2f} ({'in' if inside else 'out'})"
     return ""
 
 
@@ -496,8 +496,9 @@ def film_records_section(comparison: dict | None, curves: dict | None = None) ->
                          f"{v.get('ppc_inside_90', '')}/{v.get('n_data', '')}",
                          _fmt(v.get("elpd_loo"), "{:.1f}") + (f" ± {v['elpd_loo_se']:.1f}"
                                                            if isinstance(v.get("elpd_loo_se"), (int, float)) else ""),
-                         _fmt(v.get("pareto_k_max"), "{:.2f}"), _fmt(stacking.get(model), "{:.2f}"),
-                         _fmt(weights.get(model), "{:.2f}"), _case_verdict(v)])
+                         _fmt(v.get("pareto_k_max"), "{:.2f}"),
+                         f"{_fmt(stacking.get(model), '{:.2f}')} / {_fmt(weights.get(model), '{:.2f}')}",
+                         _case_verdict(v)])
         preferred = d.get("preferred", "")
         shared = [g for g in d.get("groups", []) if preferred in g]
         group = shared[0] if shared else [preferred]
@@ -508,11 +509,12 @@ def film_records_section(comparison: dict | None, curves: dict | None = None) ->
                f"max(4, 2 se)) and share its weight" if len(group) > 1 else "")
             + f". R600/25 kN under {preferred}: standardised residual {_case_verdict(p) or 'n/a'}.")
     if rows:
-        s.add(Table(["film", "model (imprint/kinematics)", "E (MPa), median [90 %]", "RMS residual (mm)",
-                     "inside 90 % PPI", "ELPD-LOO ± se", "largest Pareto k", "stacking weight",
-                     "combination weight", "R600/25 kN residual"], rows,
-                    "Each film under each imprint model and film kinematics: fit, leave-one-out predictive "
-                    "accuracy and the weights of the combined correction"))
+        s.add(Table(["film", "model", "E (MPa) [90 %]", "RMS (mm)", "in 90 % PPI", "ELPD-LOO ± se",
+                     "max Pareto k", "weight: stacking / used", "R600/25 kN z"], rows,
+                    "Each film under each model (imprint model / film kinematics): fit (RMS residual, cases "
+                    "inside their 90 % posterior predictive interval), leave-one-out predictive accuracy, the "
+                    "stacking weight and the weight the correction uses, and the standardised residual of "
+                    "R600/25 kN"))
         s.add(" ".join(verdicts) + " The combination weight pools the stacking weight of models the data cannot "
               "tell apart (stacking alone gives such models weights of 1 and 0): the correction then uses their "
               "mixture, so its band is as wide as their spread. A Pareto k above 0.7 marks a case whose "

@@ -192,12 +192,9 @@ def _summarise_warnings(st, name: str, caught: list) -> None:
 
 
 def _preferred(models: dict, comparison: dict | None):
-    """The film's posterior that the curves and checks use: the highest stacking weight (or the first)."""
-    if comparison and comparison.get("weights"):
-        best = max(comparison["weights"], key=comparison["weights"].get)
-        if best in models:
-            return models[best]
-    return next(iter(models.values()))
+    """The film's posterior quoted alone (verification, outlines): the comparison's preferred model, or the first."""
+    best = (comparison or {}).get("preferred")
+    return models[best] if best in models else next(iter(models.values()))
 
 
 # ------------------------------------------------------------------ stages
