@@ -22,8 +22,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="study folder (default ./filmcal-study, or ./filmcal-study-quick with --quick)")
     p.add_argument("--quick", action="store_true",
                    help="a small version for checks (40+12 FE runs, short chains, 3 offsets at 50 kN): 1-3 min")
-    p.add_argument("--films", default="MS,HS,HHS",
-                   help="film types, comma-separated (default MS,HS,HHS; others from --films-file)")
+    p.add_argument("--films", default=None,
+                   help="film types, comma-separated (default MS,HS,HHS, or the films of --data; others from "
+                        "--films-file)")
+    p.add_argument("--data", metavar="CSV",
+                   help="your own sphere-on-flat dataset (the format of `filmcal calibrate --data`); default the "
+                        "paper's Table 1. --films then defaults to the dataset's films")
     p.add_argument("--films-file", metavar="TOML", help="user film types (name, activation pressure or range, "
                    "thickness, nu), recorded in the study")
     p.add_argument("--imprint-models", default=None,
@@ -49,7 +53,13 @@ def run(args: argparse.Namespace) -> int:
     from filmcal.study import PipelineSettings, run_pipeline
 
     registry = FilmRegistry.from_file(args.films_file)
-    films = [f for f in args.films.split(",") if f]
+    if args.data is not None:
+        from filmcal.calibration import load_dataset
+
+        dataset_films = load_dataset(args.data).films
+    else:
+        dataset_films = ("MS", "HS", "HHS")
+    films = [f for f in args.films.split(",") if f] if args.films is not None else list(dataset_films)
     for f in films:
         registry.get(f)
     if not films or len(set(films)) != len(films):
@@ -71,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
     progress = Progress(args.progress)
     summary = run_pipeline(study_dir, settings, films, args.seed, args.workers, progress,
                            report=None if args.no_report else write_report,
-                           films_file=args.films_file)
+                           films_file=args.films_file, dataset=args.data)
     for film, s in summary["films"].items():
         if not s["diagnostics_ok"]:
             progress.warnings.append(f"{film}: the sampler's diagnostics failed (R-hat {s['rhat']:.4f} above 1.01 "

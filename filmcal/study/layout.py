@@ -11,7 +11,8 @@ A study folder holds::
     posteriors/<key>.json      posteriors (samples, pointwise log-likelihood, summary)
     comparison-<film>.json     imprint-model comparison and combination of a film
     design.json  fe-verification.json  wheelrail-outlines.json
-    curves/curves-<film>.csv  crossval/crossval-<film>.json
+    curves/curves-<film>.csv  (curves/part-<key>.json: one wheel's rows, kept as soon as they are done)
+    crossval/crossval-<film>.json
     summary.json               the last pipeline run's summary
     report/report.html|pdf
 
@@ -84,6 +85,10 @@ class StudyLayout:
 
     def curves(self, film: str) -> Path:
         return self.root / "curves" / f"curves-{film}.csv"
+
+    def curves_part(self, key: str) -> Path:
+        """One film and wheel's finished curve rows, kept until the film's CSV is complete."""
+        return self.root / "curves" / f"part-{key}.json"
 
     def crossval(self, film: str) -> Path:
         return self.root / "crossval" / f"crossval-{film}.json"

@@ -55,8 +55,8 @@ class PipelineSettings:
         Roughness Ra of the rough-wheel curves (None: smooth wheel only).
     outline_force_kn : float
         Load of the contact outlines (the paper's Fig. 7 uses 50 kN).
-    crossval_films : tuple of str
-        Film types cross-validated leave-one-case-out.
+    crossval_films : tuple of str or None
+        Film types cross-validated leave-one-case-out (None: every film).
     max_steps : int or None
         Cap of the MCMC steps per walker (None: until converged).
     """
@@ -69,7 +69,7 @@ class PipelineSettings:
     forces_kn: tuple[float, ...] = (50.0, 100.0)
     rough_ra_um: float | None = 1.5
     outline_force_kn: float = 50.0
-    crossval_films: tuple[str, ...] = FILM_TYPES
+    crossval_films: tuple[str, ...] | None = None
     max_steps: int | None = None
 
     def __post_init__(self) -> None:
@@ -101,7 +101,7 @@ def _models_for(study: Study, film: str, settings: PipelineSettings) -> tuple[st
 
 
 def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM_TYPES, seed: int = 0,
-                 workers: int | None = None, progress=None, report=None, films_file=None) -> dict:
+                 workers: int | None = None, progress=None, report=None, films_file=None, dataset=None) -> dict:
     """Run (or resume) the pipeline in a study folder; return the summary also written to ``summary.json``.
 
     Parameters
@@ -124,6 +124,10 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
         the report, which reads studies); None: no report.
     films_file : str or Path, optional
         TOML file of user film types.
+    dataset : str or Path, optional
+        The calibration data: a CSV file of the documented format
+        (`filmcal.calibration.load_dataset`) or a packaged dataset's name;
+        default the study's dataset, Table 1 for a new study.
     """
     from filmcal._progress import Progress
 
@@ -155,7 +159,7 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
             return out
 
         stage("design", _design_stage, study, settings, seed)
-        results = stage("calibration", _calibration_stage, study, settings, films, seed, workers)
+        results = stage("calibration", _calibration_stage, study, settings, films, seed, workers, dataset)
         comparisons = stage("comparison", _comparison_stage, study, settings, results)
         chosen = {film: _preferred(results[film], comparisons.get(film)) for film in films}
         medians = {film: float(r.modulus_mpa["median"]) for film, (r, _, _) in chosen.items()}
@@ -226,7 +230,7 @@ def _design_stage(study: Study, settings: PipelineSettings, seed: int, st):
     return None, True
 
 
-def _calibration_stage(study: Study, settings: PipelineSettings, films, seed: int, workers, st):
+def _calibration_stage(study: Study, settings: PipelineSettings, films, seed: int, workers, dataset, st):
     results: dict = {}
     computed = False
     specs = [(film, spec) for film in films for spec in settings.specs(film, _models_for(study, film, settings), seed)]
@@ -239,7 +243,7 @@ def _calibration_stage(study: Study, settings: PipelineSettings, films, seed: in
         def fe_progress(done, total, st=st, film=film, spec=spec):
             st.note = f"{film} {spec.model_label}: FE run {done}/{total}"
 
-        result, path, full = study.calibrate(spec, workers=workers, progress=fe_progress)
+        result, path, full = study.calibrate(spec, dataset=dataset, workers=workers, progress=fe_progress)
         computed |= len(study.manifest.artefacts("posterior")) > before
         results[film][spec.model_label] = (result, path, full)
         st.log(f"[calibration] {film} {spec.model_label}: E = {result.modulus_mpa['median']:.0f} MPa "
@@ -340,12 +344,16 @@ def _parallel(tasks: dict, workers: int | None, on_done) -> None:
 
 
 def _curves_stage(study: Study, settings: PipelineSettings, films, workers: int | None, st):
-    """Curves of each film's combined models (one task per film and wheel), recorded with what made them."""
+    """Curves of each film's combined models: one task per film and wheel, each kept as soon as it is done
+    (``curves/part-<key>.json``, so an interrupted run resumes with the unfinished wheels only), then the
+    film's CSV, recorded with what made it."""
+    from filmcal._io import atomic_write_json, read_json
     from filmcal.correction import curve_rows, wheel_label, write_curves_csv
     from filmcal.study.core import chosen_posteriors, curve_components
+    from filmcal.study.layout import spec_key
 
     wheels = [None] + ([settings.rough_ra_um] if settings.rough_ra_um else [])
-    specs, components = {}, {}
+    specs, components, rows = {}, {}, {}
     for film in films:
         chosen = chosen_posteriors(study, film)
         specs[film] = {"posteriors": sorted(p.name for _, p, _ in chosen),
@@ -353,28 +361,42 @@ def _curves_stage(study: Study, settings: PipelineSettings, films, workers: int 
                        "forces_kn": list(settings.forces_kn), "rough_ra_um": settings.rough_ra_um}
         path = study.layout.curves(film)
         entry = study.manifest.entry(study.layout.relative(path)) if path.exists() else None
-        if not (entry and entry["spec"] == specs[film] and study.verified(path)):
-            components[film] = curve_components(study, film)
+        if entry and entry["spec"] == specs[film] and study.verified(path):
+            continue
+        for ra in wheels:
+            part = study.layout.curves_part(spec_key({**specs[film], "film": film, "wheel": ra}))
+            if study.verified(part):
+                rows[film, ra] = read_json(part)["rows"]
+        components[film] = curve_components(study, film)
+
+    def finish(film: str) -> None:
+        if all((film, w) in rows for w in wheels):
+            path = study.layout.curves(film)
+            write_curves_csv(path, [r for w in wheels for r in rows[film, w]])
+            study.record(path, "curves", specs[film])
+
     tasks = {(film, ra): (curve_rows, (film, components[film], settings.offsets_mm, settings.forces_kn, ra))
-             for film in components for ra in wheels}
-    if not tasks:
+             for film in components for ra in wheels if (film, ra) not in rows}
+    for film in components:
+        study.layout.curves(film).parent.mkdir(parents=True, exist_ok=True)
+        finish(film)
+    if not components:
         return None, False
     st.set_total(len(tasks))
-    st.log(f"[curves] {len(components)} film(s) x {len(wheels)} wheel(s), {len(settings.forces_kn)} loads x "
-        f"{len(settings.offsets_mm)} offsets each")
-    rows: dict = {}
+    st.log(f"[curves] {len(components)} film(s), {len(tasks)} film-wheel task(s) to compute, "
+           f"{len(settings.forces_kn)} loads x {len(settings.offsets_mm)} offsets each")
 
     def done(key, result, k):
         film, ra = key
         rows[key] = result
+        part = study.layout.curves_part(spec_key({**specs[film], "film": film, "wheel": ra}))
+        atomic_write_json(part, {"film": film, "wheel": wheel_label(ra), "rows": result}, indent=None)
+        study.record(part, "curves-part", {**specs[film], "film": film, "wheel": ra})
         st.advance(note=f"{film}, {wheel_label(ra)} wheel")
-        if all((film, w) in rows for w in wheels):
-            path = study.layout.curves(film)
-            path.parent.mkdir(parents=True, exist_ok=True)
-            write_curves_csv(path, [r for w in wheels for r in rows[film, w]])
-            study.record(path, "curves", specs[film])
+        finish(film)
 
-    _parallel(tasks, workers, done)
+    if tasks:
+        _parallel(tasks, workers, done)
     return None, True
 
 
@@ -389,9 +411,10 @@ def _crossval_stage(study: Study, settings: PipelineSettings, results: dict, com
     from filmcal.correction.crossval import psis_leave_one_case_out
 
     computed = False
-    st.set_total(sum(film in settings.crossval_films for film in results))
+    chosen = [f for f in results if settings.crossval_films is None or f in settings.crossval_films]
+    st.set_total(len(chosen))
     for film, models in results.items():
-        if film not in settings.crossval_films:
+        if film not in chosen:
             continue
         path = study.layout.crossval(film)
         weights = (comparisons.get(film) or {}).get("weights") or {label: 1.0 for label in models}
