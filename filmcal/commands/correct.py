@@ -21,7 +21,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "--measurement-std-mm; --outline-out then writes the outline without film. Prints the "
                     "posterior mean area, its standard deviation and 90 %% interval (with --imprint, --json adds "
                     "measured_area_mm2 and measured_area_std_mm2, the image's own uncertainty, and the imprint's "
-                    "details).")
+                    "details). The wheel-rail form solves the contact without film and with the film at five "
+                    "moduli spanning the posteriors (one solve serves every imprint model of a film kinematics); "
+                    "the study keeps those solved areas when no other process is writing it, so correcting again "
+                    "at the same offset and force reads them instead of solving.")
     p.add_argument("--film", required=True, help="film type: MS, HS, HHS or one defined in the study")
     p.add_argument("--model", metavar="IMPRINT/KINEMATICS",
                    help="pin one calibrated model, e.g. activation/small (default: the study's mixture of compared "

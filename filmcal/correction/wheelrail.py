@@ -2,9 +2,16 @@
 
 For the measured configuration (offset eta, force F, profiles) the wheel-rail
 model gives the area without film A_0 and with the calibrated film A_f(E). The
-film's effect depends smoothly on E over a posterior, so A_f is solved at a
-few posterior quantiles of E and log(A_0 / A_f) is interpolated (quadratic in
-log E) for every posterior sample. The corrected area of a sample is
+film's effect depends smoothly on E over a posterior, so A_f is solved at five
+moduli log-spaced between the 0.1 % and 99.9 % posterior quantiles of E and
+log(A_0 / A_f) is interpolated (quadratic in log E) for every posterior
+sample: the rule of `filmcal.correction.correction_curves`, so that a
+corrector and the curves interpolate the same solves. Models of one film type
+and kinematics differ only in what they read of a solve (edge, activation
+contour, capsule): correctors that share a `SupportAreas` solve once per
+modulus for all of them, over the moduli spanning all their posteriors, and a
+study can keep those solved areas (`SupportAreas` takes a cache). The
+corrected area of a sample is
 
     A = (A_m + u eps_1) * (A_0 / A_f(E)) * (1 + 2 s / r_m * eps_2),
 
@@ -19,13 +26,95 @@ from __future__ import annotations
 
 import numpy as np
 
+from typing import Protocol, Sequence
+
 from filmcal.contact.film import FilmModel
 from filmcal.correction.sphere import CorrectedArea, _summarise
-from filmcal.wheelrail import solve_wheel_rail
 
-__all__ = ["WheelRailCorrector", "nominal_modulus_mpa"]
+__all__ = ["WheelRailCorrector", "SupportAreas", "SupportCache", "support_moduli", "nominal_modulus_mpa"]
 
+#: The posterior quantiles whose extremes bound the support moduli; one modulus per entry.
 QUANTILES = (0.001, 0.25, 0.5, 0.75, 0.999)
+
+
+def support_moduli(moduli: Sequence[np.ndarray]) -> np.ndarray:
+    """The moduli at which the film is solved for models that share their solves.
+
+    Five moduli log-spaced between the smallest 0.1 % quantile and the largest
+    99.9 % quantile of the models' samples of E (one modulus when they all
+    coincide), as `filmcal.correction.correction_curves` places them.
+    """
+    lo = min(float(np.quantile(e, QUANTILES[0])) for e in moduli)
+    hi = max(float(np.quantile(e, QUANTILES[-1])) for e in moduli)
+    return np.geomspace(lo, hi, len(QUANTILES)) if hi > lo * (1 + 1e-9) else np.array([lo])
+
+
+class SupportCache(Protocol):
+    """Where solved support areas are kept between runs (e.g. a study folder)."""
+
+    def get(self, offset_mm: float, force_n: float, support: "SupportAreas") -> dict | None: ...
+
+    def put(self, offset_mm: float, force_n: float, support: "SupportAreas", areas: dict) -> None: ...
+
+
+class SupportAreas:
+    """The wheel-rail solves that correctors of one film type and kinematics share.
+
+    For an (offset, force): one solve without film, and one solve with the
+    film per support modulus (`support_moduli` of all the models' samples),
+    from which every model reads the area it records.
+
+    Parameters
+    ----------
+    models : sequence of FilmModel
+        The models (one film type and kinematics; different imprint readings).
+    moduli : sequence of ndarray
+        Each model's posterior samples of E at the film's nominal nu.
+    settings : dict
+        Keyword arguments of `filmcal.wheelrail.solve_wheel_rail` (profiles, inclination, grid).
+    cache : SupportCache, optional
+        Solved areas kept between runs; consulted before solving, given every new solve.
+    """
+
+    def __init__(self, models: Sequence[FilmModel], moduli: Sequence[np.ndarray], settings: dict,
+                 cache: SupportCache | None = None) -> None:
+        models = list(models)
+        if not models or len(models) != len(moduli):
+            raise ValueError("give one array of moduli per model")
+        if len({(m.film, m.kinematics) for m in models}) != 1 or len({m.label for m in models}) != len(models):
+            raise ValueError("models that share solves have one film type and kinematics and differ in imprint")
+        self.models = models
+        self.moduli_mpa = support_moduli(moduli)
+        self.settings = dict(settings)
+        self.cache = cache
+        self.n_solves = 0
+        self._solved: dict[tuple[float, float], dict] = {}
+
+    def __call__(self, offset_mm: float, force_n: float) -> dict:
+        """``area_no_film_mm2``, ``modulus_grid_mpa`` and ``area_film_mm2`` (model label -> areas at the moduli)."""
+        key = (float(offset_mm), float(force_n))
+        if key not in self._solved:
+            areas = self.cache.get(*key, self) if self.cache is not None else None
+            if areas is None:
+                areas = self._solve(*key)
+                if self.cache is not None:
+                    self.cache.put(*key, self, areas)
+            self._solved[key] = areas
+        return self._solved[key]
+
+    def _solve(self, offset_mm: float, force_n: float) -> dict:
+        from filmcal.wheelrail import solve_wheel_rail
+
+        a0 = float(solve_wheel_rail(offset_mm, force_n, film=None, **self.settings).area_mm2)
+        recorded = {m.label: [] for m in self.models}
+        for e in self.moduli_mpa:
+            film, law, _ = self.models[0].interface(float(e))
+            result = solve_wheel_rail(offset_mm, force_n, film=film, roughness=law, **self.settings)
+            for m in self.models:
+                recorded[m.label].append(m.recorded_area_mm2(result))
+        self.n_solves += 1 + len(self.moduli_mpa)
+        return {"area_no_film_mm2": a0, "modulus_grid_mpa": [float(e) for e in self.moduli_mpa],
+                "area_film_mm2": recorded}
 
 
 def nominal_modulus_mpa(posterior: dict, nominal_poisson: float) -> np.ndarray:
@@ -63,6 +152,12 @@ class WheelRailCorrector:
         Radius error of the film representation (see the module docstring).
     max_samples : int
     random_state : int or numpy.random.Generator
+
+    Attributes
+    ----------
+    supports : SupportAreas
+        Its solves; by default its own. Correctors of one film type and
+        kinematics may be given one shared `SupportAreas` (`share_supports`).
     """
 
     def __init__(self, posterior: dict, film: FilmModel, wheel: str = "S1002", rail: str = "60E2",
@@ -77,18 +172,40 @@ class WheelRailCorrector:
                              nominal_radius_mm=nominal_radius_mm, grid_mm=grid_mm)
         self.model_radius_std_mm = model_radius_std_mm
         self.random_state = random_state
+        self.supports = SupportAreas([film], [self.modulus_mpa_], self.settings)
+
+    @staticmethod
+    def share_supports(correctors: Sequence["WheelRailCorrector"], cache: SupportCache | None = None) -> None:
+        """Let correctors of one film type and kinematics share their solves (one per modulus for all).
+
+        Each group of correctors with the same film type, kinematics and
+        wheel-rail settings gets one `SupportAreas` over the moduli spanning
+        all their posteriors; `cache` (optional) keeps the solved areas.
+        """
+        groups: dict = {}
+        for c in correctors:
+            key = (c.film.film, c.film.kinematics, tuple(sorted((k, str(v)) for k, v in c.settings.items())))
+            groups.setdefault(key, []).append(c)
+        for members in groups.values():
+            shared = SupportAreas([c.film for c in members], [c.modulus_mpa_ for c in members], members[0].settings,
+                                  cache=cache)
+            for c in members:
+                c.supports = shared
 
     def film_area_mm2(self, modulus_mpa: float, offset_mm: float, force_n: float) -> float:
         """The area the film records at modulus E (the film model's kinematics and imprint reading)."""
+        from filmcal.wheelrail import solve_wheel_rail
+
         film, law, _ = self.film.interface(float(modulus_mpa))
         result = solve_wheel_rail(offset_mm, force_n, film=film, roughness=law, **self.settings)
         return self.film.recorded_area_mm2(result)
 
     def area_ratio(self, offset_mm: float, force_n: float) -> tuple[np.ndarray, dict]:
         """A_0 / A_f(E) for every posterior sample, and the solved support points."""
-        a0 = solve_wheel_rail(offset_mm, force_n, film=None, **self.settings).area_mm2
-        e_grid = np.unique(np.quantile(self.modulus_mpa_, QUANTILES))
-        a_f = np.array([self.film_area_mm2(e, offset_mm, force_n) for e in e_grid])
+        solved = self.supports(offset_mm, force_n)
+        a0 = solved["area_no_film_mm2"]
+        e_grid = np.asarray(solved["modulus_grid_mpa"], dtype=float)
+        a_f = np.asarray(solved["area_film_mm2"][self.film.label], dtype=float)
         log_ratio = np.log(a0 / a_f)
         degree = min(2, len(e_grid) - 1)
         coef = np.polyfit(np.log(e_grid), log_ratio, degree) if degree > 0 else log_ratio

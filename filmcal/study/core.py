@@ -591,9 +591,12 @@ def comparison_weights(study: Study, film: str) -> dict[str, float]:
     return {k: float(v) for k, v in (read_json(path).get("weights") or {}).items()}
 
 
-def _sphere_model(study: Study, posterior_path: Path):
-    """The radius surrogate that a recorded posterior was calibrated with."""
-    from filmcal.surrogate import load_surrogate
+def _sphere_model(study: Study, posterior_path: Path, *, predict_only: bool = False):
+    """The radius surrogate that a recorded posterior was calibrated with.
+
+    With `predict_only` the surrogate is read for prediction alone
+    (`filmcal.surrogate.saved`: numpy, no scikit-learn), as a correction needs it.
+    """
     from filmcal.surrogate.radius import SurrogateDomain, SurrogateRadiusModel
 
     entry = study.manifest.entry(study.layout.relative(posterior_path))
@@ -603,6 +606,12 @@ def _sphere_model(study: Study, posterior_path: Path):
         if study.verified(p) is None:
             raise InputError(f"{p} is missing: the surrogate of {posterior_path.name}; run `filmcal calibrate` again "
                              "to recompute it")
+    if predict_only:
+        from filmcal.surrogate.saved import load_for_prediction
+
+        return SurrogateRadiusModel(load_for_prediction(stem), domain)
+    from filmcal.surrogate import load_surrogate
+
     return SurrogateRadiusModel(load_surrogate(stem), domain)
 
 
@@ -648,11 +657,117 @@ def curve_components(study: Study, film: str, *, model: str | None = None, **mat
     return out
 
 
+def _posterior_samples(path: Path) -> dict[str, np.ndarray]:
+    """The posterior samples of a recorded calibration result, read from its JSON alone.
+
+    What a corrector needs of `filmcal.calibration.load_result(path).samples`,
+    without building the result's diagnostics and checks (and importing what
+    they need).
+    """
+    from filmcal._io import read_json
+
+    payload = read_json(path)
+    if not isinstance(payload, dict) or payload.get("format") != "filmcal-calibration-result":
+        raise InputError(f"{str(path)!r} is not a filmcal calibration result")
+    if payload.get("version") != 1:
+        raise InputError(f"unsupported calibration result version {payload.get('version')!r} in {str(path)!r}")
+    if not isinstance(payload.get("samples"), dict):
+        raise InputError(f"{str(path)!r} holds no posterior samples")
+    return {k: np.asarray(v, dtype=float) for k, v in payload["samples"].items()}
+
+
+def _profile_spec(profile: str) -> Any:
+    """A wheel or rail profile as a cache spec names it: its name, or a CSV file's SHA-256."""
+    from filmcal._io import sha256_file
+
+    path = Path(str(profile))
+    return {"file_sha256": sha256_file(path)} if path.is_file() else str(profile)
+
+
+class _StudySupports:
+    """Wheel-rail support areas kept in the study, one file per (offset, force, models).
+
+    ``posteriors/<key>-supports.json`` beside the posteriors, ``<key>`` the
+    hash of its spec: the posteriors (their SHA-256), the film and
+    kinematics, the wheel-rail settings (a profile file by its SHA-256), the
+    support moduli, the offset and the force. The manifest records each file
+    with its spec and SHA-256 under ``caches``, not among the artefacts: a
+    cache is no result of the study (the report and its inputs, and a
+    pipeline run, ignore it). A recorded file is verified as an artefact is
+    (changed: refused, naming it); an unrecorded one is not read. Written
+    only when the study's writer lock is free: a study being written by
+    another process, or a read-only folder, leaves the solves uncached.
+    """
+
+    KIND = "wheel-rail-supports"
+
+    def __init__(self, study: Study, posteriors: dict[str, str]) -> None:
+        self.study = study
+        self.posteriors = posteriors  # model label -> SHA-256 of its posterior file
+
+    def _spec(self, offset_mm: float, force_n: float, support) -> dict:
+        settings = {k: (_profile_spec(v) if k in ("wheel", "rail") else v) for k, v in support.settings.items()}
+        return _json_roundtrip({"kind": self.KIND, "film": support.models[0].film.to_dict(),
+                                "kinematics": support.models[0].kinematics,
+                                "posteriors": {m.label: self.posteriors[m.label] for m in support.models},
+                                "wheel_rail": settings, "moduli_mpa": [float(e) for e in support.moduli_mpa],
+                                "offset_mm": float(offset_mm), "force_n": float(force_n)})
+
+    def _path(self, spec: dict) -> Path:
+        key = spec_key(spec)
+        return self.study.layout.posterior(key).with_name(f"{key}-supports.json")
+
+    def get(self, offset_mm: float, force_n: float, support) -> dict | None:
+        from filmcal._io import read_json, sha256_file
+
+        spec = self._spec(offset_mm, force_n, support)
+        path = self._path(spec)
+        entry = (self.study.manifest.data.get("caches") or {}).get(self.study.layout.relative(path))
+        if entry is None or entry.get("spec") != spec or not path.exists():
+            return None
+        if sha256_file(path) != entry.get("sha256"):
+            raise InputError(f"{path} was changed after the study wrote it (SHA-256 differs from the manifest); "
+                             "delete it and run again to recompute it")
+        areas = read_json(path)
+        if not isinstance(areas, dict) or set(areas.get("area_film_mm2", {})) != {m.label for m in support.models}:
+            return None
+        return areas
+
+    def put(self, offset_mm: float, force_n: float, support, areas: dict) -> None:
+        from filmcal._io import atomic_write_json, sha256_file
+
+        spec = self._spec(offset_mm, force_n, support)
+        path = self._path(spec)
+        try:
+            with self.study.writing("filmcal correct: keeping wheel-rail solves"):
+                path.parent.mkdir(parents=True, exist_ok=True)
+                atomic_write_json(path, areas)
+                caches = self.study.manifest.data.setdefault("caches", {})
+                caches[self.study.layout.relative(path)] = {"kind": self.KIND, "spec": spec,
+                                                            "sha256": sha256_file(path), "written_utc": utc_now()}
+                self.study.manifest.write()
+        except (InputError, OSError):
+            pass  # the writer lock is taken or the folder is read-only: the solves stay uncached
+
+
+def _json_roundtrip(value: Any) -> Any:
+    """`value` as it reads back from the manifest's JSON (tuples as lists, numpy as plain numbers)."""
+    import json
+
+    from filmcal._json import json_safe
+
+    return json.loads(json.dumps(json_safe(value)))
+
+
 def correctors(study: Study, film: str, kind: str = "sphere", *, model: str | None = None, random_state=0,
                wheel_rail: dict | None = None, **match: Any) -> list[tuple[float, Any, dict]]:
     """The correctors of a film, built from the study's recorded posteriors: ``[(weight, corrector, spec)]``.
 
-    Which posteriors: `chosen_posteriors`. Never calibrates.
+    Which posteriors: `chosen_posteriors`. Never calibrates. Sphere-on-flat
+    correctors predict with the saved radius surrogates (numpy alone);
+    wheel-rail correctors of one film kinematics share their solves (one per
+    modulus serves every imprint reading), and the study keeps the solved
+    areas per (offset, force, models) when its writer lock is free.
 
     Parameters
     ----------
@@ -660,21 +775,29 @@ def correctors(study: Study, film: str, kind: str = "sphere", *, model: str | No
     wheel_rail : dict, optional
         Wheel-rail model settings (wheel, rail, rail_inclination, nominal_radius_mm).
     """
-    from filmcal.calibration import load_result
-    from filmcal.correction import SphereCorrector, WheelRailCorrector
-
     if kind not in ("sphere", "wheel-rail"):
         raise InputError(f"kind must be sphere or wheel-rail, got {kind!r}")
     out = []
+    hashes = {}
     for w, path, spec in chosen_posteriors(study, film, model=model, **match):
         study.verified(path)
-        samples = load_result(path).samples
+        samples = _posterior_samples(path)
         if kind == "sphere":
-            corrector = SphereCorrector(_sphere_model(study, path), samples, random_state=random_state)
+            from filmcal.correction.sphere import SphereCorrector
+
+            corrector = SphereCorrector(_sphere_model(study, path, predict_only=True), samples,
+                                        random_state=random_state)
         else:
+            from filmcal.correction.wheelrail import WheelRailCorrector
+
             corrector = WheelRailCorrector(samples, film_model(study, spec), random_state=random_state,
                                            **(wheel_rail or {}))
+            hashes[corrector.film.label] = study.manifest.entry(study.layout.relative(path))["sha256"]
         out.append((w, corrector, spec))
+    if kind == "wheel-rail":
+        from filmcal.correction.wheelrail import WheelRailCorrector
+
+        WheelRailCorrector.share_supports([c for _, c, _ in out], cache=_StudySupports(study, hashes))
     return out
 
 

@@ -11,7 +11,9 @@ A surrogate saved under the base path ``p`` is two files:
 
 Loading reads the arrays with ``allow_pickle=False``, rebuilds the kernel from
 its JSON description (`filmcal.surrogate.kernels.kernel_from_dict`: known types
-only, no code is evaluated) and conditions the GP on the stored data with the
+only, no code is evaluated; the files are read and checked by
+`filmcal.surrogate.saved.read_saved`, which `load_saved_surrogate` shares to
+predict with numpy alone) and conditions the GP on the stored data with the
 stored hyperparameters, which reproduces the predictions of the saved object.
 The recomputed log marginal likelihood is checked against the stored one.
 """
@@ -28,18 +30,11 @@ from sklearn.utils.validation import check_is_fitted
 import filmcal
 from filmcal.surrogate.gp import GPSurrogate
 from filmcal.surrogate.kernels import kernel_from_dict, kernel_to_dict
-from filmcal.surrogate.transforms import InputTransform, OutputTransform
+from filmcal.surrogate.saved import FORMAT, FORMAT_VERSION, base_path, read_saved
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "save_surrogate", "load_surrogate"]
 
-FORMAT = "filmcal-gp-surrogate"
-FORMAT_VERSION = 1
-_PARAMS = tuple(GPSurrogate().get_params())
-
-
-def _base(path: str | Path) -> Path:
-    path = Path(path)
-    return path.with_suffix("") if path.suffix in (".json", ".npz") else path
+_base = base_path
 
 
 def _json_params(surrogate: GPSurrogate) -> dict:
@@ -120,19 +115,6 @@ def save_surrogate(surrogate: GPSurrogate, path: str | Path) -> tuple[Path, Path
     return json_path, npz_path
 
 
-def _read_arrays(npz_path: Path, n_inputs: int, n_train: int) -> tuple[np.ndarray, np.ndarray]:
-    with np.load(npz_path, allow_pickle=False) as arrays:
-        if set(arrays.files) != {"X_train", "y_train"}:
-            raise ValueError(f"{npz_path}: expected arrays X_train, y_train; found {sorted(arrays.files)}")
-        X, y = arrays["X_train"], arrays["y_train"]
-    if X.dtype != np.float64 or y.dtype != np.float64 or X.shape != (n_train, n_inputs) or y.shape != (n_train,):
-        raise ValueError(f"{npz_path}: arrays do not match the JSON description "
-                         f"(X_train {X.dtype} {X.shape}, y_train {y.dtype} {y.shape})")
-    if not (np.all(np.isfinite(X)) and np.all(np.isfinite(y))):
-        raise ValueError(f"{npz_path}: training data must be finite")
-    return X, y
-
-
 def load_surrogate(path: str | Path) -> GPSurrogate:
     """Load a surrogate written by `save_surrogate`.
 
@@ -153,37 +135,15 @@ def load_surrogate(path: str | Path) -> GPSurrogate:
     ValueError
         If the files are not a valid surrogate of this format version.
     """
-    base = _base(path)
-    json_path = base.with_name(base.name + ".json")
+    saved = read_saved(path)
+    json_path, params = saved["json_path"], saved["params"]
     try:
-        meta = json.loads(json_path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{json_path}: not valid JSON ({exc})") from None
-    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
-        raise ValueError(f"{json_path}: not a {FORMAT} file")
-    if meta.get("format_version") != FORMAT_VERSION:
-        raise ValueError(f"{json_path}: format version {meta.get('format_version')!r} is not supported "
-                         f"(this is version {FORMAT_VERSION})")
-    try:
-        arrays_name = str(meta["arrays"])
-        params = dict(meta["params"])
-        input_transform = InputTransform.from_dict(meta["input_transform"])
-        output_transform = OutputTransform.from_dict(meta["output_transform"])
-        kernel = kernel_from_dict(meta["kernel"])
-        n_train = int(meta["n_train"])
-        stored_lml = float(meta["log_marginal_likelihood"])
-        restarts = np.array([-np.inf if v is None else float(v) for v in meta["restart_log_marginal_likelihoods"]])
+        kernel = kernel_from_dict(saved["meta"]["kernel"])
     except (KeyError, TypeError, ValueError) as exc:
         raise ValueError(f"{json_path}: missing or invalid entry ({exc})") from None
-    if Path(arrays_name).name != arrays_name:
-        raise ValueError(f"{json_path}: 'arrays' must be a file name next to the JSON, got {arrays_name!r}")
-    unknown = set(params) - set(_PARAMS)
-    if unknown:
-        raise ValueError(f"{json_path}: unknown setting(s) {sorted(unknown)}")
     surrogate = GPSurrogate(**_tuples(params))
-    if surrogate.output != meta.get("output") or list(input_transform.names) != meta.get("input_names"):
-        raise ValueError(f"{json_path}: input/output names are inconsistent")
-    X, y = _read_arrays(json_path.with_name(arrays_name), len(input_transform.names), n_train)
+    X, y, stored_lml = saved["X"], saved["y"], saved["stored_lml"]
+    input_transform, output_transform, restarts = saved["input_transform"], saved["output_transform"], saved["restarts"]
     surrogate._set_state(X, y, input_transform, output_transform, kernel)
     surrogate.restart_log_marginal_likelihoods_ = restarts
     if not math.isclose(surrogate.log_marginal_likelihood_value_, stored_lml, rel_tol=1e-8, abs_tol=1e-8):
