@@ -46,7 +46,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "Delta A = A_film - A_0 and the correction factor A_0 / A_film at each (load, offset), smooth "
                     "and optionally rough wheel. The film area is interpolated in log E from solves at five "
                     "posterior quantiles; the interpolation error, checked at two more, is a column beside the "
-                    "bands. About 2 s per (load, offset) and wheel.")
+                    "bands. About 1.3 s per (load, offset) with the smooth wheel; a rough wheel adds its law, about "
+                    "45 s for two offsets (measured 2026-11-24 on a full study, 2 cores at load average about 4).")
     p.add_argument("--film", required=True, help="film type: MS, HS or HHS")
     p.add_argument("--forces-kn", default="50,100", help="loads in kN: list or start:stop:step (default 50,100)")
     p.add_argument("--offsets-mm", default="-7:2:1", help="lateral offsets eta in mm (default -7:2:1)")

@@ -24,8 +24,8 @@ def add_parser(subparsers) -> None:
                     "plane; eta > 0 moves the flange towards the gauge corner) under a vertical "
                     "load F, solved as two elastic half-spaces (boundary elements) in the plane "
                     "tangent to the contact, with a Prescale film as springs in series. With a film "
-                    "the area is read with the edge-profile fit of the axisymmetric FE "
-                    "calibration model (contact_area_mm2); support_area_mm2 is where the pressure "
+                    "the area is read as the axisymmetric FE model reads its edge (the edge "
+                    "imprint model's zero-pressure outline, contact_area_mm2); support_area_mm2 is where the pressure "
                     "is positive (the two coincide for hard contact).")
     p.add_argument("--offset-mm", type=float, required=True,
                    help="lateral offset eta in mm (the paper studies -7 to +2; use --offset-mm=-3 "
@@ -40,7 +40,8 @@ def add_parser(subparsers) -> None:
                         "standard coordinates")
     film = p.add_mutually_exclusive_group(required=True)
     film.add_argument("--film-modulus-mpa", type=float,
-                      help="film Young's modulus E in MPa (HS calibrated: 2800)")
+                      help="film Young's modulus E in MPa (HS, edge reading, small strain: about "
+                           "2800, from `filmcal pipeline` on 2026-11-24)")
     film.add_argument("--no-film", action="store_true", help="steel on steel, no film")
     p.add_argument("--film-poisson", type=float,
                    help="film Poisson's ratio nu (default: the film type's, else 0.33)")
