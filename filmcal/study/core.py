@@ -505,7 +505,8 @@ class Study:
         `match` takes ``imprint``, ``model``, ``loads``, ``poisson``, ``discrepancy``
         and FE fields (``kinematics``, ``sphere_contact``, ``flat_contact``,
         ``friction_coefficient``, ``seed``, ``n_train``, ``n_test``); a value of
-        None matches anything.
+        None matches anything, except that without ``loads`` the posteriors of
+        all loads are taken when there are also some of a load range.
         """
         out = []
         for rel, entry in self.manifest.artefacts("posterior").items():
@@ -515,6 +516,8 @@ class Study:
             if all(v is None or (spec["fe"].get(k, spec.get(k)) if k in spec["fe"] else spec.get(k)) == v
                    for k, v in match.items()):
                 out.append((self.root / rel, spec))
+        if match.get("loads") is None and len({s.get("loads") is None for _, s in out}) == 2:
+            out = [(p, s) for p, s in out if s.get("loads") is None]  # no load range asked: all loads first
         return out
 
     def posterior(self, film: str, **match: Any):
