@@ -244,11 +244,13 @@ def _calibration_stage(study: Study, settings: PipelineSettings, films, seed: in
             st.note = f"{film} {spec.model_label}: FE run {done}/{total}"
 
         result, path, full = study.calibrate(spec, dataset=dataset, workers=workers, progress=fe_progress)
-        computed |= len(study.manifest.artefacts("posterior")) > before
+        now = len(study.manifest.artefacts("posterior")) > before
+        computed |= now
         results[film][spec.model_label] = (result, path, full)
-        st.log(f"[calibration] {film} {spec.model_label}: E = {result.modulus_mpa['median']:.0f} MPa "
-               f"[{result.modulus_mpa['ci90'][0]:.0f}, {result.modulus_mpa['ci90'][1]:.0f}]")
-        st.advance(note=f"{film} {spec.model_label}")
+        if now:
+            st.log(f"[calibration] {film} {spec.model_label}: E = {result.modulus_mpa['median']:.0f} MPa "
+                   f"[{result.modulus_mpa['ci90'][0]:.0f}, {result.modulus_mpa['ci90'][1]:.0f}]")
+            st.advance(note=f"{film} {spec.model_label}")
     return results, computed
 
 
@@ -263,8 +265,9 @@ def _comparison_stage(study: Study, settings: PipelineSettings, results: dict, s
         d, now = study.compare(film, models)
         computed |= now
         out[film] = d
-        st.log(f"[comparison] {film}: weights " + ", ".join(f"{k} {v:.2f}" for k, v in d["weights"].items()))
-        st.advance(note=film)
+        if now:
+            st.log(f"[comparison] {film}: weights " + ", ".join(f"{k} {v:.2f}" for k, v in d["weights"].items()))
+            st.advance(note=film)
     return out, computed
 
 
