@@ -74,6 +74,7 @@ def test_command_uses_the_study_posterior_and_refuses_nonsense(quick_study, tmp_
     assert abs(sum(m["weight"] for m in out["models"].values()) - 1) < 1e-9
     cases = {"a negative area": ["--film", "HS", "--study-dir", str(study), "--measured-area-mm2", "-1"],
              "a stray space": ["--film", " HS", "--study-dir", str(study)],
+             "an absurd area": ["--film", "HS", "--study-dir", str(study), "--measured-area-mm2", "1e9"],
              "a mistyped study folder": ["--film", "HS", "--study-dir", str(tmp_path / "typo")],
              "a film without posterior": ["--film", "MS", "--study-dir", str(study)],
              "an absurd sphere radius": ["--film", "HS", "--study-dir", str(study), "--sphere-radius-mm", "450",

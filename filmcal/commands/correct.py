@@ -88,6 +88,20 @@ def _check_plausible_radius(radius_mm: float, sphere_radius_mm: float, force_kn:
                          f"{0.5 * a_h:.2f}-{1.5 * a_h + 5:.2f} mm): check the units")
 
 
+def _check_plausible_area(area_mm2: float, area_no_film_mm2: float, offset_mm: float, force_kn: float) -> None:
+    """Refuse a measured wheel-rail area that no film could print at this offset and load.
+
+    A film enlarges the contact without film A_0 by a factor of about 1.3-1.8
+    (MS at most about 1.9); it does not halve it, nor multiply it by four:
+    areas outside [A_0 / 2, 4 A_0] are taken as a unit, offset or load error.
+    """
+    lo, hi = 0.5 * area_no_film_mm2, 4.0 * area_no_film_mm2
+    if not lo <= area_mm2 <= hi:
+        raise ValueError(f"--measured-area-mm2 {area_mm2:g} is implausible at eta = {offset_mm:g} mm and "
+                         f"F = {force_kn:g} kN (contact area without film {area_no_film_mm2:.1f} mm2; a film imprint "
+                         f"lies within {lo:.1f}-{hi:.1f} mm2): check the units, the offset and the load")
+
+
 def _check_imprint_options(args: argparse.Namespace) -> None:
     """--imprint replaces the measured area or radius; its options need it."""
     if args.imprint is not None and (args.measured_area_mm2 is not None or args.measured_radius_mm is not None):
@@ -156,6 +170,8 @@ def run(args: argparse.Namespace) -> int:
         parts = correctors(study, args.film, "wheel-rail", random_state=args.seed,
                            wheel_rail=dict(wheel=args.wheel, rail=args.rail, rail_inclination=args.inclination,
                                            nominal_radius_mm=args.wheel_radius_mm), **match)
+        _check_plausible_area(area, parts[0][1].supports(args.offset_mm, args.force_kn * 1e3)["area_no_film_mm2"],
+                              args.offset_mm, args.force_kn)
         results = [c.correct(area, args.offset_mm, args.force_kn * 1e3, area_std) for _, c, _ in parts]
         corrector = max(parts, key=lambda part: part[0])[1]
     if len(parts) == 1:
