@@ -28,22 +28,11 @@ import numpy as np
 
 from filmcal.correction import correction_curves, rough_surface
 from filmcal.correction.wheelrail import nominal_modulus_mpa
-from filmcal.study import CalibrationSpec, FESettings, Study
+from filmcal.study import Study
 from filmcal.study.core import curve_components, film_model
 
 OFFSETS_MM = tuple(float(x) for x in np.arange(-7.0, 2.01, 1.0))
 FORCES_KN = (50.0, 100.0)
-
-
-def calibration_spec(study: Study, film: str, loads: str | None, model: str) -> CalibrationSpec:
-    """The calibration of `film` asked of the study: the FE sizes, seed and step cap of the study's pipeline
-    when it has them (its posteriors are then reused), else those of `filmcal calibrate`."""
-    imprint, _, kinematics = model.partition("/")
-    recorded = study.manifest.data.get("settings") or {}
-    pipeline = recorded.get("pipeline") or {}
-    fe = FESettings(kinematics=kinematics or "small", n_train=pipeline.get("train_runs", 200),
-                    n_test=pipeline.get("test_runs", 100), seed=recorded.get("seed", 0))
-    return CalibrationSpec(film, imprint=imprint, fe=fe, loads=loads, max_steps=pipeline.get("max_steps"))
 
 
 def components_of(study: Study, film: str, loads: str | None, model: str) -> list[tuple]:
@@ -51,7 +40,7 @@ def components_of(study: Study, film: str, loads: str | None, model: str) -> lis
     if model == "mixture":
         return curve_components(study, film, loads=loads)
     with study.writing("examples/correction_curves.py"):
-        result, _, spec = study.calibrate(calibration_spec(study, film, loads, model))
+        result, _, spec = study.calibrate(study.spec_like_pipeline(film, model, loads))
     fm = film_model(study, spec)
     return [(fm, nominal_modulus_mpa(result.samples, fm.film.poisson), 1.0)]
 

@@ -30,18 +30,7 @@ import numpy as np
 
 from filmcal.calibration import FILM_TYPES, CalibrationResult
 from filmcal.calibration.plots import plot_predictive
-from filmcal.study import CalibrationSpec, FESettings, Study
-
-
-def calibration_spec(study: Study, film: str, loads: str | None, model: str) -> CalibrationSpec:
-    """The calibration of `film` asked of the study: the FE sizes, seed and step cap of the study's pipeline
-    when it has them (its posteriors are then reused), else those of `filmcal calibrate`."""
-    imprint, _, kinematics = model.partition("/")
-    recorded = study.manifest.data.get("settings") or {}
-    pipeline = recorded.get("pipeline") or {}
-    fe = FESettings(kinematics=kinematics or "small", n_train=pipeline.get("train_runs", 200),
-                    n_test=pipeline.get("test_runs", 100), seed=recorded.get("seed", 0))
-    return CalibrationSpec(film, imprint=imprint, fe=fe, loads=loads, max_steps=pipeline.get("max_steps"))
+from filmcal.study import Study
 
 
 def comparison_rows(result: CalibrationResult) -> list[dict]:
@@ -102,7 +91,7 @@ def main() -> None:
     out.mkdir(parents=True, exist_ok=True)
     study = Study(args.study_dir, create=True)
     with study.writing("examples/table1_comparison.py"):
-        results = {film: study.calibrate(calibration_spec(study, film, args.loads, args.model))[0] for film in films}
+        results = {film: study.calibrate(study.spec_like_pipeline(film, args.model, args.loads))[0] for film in films}
     rows = []
     for film, result in results.items():
         plot_predictive(result, out / f"table1_predictive_{film}.png", dpi=130)

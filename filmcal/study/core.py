@@ -399,6 +399,21 @@ class Study:
         self.record(path, "posterior", full, surrogate=skey)
         return result, path, full
 
+    def spec_like_pipeline(self, film: str, model: str = "edge/small", loads: str | None = None) -> CalibrationSpec:
+        """The calibration of `film` under `model` ("imprint/kinematics") with the study's own sizes.
+
+        The FE design sizes, seed and MCMC step cap are those the study's
+        pipeline recorded, so that its posteriors are reused; a study made by
+        `filmcal calibrate` alone gets that command's defaults.
+        """
+        imprint, _, kinematics = model.partition("/")
+        recorded = self.manifest.data.get("settings") or {}
+        pipeline = recorded.get("pipeline") or {}
+        fe = FESettings(kinematics=kinematics or "small", n_train=pipeline.get("train_runs", 200),
+                        n_test=pipeline.get("test_runs", 100), seed=recorded.get("seed", 0),
+                        film_thickness_mm=self.film(film).thickness_mm)
+        return CalibrationSpec(film, imprint=imprint, fe=fe, loads=loads, max_steps=pipeline.get("max_steps"))
+
     def dataset_rows(self, film: str, loads: str | None, dataset=None):
         """The calibration data of one film and the record of their dataset.
 
