@@ -16,8 +16,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "against Hertz and of the surrogate against FE, wheel-rail correction curves (S1002/60E2, 50 "
                     "and 100 kN, eta -7..2 mm, smooth and rough wheel) with 90 %% credible bands, contact outlines, "
                     "leave-one-case-out cross-validation of the correction on Table 1, and the HTML + PDF report (STUDY_DIR/report). Finished work is kept and reused: an interrupted "
-                    "run resumes where it stopped, and a second run only reads. The full run took about 24 min "
-                    "(measured 2026-11-24 on 2 cores at load average 4-10). A folder keeps "
+                    "run resumes where it stopped, and a second run only reads. The full run took about 10 min "
+                    "(618 s measured 2026-11-24 on 2 idle cores; --quick 98 s). A folder keeps "
                     "the settings it was made with; other settings need another folder.")
     p.add_argument("--study-dir", default=None,
                    help="study folder (default ./filmcal-study, or ./filmcal-study-quick with --quick)")
