@@ -133,3 +133,13 @@ def test_seed_streams_are_independent_and_reproducible():
     assert seed_for(0, "design-train") == seed_for(0, "design-train")
     values = {seed_for(s, name) for s in (0, 1) for name in ("design-train", "design-test", "chain-HS")}
     assert len(values) == 6
+
+
+def test_spec_like_pipeline_takes_the_study_s_own_sizes(tmp_path):
+    study = Study(tmp_path / "s", create=True)
+    assert study.spec_like_pipeline("HS").fe.n_train == 200  # a study without pipeline settings: calibrate's
+    with study.writing():
+        study.set_settings({"pipeline": {"train_runs": 40, "test_runs": 12, "max_steps": 3000}, "seed": 7})
+    spec = study.spec_like_pipeline("HS", "activation/large", "50-100")
+    assert (spec.imprint, spec.fe.kinematics, spec.loads, spec.max_steps) == ("activation", "large", "50-100", 3000)
+    assert (spec.fe.n_train, spec.fe.n_test, spec.fe.seed) == (40, 12, 7)
