@@ -16,29 +16,58 @@ from conftest import SLOW_FIXTURES, SLOW_TESTS, STAGES, TESTS_DIR, collected_ite
 ROOT = TESTS_DIR.parent
 
 
-def whole_suite(config: pytest.Config) -> list[pytest.Item]:
-    """The session's collection when it spans every test file, else skip (a run of a few files)."""
-    items = collected_items(config)
+_COLLECTOR = """
+import json, os
+def pytest_collection_finish(session):
+    out = [{"path": str(i.path), "nodeid": i.nodeid, "fixturenames": list(getattr(i, "fixturenames", ())),
+            "slow": i.get_closest_marker("slow") is not None} for i in session.items]
+    with open(os.environ["FILMCAL_COLLECTED"], "w") as fh:
+        json.dump(out, fh)
+"""
+
+
+def _collect_whole_suite(tmp: Path) -> list[SimpleNamespace]:
+    """Every test of the suite as a separate pytest process collects it (path, node id, fixtures, slow mark)."""
+    import json
+
+    (tmp / "collector_plugin.py").write_text(_COLLECTOR)
+    out = tmp / "collected.json"
+    env = {**os.environ, "FILMCAL_COLLECTED": str(out),
+           "PYTHONPATH": os.pathsep.join([str(tmp), os.environ.get("PYTHONPATH", "")])}
+    run = subprocess.run([sys.executable, "-m", "pytest", "--collect-only", "-q", "-p", "collector_plugin",
+                          "-p", "no:cacheprovider", str(TESTS_DIR)], cwd=ROOT, env=env, capture_output=True,
+                         text=True, timeout=600)
+    assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
+    return [SimpleNamespace(path=d["path"], nodeid=d["nodeid"], fixturenames=d["fixturenames"],
+                            get_closest_marker=(lambda m, slow=d["slow"]: object() if m == "slow" and slow else None))
+            for d in json.loads(out.read_text())]
+
+
+@pytest.fixture(scope="module")
+def suite_items(request, tmp_path_factory) -> list:
+    """The whole suite's tests: this session's collection when it spans every test file (as under the README's
+    test command), else a separate collection of the whole suite."""
+    items = collected_items(request.config)
     files = {p.resolve() for p in TESTS_DIR.rglob("test_*.py")}
-    if not files or not files <= {Path(item.path).resolve() for item in items}:
-        pytest.skip("needs the whole suite collected (python3 -m pytest, with or without -m)")
-    return items
+    if files and files <= {Path(item.path).resolve() for item in items}:
+        return items
+    return _collect_whole_suite(tmp_path_factory.mktemp("collect"))
 
 
-def test_every_slow_key_names_a_collected_test(request):
-    ids = [relative_nodeid(item) for item in whole_suite(request.config)]
+def test_every_slow_key_names_a_collected_test(suite_items):
+    ids = [relative_nodeid(item) for item in suite_items]
     stale = [key for key in SLOW_TESTS if not any(key_matches(key, nodeid) for nodeid in ids)]
     assert not stale, f"SLOW_TESTS in tests/conftest.py names tests that no longer exist: {stale}"
 
 
-def test_every_slow_fixture_is_used(request):
-    used = {name for item in whole_suite(request.config) for name in getattr(item, "fixturenames", ())}
+def test_every_slow_fixture_is_used(suite_items):
+    used = {name for item in suite_items for name in getattr(item, "fixturenames", ())}
     stale = sorted(SLOW_FIXTURES - used)
     assert not stale, f"SLOW_FIXTURES in tests/conftest.py names fixtures no test uses: {stale}"
 
 
-def test_fast_tier_covers_every_stage(request):
-    fast = [relative_nodeid(i) for i in whole_suite(request.config) if i.get_closest_marker("slow") is None]
+def test_fast_tier_covers_every_stage(suite_items):
+    fast = [relative_nodeid(i) for i in suite_items if i.get_closest_marker("slow") is None]
     missing = [stage for stage, pattern in STAGES.items()
                if not any(re.search(pattern, nodeid, re.IGNORECASE) for nodeid in fast)]
     assert not missing, f"no fast test (pytest -m 'not slow') covers the stage(s) {missing}"
