@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from filmcal._parallel import descendant_pids, pid_alive
 from filmcal.campaign import Campaign, LocalPoolExecutor
 
 _TOY_SETUP: dict[float, np.ndarray] = {}
@@ -151,30 +152,8 @@ MODES_20 = ["ok", "ok", "hang", "ok", "fail", "ok", "garbage", "ok", "file", "na
             "ok", "hang", "ok", "fail", "ok", "garbage", "ok", "file", "ok", "ok"]
 
 
-def _alive(pid: int) -> bool:
-    try:
-        with open(f"/proc/{pid}/stat") as stream:
-            return stream.read().rsplit(")", 1)[1].split()[0] != "Z"
-    except OSError:
-        return False
 
 
-def _descendants(root: int) -> set[int]:
-    children: dict[int, list[int]] = {}
-    for entry in os.listdir("/proc"):
-        if entry.isdigit():
-            try:
-                with open(f"/proc/{entry}/stat") as stream:
-                    children.setdefault(int(stream.read().rsplit(")", 1)[1].split()[1]), []).append(int(entry))
-            except (OSError, ValueError, IndexError):
-                continue
-    found, todo = set(), [root]
-    while todo:
-        for child in children.get(todo.pop(), []):
-            if child not in found:
-                found.add(child)
-                todo.append(child)
-    return found
 
 
 class _Case:
@@ -234,7 +213,7 @@ def _kill_and_rerun(case: _Case, extra: list[str], label: str) -> None:
 
     def watch() -> None:
         while not stop.is_set():
-            seen.update(_descendants(first.pid))
+            seen.update(descendant_pids(first.pid))
             time.sleep(0.02)
 
     watcher = threading.Thread(target=watch, daemon=True)
@@ -249,10 +228,10 @@ def _kill_and_rerun(case: _Case, extra: list[str], label: str) -> None:
     stop.set()
     watcher.join()
     pids = seen | case.start_pids()
-    while any(_alive(pid) for pid in pids) and time.monotonic() - killed < 30:
+    while any(pid_alive(pid) for pid in pids) and time.monotonic() - killed < 30:
         time.sleep(0.01)
     gone_s = time.monotonic() - killed
-    left = [pid for pid in pids if _alive(pid)]
+    left = [pid for pid in pids if pid_alive(pid)]
     done_before = {key for key, (status, _) in case.rows().items() if status != "pending"}
     start = time.perf_counter()
     second = subprocess.run(case.command(*extra), capture_output=True, text=True)
@@ -292,14 +271,14 @@ def acceptance(folder: Path) -> None:
                                text=True)
     while "p02" not in case.starts() or case.finished() < 2:
         time.sleep(0.02)
-    pids = _descendants(process.pid)
+    pids = descendant_pids(process.pid)
     process.send_signal(signal.SIGINT)
     sent = time.monotonic()
     _, err = process.communicate()
     exit_s = time.monotonic() - sent
     pids |= case.start_pids()
     print(f"Ctrl-C: exit {process.returncode} after {exit_s:.2f} s, stderr {err.strip()!r}, "
-          f"{case.finished()} finished points kept, {sum(_alive(pid) for pid in pids)} processes left")
+          f"{case.finished()} finished points kept, {sum(pid_alive(pid) for pid in pids)} processes left")
 
     case = _Case(folder / "two", ["ok"] * 20)
     both = [subprocess.Popen(case.command("--workers", "2"), stdout=subprocess.PIPE, stderr=subprocess.PIPE,

@@ -25,27 +25,13 @@ import sys
 import time
 from pathlib import Path
 
+from filmcal._parallel import descendant_pids, pid_alive
+
 STAGES = ("design", "calibration", "comparison", "verification", "curves", "outlines", "crossval", "report")
 
 
-def children(pid: int) -> set[int]:
-    """Descendants of `pid` (from /proc)."""
-    kids = set()
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[1]) == pid:
-            kids.add(int(stat.parent.name))
-    return kids | {g for k in kids for g in children(k)}
 
 
-def alive(pid: int) -> bool:
-    try:
-        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
-    except OSError:
-        return False
 
 
 def artefacts(study: Path) -> dict[str, str]:
@@ -81,13 +67,13 @@ def main() -> int:
                 print(f"{stage:13s} the run ended before the stage showed (it had nothing left to do)")
                 continue
             time.sleep(0.5)  # inside the stage's work
-            family = children(proc.pid)
+            family = descendant_pids(proc.pid)
             sent = time.monotonic()
             proc.send_signal(signal.SIGINT)
             status = proc.wait(timeout=120)
             stop_s = time.monotonic() - sent
         time.sleep(1.0)
-        left = [p for p in family if alive(p)]
+        left = [p for p in family if pid_alive(p)]
         after = artefacts(study)
         rewritten = [k for k, v in finished.items() if after.get(k) != v]
         kept = [k for k in after if before.get(k) != after[k]]

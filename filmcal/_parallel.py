@@ -76,6 +76,8 @@ from multiprocessing.connection import wait as wait_connections
 from typing import Any
 
 __all__ = [
+    "descendant_pids",
+    "pid_alive",
     "TaskTimeoutError",
     "WorkerDiedError",
     "TaskOutcome",
@@ -1186,3 +1188,46 @@ def open_executor(workers: int | None = None, *, dask: Any = None, n_tasks: int 
     if n_tasks is not None:
         n = max(1, min(n, int(n_tasks)))
     return LocalPoolExecutor(n)
+
+
+def _parent_pids() -> dict[int, list[int]]:
+    """Parent pid -> child pids of every process (Linux ``/proc``; empty elsewhere)."""
+    children: dict[int, list[int]] = {}
+    try:
+        entries = os.listdir("/proc")
+    except OSError:
+        return children
+    for entry in entries:
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat") as stream:
+                    children.setdefault(int(stream.read().rsplit(")", 1)[1].split()[1]), []).append(int(entry))
+            except (OSError, ValueError, IndexError):
+                continue
+    return children
+
+
+def descendant_pids(root: int, direct: bool = False) -> set[int]:
+    """Pids of the processes that `root` started (its children only with `direct`), from ``/proc``.
+
+    Used to check that no worker outlives a killed parent.
+    """
+    children = _parent_pids()
+    if direct:
+        return set(children.get(root, []))
+    found, todo = set(), [root]
+    while todo:
+        for child in children.get(todo.pop(), []):
+            if child not in found:
+                found.add(child)
+                todo.append(child)
+    return found
+
+
+def pid_alive(pid: int) -> bool:
+    """Whether process `pid` runs (a zombie, dead but not yet reaped, does not count)."""
+    try:
+        with open(f"/proc/{pid}/stat") as stream:
+            return stream.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):
+        return False

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import pytest
 
+from filmcal._parallel import descendant_pids
 from filmcal.campaign import Campaign, CommandModel, RunStore, StoreBusyError, StoreLock, load_output_column
 from filmcal.campaign.command import render_template
 from test_campaign_parallel import alive, descendants
@@ -334,7 +335,7 @@ def test_workers_never_exceed_the_pending_points(tmp_path):
     seen: dict[int, str] = {}
     while run.poll() is None:
         # the campaign's own children: its workers and the resource tracker (commands are grandchildren)
-        seen.update({pid: _cmdline(pid) for pid in _children(run.pid) if pid not in seen})
+        seen.update({pid: _cmdline(pid) for pid in descendant_pids(run.pid, direct=True) if pid not in seen})
         time.sleep(0.01)
     out, err = run.communicate()
     assert run.returncode == 0, err
@@ -342,18 +343,6 @@ def test_workers_never_exceed_the_pending_points(tmp_path):
     assert 1 <= len(workers) <= 2, workers
 
 
-def _children(pid: int) -> set[int]:
-    """Pids of the direct children of `pid` (from /proc)."""
-    found = set()
-    for entry in os.listdir("/proc"):
-        if entry.isdigit():
-            try:
-                with open(f"/proc/{entry}/stat") as stream:
-                    if int(stream.read().rsplit(")", 1)[1].split()[1]) == pid:
-                        found.add(int(entry))
-            except (OSError, ValueError, IndexError):
-                continue
-    return found
 
 
 def _cmdline(pid: int) -> str:

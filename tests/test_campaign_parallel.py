@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import _thread
 import os
+import signal
 import subprocess
 import sys
 import textwrap
@@ -238,3 +239,25 @@ def test_ctrl_c_while_workers_start_prints_no_worker_traceback(tmp_path, delay_s
     _, err = parent.communicate(timeout=30)
     assert err == "interrupted\n", err
     assert time.monotonic() - sent < 2.0
+
+
+def test_descendant_pids_and_pid_alive_follow_a_process_tree():
+    """A shell that starts a sleeper: both are descendants, only the shell a direct child; a killed and
+    reaped process is no longer alive."""
+    import subprocess as sp
+
+    from filmcal._parallel import descendant_pids, pid_alive
+
+    shell = sp.Popen(["sh", "-c", "sleep 30 & wait"])
+    try:
+        deadline = time.monotonic() + 5
+        while len(descendant_pids(shell.pid)) < 1 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        (sleeper,) = descendant_pids(shell.pid)
+        assert shell.pid in descendant_pids(os.getpid(), direct=True)
+        assert sleeper not in descendant_pids(os.getpid(), direct=True)
+        assert sleeper in descendant_pids(os.getpid()) and pid_alive(sleeper)
+    finally:
+        os.kill(sleeper, signal.SIGKILL)
+        shell.wait(timeout=10)
+    assert not pid_alive(shell.pid)

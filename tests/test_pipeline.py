@@ -9,6 +9,7 @@ import sys
 
 import numpy as np
 
+from filmcal._parallel import descendant_pids, pid_alive
 from filmcal.hertz import hertz_radius_mm
 
 
@@ -133,28 +134,8 @@ def test_curves_command_at_a_load_outside_the_pipeline_grid(quick_study):
         assert q.returncode == 2 and len(q.stderr.strip().splitlines()) == 1, (bad, q.stderr)
 
 
-def _children(pid: int) -> set[int]:
-    """Processes whose parent is `pid` (from /proc), and theirs."""
-    from pathlib import Path
-
-    kids = set()
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[1]) == pid:
-            kids.add(int(stat.parent.name))
-    return kids | {g for k in kids for g in _children(k)}
 
 
-def _alive(pid: int) -> bool:
-    from pathlib import Path
-
-    try:
-        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
-    except OSError:
-        return False
 
 
 def _start_until(cmd, log, marker: str, timeout_s: float = 900):
@@ -181,12 +162,12 @@ def test_killed_pipeline_resumes_without_losing_finished_work(tmp_path):
            "--study-dir", str(study), "--no-report", "--progress", "log"]
     first = _start_until(cmd, tmp_path / "first.err", "[curves] 1 film(s)")
     time.sleep(1.0)
-    family = _children(first.pid)
+    family = descendant_pids(first.pid)
     assert family, "the curves stage runs on worker processes"
     first.send_signal(signal.SIGKILL)  # as hard as a power cut
     first.wait(timeout=60)
     time.sleep(5.0)
-    assert not [p for p in family if _alive(p)]
+    assert not [p for p in family if pid_alive(p)]
     assert not (study / "curves" / "curves-HS.csv").exists()
 
     def finished_runs():
@@ -219,7 +200,7 @@ def test_ctrl_c_in_a_parallel_stage_and_a_second_writer(tmp_path):
     second = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
     assert second.returncode == 2 and len(second.stderr.strip().splitlines()) == 1, second.stderr
     assert "being written by pid" in second.stderr and time.monotonic() - t0 < 30
-    family = _children(first.pid)
+    family = descendant_pids(first.pid)
     sent = time.monotonic()
     first.send_signal(signal.SIGINT)
     first.wait(timeout=30)
@@ -227,7 +208,7 @@ def test_ctrl_c_in_a_parallel_stage_and_a_second_writer(tmp_path):
     err = (tmp_path / "first.err").read_text().strip().splitlines()
     assert err[-1] == "filmcal pipeline: interrupted" and "Traceback" not in "\n".join(err)
     time.sleep(1.0)
-    assert not [p for p in family if _alive(p)]
+    assert not [p for p in family if pid_alive(p)]
 
 
 def test_correct_a_scanned_sphere_imprint(quick_study, tmp_path):
