@@ -86,6 +86,7 @@ __all__ = [
     "LocalPoolExecutor",
     "DaskExecutor",
     "open_executor",
+    "run_tasks",
     "check_dask_address",
     "call_with_deadline",
     "limit_native_threads",
@@ -1188,6 +1189,47 @@ def open_executor(workers: int | None = None, *, dask: Any = None, n_tasks: int 
     if n_tasks is not None:
         n = max(1, min(n, int(n_tasks)))
     return LocalPoolExecutor(n)
+
+
+def _call_task(task: tuple) -> Any:
+    """Run one ``(key, function, args)`` task of `run_tasks`."""
+    _, fn, args = task
+    return fn(*args)
+
+
+def run_tasks(tasks: dict, workers: int | None, on_done: Callable[[Any, Any, int], None]) -> None:
+    """Run ``{key: (function, args)}`` and hand each result to ``on_done(key, value, k)`` as it finishes.
+
+    Each finished unit reaches `on_done` at once (which persists it), so an
+    interrupt keeps every finished unit; a failed unit raises after the others
+    have finished. One task, or ``workers=1``, runs in the calling process.
+
+    Parameters
+    ----------
+    tasks : dict
+        Key -> (picklable module-level function, argument tuple); the order is
+        the order of submission (put the longest first).
+    workers : int, optional
+        Local worker processes (default: all cores).
+    on_done : callable
+        ``on_done(key, value, k)`` with ``k`` the number finished so far.
+
+    Raises
+    ------
+    RuntimeError
+        If any task failed (the first failure is chained).
+    """
+    items = [(key, fn, args) for key, (fn, args) in tasks.items()]
+    errors = []
+    with open_executor(workers, n_tasks=len(items), serial=len(items) <= 1 or workers == 1) as executor:
+        for k, outcome in enumerate(executor.map_unordered(_call_task, items), 1):
+            if outcome.ok:
+                on_done(outcome.task[0], outcome.value, k)
+            else:
+                errors.append((outcome.task[0], outcome.error))
+    if errors:
+        key, error = errors[0]
+        raise RuntimeError(f"{len(errors)} task(s) failed, first {key}: {error!r}") from error
 
 
 def _parent_pids() -> dict[int, list[int]]:

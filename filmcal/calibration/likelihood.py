@@ -259,8 +259,18 @@ class CalibrationProblem:
             counts[int(c)] = self._position[i] + 1
         self._measurement_var = np.asarray(data.measurement_std_mm, dtype=float) ** 2
         self.target_radius_mm = np.asarray(data.target_radius_mm, dtype=float)
+        self._predictor = self._case_table()
         self.parameter_names = self._names()
         self.ndim = len(self.parameter_names)
+
+    def _case_table(self):
+        """The model as the sampler calls it: with nu fixed, a model that offers ``restricted_to`` (a cheap
+        surrogate) is tabulated at the data's cases along ln E (`filmcal.surrogate.radius.CaseTable`)."""
+        restrict = getattr(self.model, "restricted_to", None)
+        if self.poisson_mode != "fixed" or restrict is None:
+            return self.model
+        cases = zip(np.asarray(self.data.sphere_radius_mm, float), np.asarray(self.data.force_n, float))
+        return restrict(cases, self.priors.poisson, self.priors.modulus_range_mpa)
 
     # ----------------------------------------------------------- parameters
     @property
@@ -404,7 +414,7 @@ class CalibrationProblem:
         nu = np.broadcast_to(np.atleast_1d(np.asarray(poisson, dtype=float)), E.shape)
         k, n = E.size, R.size
         args = (np.repeat(E, n), np.repeat(nu, n), np.tile(R, k), np.tile(F, k))
-        mean, std = self.model.predict(*args)
+        mean, std = self._predictor.predict(*args)
         try:
             mean = np.broadcast_to(np.asarray(mean, dtype=float), (k * n,))
             std = np.broadcast_to(np.asarray(std, dtype=float), (k * n,))

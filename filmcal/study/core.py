@@ -321,41 +321,77 @@ class Study:
         -------
         (SurrogateRadiusModel, SurrogateValidation, key)
         """
-        from filmcal.surrogate import load_surrogate, save_surrogate
-        from filmcal.surrogate.radius import SurrogateRadiusModel, fit_radius_surrogate, validate_radius_surrogate
+        return self.radius_models([(fe, column)], workers, progress)[fe, column]
 
-        domain = fe.domain
-        spec = {"kind": "radius-surrogate", "fe": asdict(fe), "store": self._store_spec(fe), "column": column}
+    def _radius_spec(self, fe: FESettings, column: str) -> dict:
+        return {"kind": "radius-surrogate", "fe": asdict(fe), "store": self._store_spec(fe), "column": column}
+
+    def _recorded_radius_model(self, fe: FESettings, column: str):
+        from filmcal._io import read_json
+        from filmcal.surrogate import load_surrogate
+        from filmcal.surrogate.radius import SurrogateRadiusModel, SurrogateValidation
+
+        key = spec_key(self._radius_spec(fe, column))
+        stem = self.layout.surrogate(key)
+        paths = (stem.with_name(stem.name + ".json"), stem.with_name(stem.name + ".npz"),
+                 self.layout.surrogate_validation(key))
+        if not all(self.verified(p) for p in paths):
+            return None
+        v = read_json(paths[2])
+        validation = SurrogateValidation(**v["summary"], details={"points": v["points"]})
+        return SurrogateRadiusModel(load_surrogate(stem), fe.domain), validation, key
+
+    def radius_models(self, requests, workers: int | None = None, progress=None) -> dict:
+        """Validated radius surrogates of several ``(FESettings, column)``: recorded ones are read, the FE
+        runs of the others are run (or resumed) and their surrogates fitted in parallel, each recorded as
+        it is done.
+
+        Returns
+        -------
+        dict
+            ``(fe, column) -> (SurrogateRadiusModel, SurrogateValidation, key)``.
+        """
+        from filmcal._parallel import run_tasks
+        from filmcal.surrogate.radius import fit_and_validate
+
+        out, tasks, runs = {}, {}, {}
+        for fe, column in dict.fromkeys(requests):
+            recorded = self._recorded_radius_model(fe, column)
+            if recorded is not None:
+                out[fe, column] = recorded
+                continue
+            if fe not in runs:
+                runs[fe] = self.fe_runs(fe, workers, progress)
+            r = runs[fe]
+            if column not in r["Y_train"]:
+                raise InputError(f"the FE runs have no output {column!r}")
+            ytr, yte = r["Y_train"][column], r["Y_test"][column]
+            ok_tr, ok_te = np.isfinite(ytr), np.isfinite(yte)
+            train = ({k: v[ok_tr] for k, v in r["X_train"].items()}, ytr[ok_tr])
+            test = ({k: v[ok_te] for k, v in r["X_test"].items()}, yte[ok_te])
+            tasks[fe, column] = (fit_and_validate, (train, test, fe.domain, seed_for(fe.seed, f"gp-{column}")))
+
+        def store(request, fitted, k) -> None:
+            out[request] = self._store_radius_model(*request, *fitted)
+
+        run_tasks(tasks, workers, store)
+        return out
+
+    def _store_radius_model(self, fe: FESettings, column: str, model, validation):
+        from filmcal._io import atomic_write_json
+        from filmcal.surrogate import save_surrogate
+
+        spec = self._radius_spec(fe, column)
         key = spec_key(spec)
         stem = self.layout.surrogate(key)
-        json_path = stem.with_name(stem.name + ".json")
-        npz_path = stem.with_name(stem.name + ".npz")
         vpath = self.layout.surrogate_validation(key)
-        if self.verified(json_path) and self.verified(npz_path) and self.verified(vpath):
-            from filmcal._io import read_json
-            from filmcal.surrogate.radius import SurrogateValidation
-
-            v = read_json(vpath)
-            validation = SurrogateValidation(**v["summary"], details={"points": v["points"]})
-            return SurrogateRadiusModel(load_surrogate(stem), domain), validation, key
-        runs = self.fe_runs(fe, workers, progress)
-        if column not in runs["Y_train"]:
-            raise InputError(f"the FE runs have no output {column!r}")
-        ytr, yte = runs["Y_train"][column], runs["Y_test"][column]
-        ok_tr, ok_te = np.isfinite(ytr), np.isfinite(yte)
-        Xtr = {k: v[ok_tr] for k, v in runs["X_train"].items()}
-        Xte = {k: v[ok_te] for k, v in runs["X_test"].items()}
-        surrogate = fit_radius_surrogate(Xtr, ytr[ok_tr], domain, random_state=seed_for(fe.seed, f"gp-{column}"))
-        validation = validate_radius_surrogate(surrogate, Xte, yte[ok_te])
         stem.parent.mkdir(parents=True, exist_ok=True)
-        save_surrogate(surrogate, stem)
-        from filmcal._io import atomic_write_json
-
+        save_surrogate(model.surrogate, stem)
         atomic_write_json(vpath, {"summary": validation.to_dict(), "points": validation.details["points"],
                                   "column": column}, indent=None)
-        for p in (json_path, npz_path, vpath):
+        for p in (stem.with_name(stem.name + ".json"), stem.with_name(stem.name + ".npz"), vpath):
             self.record(p, "radius-surrogate", spec, column=column)
-        return SurrogateRadiusModel(surrogate, domain), validation, key
+        return model, validation, key
 
     # ------------------------------------------------------------ calibration
     def _calibration_spec_dict(self, spec: CalibrationSpec, data_meta: dict) -> dict:
@@ -371,33 +407,76 @@ class Study:
         (CalibrationResult, Path, dict)
             The result, its file and the spec it was recorded with.
         """
-        from filmcal.calibration import Priors, calibrate, load_result, save_result
+        return self.calibrate_many([spec], dataset, workers, progress)[0]
 
-        film = self.film(spec.film)
-        if spec.imprint != "edge" and not film.has_activation:
-            raise InputError(f"film {film.name} has no activation pressure: only the edge imprint model applies")
-        data, data_meta = self.dataset_rows(film.name, spec.loads, dataset)
-        full = self._calibration_spec_dict(spec, data_meta)
-        key = spec_key(full)
-        path = self.layout.posterior(key)
-        if self.verified(path):
-            return load_result(path), path, full
-        model, validation, skey = self.radius_model(spec.fe, output_column(spec.imprint, film.name), workers, progress)
+    def calibrate_many(self, specs, dataset=None, workers: int | None = None, progress=None, on_done=None):
+        """Calibrate several models; recorded posteriors of the same spec are reused, the others are
+        sampled in parallel (after their surrogates, `radius_models`), each recorded as it finishes.
+
+        Parameters
+        ----------
+        specs : sequence of CalibrationSpec
+        dataset : str or Path, optional
+            The calibration data (default: the study's).
+        workers : int, optional
+            Worker processes (default: all cores).
+        progress : callable, optional
+            ``progress(done, total)`` of the FE runs.
+        on_done : callable, optional
+            ``on_done(spec, result)`` as each new posterior is recorded.
+
+        Returns
+        -------
+        list of (CalibrationResult, Path, dict)
+            In the order of `specs`.
+        """
+        from filmcal._parallel import run_tasks
+        from filmcal.calibration import Priors, SamplerSettings, calibrate, load_result, save_result
+
+        results: dict[int, tuple] = {}
+        todo = []
+        for i, spec in enumerate(specs):
+            film = self.film(spec.film)
+            if spec.imprint != "edge" and not film.has_activation:
+                raise InputError(f"film {film.name} has no activation pressure: only the edge imprint model applies")
+            data, data_meta = self.dataset_rows(film.name, spec.loads, dataset)
+            full = self._calibration_spec_dict(spec, data_meta)
+            path = self.layout.posterior(spec_key(full))
+            if self.verified(path):
+                results[i] = (load_result(path), path, full)
+            else:
+                todo.append((i, spec, film, data, full, path))
+        if not todo:
+            return [results[i] for i in range(len(specs))]
+        models = self.radius_models([(spec.fe, output_column(spec.imprint, film.name)) for _, spec, film, *_ in todo],
+                                    workers, progress)
         self._require_writer()
-        chain = self.layout.chain(key)
-        chain.parent.mkdir(parents=True, exist_ok=True)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        from filmcal.calibration import SamplerSettings
+        tasks, made = {}, {}
+        for i, spec, film, data, full, path in todo:
+            model, _, skey = models[spec.fe, output_column(spec.imprint, film.name)]
+            key = spec_key(full)
+            chain = self.layout.chain(key)
+            chain.parent.mkdir(parents=True, exist_ok=True)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            settings = SamplerSettings() if spec.max_steps is None else replace(SamplerSettings(),
+                                                                                max_steps=spec.max_steps)
+            kwargs = {"film": film.name, "loads": spec.loads, "poisson": spec.poisson, "discrepancy": spec.discrepancy,
+                      "priors": Priors.for_film(film, modulus_range_mpa=spec.fe.domain.modulus_mpa),
+                      "seed": seed_for(spec.fe.seed, f"chain-{film.name}-{spec.model_label}"), "backend_path": chain,
+                      "settings": settings, "progress": False}
+            tasks[i] = (_calibrate_call, (data, model, kwargs))
+            made[i] = (spec, full, path, skey)
 
-        settings = SamplerSettings() if spec.max_steps is None else replace(SamplerSettings(), max_steps=spec.max_steps)
-        result = calibrate(data, model, film=film.name, loads=spec.loads, poisson=spec.poisson,
-                           discrepancy=spec.discrepancy,
-                           priors=Priors.for_film(film, modulus_range_mpa=spec.fe.domain.modulus_mpa),
-                           seed=seed_for(spec.fe.seed, f"chain-{film.name}-{spec.model_label}"), backend_path=chain,
-                           settings=settings, progress=False)
-        save_result(result, path)
-        self.record(path, "posterior", full, surrogate=skey)
-        return result, path, full
+        def record(i, result, k) -> None:
+            spec, full, path, skey = made[i]
+            save_result(result, path)
+            self.record(path, "posterior", full, surrogate=skey)
+            results[i] = (result, path, full)
+            if on_done is not None:
+                on_done(spec, result)
+
+        run_tasks(tasks, workers, record)
+        return [results[i] for i in range(len(specs))]
 
     def spec_like_pipeline(self, film: str, model: str = "edge/small", loads: str | None = None) -> CalibrationSpec:
         """The calibration of `film` under `model` ("imprint/kinematics") with the study's own sizes.
@@ -558,6 +637,13 @@ class Study:
         path, spec = found[0]
         self.verified(path)
         return load_result(path), path, spec
+
+
+def _calibrate_call(data, model, kwargs: dict):
+    """`filmcal.calibration.calibrate` as a worker's task."""
+    from filmcal.calibration import calibrate
+
+    return calibrate(data, model, **kwargs)
 
 
 def _flatten(d: dict, prefix: str = "") -> dict:

@@ -231,27 +231,24 @@ def _design_stage(study: Study, settings: PipelineSettings, seed: int, st):
 
 
 def _calibration_stage(study: Study, settings: PipelineSettings, films, seed: int, workers, dataset, st):
-    results: dict = {}
-    computed = False
-    specs = [(film, spec) for film in films for spec in settings.specs(film, _models_for(study, film, settings), seed)]
+    """Every film under every model: FE campaigns, then the surrogates and the chains in parallel."""
+    specs = [spec for film in films for spec in settings.specs(film, _models_for(study, film, settings), seed)]
+    before = len(study.manifest.artefacts("posterior"))
     st.set_total(len(specs))
-    for film, spec in specs:
-        results.setdefault(film, {})
-        before = len(study.manifest.artefacts("posterior"))
-        st.note = f"{film} {spec.model_label}"
 
-        def fe_progress(done, total, st=st, film=film, spec=spec):
-            st.note = f"{film} {spec.model_label}: FE run {done}/{total}"
+    def fe_progress(done, total):
+        st.note = f"FE run {done}/{total}"
 
-        result, path, full = study.calibrate(spec, dataset=dataset, workers=workers, progress=fe_progress)
-        now = len(study.manifest.artefacts("posterior")) > before
-        computed |= now
-        results[film][spec.model_label] = (result, path, full)
-        if now:
-            st.log(f"[calibration] {film} {spec.model_label}: E = {result.modulus_mpa['median']:.0f} MPa "
-                   f"[{result.modulus_mpa['ci90'][0]:.0f}, {result.modulus_mpa['ci90'][1]:.0f}]")
-            st.advance(note=f"{film} {spec.model_label}")
-    return results, computed
+    def finished(spec, result):
+        st.log(f"[calibration] {spec.film} {spec.model_label}: E = {result.modulus_mpa['median']:.0f} MPa "
+               f"[{result.modulus_mpa['ci90'][0]:.0f}, {result.modulus_mpa['ci90'][1]:.0f}]")
+        st.advance(note=f"{spec.film} {spec.model_label}")
+
+    done = study.calibrate_many(specs, dataset=dataset, workers=workers, progress=fe_progress, on_done=finished)
+    results: dict = {}
+    for spec, outcome in zip(specs, done):
+        results.setdefault(spec.film, {})[spec.model_label] = outcome
+    return results, len(study.manifest.artefacts("posterior")) > before
 
 
 def _comparison_stage(study: Study, settings: PipelineSettings, results: dict, st):
@@ -319,38 +316,12 @@ def _profile(res) -> dict:
             "hertz_radius_mm": res.hertz_radius_mm}
 
 
-def _call(task):
-    """Run one ``(key, function, args)`` task in a worker."""
-    key, fn, args = task
-    return fn(*args)
-
-
-def _parallel(tasks: dict, workers: int | None, on_done) -> None:
-    """Run ``{key: (function, args)}`` on worker processes; ``on_done(key, result, k)`` as each finishes.
-
-    Each finished unit is handed to `on_done` at once (which persists it), so an
-    interrupt keeps every finished unit; a failed unit raises after the others.
-    """
-    from filmcal._parallel import open_executor
-
-    items = [(key, fn, args) for key, (fn, args) in tasks.items()]
-    errors = []
-    with open_executor(workers, n_tasks=len(items)) as executor:
-        for k, outcome in enumerate(executor.map_unordered(_call, items), 1):
-            if outcome.ok:
-                on_done(outcome.task[0], outcome.value, k)
-            else:
-                errors.append((outcome.task[0], outcome.error))
-    if errors:
-        key, error = errors[0]
-        raise RuntimeError(f"{len(errors)} task(s) failed, first {key}: {error!r}") from error
-
-
 def _curves_stage(study: Study, settings: PipelineSettings, films, workers: int | None, st):
     """Curves of each film's combined models: one task per film and wheel, each kept as soon as it is done
     (``curves/part-<key>.json``, so an interrupted run resumes with the unfinished wheels only), then the
     film's CSV, recorded with what made it."""
     from filmcal._io import atomic_write_json, read_json
+    from filmcal._parallel import run_tasks
     from filmcal.correction import curve_rows, wheel_label, write_curves_csv
     from filmcal.study.core import chosen_posteriors, curve_components
     from filmcal.study.layout import spec_key
@@ -378,8 +349,9 @@ def _curves_stage(study: Study, settings: PipelineSettings, films, workers: int 
             write_curves_csv(path, [r for w in wheels for r in rows[film, w]])
             study.record(path, "curves", specs[film])
 
+    # the rough wheels first: they are the longest tasks, so the workers finish together
     tasks = {(film, ra): (curve_rows, (film, components[film], settings.offsets_mm, settings.forces_kn, ra))
-             for film in components for ra in wheels if (film, ra) not in rows}
+             for ra in reversed(wheels) for film in components if (film, ra) not in rows}
     for film in components:
         study.layout.curves(film).parent.mkdir(parents=True, exist_ok=True)
         finish(film)
@@ -399,7 +371,7 @@ def _curves_stage(study: Study, settings: PipelineSettings, films, workers: int 
         finish(film)
 
     if tasks:
-        _parallel(tasks, workers, done)
+        run_tasks(tasks, workers, done)
     return None, True
 
 

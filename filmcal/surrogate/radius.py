@@ -10,7 +10,9 @@ spans a decade), over (log E, nu, log R, log F):
 * `design_points` -- an optimal Latin hypercube over the domain as FE points;
 * `fit_radius_surrogate`, `validate_radius_surrogate` -- fit and held-out check;
 * `SurrogateRadiusModel`, `FERadiusModel` -- the surrogate or the FE model itself
-  as the ``predict(E, nu, R, F) -> (mean, std)`` callable of the calibration.
+  as the ``predict(E, nu, R, F) -> (mean, std)`` callable of the calibration;
+* `CaseTable` -- the surrogate at the data's own (R, F) cases and one nu, splined
+  in ln E: what an MCMC over E evaluates, checked against the surrogate itself.
 """
 from __future__ import annotations
 
@@ -26,8 +28,8 @@ if TYPE_CHECKING:
     from filmcal.surrogate.gp import GPSurrogate
 
 __all__ = ["INPUTS", "LOG_INPUTS", "EDGE_COLUMN", "SurrogateDomain", "SurrogateValidation", "design_points",
-           "option_columns", "radius_excess_mm", "fit_radius_surrogate", "validate_radius_surrogate",
-           "SurrogateRadiusModel", "FERadiusModel"]
+           "option_columns", "radius_excess_mm", "fit_radius_surrogate", "validate_radius_surrogate", "fit_and_validate",
+           "SurrogateRadiusModel", "FERadiusModel", "CaseTable"]
 
 INPUTS = ("modulus_mpa", "poisson", "radius_mm", "force_kn")
 LOG_INPUTS = ("modulus_mpa", "radius_mm", "force_kn")
@@ -156,6 +158,18 @@ def _broadcast(modulus_mpa, poisson, sphere_radius_mm, force_n):
     return np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (modulus_mpa, poisson, sphere_radius_mm, force_n)))
 
 
+def fit_and_validate(train: tuple[dict, np.ndarray], test: tuple[dict, np.ndarray], domain: SurrogateDomain,
+                     random_state: int = 0) -> tuple["SurrogateRadiusModel", SurrogateValidation]:
+    """Fit a radius surrogate on ``train = (X, radius_mm)`` and check it on the held-out ``test``.
+
+    Returns
+    -------
+    (SurrogateRadiusModel, SurrogateValidation)
+    """
+    surrogate = fit_radius_surrogate(*train, domain, random_state=random_state)
+    return SurrogateRadiusModel(surrogate, domain), validate_radius_surrogate(surrogate, *test)
+
+
 class SurrogateRadiusModel:
     """A radius surrogate seen by the calibration: ``predict(E, nu, R, F) -> (mean, std)``.
 
@@ -176,6 +190,89 @@ class SurrogateRadiusModel:
         inside = self.domain.contains(*(X[n] for n in INPUTS))
         mean = np.where(inside, mean, np.nan)
         return mean.reshape(shape), std.reshape(shape)
+
+    def restricted_to(self, cases, poisson: float, modulus_range_mpa: tuple[float, float]) -> "CaseTable":
+        """This surrogate at known (R, F) cases and one nu, splined in ln E (`CaseTable`)."""
+        return CaseTable(self, cases, poisson, modulus_range_mpa)
+
+
+class CaseTable:
+    """A radius model at known (R, F) cases and one nu, as cubic splines in ln E.
+
+    A calibration with nu fixed asks its model for the same few cases at ever
+    new moduli; along ln E the surrogate's mean and std are smooth, so they are
+    tabulated per case on a geometric grid of E and splined. The grid doubles
+    until the splines agree with the model at every midpoint within `tol_mm`
+    (mean and std); `max_error_mm` is that check's largest difference. Points
+    off the cases, at another nu or outside the grid are passed to the model.
+
+    Parameters
+    ----------
+    model
+        ``predict(modulus_mpa, poisson, sphere_radius_mm, force_n) -> (mean_mm, std_mm)``.
+    cases : iterable of (float, float)
+        (sphere_radius_mm, force_n) pairs.
+    poisson : float
+    modulus_range_mpa : (float, float)
+        Where the table is made (the prior's range of E).
+    tol_mm : float
+        Largest spline error accepted at the midpoints.
+    """
+
+    def __init__(self, model, cases, poisson: float, modulus_range_mpa: tuple[float, float], *,
+                 tol_mm: float = 1e-5, n_start: int = 129, n_max: int = 4097) -> None:
+        from scipy.interpolate import CubicSpline
+
+        self.model = model
+        self.cases = sorted({(float(r), float(f)) for r, f in cases})
+        self.poisson = float(poisson)
+        lo, hi = (float(v) for v in modulus_range_mpa)
+        if not (0.0 < lo < hi) or not self.cases:
+            raise ValueError(f"need cases and 0 < low < high moduli, got {len(self.cases)} cases, {lo!r}, {hi!r}")
+        R = np.array([c[0] for c in self.cases])
+        F = np.array([c[1] for c in self.cases])
+        n = n_start
+        while True:
+            log_e = np.linspace(np.log(lo), np.log(hi), n)
+            mean, std = self._model_grid(np.exp(log_e), R, F)
+            splines = [CubicSpline(log_e, mean, axis=1), CubicSpline(log_e, std, axis=1)]
+            mid = 0.5 * (log_e[1:] + log_e[:-1])
+            check = self._model_grid(np.exp(mid), R, F)
+            errors = [np.abs(spline(mid) - exact) for spline, exact in zip(splines, check)]
+            finite = [e[np.isfinite(e)] for e in errors]
+            self.max_error_mm = max(float(e.max(initial=0.0)) for e in finite)
+            if self.max_error_mm <= tol_mm or 2 * n - 1 > n_max:
+                break
+            n = 2 * n - 1
+        self.log_modulus_mpa = log_e
+        self._mean, self._std = splines
+        self._defined = np.all(np.isfinite(mean), axis=1)  # a case the model leaves undefined goes to the model
+
+    def _model_grid(self, moduli: np.ndarray, R: np.ndarray, F: np.ndarray):
+        E, Rg = np.meshgrid(moduli, R)
+        _, Fg = np.meshgrid(moduli, F)
+        mean, std = self.model.predict(E, np.full(E.shape, self.poisson), Rg, Fg)
+        return np.asarray(mean, dtype=float).reshape(E.shape), np.asarray(std, dtype=float).reshape(E.shape)
+
+    def predict(self, modulus_mpa, poisson, sphere_radius_mm, force_n):
+        e, nu, r, f = _broadcast(modulus_mpa, poisson, sphere_radius_mm, force_n)
+        shape = e.shape
+        e, nu, r, f = e.ravel(), nu.ravel(), r.ravel(), f.ravel()
+        case = np.full(e.shape, -1)
+        for k, (rc, fc) in enumerate(self.cases):
+            case[(r == rc) & (f == fc)] = k
+        with np.errstate(divide="ignore", invalid="ignore"):
+            log_e = np.log(e)
+        use = ((case >= 0) & self._defined[case] & (np.abs(nu - self.poisson) <= 1e-12)
+               & (log_e >= self.log_modulus_mpa[0]) & (log_e <= self.log_modulus_mpa[-1]))
+        mean, std = np.empty(e.shape), np.empty(e.shape)
+        if use.any():
+            k, columns = case[use], np.arange(int(use.sum()))
+            mean[use] = self._mean(log_e[use])[k, columns]
+            std[use] = self._std(log_e[use])[k, columns]
+        if not use.all():
+            mean[~use], std[~use] = self.model.predict(e[~use], nu[~use], r[~use], f[~use])
+        return mean.reshape(shape), np.maximum(std, 0.0).reshape(shape)
 
 
 class FERadiusModel:

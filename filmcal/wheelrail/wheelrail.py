@@ -909,12 +909,17 @@ _MODELS: "OrderedDict[tuple, WheelRailModel]" = OrderedDict()
 
 def get_wheel_rail_model(wheel: str | Profile = "S1002", rail: str | Profile = "60E2",
                          rail_inclination: float = 1.0 / 40.0, nominal_radius_mm: float = 460.0,
-                         grid_mm: float = 0.1) -> WheelRailModel:
-    """A :class:`WheelRailModel` for these settings, built once per process (LRU of 4)."""
-    key = (wheel, rail, float(rail_inclination), float(nominal_radius_mm), float(grid_mm))
+                         grid_mm: float = 0.1, tol: float = 1e-9) -> WheelRailModel:
+    """A :class:`WheelRailModel` for these settings, built once per process (LRU of 4).
+
+    `tol` is the solver's tolerance (`HalfSpaceContactSolver`); sweeps use 1e-6,
+    which changes wheel-rail areas by about 1e-6 relative at most.
+    """
+    key = (wheel, rail, float(rail_inclination), float(nominal_radius_mm), float(grid_mm), float(tol))
     model = _MODELS.get(key)
     if model is None:
-        model = WheelRailModel(wheel, rail, rail_inclination, nominal_radius_mm, grid_mm=grid_mm)
+        solver = None if tol == 1e-9 else HalfSpaceContactSolver(tol=tol)
+        model = WheelRailModel(wheel, rail, rail_inclination, nominal_radius_mm, grid_mm=grid_mm, solver=solver)
         _MODELS[key] = model
         while len(_MODELS) > 4:
             _MODELS.popitem(last=False)
