@@ -20,6 +20,7 @@ import warnings
 from collections.abc import Mapping, Sequence
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 from scipy.linalg import cho_solve, cholesky, solve_triangular
 from scipy.stats import norm
 from sklearn.base import BaseEstimator
@@ -272,11 +273,15 @@ class GPSurrogate(BaseEstimator):
             raise ValueError(f"kernel has {np.size(matern.length_scale)} length scales for {X.shape[1]} inputs")
         T, z = input_transform.transform(X), output_transform.transform(y)
         K = kernel(T)
-        try:
-            L = cholesky(K, lower=True, check_finite=False)
-        except np.linalg.LinAlgError:
-            raise ValueError("the kernel matrix is not positive definite; raise noise_level_bounds[0]") from None
-        dual = cho_solve((L, True), z, check_finite=False)
+        # One BLAS thread: a nearly singular K factorises differently with another thread count, and the
+        # saved log marginal likelihood must reproduce wherever the files are read (a worker fits, the
+        # parent loads).
+        with threadpool_limits(limits=1):
+            try:
+                L = cholesky(K, lower=True, check_finite=False)
+            except np.linalg.LinAlgError:
+                raise ValueError("the kernel matrix is not positive definite; raise noise_level_bounds[0]") from None
+            dual = cho_solve((L, True), z, check_finite=False)
         self.input_names_ = list(input_transform.names)
         self.n_features_in_ = len(self.input_names_)
         self.X_train_, self.y_train_ = X, y
