@@ -126,3 +126,31 @@ def test_large_strain_sphere_on_flat_matches_the_fe(modulus, force_kn):
     assert shift_fe < -0.05
     assert shift_hs == pytest.approx(shift_fe, abs=0.02)
     assert radius[True][1] == pytest.approx(radius[True][0], abs=0.06)
+
+
+def test_fe_film_tangent_is_the_derivative_of_its_internal_force():
+    """The large-strain film's tangent stiffness equals central differences of its internal force
+    at a general (sheared, compressed, radially displaced) state."""
+    from skfem import Basis, ElementQuad1, ElementVector, MeshQuad
+
+    from filmcal.fem.largestrain import film_internal_force_and_tangent
+
+    class Material:
+        modulus_mpa, poisson = 2800.0, 0.33
+
+    mesh = MeshQuad.init_tensor(np.linspace(0.5, 2.0, 4), np.linspace(0.0, 0.09, 3))
+    basis = Basis(mesh, ElementVector(ElementQuad1()))
+    rng = np.random.default_rng(2)
+    u = np.zeros(basis.N)
+    u[basis.nodal_dofs[1]] = -0.3 * (mesh.p[1] - 0.09) + 0.002 * rng.standard_normal(mesh.p.shape[1])
+    u[basis.nodal_dofs[0]] = 0.01 * mesh.p[1] + 0.002 * rng.standard_normal(mesh.p.shape[1])
+    _, K = film_internal_force_and_tangent(basis, Material, u)
+    h = 1e-7
+    fd = np.empty_like(K)
+    for j in range(basis.N):
+        step = np.zeros(basis.N)
+        step[j] = h
+        fd[:, j] = (film_internal_force_and_tangent(basis, Material, u + step)[0]
+                    - film_internal_force_and_tangent(basis, Material, u - step)[0]) / (2 * h)
+    assert np.abs(K - fd).max() <= 1e-6 * np.abs(K).max()
+    assert np.allclose(K, K.T, rtol=0, atol=1e-9 * np.abs(K).max())
