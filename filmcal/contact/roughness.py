@@ -454,8 +454,11 @@ def _balance(p: np.ndarray, total: float, hardness: float, gap: np.ndarray | Non
             if empty.size == 0:
                 return
             k = max(1, min(empty.size, int(0.1 * np.count_nonzero(p)) + 1))
-            order = empty if gap is None else empty[np.argsort(gap.ravel()[empty])]
-            p.ravel()[order[:k]] = min(hardness, deficit / k)
+            if gap is None or k == empty.size:
+                nearest = empty[:k]
+            else:  # the k smallest gaps (their order does not matter: they all get the same pressure)
+                nearest = empty[np.argpartition(gap.ravel()[empty], k - 1)[:k]]
+            p.ravel()[nearest] = min(hardness, deficit / k)
         np.clip(p, 0.0, hardness, out=p)
 
 

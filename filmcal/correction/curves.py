@@ -20,6 +20,7 @@ noise of the areas themselves.)
 from __future__ import annotations
 
 import csv
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,7 +28,7 @@ import numpy as np
 
 from filmcal.wheelrail.wheelrail import get_wheel_rail_model
 
-__all__ = ["CorrectionCurves", "correction_curves", "CURVE_COLUMNS", "curve_rows", "write_curves_csv",
+__all__ = ["CorrectionCurves", "correction_curves", "curve_moduli", "CURVE_COLUMNS", "curve_rows", "write_curves_csv",
            "read_curves_csv", "rough_surface", "wheel_label"]
 
 #: Posterior quantiles whose range the moduli of the solves span (log-spaced between them).
@@ -74,6 +75,38 @@ def _thinned(samples, max_samples: int) -> np.ndarray:
     return e
 
 
+def _moduli_grid(samples) -> tuple[np.ndarray, np.ndarray]:
+    """The fit's nodes and its check modulus over the `SUPPORT_RANGE` of every sample array together."""
+    lo = min(float(np.quantile(e, SUPPORT_RANGE[0])) for e in samples)
+    hi = max(float(np.quantile(e, SUPPORT_RANGE[1])) for e in samples)
+    nodes = np.geomspace(lo, hi, N_NODES) if hi > lo * (1 + 1e-9) else np.array([lo])
+    return nodes, np.sqrt(nodes[:1] * nodes[1:2])
+
+
+def _pooled(components, max_samples: int) -> tuple[list, np.ndarray]:
+    """The components with thinned samples, and how many samples of each the weighted pool takes."""
+    parts = [(model, _thinned(samples, max_samples), float(w)) for model, samples, w in components]
+    weights = np.array([w for _, _, w in parts])
+    if not len(parts) or np.any(weights < 0) or not np.all(np.isfinite(weights)) or weights.sum() <= 0:
+        raise ValueError("components need non-negative finite weights, not all zero")
+    weights = weights / weights.sum()
+    n_pool = max(len(e) for _, e, _ in parts)
+    counts = np.floor(weights * n_pool).astype(int)
+    counts[np.argsort(-(weights * n_pool - counts), kind="stable")[:n_pool - counts.sum()]] += 1
+    return parts, counts
+
+
+def curve_moduli(components, max_samples: int = 4000) -> np.ndarray:
+    """The film moduli (MPa) at which `correction_curves` solves for these components (sorted).
+
+    A rough wheel's laws can be computed at them beforehand (in parallel) and
+    handed to `correction_curves` as ``roughness={modulus: law}``.
+    """
+    parts, counts = _pooled(components, max_samples)
+    nodes, checks = _moduli_grid([e for (_, e, _), n in zip(parts, counts) if n > 0])
+    return np.sort(np.concatenate([nodes, checks]))
+
+
 def correction_curves(components, offsets_mm, forces_n, *, roughness=None, max_samples: int = 4000,
                       **wheel_rail) -> CorrectionCurves:
     """Posterior correction curves over offsets and forces, of one film model or a mixture of models.
@@ -89,9 +122,10 @@ def correction_curves(components, offsets_mm, forces_n, *, roughness=None, max_s
         between models that the data cannot tell apart.
     offsets_mm, forces_n : array_like
         The grid (lateral offsets eta in mm, forces in N).
-    roughness : None, RoughSurface or InterfaceLaw
-        The wheel: smooth, rough (law computed against each film modulus), or
-        a measured film-wheel law.
+    roughness : None, RoughSurface, InterfaceLaw or mapping
+        The wheel: smooth, rough (law computed against each film modulus), a
+        measured film-wheel law, or the laws of a rough wheel computed
+        beforehand at each modulus of `curve_moduli` (``{modulus: law}``).
     max_samples : int
         Posterior samples used per model.
     **wheel_rail
@@ -99,14 +133,7 @@ def correction_curves(components, offsets_mm, forces_n, *, roughness=None, max_s
         rail_inclination, nominal_radius_mm, grid_mm); the sweep solves to the
         tolerance `SWEEP_TOL`.
     """
-    parts = [(model, _thinned(samples, max_samples), float(w)) for model, samples, w in components]
-    weights = np.array([w for _, _, w in parts])
-    if not len(parts) or np.any(weights < 0) or not np.all(np.isfinite(weights)) or weights.sum() <= 0:
-        raise ValueError("components need non-negative finite weights, not all zero")
-    weights = weights / weights.sum()
-    n_pool = max(len(e) for _, e, _ in parts)
-    counts = np.floor(weights * n_pool).astype(int)
-    counts[np.argsort(-(weights * n_pool - counts), kind="stable")[:n_pool - counts.sum()]] += 1
+    parts, counts = _pooled(components, max_samples)
     offsets = np.atleast_1d(np.asarray(offsets_mm, dtype=float))
     forces = np.atleast_1d(np.asarray(forces_n, dtype=float))
     shape = (len(forces), len(offsets))
@@ -121,14 +148,11 @@ def correction_curves(components, offsets_mm, forces_n, *, roughness=None, max_s
     for k, (model, e, _) in enumerate(parts):
         if counts[k] > 0:
             groups.setdefault((model.film, model.kinematics), []).append(k)
-    used = [k for members in groups.values() for k in members]
-    lo = min(float(np.quantile(parts[k][1], SUPPORT_RANGE[0])) for k in used)
-    hi = max(float(np.quantile(parts[k][1], SUPPORT_RANGE[1])) for k in used)
-    nodes = np.geomspace(lo, hi, N_NODES) if hi > lo * (1 + 1e-9) else np.array([lo])
-    checks = np.sqrt(nodes[:1] * nodes[1:2])
-    moduli = np.sort(np.concatenate([nodes, checks]))
+    nodes, checks = _moduli_grid([parts[k][1] for members in groups.values() for k in members])
+    moduli = np.sort(np.concatenate([nodes, checks]))  # as `curve_moduli` gives them
     wheel_rail_model = get_wheel_rail_model(**wheel_rail, tol=SWEEP_TOL)
-    interfaces = {(key, m): parts[members[0]][0].interface(float(m), roughness)[:2]
+    law_at = roughness if isinstance(roughness, Mapping) else {m: roughness for m in moduli}
+    interfaces = {(key, m): parts[members[0]][0].interface(float(m), law_at[m])[:2]
                   for key, members in groups.items() for m in moduli}
 
     for i, force in enumerate(forces):
@@ -186,7 +210,7 @@ def wheel_label(roughness=None) -> str:
     return "rough, measured law"
 
 
-def curve_rows(film: str, components, offsets_mm, forces_kn, roughness=None, **wheel_rail) -> list[list]:
+def curve_rows(film: str, components, offsets_mm, forces_kn, roughness=None, laws=None, **wheel_rail) -> list[list]:
     """Correction curves of one film as CSV rows (`CURVE_COLUMNS`), for one wheel.
 
     Parameters
@@ -201,10 +225,15 @@ def curve_rows(film: str, components, offsets_mm, forces_kn, roughness=None, **w
         The wheel: smooth (None), rough with this Ra in um (a synthetic surface
         whose law is computed against each film modulus, `rough_surface`), or a
         measured film-wheel pressure-closure law (e.g. `filmcal.wheelrail.TabularLaw`).
+    laws : mapping, optional
+        With a rough wheel of Ra `roughness`: its laws already computed at each
+        modulus of `curve_moduli` (``{modulus: rough_law(modulus)}``).
     **wheel_rail
         Passed on to `correction_curves` (profiles, inclination, ...).
     """
     law = rough_surface(float(roughness)) if isinstance(roughness, (int, float)) else roughness
+    if laws is not None:
+        law = laws
     c = correction_curves(components, offsets_mm, np.asarray(forces_kn, dtype=float) * 1e3, roughness=law,
                           **wheel_rail)
     wheel = wheel_label(roughness)

@@ -322,7 +322,7 @@ def _curves_stage(study: Study, settings: PipelineSettings, films, workers: int 
     film's CSV, recorded with what made it."""
     from filmcal._io import atomic_write_json, read_json
     from filmcal._parallel import run_tasks
-    from filmcal.correction import curve_rows, wheel_label, write_curves_csv
+    from filmcal.correction import curve_moduli, curve_rows, wheel_label, write_curves_csv
     from filmcal.study.core import chosen_posteriors, curve_components
     from filmcal.study.layout import spec_key
 
@@ -349,30 +349,64 @@ def _curves_stage(study: Study, settings: PipelineSettings, films, workers: int 
             write_curves_csv(path, [r for w in wheels for r in rows[film, w]])
             study.record(path, "curves", specs[film])
 
-    # the rough wheels first: they are the longest tasks, so the workers finish together
-    tasks = {(film, ra): (curve_rows, (film, components[film], settings.offsets_mm, settings.forces_kn, ra))
-             for ra in reversed(wheels) for film in components if (film, ra) not in rows}
     for film in components:
         study.layout.curves(film).parent.mkdir(parents=True, exist_ok=True)
         finish(film)
     if not components:
         return None, False
-    st.set_total(len(tasks))
-    st.log(f"[curves] {len(components)} film(s), {len(tasks)} film-wheel task(s) to compute, "
+    missing = [(film, ra) for ra in reversed(wheels) for film in components if (film, ra) not in rows]
+    rough = [film for film, ra in missing if ra is not None]
+    st.set_total(sum(len(curve_moduli(components[film])) for film in rough) + len(missing) * len(settings.forces_kn))
+    laws = _rough_laws(study, settings, components, rough, workers, st)
+    # one task per film, wheel and load, the rough wheels first: they are the longest, so the workers end together
+    tasks = {(film, ra, force): (curve_rows, (film, components[film], settings.offsets_mm, (force,), ra,
+                                             laws.get(film) if ra is not None else None))
+             for film, ra in missing for force in settings.forces_kn}
+    st.log(f"[curves] {len(components)} film(s), {len(missing)} film-wheel curve(s) to compute, "
            f"{len(settings.forces_kn)} loads x {len(settings.offsets_mm)} offsets each")
+    by_load: dict = {}
 
     def done(key, result, k):
-        film, ra = key
-        rows[key] = result
+        film, ra, force = key
+        by_load.setdefault((film, ra), {})[force] = result
+        st.advance(note=f"{film}, {wheel_label(ra)} wheel, {force:g} kN")
+        if len(by_load[film, ra]) < len(settings.forces_kn):
+            return
+        rows[film, ra] = [r for f in settings.forces_kn for r in by_load[film, ra][f]]
         part = study.layout.curves_part(spec_key({**specs[film], "film": film, "wheel": ra}))
-        atomic_write_json(part, {"film": film, "wheel": wheel_label(ra), "rows": result}, indent=None)
+        atomic_write_json(part, {"film": film, "wheel": wheel_label(ra), "rows": rows[film, ra]}, indent=None)
         study.record(part, "curves-part", {**specs[film], "film": film, "wheel": ra})
-        st.advance(note=f"{film}, {wheel_label(ra)} wheel")
         finish(film)
 
-    if tasks:
-        run_tasks(tasks, workers, done)
+    run_tasks(tasks, workers, done)
     return None, True
+
+
+def _rough_laws(study: Study, settings: PipelineSettings, components: dict, films: list, workers, st) -> dict:
+    """The rough wheel's pressure-closure laws (BEM) at the moduli each film's curves solve at, in parallel:
+    ``{film: {modulus: law}}``."""
+    from filmcal._parallel import run_tasks
+    from filmcal.contact.roughness import rough_contact_law
+    from filmcal.correction import curve_moduli, rough_surface
+
+    if not films:
+        return {}
+    surface = rough_surface(settings.rough_ra_um)
+    tasks = {}
+    for film in films:
+        ft = study.film(film)
+        for m in curve_moduli(components[film]):
+            tasks[film, float(m)] = (rough_contact_law, (surface, float(m), ft.poisson, ft.thickness_mm))
+    st.log(f"[curves] rough wheel (Ra {settings.rough_ra_um:g} um): {len(tasks)} pressure-closure laws (BEM) "
+           "at the films' moduli")
+    laws: dict = {}
+
+    def keep(key, law, k):
+        laws.setdefault(key[0], {})[key[1]] = law
+        st.advance(note=f"rough law, {key[0]} at {key[1]:.0f} MPa")
+
+    run_tasks(tasks, workers, keep)
+    return laws
 
 
 def _crossval_stage(study: Study, settings: PipelineSettings, results: dict, comparisons: dict, seed: int, st):
