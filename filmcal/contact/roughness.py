@@ -462,6 +462,11 @@ def _balance(p: np.ndarray, total: float, hardness: float, gap: np.ndarray | Non
         np.clip(p, 0.0, hardness, out=p)
 
 
+def _dot(a: np.ndarray, b: np.ndarray) -> float:
+    """Sum of the elementwise product of two arrays of the same shape."""
+    return float(np.dot(a.ravel(), b.ravel()))
+
+
 def _pk_step(kernel: _PeriodicKernel, heights_um: np.ndarray, mean_p: float, hardness: float,
                 p: np.ndarray, tol: float, max_iter: int) -> tuple[np.ndarray, float, int, bool]:
     """Polonsky-Keer CG with ``mean(p) = mean_p`` and ``0 <= p <= hardness``.
@@ -474,26 +479,30 @@ def _pk_step(kernel: _PeriodicKernel, heights_um: np.ndarray, mean_p: float, har
     t = np.zeros_like(p)
     g_old, restart, converged = 1.0, True, False
     it = 0
+    # sums over the free cells as dense products with the 0/1 mask (t is zero off the free cells)
     for it in range(1, max_iter + 1):
         free = (p > 0.0) & (p < hardness)
         if not free.any():
             free = p > 0.0
+        mask = free.astype(p.dtype)
+        n_free = float(np.count_nonzero(free))
         g = kernel(p) - heights_um
-        g -= g[free].mean()
-        gg = float(np.sum(g[free] ** 2))
+        g -= _dot(g, mask) / n_free
+        gf = g * mask
+        gg = _dot(gf, gf)
         beta = 0.0 if restart else gg / g_old
-        t[free] = g[free] + beta * t[free]
-        t[~free] = 0.0
+        t *= beta
+        t += gf
+        t *= mask
         g_old = gg
         r = kernel(t)
-        r -= r[free].mean()
-        curv = float(np.sum(r[free] * t[free]))
+        curv = _dot(r, t) - _dot(r, mask) / n_free * float(t.sum())
         if curv <= 0.0:
             converged = True
             break
-        tau = float(np.sum(g[free] * t[free])) / curv
+        tau = _dot(gf, t) / curv
         p_prev = p.copy()
-        p[free] -= tau * t[free]
+        p -= tau * t
         np.clip(p, 0.0, hardness, out=p)
         join = (p == 0.0) & (g < 0.0)
         leave = (p == hardness) & (g > 0.0) & ~free
