@@ -142,3 +142,26 @@ def test_only_high_k_folds_are_refitted_exactly():
     assert cv.area_mm2[3] == pytest.approx(exact["area_mm2"], abs=0.1 * exact["area_std_mm2"])
     # the outlier's Hertz area is far outside the band; the refit does not hide it
     assert not cv.inside[3]
+
+
+def _grid_refit(data: RadiusErrorData, name: str, fold_data: RadiusErrorData) -> np.ndarray:
+    """The exact refit of `test_only_high_k_folds_are_refitted_exactly`, picklable (for worker processes)."""
+    left_out = int(np.flatnonzero(~np.isin(data.measured_radius_mm, fold_data.measured_radius_mm))[0])
+    exact = exact_fold(data, left_out)
+    take = np.random.default_rng(left_out).choice(exact["theta"].shape[0], 4000, p=exact["weights"])
+    return exact["theta"][take][None]
+
+
+def test_refits_run_in_worker_processes_give_the_folds_of_refits_run_here():
+    from functools import partial
+
+    data = toy_data(outlier_mm=1.0)
+    problem = CalibrationProblem(data, MODEL)
+    result = calibrate(data, MODEL, seed=0)
+    refit = partial(_grid_refit, data)
+    here = psis_leave_one_case_out({"toy": (problem, result.samples)}, refit=refit, n_draws=2000, random_state=1)
+    pooled = psis_leave_one_case_out({"toy": (problem, result.samples)}, refit=refit, n_draws=2000, random_state=1,
+                                     workers=2)
+    assert here.n_refits >= 1
+    for name in ("area_mm2", "area_std_mm2", "area_ci90_mm2", "pareto_k", "refit", "modulus_median_mpa"):
+        np.testing.assert_array_equal(getattr(pooled, name), getattr(here, name))

@@ -214,6 +214,22 @@ def test_html_escapes_text_and_embeds_figures():
 
 
 @PRINTED
+def test_sections_drawn_in_worker_processes_are_those_drawn_here(printed):
+    """`write_report` draws the figures in workers; the serial build renders the same page, image for image."""
+    import matplotlib
+
+    from filmcal.report import figures as F
+
+    here, paths = printed
+    with matplotlib.rc_context(F.REPORT_STYLE):
+        serial = render_html(here)
+    pooled = Path(paths["html"]).read_text(encoding="utf-8")
+    stamp = re.compile(r"generated \d{4}-\d\d-\d\d \d\d:\d\d UTC")
+    assert pooled.count("data:image/png;base64,") == len(here.figures) > 10
+    assert stamp.sub("", pooled) == stamp.sub("", serial)
+
+
+@PRINTED
 def test_pdf_is_a4_on_every_page(printed):
     _, paths = printed
     assert paths["pdf_engine"] == "chromium"

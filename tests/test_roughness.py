@@ -166,6 +166,21 @@ def test_law_is_cached_monotone_and_reports_local_pressures():
         assert s.contact_fraction >= s.nominal_pressure_mpa / PET_HARDNESS_MPA - 1e-9
 
 
+def test_law_sent_to_a_worker_reads_the_same_pressures():
+    import pickle
+
+    surf = RoughSurface.synthetic(ra_um=1.5, seed=0, n=128, size_um=100.0, rolloff_wavelength_um=25.0)
+    law = rough_contact_law(surf, 2739.0, 0.33, 0.09)
+    sent = pickle.dumps(law, protocol=pickle.HIGHEST_PROTOCOL)
+    maps = sum(s.pressure_mpa.nbytes for s in law.steps)
+    assert len(sent) < 1.5 * maps  # without the sorted float64 copies (twice the float32 maps)
+    back = pickle.loads(sent)
+    p = np.geomspace(0.01, 2 * PET_HARDNESS_MPA, 40)
+    for level in (5.0, 50.0, 150.0):
+        np.testing.assert_array_equal(back.fraction_above(level, p), law.fraction_above(level, p))
+    np.testing.assert_array_equal(back.closure_mm(p), law.closure_mm(p))
+
+
 def test_rough_flat_enlarges_a_sphere_contact():
     surf = RoughSurface.synthetic(ra_um=1.5, seed=0, n=128, size_um=100.0, rolloff_wavelength_um=25.0)
     law = rough_contact_law(surf, 2739.0, 0.33, 0.09)

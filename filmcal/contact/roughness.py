@@ -704,7 +704,19 @@ class RoughContactLaw(TabularLaw):
         self.film_thickness_mm = film_thickness_mm
         self.hardness_mpa = hardness_mpa
         self.saturation_pressure_mpa = float(top)
-        self._sorted = [np.sort(s.pressure_mpa.ravel()).astype(float) for s in steps]
+        self._sorted = self._sorted_pressures()
+
+    def _sorted_pressures(self) -> list[np.ndarray]:
+        """The local pressures of each step, sorted (the distributions `fraction_above` reads)."""
+        return [np.sort(s.pressure_mpa.ravel()).astype(float) for s in self.steps]
+
+    def __getstate__(self) -> dict:
+        # sent to worker processes without the sorted copies (twice the maps' size, rebuilt in ms)
+        return {k: v for k, v in self.__dict__.items() if k != "_sorted"}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._sorted = self._sorted_pressures()
 
     def contact_fraction(self, nominal_pressure_mpa: np.ndarray) -> np.ndarray:
         """Real contact fraction at nominal pressures (linear in between steps)."""

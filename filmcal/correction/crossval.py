@@ -181,6 +181,18 @@ def leave_one_case_out(model, film: str, loads: str | None = None, priors=None, 
     return CaseCrossValidation.from_folds(film, folds)
 
 
+def _refits(folds: list[tuple[int, str]], refit: Callable, data, case_index: np.ndarray, workers) -> dict:
+    """``{(case, model): refit(model, data without case)}`` for the listed folds, in parallel with `workers`."""
+    tasks = {(case, n): (refit, (n, data.select(case_index != case))) for case, n in folds}
+    if workers is None:
+        return {key: fn(*args) for key, (fn, args) in tasks.items()}
+    from filmcal._parallel import run_tasks
+
+    out: dict = {}
+    run_tasks(tasks, workers, lambda key, posterior, k: out.__setitem__(key, posterior))
+    return out
+
+
 def _psislw(neg_log_lik: np.ndarray, reff: float) -> tuple[np.ndarray, float]:
     """Pareto-smoothed normalised log weights and the Pareto k of one fold (ArviZ)."""
     with warnings.catch_warnings():
@@ -239,7 +251,7 @@ def psis_leave_one_case_out(models: Mapping[str, tuple], weights: Mapping[str, f
                             refit: Callable[[str, object], object] | None = None, *, film: str | None = None,
                             n_draws: int = 2000, k_threshold: float = PARETO_K_REFIT,
                             random_state: int | np.random.Generator | None = 0,
-                            log: Callable[[str], None] | None = None) -> CaseCrossValidation:
+                            log: Callable[[str], None] | None = None, workers=None) -> CaseCrossValidation:
     """Leave-one-case-out cross-validation of the correction from the full posterior(s).
 
     Parameters
@@ -267,6 +279,11 @@ def psis_leave_one_case_out(models: Mapping[str, tuple], weights: Mapping[str, f
         Seed of the resampling and of the corrector's scatter draws.
     log : callable, optional
         Receives one line per refit.
+    workers : int or filmcal._parallel.Executor, optional
+        Where the refits run, together (`filmcal._parallel.run_tasks`):
+        worker processes, or a pool; `refit` must then be picklable (a
+        module-level function or a `functools.partial` of one). Default: one
+        after the other in this process.
 
     Returns
     -------
@@ -302,6 +319,12 @@ def psis_leave_one_case_out(models: Mapping[str, tuple], weights: Mapping[str, f
                .reshape(thetas[n].shape[:2] + (problems[n].n_cases,)) for n in names}
     reff = {n: _relative_ess(_reported(problems[n], thetas[n])) for n in names}
 
+    # the Pareto k of every fold first, so that the exact refits can run together
+    smoothed = {(case, n): _psislw(-case_ll[n][..., case].ravel(), reff[n])
+                for case in range(ref.n_cases) for n, count in zip(names, counts) if count > 0}
+    exact = _refits([key for key, (_, k) in smoothed.items() if k > k_threshold], refit, data, ref.case_index,
+                    workers) if refit is not None else {}
+
     rows_out = []
     for case in range(ref.n_cases):
         rows = np.flatnonzero(ref.case_index == case)
@@ -311,10 +334,9 @@ def psis_leave_one_case_out(models: Mapping[str, tuple], weights: Mapping[str, f
                 continue
             problem = problems[n]
             flat = thetas[n].reshape(-1, problem.ndim)
-            log_w, k = _psislw(-case_ll[n][..., case].ravel(), reff[n])
-            if k > k_threshold and refit is not None:
-                keep = ref.case_index != case
-                fold_theta = _as_theta(problem, refit(n, data.select(keep))).reshape(-1, problem.ndim)
+            log_w, k = smoothed[case, n]
+            if (case, n) in exact:
+                fold_theta = _as_theta(problem, exact[case, n]).reshape(-1, problem.ndim)
                 take = rng.choice(fold_theta.shape[0], size=count, replace=count > fold_theta.shape[0])
                 draws = fold_theta[take]
                 refitted = True

@@ -49,12 +49,16 @@ class Table:
 
 @dataclass
 class FigureBlock:
-    """A matplotlib figure with its caption (printed together on one page) and a short title for the contents."""
+    """A matplotlib figure with its caption (printed together on one page) and a short title for the contents.
 
-    figure: Figure
+    ``figure`` is None in a block that was `drawn` (its PNG and size kept).
+    """
+
+    figure: Figure | None
     caption: str
     title: str = ""
     _png: str | None = field(default=None, init=False, repr=False, compare=False)
+    _size_in: tuple[float, float] | None = field(default=None, init=False, repr=False, compare=False)
 
     def png_base64(self) -> str:
         """The figure as PNG (base64 text), drawn once and kept."""
@@ -63,6 +67,20 @@ class FigureBlock:
             self.figure.savefig(buf, format="png", dpi=FIGURE_DPI)
             self._png = base64.b64encode(buf.getvalue()).decode("ascii")
         return self._png
+
+    @property
+    def size_in(self) -> tuple[float, float]:
+        """Width and height of the drawn figure (inches)."""
+        if self.figure is None:
+            return self._size_in
+        w, h = self.figure.get_size_inches()
+        return float(w), float(h)
+
+    def drawn(self) -> "FigureBlock":
+        """The same block with its figure drawn to PNG and released (light to send between processes)."""
+        out = FigureBlock(None, self.caption, self.title)
+        out._png, out._size_in = self.png_base64(), self.size_in
+        return out
 
 
 @dataclass
@@ -176,7 +194,7 @@ def _table_html(block: Table) -> str:
 
 
 def _figure_html(block: FigureBlock, n: int) -> str:
-    w, h = (float(v) for v in block.figure.get_size_inches())
+    w, h = block.size_in
     # printed at its drawn size, scaled down only to fit the text width and, with its caption, one page
     width_in = min(w, TEXT_WIDTH_IN, w * FIGURE_MAX_HEIGHT_IN / h)
     return (f'<figure id="fig{n}"><img style="width: {width_in:.2f}in" '
@@ -304,7 +322,7 @@ def _write_matplotlib_pdf(report: Report, path: Path, reason: str) -> None:
                     continue
                 n += 1
                 page = Figure(figsize=_A4_IN)
-                w, h = block.figure.get_size_inches()
+                w, h = block.size_in
                 scale = min(1.0, TEXT_WIDTH_IN / w, 8.8 / h)
                 pixels = imread(io.BytesIO(base64.b64decode(block.png_base64())))
                 ax = page.add_axes([(1 - w * scale / _A4_IN[0]) / 2, 1 - 0.06 - h * scale / _A4_IN[1],

@@ -31,7 +31,7 @@ from filmcal.report import figures as F
 from filmcal.report.document import Definitions, FigureBlock, Report, Section, Table, render_html, write_pdf
 
 __all__ = ["build_report", "write_report", "read_study", "StudyData", "DesignData", "SECTION_BUILDERS",
-           "GLOSSARY", "answer_table", "summary_section", "verification_section", "preliminary_section",
+           "GLOSSARY", "answer_table", "summary_section", "calibration_sections", "verification_section", "preliminary_section",
            "design_section", "surrogate_section", "calibration_section", "film_records_section",
            "crossval_section", "wheel_rail_section", "glossary_section", "provenance_section",
            "REFERENCE_OFFSET_MM"]
@@ -691,6 +691,17 @@ def provenance_section(folder: Path, settings_hash: str, seed: int | None, films
     return s
 
 
+def calibration_sections(data: StudyData, films: list[str] | None = None) -> list[Section]:
+    """The calibration sections of each film's posteriors (of `films`, default every film of the study)."""
+    out = []
+    for film in data.films if films is None else films:
+        if film in data.posteriors:
+            out += [calibration_section(film, *p) for p in [data.posteriors[film], *data.other_posteriors.get(film, [])]]
+        else:
+            out.append(_missing(Section(f"Calibration of {film} film"), f"posterior of {film}"))
+    return out
+
+
 #: The report's sections in order: each entry turns the study's data into one section.
 SECTION_BUILDERS: list[Callable[[StudyData], Section | list[Section]]] = [
     lambda d: summary_section(d.posteriors, d.curves),
@@ -698,9 +709,7 @@ SECTION_BUILDERS: list[Callable[[StudyData], Section | list[Section]]] = [
     lambda d: preliminary_section(d.radius_model, d.modulus_range_mpa),
     lambda d: design_section(d.design),
     lambda d: surrogate_section(d.surrogate_validation),
-    lambda d: [section for film in d.films for section in (
-        [calibration_section(film, *p) for p in [d.posteriors[film], *d.other_posteriors.get(film, [])]]
-        if film in d.posteriors else [_missing(Section(f"Calibration of {film} film"), f"posterior of {film}")])],
+    calibration_sections,
     lambda d: film_records_section(d.imprint_comparison, d.curves),
     lambda d: crossval_section(d.crossval),
     lambda d: wheel_rail_section(d.curves, d.outlines),
@@ -709,22 +718,78 @@ SECTION_BUILDERS: list[Callable[[StudyData], Section | list[Section]]] = [
 ]
 
 
-def build_report(study_dir: str | Path) -> Report:
+def _build_sections(data: StudyData, job: tuple[int, str | None]) -> list[Section]:
+    """The sections of one unit of work ``(builder index, film or None)``."""
+    import matplotlib
+
+    index, film = job
+    build = SECTION_BUILDERS[index]
+    with matplotlib.rc_context(F.REPORT_STYLE):
+        out = build(data) if film is None else build(data, [film])
+    return out if isinstance(out, list) else [out]
+
+
+def _report_jobs(data: StudyData) -> list[tuple[int, str | None]]:
+    """Units of work of the report in order: one per builder, the calibration sections one per film."""
+    calibration = SECTION_BUILDERS.index(calibration_sections)
+    return [(i, film) for i in range(len(SECTION_BUILDERS))
+            for film in (data.films if i == calibration else [None])]
+
+
+_study_cache: dict = {}
+
+
+def _drawn_sections(study_dir: str, job: tuple[int, str | None]) -> list[Section]:
+    """A worker's unit of the report: its sections with every figure drawn to PNG and released.
+
+    The study is read once per process (again only when its manifest changes).
+    """
+    from filmcal.study.layout import StudyLayout
+
+    manifest = StudyLayout(Path(study_dir)).manifest.stat()
+    key = (str(Path(study_dir).resolve()), manifest.st_mtime_ns, manifest.st_size)
+    if key not in _study_cache:
+        _study_cache.clear()
+        _study_cache[key] = read_study(study_dir)
+    sections = _build_sections(_study_cache[key], job)
+    import matplotlib
+
+    with matplotlib.rc_context(F.REPORT_STYLE):
+        for section in sections:
+            section.blocks = [b.drawn() if isinstance(b, FigureBlock) else b for b in section.blocks]
+    return sections
+
+
+def build_report(study_dir: str | Path, workers=1) -> Report:
     """Compose the report of a study folder (reads its files; computes nothing expensive).
+
+    Parameters
+    ----------
+    study_dir : str or Path
+    workers : int, filmcal._parallel.Executor or None
+        1 (default): build here, each figure drawn when first rendered.
+        Otherwise the sections are built and their figures drawn in worker
+        processes (this many, None: all cores, or this pool) and arrive drawn
+        (`FigureBlock.drawn`).
 
     Raises
     ------
     FileNotFoundError
         If the folder has no settings (not made by the pipeline).
     """
-    import matplotlib
-
     data = read_study(study_dir)
-    sections: list[Section] = []
-    with matplotlib.rc_context(F.REPORT_STYLE):
-        for build in SECTION_BUILDERS:
-            out = build(data)
-            sections.extend(out if isinstance(out, list) else [out])
+    jobs = _report_jobs(data)
+    if workers == 1:
+        parts = {job: _build_sections(data, job) for job in jobs}
+    else:
+        from filmcal._parallel import run_tasks
+
+        parts = {}
+        # the calibration sections (most figures) first, so that the workers end together
+        order = sorted(jobs, key=lambda job: job[1] is None)
+        run_tasks({job: (_drawn_sections, (str(study_dir), job)) for job in order}, workers,
+                  lambda job, sections, k: parts.__setitem__(job, sections))
+    sections = [section for job in jobs for section in parts[job]]
     answer, remarks = answer_table(data.posteriors, data.curves)
     stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     return Report("Film calibration and wheel-rail correction report",
@@ -732,8 +797,11 @@ def build_report(study_dir: str | Path) -> Report:
                   sections, answer=answer, remarks=remarks)
 
 
-def write_report(study_dir: str | Path, out_dir: str | Path | None = None) -> dict:
+def write_report(study_dir: str | Path, out_dir: str | Path | None = None, workers=None) -> dict:
     """Write ``report.html`` (self-contained) and ``report.pdf`` (A4) into `out_dir` (default ``study_dir/report``).
+
+    The figures are drawn in worker processes (`workers`: their number, default
+    all cores, or a pool), or here with ``workers=1``.
 
     Returns
     -------
@@ -744,7 +812,7 @@ def write_report(study_dir: str | Path, out_dir: str | Path | None = None) -> di
     """
     import matplotlib
 
-    report = build_report(study_dir)
+    report = build_report(study_dir, workers=workers)
     out = Path(out_dir) if out_dir is not None else Path(study_dir) / "report"
     out.mkdir(parents=True, exist_ok=True)
     html_path = out / "report.html"

@@ -18,7 +18,7 @@ import contextlib
 import zlib
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import Any, Iterator
+from typing import TYPE_CHECKING, Any, Iterator
 
 import numpy as np
 
@@ -27,6 +27,9 @@ from filmcal._io import check_output_dir
 from filmcal.films import FilmRegistry, FilmType, load_films_file
 from filmcal.study.layout import StudyLayout, spec_key
 from filmcal.study.manifest import Manifest, StudyLock, utc_now
+
+if TYPE_CHECKING:
+    from filmcal._parallel import Executor
 
 __all__ = ["Study", "FESettings", "CalibrationSpec", "IMPRINT_MODELS", "KINEMATICS", "seed_for", "output_column", "correctors", "comparison_weights", "report_view",
            "chosen_posteriors", "curve_components", "film_model"]
@@ -269,7 +272,7 @@ class Study:
                                               if k not in ("n_train", "n_test", "seed", "domain")},
                 "films": [f.to_dict() for f in films]}
 
-    def fe_runs(self, fe: FESettings, workers: int | None = None, progress=None) -> dict:
+    def fe_runs(self, fe: FESettings, workers: int | Executor | None = None, progress=None) -> dict:
         """Run (or resume) the FE training and held-out designs; return inputs and every output column.
 
         Returns
@@ -280,6 +283,7 @@ class Study:
         """
         from functools import partial
 
+        from filmcal._parallel import Executor
         from filmcal.campaign import Campaign
         from filmcal.fem import evaluate_point
         from filmcal.surrogate.radius import INPUTS, design_points
@@ -296,7 +300,8 @@ class Study:
         store = self.layout.runs_store(spec_key(store_spec))
         store.parent.mkdir(parents=True, exist_ok=True)
         model = partial(evaluate_point, films=films) if films else evaluate_point
-        campaign = Campaign(model, store, settings={"spec": store_spec})
+        pool = {"executor": workers} if isinstance(workers, Executor) else {"workers": workers}
+        campaign = Campaign(model, store, settings={"spec": store_spec}, **pool)
         campaign.run(train + test, progress=progress or False)
         results = campaign.results(status=None)
         rows = _match_rows(results, train + test)
@@ -314,7 +319,7 @@ class Study:
         out["Y_test"] = {c: v[n:] for c, v in Y.items()}
         return out
 
-    def radius_model(self, fe: FESettings, column: str, workers: int | None = None, progress=None):
+    def radius_model(self, fe: FESettings, column: str, workers: int | Executor | None = None, progress=None):
         """The validated radius surrogate of one FE reading (`column`) under `fe`.
 
         Returns
@@ -341,7 +346,7 @@ class Study:
         validation = SurrogateValidation(**v["summary"], details={"points": v["points"]})
         return SurrogateRadiusModel(load_surrogate(stem), fe.domain), validation, key
 
-    def radius_models(self, requests, workers: int | None = None, progress=None) -> dict:
+    def radius_models(self, requests, workers: int | Executor | None = None, progress=None) -> dict:
         """Validated radius surrogates of several ``(FESettings, column)``: recorded ones are read, the FE
         runs of the others are run (or resumed) and their surrogates fitted in parallel, each recorded as
         it is done.
@@ -399,7 +404,7 @@ class Study:
                 "model": spec.model_label, "fe": asdict(spec.fe), "loads": spec.loads, "poisson": spec.poisson,
                 "discrepancy": spec.discrepancy, "max_steps": spec.max_steps, "dataset": data_meta}
 
-    def calibrate(self, spec: CalibrationSpec, dataset=None, workers: int | None = None, progress=None):
+    def calibrate(self, spec: CalibrationSpec, dataset=None, workers: int | Executor | None = None, progress=None):
         """Calibrate one film under one model; reuse the recorded posterior of the same spec.
 
         Returns
@@ -409,7 +414,7 @@ class Study:
         """
         return self.calibrate_many([spec], dataset, workers, progress)[0]
 
-    def calibrate_many(self, specs, dataset=None, workers: int | None = None, progress=None, on_done=None):
+    def calibrate_many(self, specs, dataset=None, workers: int | Executor | None = None, progress=None, on_done=None):
         """Calibrate several models; recorded posteriors of the same spec are reused, the others are
         sampled in parallel (after their surrogates, `radius_models`), each recorded as it finishes.
 
@@ -418,8 +423,8 @@ class Study:
         specs : sequence of CalibrationSpec
         dataset : str or Path, optional
             The calibration data (default: the study's).
-        workers : int, optional
-            Worker processes (default: all cores).
+        workers : int or filmcal._parallel.Executor, optional
+            Worker processes (default: all cores), or the pool to run in (`filmcal._parallel.SharedPool`).
         progress : callable, optional
             ``progress(done, total)`` of the FE runs.
         on_done : callable, optional

@@ -19,6 +19,7 @@ interrupted run loses no finished work and a second run only reads:
 """
 from __future__ import annotations
 
+import contextlib
 import time
 import warnings
 from dataclasses import asdict, dataclass
@@ -115,11 +116,11 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
     seed : int
         The study's seed; every stage draws from its own stream of it.
     workers : int, optional
-        Worker processes (default: all cores).
+        Worker processes, shared by every stage (default: all cores; 1: everything in this process).
     progress : filmcal._progress.Progress, optional
         The run's progress display (default: ``auto``, on stderr).
     report : callable, optional
-        ``report(study_dir, out_dir) -> {"html", "pdf", ...}``: writes the report
+        ``report(study_dir, out_dir, workers=) -> {"html", "pdf", ...}``: writes the report
         at the end (`filmcal.report.write_report`; the study stages do not import
         the report, which reads studies); None: no report.
     films_file : str or Path, optional
@@ -129,10 +130,12 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
         (`filmcal.calibration.load_dataset`) or a packaged dataset's name;
         default the study's dataset, Table 1 for a new study.
     """
+    from filmcal._parallel import SharedPool, keep_freed_memory
     from filmcal._progress import Progress
 
     settings = settings or PipelineSettings()
     progress = progress or Progress()
+    keep_freed_memory()  # the stages that run in this process allocate as the workers do
     if seed < 0 or seed >= 2**32:
         raise InputError(f"seed must be in 0..{2**32 - 1}, got {seed}")
     study = Study(study_dir, create=True, films_file=films_file)
@@ -158,15 +161,20 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
                 study.stage_done(name, elapsed)
             return out
 
-        stage("design", _design_stage, study, settings, seed)
-        results = stage("calibration", _calibration_stage, study, settings, films, seed, workers, dataset)
-        comparisons = stage("comparison", _comparison_stage, study, settings, results)
-        chosen = {film: _preferred(results[film], comparisons.get(film)) for film in films}
-        medians = {film: float(r.modulus_mpa["median"]) for film, (r, _, _) in chosen.items()}
-        stage("verification", _verification_stage, study, settings, seed, medians)
-        stage("curves", _curves_stage, study, settings, films, workers)
-        stage("outlines", _outlines_stage, study, settings, medians)
-        stage("crossval", _crossval_stage, study, settings, results, comparisons, seed)
+        # one pool for every stage, started by the first task (a rerun with nothing to do starts none)
+        with contextlib.ExitStack() as stack:
+            pool = 1 if workers == 1 else stack.enter_context(SharedPool(workers))
+            stage("design", _design_stage, study, settings, seed)
+            results = stage("calibration", _calibration_stage, study, settings, films, seed, pool, dataset)
+            comparisons = stage("comparison", _comparison_stage, study, settings, results)
+            chosen = {film: _preferred(results[film], comparisons.get(film)) for film in films}
+            medians = {film: float(r.modulus_mpa["median"]) for film, (r, _, _) in chosen.items()}
+            stage("verification", _verification_stage, study, settings, seed, medians)
+            stage("curves", _curves_stage, study, settings, films, pool)
+            stage("outlines", _outlines_stage, study, settings, medians)
+            stage("crossval", _crossval_stage, study, settings, results, comparisons, seed, pool)
+            if report is not None:
+                summary["report"] = stage("report", _report_stage, study, report, pool)
         for film in films:
             result, path, spec = chosen[film]
             d = result.to_dict()
@@ -177,8 +185,6 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
             if film in comparisons:
                 s["imprint_weights"] = comparisons[film].get("weights")
             summary["films"][film] = s
-        if report is not None:
-            summary["report"] = stage("report", _report_stage, study, report)
         summary["stage_timings_of_computing_runs"] = study.manifest.data["stages"]
         summary["elapsed_s"] = time.perf_counter() - t0
         atomic_write_json(study.layout.summary, summary, indent=1)
@@ -316,7 +322,7 @@ def _profile(res) -> dict:
             "hertz_radius_mm": res.hertz_radius_mm}
 
 
-def _curves_stage(study: Study, settings: PipelineSettings, films, workers: int | None, st):
+def _curves_stage(study: Study, settings: PipelineSettings, films, workers, st):
     """Curves of each film's combined models: one task per film and wheel, each kept as soon as it is done
     (``curves/part-<key>.json``, so an interrupted run resumes with the unfinished wheels only), then the
     film's CSV, recorded with what made it."""
@@ -409,14 +415,27 @@ def _rough_laws(study: Study, settings: PipelineSettings, components: dict, film
     return laws
 
 
-def _crossval_stage(study: Study, settings: PipelineSettings, results: dict, comparisons: dict, seed: int, st):
+def _crossval_refit(problems: dict, film: str, max_steps: int | None, seed: int, label: str, data):
+    """The exact refit of a cross-validation fold: model `label` calibrated on `data` (its samples)."""
+    from filmcal.calibration import SamplerSettings, calibrate
+
+    problem = problems[label]
+    sampler = SamplerSettings() if max_steps is None else SamplerSettings(max_steps=max_steps)
+    return calibrate(data, problem.model, film=film, poisson=problem.poisson_mode,
+                     discrepancy=None if problem.discrepancy == "none" else problem.discrepancy,
+                     priors=problem.priors, seed=seed_for(seed, f"crossval-{film}-{label}"), settings=sampler).samples
+
+
+def _crossval_stage(study: Study, settings: PipelineSettings, results: dict, comparisons: dict, seed: int, workers,
+                    st):
     """Leave-one-case-out cross-validation of the combined correction (``crossval/crossval-<film>.json``).
 
     Pareto-smoothed importance sampling of the full posteriors for each left-out
     case (`filmcal.correction.crossval.psis_leave_one_case_out`), with an exact
     recalibration only where the Pareto k exceeds 0.7.
     """
-    from filmcal.calibration import SamplerSettings, calibrate
+    from functools import partial
+
     from filmcal.correction.crossval import psis_leave_one_case_out
 
     computed = False
@@ -432,20 +451,12 @@ def _crossval_stage(study: Study, settings: PipelineSettings, results: dict, com
         if entry and entry["spec"] == spec and study.verified(path):
             continue
         pairs = {label: (study.problem(p), r.samples) for label, (r, p, _) in models.items() if weights.get(label, 0) > 0}
-        max_steps = settings.max_steps
-
-        def refit(label, data, pairs=pairs, film=film):
-            problem = pairs[label][0]
-            sampler = SamplerSettings() if max_steps is None else SamplerSettings(max_steps=max_steps)
-            return calibrate(data, problem.model, film=film, poisson=problem.poisson_mode,
-                             discrepancy=None if problem.discrepancy == "none" else problem.discrepancy,
-                             priors=problem.priors, seed=seed_for(seed, f"crossval-{film}-{label}"),
-                             settings=sampler).samples
-
+        refit = partial(_crossval_refit, {label: problem for label, (problem, _) in pairs.items()}, film,
+                        settings.max_steps, seed)
         st.log(f"[crossval] {film}: leave-one-case-out by PSIS over {len(pairs)} model(s)")
         cv = psis_leave_one_case_out(pairs, {k: weights[k] for k in pairs}, refit, film=film,
                                      random_state=seed_for(seed, f"crossval-{film}"),
-                                     log=lambda msg: st.log(f"[crossval] {film}: {msg}"))
+                                     log=lambda msg: st.log(f"[crossval] {film}: {msg}"), workers=workers)
         path.parent.mkdir(parents=True, exist_ok=True)
         atomic_write_json(path, cv.to_dict(), indent=1)
         study.record(path, "crossval", spec)
@@ -481,7 +492,7 @@ def _outlines_stage(study: Study, settings: PipelineSettings, medians: dict, st)
     return None, True
 
 
-def _report_stage(study: Study, write_report, st):
+def _report_stage(study: Study, write_report, workers, st):
     out = study.layout.report_dir
     current = study.manifest.data.get("report")
     inputs = {rel: e["sha256"] for rel, e in study.manifest.data["artefacts"].items()}
@@ -491,7 +502,7 @@ def _report_stage(study: Study, write_report, st):
     st.log("[report] HTML and PDF")
     study.manifest.data.pop("report", None)
     study.manifest.write()
-    paths = write_report(study.root, out)
+    paths = write_report(study.root, out, workers=workers)
     study.manifest.data["report"] = {"inputs": inputs}  # current only once both HTML and PDF are written
     study.manifest.write()
     return {"html": str(paths["html"]), "pdf": str(paths["pdf"]), "figures": paths.get("figures")}, True

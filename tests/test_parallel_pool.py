@@ -1,0 +1,86 @@
+"""The pipeline's shared worker pool and the allocator setting of its processes."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from filmcal._parallel import SharedPool, descendant_pids, keep_freed_memory, run_tasks
+
+
+def _pid(_: int) -> int:
+    return os.getpid()
+
+
+def test_shared_pool_starts_its_workers_with_the_first_task_only():
+    before = descendant_pids(os.getpid(), direct=True)
+    with SharedPool(2) as pool:
+        run_tasks({}, pool, lambda *a: None)  # nothing to do: nothing started
+        assert not pool.started and descendant_pids(os.getpid(), direct=True) == before
+        run_tasks({0: (_pid, (0,))}, pool, lambda *a: None)
+        assert pool.started and len(descendant_pids(os.getpid(), direct=True) - before) >= 2  # (and a resource tracker)
+
+
+def test_every_stage_runs_in_the_same_worker_processes():
+    seen: list[set[int]] = []
+    with SharedPool(2) as pool:
+        for stage in range(3):
+            pids: set[int] = set()
+            run_tasks({k: (_pid, (k,)) for k in range(6)}, pool, lambda key, pid, k: pids.add(pid))
+            seen.append(pids)
+            assert pool.started
+        workers = descendant_pids(os.getpid(), direct=True)
+    assert os.getpid() not in set().union(*seen)
+    assert set().union(*seen) <= workers and len(set().union(*seen)) <= 2
+    with pytest.raises(RuntimeError, match="shut down"):
+        pool.submit(_pid, 0)
+
+
+def test_a_failed_task_in_the_shared_pool_raises_and_leaves_the_pool_usable():
+    with SharedPool(2) as pool:
+        with pytest.raises(RuntimeError, match="1 task"):
+            run_tasks({"bad": (int, ("x",)), "good": (int, ("3",))}, pool, lambda *a: None)
+        got = {}
+        run_tasks({"again": (int, ("4",))}, pool, lambda key, value, k: got.update({key: value}))
+    assert got == {"again": 4}
+
+
+def test_workers_must_be_a_positive_integer():
+    for bad in (0, -1, 1.5, True):
+        with pytest.raises(ValueError, match="workers"):
+            SharedPool(bad)
+
+
+_FAULTS = textwrap.dedent("""
+    import resource, sys
+    import numpy as np
+    import scipy.fft as fft
+    if sys.argv[1] == "keep":
+        from filmcal._parallel import keep_freed_memory
+        assert keep_freed_memory()
+    x = np.random.default_rng(0).random((256, 256))
+    kernel = np.ones((256, 129))
+    fft.irfft2(fft.rfft2(x) * kernel, s=x.shape)
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+    for _ in range(200):  # the pattern of an FFT contact iteration: temporaries of 0.25-0.5 MB
+        y = fft.irfft2(fft.rfft2(x) * kernel, s=x.shape)
+        z = y - x
+        w = (z > 0) & (y < 1)
+    print(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
+""")
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's mallopt")
+def test_kept_freed_memory_spares_the_page_faults_of_repeated_temporaries():
+    def faults(mode: str) -> int:
+        run = subprocess.run([sys.executable, "-c", _FAULTS, mode], capture_output=True, text=True, check=True,
+                             env={**os.environ, "OPENBLAS_NUM_THREADS": "1"})
+        return int(run.stdout.strip())
+
+    assert keep_freed_memory()
+    default, kept = faults("default"), faults("keep")
+    # by default every iteration faults its temporaries in again (about 128 pages per 0.5 MB array)
+    assert default > 10_000 and kept < default / 10
