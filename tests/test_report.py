@@ -225,7 +225,7 @@ def test_sections_drawn_in_worker_processes_are_those_drawn_here(printed):
         serial = render_html(here)
     pooled = Path(paths["html"]).read_text(encoding="utf-8")
     stamp = re.compile(r"generated \d{4}-\d\d-\d\d \d\d:\d\d UTC")
-    assert pooled.count("data:image/png;base64,") == len(here.figures) > 10
+    assert pooled.count("data:image/png;base64,") == len(here.figures) >= 5
     assert stamp.sub("", pooled) == stamp.sub("", serial)
 
 
