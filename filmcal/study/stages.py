@@ -169,7 +169,7 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
             comparisons = stage("comparison", _comparison_stage, study, settings, results)
             chosen = {film: _preferred(results[film], comparisons.get(film)) for film in films}
             medians = {film: float(r.modulus_mpa["median"]) for film, (r, _, _) in chosen.items()}
-            stage("verification", _verification_stage, study, settings, seed, medians)
+            stage("verification", _verification_stage, study, settings, seed, medians, pool)
             stage("curves", _curves_stage, study, settings, films, pool)
             stage("outlines", _outlines_stage, study, settings, medians)
             stage("crossval", _crossval_stage, study, settings, results, comparisons, seed, pool)
@@ -274,44 +274,55 @@ def _comparison_stage(study: Study, settings: PipelineSettings, results: dict, s
     return out, computed
 
 
-def _verification_stage(study: Study, settings: PipelineSettings, seed: int, medians: dict, st):
+def _fe_solve(radius_mm: float, force_n: float, film: tuple[float, float] | None, options) -> dict:
+    """One FE solve of the verification: the sphere on the flat, bare (`film` None) or with film ``(E, nu)``."""
+    from filmcal.fem import Film, get_model
+
+    res = get_model(radius_mm).solve(None if film is None else Film(*film), force_n, options)
+    return {"fe_radius_mm": res.contact_radius_mm, "hertz_radius_mm": res.hertz_radius_mm,
+            "fe_max_pressure_mpa": res.max_pressure_mpa, "converged": res.converged, "profile": _profile(res)}
+
+
+def _verification_stage(study: Study, settings: PipelineSettings, seed: int, medians: dict, workers, st):
     path = study.layout.verification
     if study.verified(path) and set(read_json(path)["films"]) >= set(medians):
         return None, False
+    from filmcal._parallel import run_tasks
     from filmcal.calibration import load_table1
-    from filmcal.fem import Film, get_model
 
     st.log("[verification] FE without film against Hertz; FE against the surrogate at the posterior medians")
     data = load_table1("HS")  # the ten (R, F) cases of Table 1
     cases = [(float(r), float(f)) for r, f in zip(data.sphere_radius_mm, data.force_n)]
-    st.set_total(len(cases) * (1 + len(medians)))
-    hertz = []
-    for r, f in cases:
-        st.advance(note=f"no film, R{r:.0f}/{f / 1e3:.0f} kN")
-        res = get_model(r).solve(None, f)
-        hertz.append({"radius_mm": r, "force_n": f, "fe_radius_mm": res.contact_radius_mm,
-                      "hertz_radius_mm": res.hertz_radius_mm, "fe_max_pressure_mpa": res.max_pressure_mpa,
-                      "converged": res.converged})
-    fe = settings.fe(settings.kinematics[0], seed)
-    options = fe.contact_options()
-    model, _, _ = study.radius_model(fe, "contact_radius_mm", progress=False)
-    films = {}
-    for film, e in medians.items():
-        nu = study.film(film).poisson
+    options = settings.fe(settings.kinematics[0], seed).contact_options()
+    films = {film: (e, study.film(film).poisson) for film, e in medians.items()}
+    tasks = {(None, r, f): (_fe_solve, (r, f, None, None)) for r, f in [*cases, PROFILE_CASE]}
+    tasks.update({(film, r, f): (_fe_solve, (r, f, films[film], options))
+                  for film in films for r, f in [*cases, PROFILE_CASE]})
+    st.set_total(len(tasks))
+    solved: dict = {}
+
+    def keep(key, out, k):
+        solved[key] = out
+        film, r, f = key
+        st.advance(note=f"{film or 'no film'}, R{r:.0f}/{f / 1e3:.0f} kN")
+
+    run_tasks(tasks, workers, keep)
+    hertz = [{"radius_mm": r, "force_n": f, **{k: v for k, v in solved[None, r, f].items() if k != "profile"}}
+             for r, f in cases]
+    model, _, _ = study.radius_model(settings.fe(settings.kinematics[0], seed), "contact_radius_mm", progress=False)
+    out_films = {}
+    for film, (e, nu) in films.items():
         rows = []
         for r, f in cases:
-            st.advance(note=f"{film}, R{r:.0f}/{f / 1e3:.0f} kN")
-            res = get_model(r).solve(Film(e, nu), f, options)
             mean, std = model.predict(e, nu, r, f)
-            rows.append({"radius_mm": r, "force_n": f, "fe_radius_mm": res.contact_radius_mm,
-                         "surrogate_mean_mm": float(mean), "surrogate_std_mm": float(std), "converged": res.converged})
-        films[film] = {"modulus_mpa": e, "cases": rows}
+            res = solved[film, r, f]
+            rows.append({"radius_mm": r, "force_n": f, "fe_radius_mm": res["fe_radius_mm"],
+                         "surrogate_mean_mm": float(mean), "surrogate_std_mm": float(std), "converged": res["converged"]})
+        out_films[film] = {"modulus_mpa": e, "cases": rows}
     r, f = PROFILE_CASE
-    profiles = {"no film": _profile(get_model(r).solve(None, f))}
-    for film, e in medians.items():
-        profiles[f"{film} film, E = {e:.0f} MPa"] = _profile(get_model(r).solve(Film(e, study.film(film).poisson), f,
-                                                                                options))
-    atomic_write_json(path, {"hertz": hertz, "films": films, "profile_case": {"radius_mm": r, "force_n": f},
+    profiles = {"no film": solved[None, r, f]["profile"]}
+    profiles.update({f"{film} film, E = {e:.0f} MPa": solved[film, r, f]["profile"] for film, (e, _) in films.items()})
+    atomic_write_json(path, {"hertz": hertz, "films": out_films, "profile_case": {"radius_mm": r, "force_n": f},
                              "profiles": profiles}, indent=None)
     study.record(path, "verification", {"films": medians})
     return None, True
