@@ -16,14 +16,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "against Hertz and of the surrogate against FE, wheel-rail correction curves (S1002/60E2, 50 "
                     "and 100 kN, eta -7..2 mm, smooth and rough wheel) with 90 %% credible bands, contact outlines, "
                     "leave-one-case-out cross-validation of the correction on Table 1, and the HTML + PDF report (STUDY_DIR/report). Finished work is kept and reused: an interrupted "
-                    "run resumes where it stopped, and a second run only reads. The full run took about 10 min "
-                    "(618 s measured 2026-11-24 on 2 idle cores; --quick 98 s). A folder keeps "
+                    "run resumes where it stopped, and a second run only reads. The full run takes about 3 min "
+                    "(182 s measured 2026-11-24 on 2 idle cores; --quick 42 s). A folder keeps "
                     "the settings it was made with; other settings need another folder.")
     p.add_argument("--study-dir", default=None,
                    help="study folder (default ./filmcal-study, or ./filmcal-study-quick with --quick)")
     p.add_argument("--quick", action="store_true",
-                   help="a small version for checks (40+12 FE runs, short chains, 3 offsets at 50 kN): about 4.5 min "
-                        "(263 s measured 2026-11-24 on 2 cores at load average about 10)")
+                   help="a small version for checks (40+12 FE runs, short chains, 3 offsets at 50 kN): about 45 s "
+                        "(42 s measured 2026-11-24 on 2 idle cores)")
     p.add_argument("--films", default=None,
                    help="film types, comma-separated (default MS,HS,HHS, or the films of --data; others from "
                         "--films-file)")
@@ -38,7 +38,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--kinematics", default=None,
                    help="film kinematics of the FE model, each calibrated and compared: small, large or "
                         "small,large (default small,large; small with --quick)")
-    p.add_argument("--workers", type=int, default=None, help="FE worker processes (default: all cores)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="worker processes, one pool shared by every stage (default: all cores; 1: all in this process)")
     p.add_argument("--seed", type=int, default=0, help="seed of designs, surrogate and chains (default 0)")
     p.add_argument("--no-report", action="store_true", help="skip the HTML/PDF report")
     p.add_argument("--progress", choices=["auto", "live", "log", "quiet"], default="auto",

@@ -28,6 +28,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from filmcal.study import Study
+
+    Study(args.study_dir)  # a folder that is not a study is refused before the report's imports
     from filmcal.report import write_report
 
     with warnings.catch_warnings():  # the fallback is said once, below

@@ -696,7 +696,8 @@ def calibration_sections(data: StudyData, films: list[str] | None = None) -> lis
     out = []
     for film in data.films if films is None else films:
         if film in data.posteriors:
-            out += [calibration_section(film, *p) for p in [data.posteriors[film], *data.other_posteriors.get(film, [])]]
+            chosen = [data.posteriors[film], *data.other_posteriors.get(film, [])]
+            out += [calibration_section(film, *p) for p in chosen]
         else:
             out.append(_missing(Section(f"Calibration of {film} film"), f"posterior of {film}"))
     return out

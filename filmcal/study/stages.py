@@ -317,7 +317,8 @@ def _verification_stage(study: Study, settings: PipelineSettings, seed: int, med
             mean, std = model.predict(e, nu, r, f)
             res = solved[film, r, f]
             rows.append({"radius_mm": r, "force_n": f, "fe_radius_mm": res["fe_radius_mm"],
-                         "surrogate_mean_mm": float(mean), "surrogate_std_mm": float(std), "converged": res["converged"]})
+                         "surrogate_mean_mm": float(mean), "surrogate_std_mm": float(std),
+                         "converged": res["converged"]})
         out_films[film] = {"modulus_mpa": e, "cases": rows}
     r, f = PROFILE_CASE
     profiles = {"no film": solved[None, r, f]["profile"]}
