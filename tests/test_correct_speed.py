@@ -22,6 +22,11 @@ NAMES = ("modulus_mpa", "poisson", "radius_mm", "force_kn")
 HEAVY = ("sklearn", "scipy.stats", "emcee", "pandas", "arviz", "h5py")
 
 
+def heavy(modules) -> set[str]:
+    """The modules of `modules` that belong to a heavy package (`HEAVY`)."""
+    return {m for m in modules if any(m == h or m.startswith(h + ".") for h in HEAVY)}
+
+
 def _excess(X: np.ndarray) -> np.ndarray:
     """A smooth positive stand-in for the radius excess over Hertz (a test function, not physics)."""
     e, nu, r, f = X.T
@@ -117,8 +122,24 @@ def test_prediction_and_the_correct_command_import_no_heavy_stage(saved):
             "print(sorted(sys.modules))\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     modules = set(eval(out.stdout))  # noqa: S307 - our own subprocess's list of names
-    assert not {m for m in modules if m.split(".")[0] in HEAVY or m in HEAVY}
+    assert not heavy(modules)
     assert not {m for m in modules if m.startswith(("scipy", "filmcal.wheelrail.halfspace", "filmcal.calibration"))}
+
+
+def test_the_capsule_reading_of_a_correction_imports_no_statistics_package():
+    """A study's capsule model is built on every correction: its log-normal strengths come from scipy.special."""
+    code = ("import sys, numpy as np\n"
+            "from filmcal.contact.film import FilmModel\n"
+            "from filmcal.contact.imprint import get_imprint_model\n"
+            "from filmcal.films import get_film\n"
+            "FilmModel(get_film('HS'), 'capsule', 'small')\n"
+            "p = get_imprint_model('capsule').stain_probability(np.array([0.0, 50.0, 130.0]), get_film('HS'))\n"
+            "print(repr(p.tolist()), sorted(sys.modules))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    probabilities, modules = out.stdout.split("] ", 1)
+    assert not heavy(eval(modules))  # noqa: S307 - our own subprocess's list of names
+    # HS spans 50-130 MPa: 2 % of the capsules are weaker than 50 MPa, 2 % stronger than 130 MPa
+    assert eval(probabilities + "]") == pytest.approx([0.0, 0.02, 0.98], abs=1e-12)  # noqa: S307
 
 
 def _lognormal(median, n=600, seed=0):
@@ -195,7 +216,7 @@ def test_correct_of_a_quick_study_keeps_its_solves_and_refuses_a_changed_cache(q
 
     artefacts = json.loads((study / "study.json").read_text())["artefacts"]
     out, imported = run(sphere)
-    assert not {m for m in imported if m.split(".")[0] in HEAVY}
+    assert not heavy(imported)
     cold, _ = run(wheel)
     manifest = json.loads((study / "study.json").read_text())
     assert manifest["artefacts"] == artefacts  # a correction makes no artefact: the report stays current
@@ -203,7 +224,7 @@ def test_correct_of_a_quick_study_keeps_its_solves_and_refuses_a_changed_cache(q
     assert len(kept) == 1 and (study / kept[0]).exists()
     warm, imported = run(wheel)
     assert warm == cold  # read from the study: the same answer
-    assert not {m for m in imported if m.split(".")[0] in HEAVY or m.startswith(("scipy", "filmcal.wheelrail.halfspace"))}
+    assert not heavy(imported) and not {m for m in imported if m.startswith(("scipy", "filmcal.wheelrail.halfspace"))}
     areas = json.loads((study / kept[0]).read_text())
     areas["area_no_film_mm2"] *= 1.1
     (study / kept[0]).write_text(json.dumps(areas))

@@ -196,20 +196,20 @@ class CapsuleImprint(ImprintModel):
         if film.range_mpa is None:
             raise ValueError(f"film {film.name} has no range_mpa: the capsule imprint model spreads "
                              "capsule strengths over the measurement range; give the film a range")
-        from scipy.stats import norm
+        from scipy.special import ndtri  # the standard normal quantile (scipy.stats would take 0.5 s to import)
 
         lo, hi = film.range_mpa
-        z = float(norm.ppf(1.0 - self.range_quantile))
+        z = float(ndtri(1.0 - self.range_quantile))
         return 0.5 * math.log(lo * hi), math.log(hi / lo) / (2.0 * z)
 
     def stain_probability(self, pressure_mpa, film=None) -> np.ndarray:
-        from scipy.stats import norm
+        from scipy.special import ndtr  # the standard normal distribution function
 
         mu, sigma = self._lognormal(film)
         p = _pressure(pressure_mpa)
         with np.errstate(divide="ignore"):
             z = (np.log(np.where(p > 0, p, 1.0)) - mu) / sigma
-        return np.where(p > 0, norm.cdf(z), 0.0)
+        return np.where(p > 0, ndtr(z), 0.0)
 
     def radius_from_profile(self, profile, film=None) -> float:
         area = profile.integral_mm2(lambda p: self.stain_probability(p, film))
