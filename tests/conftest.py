@@ -190,16 +190,57 @@ def model450():
     return get_model(450.0)
 
 
-@pytest.fixture(scope="session")
-def quick_study(tmp_path_factory):
-    """One quick pipeline run (HS film) through the CLI: its folder and its JSON summary."""
-    import json
+_QUICK_STUDY = pytest.StashKey[dict]()
+
+
+def _start_quick_study(config: pytest.Config) -> dict:
+    """Start the quick pipeline (HS film) through the CLI in the background, output to files."""
     import subprocess
     import sys
+    import tempfile
 
-    study = tmp_path_factory.mktemp("quick-study")
+    folder = Path(tempfile.mkdtemp(prefix="filmcal-quick-study-"))
+    study = folder / "study"
     cmd = [sys.executable, "-m", "filmcal.cli", "pipeline", "--quick", "--films", "HS", "--workers", "2",
            "--study-dir", str(study), "--json"]
-    run = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
-    assert run.returncode == 0, run.stderr[-3000:]
-    return study, json.loads(run.stdout), cmd
+    out, err = open(folder / "stdout", "w"), open(folder / "stderr", "w")
+    started = {"folder": folder, "study": study, "cmd": cmd, "out": out, "err": err,
+               "process": subprocess.Popen(cmd, stdout=out, stderr=err, stdin=subprocess.DEVNULL)}
+    config.stash[_QUICK_STUDY] = started
+    return started
+
+
+def pytest_collection_finish(session: pytest.Session) -> None:
+    """Start the quick study as soon as a selected test needs it: it then runs beside the first tests, which
+    mostly use one core of two, instead of holding up the first test that asks for it."""
+    if any("quick_study" in getattr(item, "fixturenames", ()) for item in session.items):
+        _start_quick_study(session.config)
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    """Stop the quick study if no test waited for it (a run stopped early) and remove its folder."""
+    import shutil
+
+    started = session.config.stash.get(_QUICK_STUDY, None)
+    if started is None:
+        return
+    if started["process"].poll() is None:
+        started["process"].kill()
+        started["process"].wait()
+    started["out"].close()
+    started["err"].close()
+    shutil.rmtree(started["folder"], ignore_errors=True)
+
+
+@pytest.fixture(scope="session")
+def quick_study(request):
+    """One quick pipeline run (HS film) through the CLI, started at collection: its folder, JSON summary and
+    command."""
+    import json
+
+    started = request.config.stash.get(_QUICK_STUDY, None) or _start_quick_study(request.config)
+    process = started["process"]
+    process.wait(timeout=900)
+    err = (started["folder"] / "stderr").read_text()
+    assert process.returncode == 0, err[-3000:]
+    return started["study"], json.loads((started["folder"] / "stdout").read_text()), started["cmd"]
