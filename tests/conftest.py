@@ -39,7 +39,7 @@ TESTS_DIR = Path(__file__).resolve().parent
 #: Fixtures whose users are slow: a quick pipeline, or a shared setup of as
 #: much work (wall time on the busy machine, as below).
 SLOW_FIXTURES: frozenset[str] = frozenset({
-    "quick_study",  # a quick pipeline in a subprocess: 2-5 minutes
+    "quick_study",  # a quick pipeline (HS) in a subprocess: about 25 s, started at collection
     "printed",      # test_report.py: a synthetic study's report printed by Chromium, 21 s
     "fine_025",     # test_fem_imprint.py: FE solves on a 0.025 mm mesh, 16 s
 })
