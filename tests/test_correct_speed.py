@@ -16,7 +16,8 @@ from filmcal.correction.wheelrail import SupportAreas, WheelRailCorrector, suppo
 from filmcal.films import get_film
 from filmcal.surrogate import GPSurrogate, save_surrogate
 from filmcal.surrogate.io import load_surrogate
-from filmcal.surrogate.saved import SETTINGS, load_for_prediction, load_saved_surrogate
+from filmcal.surrogate.radius import load_for_prediction
+from filmcal.surrogate.saved import SETTINGS, load_saved_surrogate
 
 NAMES = ("modulus_mpa", "poisson", "radius_mm", "force_kn")
 HEAVY = ("sklearn", "scipy.stats", "emcee", "pandas", "arviz", "h5py")

@@ -716,7 +716,7 @@ def _sphere_model(study: Study, posterior_path: Path, *, predict_only: bool = Fa
             raise InputError(f"{p} is missing: the surrogate of {posterior_path.name}; run `filmcal calibrate` again "
                              "to recompute it")
     if predict_only:
-        from filmcal.surrogate.saved import load_for_prediction
+        from filmcal.surrogate.radius import load_for_prediction
 
         return SurrogateRadiusModel(load_for_prediction(stem), domain)
     from filmcal.surrogate import load_surrogate

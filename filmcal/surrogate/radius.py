@@ -17,6 +17,7 @@ spans a decade), over (log E, nu, log R, log F):
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -29,7 +30,7 @@ if TYPE_CHECKING:
 
 __all__ = ["INPUTS", "LOG_INPUTS", "EDGE_COLUMN", "SurrogateDomain", "SurrogateValidation", "design_points",
            "option_columns", "radius_excess_mm", "fit_radius_surrogate", "validate_radius_surrogate", "fit_and_validate",
-           "SurrogateRadiusModel", "FERadiusModel", "CaseTable"]
+           "SurrogateRadiusModel", "FERadiusModel", "CaseTable", "load_for_prediction"]
 
 INPUTS = ("modulus_mpa", "poisson", "radius_mm", "force_kn")
 LOG_INPUTS = ("modulus_mpa", "radius_mm", "force_kn")
@@ -310,3 +311,24 @@ class FERadiusModel:
             res = evaluate_point(point, films=self.films) if self.films else evaluate_point(point)
             out[idx] = float(res.get(self.output, np.nan)) if res.get("converged", True) else np.nan
         return out, np.zeros(e.shape)
+
+
+def load_for_prediction(path: str | Path):
+    """A saved surrogate for prediction: numpy alone (`load_saved_surrogate`), else the full reader.
+
+    When numpy's factorisation does not reproduce the stored log marginal
+    likelihood (a nearly singular kernel matrix, or a damaged file), the
+    files go to `filmcal.surrogate.io.load_surrogate` (scikit-learn and scipy,
+    as the fit computed it), which returns the `GPSurrogate` or refuses the
+    files with its own message.
+    """
+    from filmcal.surrogate.saved import load_saved_surrogate
+
+    try:
+        return load_saved_surrogate(path)
+    except ValueError as exc:
+        if "log marginal likelihood" not in str(exc):
+            raise
+    from filmcal.surrogate.io import load_surrogate
+
+    return load_surrogate(path)

@@ -18,8 +18,9 @@ Rounding: numpy's and scipy's LAPACK builds factorise the same kernel matrix
 identically while it is reasonably conditioned; for a nearly singular one
 (condition number ~1e13: long length scales and the white noise at its
 lower bound) their Cholesky factors differ in the 8th digit and the log
-marginal likelihood no longer reproduces to 1e-8. `load_for_prediction` then
-hands the files to `load_surrogate`, which decides with scipy as the fit did.
+marginal likelihood no longer reproduces to 1e-8.
+`filmcal.surrogate.radius.load_for_prediction` then hands the files to
+`load_surrogate`, which decides with scipy as the fit did.
 """
 from __future__ import annotations
 
@@ -32,8 +33,7 @@ import numpy as np
 
 from filmcal.surrogate.transforms import InputTransform, OutputTransform, as_input_matrix
 
-__all__ = ["FORMAT", "FORMAT_VERSION", "SETTINGS", "SavedSurrogate", "load_saved_surrogate", "load_for_prediction",
-           "read_saved", "kernel_hyperparameters"]
+__all__ = ["FORMAT", "FORMAT_VERSION", "SETTINGS", "SavedSurrogate", "load_saved_surrogate", "read_saved", "kernel_hyperparameters"]
 
 FORMAT = "filmcal-gp-surrogate"
 FORMAT_VERSION = 1
@@ -285,22 +285,3 @@ def load_saved_surrogate(path: str | Path) -> SavedSurrogate:
                          f"log marginal likelihood ({surrogate.log_marginal_likelihood_value_!r} != "
                          f"{saved['stored_lml']!r})")
     return surrogate
-
-
-def load_for_prediction(path: str | Path):
-    """A saved surrogate for prediction: numpy alone (`load_saved_surrogate`), else the full reader.
-
-    When numpy's factorisation does not reproduce the stored log marginal
-    likelihood (a nearly singular kernel matrix, or a damaged file), the
-    files go to `filmcal.surrogate.io.load_surrogate` (scikit-learn and scipy,
-    as the fit computed it), which returns the `GPSurrogate` or refuses the
-    files with its own message.
-    """
-    try:
-        return load_saved_surrogate(path)
-    except ValueError as exc:
-        if "log marginal likelihood" not in str(exc):
-            raise
-    from filmcal.surrogate.io import load_surrogate
-
-    return load_surrogate(path)
