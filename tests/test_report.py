@@ -7,6 +7,7 @@ once; the PDF is then read back with poppler (``pdfinfo``, ``pdftotext``,
 """
 from __future__ import annotations
 
+import base64
 import csv
 import hashlib
 import io
@@ -326,6 +327,18 @@ def test_design_pairs_are_in_physical_units(printed):
     # the synthetic design spans the default surrogate domain: E 400-20000 MPa, R levels 300-600 mm
     assert e_lim[0] < 1000 and e_lim[1] > 10000
     assert r_lim[0] > 250 and r_lim[1] < 650
+
+
+def test_a_blank_figure_has_the_pixel_size_of_the_figure():
+    """The first print (page numbers only) lays figures out from white images of the same pixel size."""
+    from PIL import Image
+
+    block = FigureBlock(_sine_figure(), "sine")
+    drawn = Image.open(io.BytesIO(base64.b64decode(block.png_base64())))
+    blank = Image.open(io.BytesIO(base64.b64decode(block.blank_png_base64())))
+    assert blank.size == drawn.size == (600, 450)  # 4 x 3 in at 150 dpi
+    assert set(blank.convert("L").getdata()) == {255}
+    assert len(block.blank_png_base64()) < len(block.png_base64()) / 5
 
 
 def test_pdf_falls_back_to_figures_without_chromium(tmp_path, monkeypatch):

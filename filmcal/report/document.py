@@ -14,6 +14,7 @@ import html
 import io
 import re
 import shutil
+import struct
 import subprocess
 import tempfile
 from dataclasses import dataclass, field
@@ -75,6 +76,15 @@ class FigureBlock:
             return self._size_in
         w, h = self.figure.get_size_inches()
         return float(w), float(h)
+
+    def blank_png_base64(self) -> str:
+        """A white PNG of the figure's pixel size: the page is laid out as with the figure, from a few bytes."""
+        from PIL import Image  # matplotlib's own dependency
+
+        width, height = struct.unpack(">II", base64.b64decode(self.png_base64()[:32])[16:24])  # the IHDR chunk
+        buf = io.BytesIO()
+        Image.new("1", (width, height), 1).save(buf, format="PNG")
+        return base64.b64encode(buf.getvalue()).decode("ascii")
 
     def drawn(self) -> "FigureBlock":
         """The same block with its figure drawn to PNG and released (light to send between processes)."""
@@ -193,17 +203,17 @@ def _table_html(block: Table) -> str:
     return f"<table>{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
 
 
-def _figure_html(block: FigureBlock, n: int) -> str:
+def _figure_html(block: FigureBlock, n: int, blank: bool = False) -> str:
     w, h = block.size_in
     # printed at its drawn size, scaled down only to fit the text width and, with its caption, one page
     width_in = min(w, TEXT_WIDTH_IN, w * FIGURE_MAX_HEIGHT_IN / h)
     return (f'<figure id="fig{n}"><img style="width: {width_in:.2f}in" '
             f'alt="Figure {n}: {html.escape(block.caption, quote=True)}" '
-            f'src="data:image/png;base64,{block.png_base64()}">'
+            f'src="data:image/png;base64,{block.blank_png_base64() if blank else block.png_base64()}">'
             f"<figcaption><b>Figure {n}.</b> {html.escape(block.caption)}</figcaption></figure>")
 
 
-def _block_html(block: Block, fig_no: list[int]) -> str:
+def _block_html(block: Block, fig_no: list[int], blank_figures: bool = False) -> str:
     if isinstance(block, str):
         return f"<p>{html.escape(block)}</p>"
     if isinstance(block, Table):
@@ -212,7 +222,7 @@ def _block_html(block: Block, fig_no: list[int]) -> str:
         return "<dl>" + "".join(f"<dt>{html.escape(t)}</dt><dd>{html.escape(d)}</dd>" for t, d in block.entries) \
             + "</dl>"
     fig_no[0] += 1
-    return _figure_html(block, fig_no[0])
+    return _figure_html(block, fig_no[0], blank_figures)
 
 
 def _toc_html(report: Report, page_numbers: dict[str, int] | None) -> str:
@@ -232,7 +242,7 @@ def _toc_html(report: Report, page_numbers: dict[str, int] | None) -> str:
     return f'<nav class="toc"><h2>Contents</h2><ol>{"".join(items)}</ol></nav>'
 
 
-def render_html(report: Report, page_numbers: dict[str, int] | None = None) -> str:
+def render_html(report: Report, page_numbers: dict[str, int] | None = None, blank_figures: bool = False) -> str:
     """The report as one self-contained HTML page (screen and A4 print).
 
     Parameters
@@ -241,6 +251,9 @@ def render_html(report: Report, page_numbers: dict[str, int] | None = None) -> s
     page_numbers : dict, optional
         Printed page of each section (``"s1"``, ``"s2"``, ...) for the table of
         contents; without it the contents list has no page numbers.
+    blank_figures : bool
+        Figures as white images of their size (`FigureBlock.blank_png_base64`):
+        the same layout, for the print that only finds the page numbers.
     """
     fig_no = [0]
     title = [f"<h1>{html.escape(report.title)}</h1><p class=\"subtitle\">{html.escape(report.subtitle)}</p>"]
@@ -250,7 +263,7 @@ def render_html(report: Report, page_numbers: dict[str, int] | None = None) -> s
     # a section with figures or tables starts a page; a few lines of text follow on the page before
     parts = [f'<section class="{"chapter" if any(not isinstance(b, str) for b in s.blocks) else "brief"}" '
              f'id="{_anchor(i)}"><h2>{i}. {html.escape(s.title)}</h2>'
-             + "".join(_block_html(b, fig_no) for b in s.blocks) + "</section>"
+             + "".join(_block_html(b, fig_no, blank_figures) for b in s.blocks) + "</section>"
              for i, s in enumerate(report.sections, 1)]
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
             f"<title>{html.escape(report.title)}</title><style>{_CSS}</style></head><body>"
@@ -337,9 +350,9 @@ def _write_matplotlib_pdf(report: Report, path: Path, reason: str) -> None:
 def write_pdf(report: Report, path: str | Path, timeout_s: float = 300.0) -> PdfResult:
     """Print the report's HTML to an A4 PDF with headless Chromium (fallback: figures-only matplotlib PDF).
 
-    The page is printed twice when ``pdftotext`` is available: the first print
-    tells on which page each section starts, the second carries those page
-    numbers in the table of contents.
+    The page is printed twice when ``pdftotext`` is available: the first print,
+    with blank figures of the same size, tells on which page each section
+    starts; the second carries those page numbers in the table of contents.
 
     Parameters
     ----------
@@ -361,9 +374,12 @@ def write_pdf(report: Report, path: str | Path, timeout_s: float = 300.0) -> Pdf
               "package, or any Chromium/Chrome on PATH).")
     if chromium is not None:
         try:
-            _print_with_chromium(chromium, render_html(report), tmp, timeout_s)
+            # when a second print follows, the first only finds the pages: blank figures of the same size
+            # lay the page out alike and print in half the time
+            layout_only = shutil.which("pdftotext") is not None
+            _print_with_chromium(chromium, render_html(report, blank_figures=layout_only), tmp, timeout_s)
             pages = _section_pages(tmp, report)
-            if pages:
+            if pages or layout_only:
                 _print_with_chromium(chromium, render_html(report, page_numbers=pages), tmp, timeout_s)
             tmp.replace(path)
             return PdfResult(path, "chromium")
