@@ -17,13 +17,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "and 100 kN, eta -7..2 mm, smooth and rough wheel) with 90 %% credible bands, contact outlines, "
                     "leave-one-case-out cross-validation of the correction on Table 1, and the HTML + PDF report (STUDY_DIR/report). Finished work is kept and reused: an interrupted "
                     "run resumes where it stopped, and a second run only reads. The full run takes about 3 min "
-                    "(182 s measured 2026-11-24 on 2 idle cores; --quick 42 s). A folder keeps "
+                    "(182 s measured 2026-11-24 on 2 idle cores; --quick 40 s). A folder keeps "
                     "the settings it was made with; other settings need another folder.")
     p.add_argument("--study-dir", default=None,
                    help="study folder (default ./filmcal-study, or ./filmcal-study-quick with --quick)")
     p.add_argument("--quick", action="store_true",
                    help="a small version for checks (40+12 FE runs, short chains, 3 offsets at 50 kN): about 45 s "
-                        "(42 s measured 2026-11-24 on 2 idle cores)")
+                        "(40 s measured 2026-11-24 on 2 idle cores)")
     p.add_argument("--films", default=None,
                    help="film types, comma-separated (default MS,HS,HHS, or the films of --data; others from "
                         "--films-file)")
