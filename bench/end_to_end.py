@@ -4,7 +4,7 @@
     python bench/end_to_end.py --pipeline --work-dir /tmp/e2e     # also the pipeline: full, rerun, --quick
     python bench/end_to_end.py --pipeline --quick-only --work-dir /tmp/e2e   # only --quick: new, rerun
 
-``filmcal correct`` (target <= 1 s, start-up included: issue 13) is timed in both
+``filmcal correct`` (target <= 1 s, start-up included) is timed in both
 forms of the contract, as the median of ``--correct-repeats`` (5) whole-process
 runs in a row, each line with the child's CPU time (user + system), the number
 of modules the form imports (one ``-X importtime`` run), the first run apart
