@@ -79,7 +79,7 @@ class FigureBlock:
 
     def blank_png_base64(self) -> str:
         """A white PNG of the figure's pixel size: the page is laid out as with the figure, from a few bytes."""
-        from PIL import Image  # matplotlib's own dependency
+        from PIL import Image
 
         width, height = struct.unpack(">II", base64.b64decode(self.png_base64()[:32])[16:24])  # the IHDR chunk
         buf = io.BytesIO()
