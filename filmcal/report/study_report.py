@@ -31,8 +31,8 @@ from filmcal.report import figures as F
 from filmcal.report.document import Definitions, FigureBlock, Report, Section, Table, render_html, write_pdf
 
 __all__ = ["build_report", "write_report", "read_study", "StudyData", "DesignData", "SECTION_BUILDERS",
-           "GLOSSARY", "answer_table", "summary_section", "calibration_sections", "verification_section", "preliminary_section",
-           "design_section", "surrogate_section", "calibration_section", "film_records_section",
+           "GLOSSARY", "answer_table", "summary_section", "calibration_sections", "verification_section",
+           "preliminary_section", "design_section", "surrogate_section", "calibration_section", "film_records_section",
            "crossval_section", "wheel_rail_section", "glossary_section", "provenance_section",
            "REFERENCE_OFFSET_MM"]
 
@@ -719,15 +719,20 @@ SECTION_BUILDERS: list[Callable[[StudyData], Section | list[Section]]] = [
 ]
 
 
-def _build_sections(data: StudyData, job: tuple[int, str | None]) -> list[Section]:
-    """The sections of one unit of work ``(builder index, film or None)``."""
+def _build_sections(data: StudyData, job: tuple[int, str | None], draw: bool = False) -> list[Section]:
+    """The sections of one unit of work ``(builder index, film or None)``; with `draw`, every figure drawn to
+    PNG and released (`FigureBlock.drawn`), to be sent from a worker."""
     import matplotlib
 
     index, film = job
     build = SECTION_BUILDERS[index]
     with matplotlib.rc_context(F.REPORT_STYLE):
         out = build(data) if film is None else build(data, [film])
-    return out if isinstance(out, list) else [out]
+        sections = out if isinstance(out, list) else [out]
+        if draw:
+            for section in sections:
+                section.blocks = [b.drawn() if isinstance(b, FigureBlock) else b for b in section.blocks]
+    return sections
 
 
 def _report_jobs(data: StudyData) -> list[tuple[int, str | None]]:
@@ -752,13 +757,7 @@ def _drawn_sections(study_dir: str, job: tuple[int, str | None]) -> list[Section
     if key not in _study_cache:
         _study_cache.clear()
         _study_cache[key] = read_study(study_dir)
-    sections = _build_sections(_study_cache[key], job)
-    import matplotlib
-
-    with matplotlib.rc_context(F.REPORT_STYLE):
-        for section in sections:
-            section.blocks = [b.drawn() if isinstance(b, FigureBlock) else b for b in section.blocks]
-    return sections
+    return _build_sections(_study_cache[key], job, draw=True)
 
 
 def build_report(study_dir: str | Path, workers=1) -> Report:
