@@ -2,7 +2,7 @@
 
 Three modes:
 
-``live``   one tqdm bar per stage on a terminal: the stage, units done of
+``bar``    one tqdm bar per stage on a terminal: the stage, units done of
            total, elapsed and estimated time left (tqdm's own estimate);
 ``log``    plain lines for files and CI: a line when a stage starts, whenever a
            unit finishes (at most one line per second), and a heartbeat at
@@ -10,7 +10,7 @@ Three modes:
            done of total, elapsed and the estimated time left;
 ``quiet``  nothing but warnings.
 
-``auto`` is ``live`` on a terminal and ``log`` otherwise. Libraries' own bars
+``auto`` is ``bar`` on a terminal and ``log`` otherwise. Libraries' own bars
 (emcee's, the campaign's) stay off inside a run: their work reports here.
 Warnings are collected and repeated at the end, in colour on a terminal.
 """
@@ -24,7 +24,7 @@ from typing import IO, Iterator
 
 __all__ = ["Progress", "MODES"]
 
-MODES = ("auto", "live", "log", "quiet")
+MODES = ("auto", "bar", "log", "quiet")
 
 
 def _duration(seconds: float) -> str:
@@ -45,7 +45,7 @@ class _Stage:
         self.started = time.monotonic()
         self._last_line = 0.0
         self._bar = None
-        if owner.mode == "live":
+        if owner.mode == "bar":
             from tqdm import tqdm
 
             self._bar = tqdm(total=total, desc=name, unit="unit", file=owner.stream, leave=True,
@@ -99,7 +99,7 @@ class Progress:
 
     Parameters
     ----------
-    mode : {"auto", "live", "log", "quiet"}
+    mode : {"auto", "bar", "log", "quiet"}
     stream : file, optional
         Where to write (default stderr).
     interval_s : float
@@ -111,7 +111,7 @@ class Progress:
             raise ValueError(f"progress mode must be one of {', '.join(MODES)}, got {mode!r}")
         self.stream = stream or sys.stderr
         if mode == "auto":
-            mode = "live" if getattr(self.stream, "isatty", lambda: False)() else "log"
+            mode = "bar" if getattr(self.stream, "isatty", lambda: False)() else "log"
         self.mode = mode
         self.interval_s = float(interval_s)
         self.warnings: list[str] = []
@@ -126,7 +126,7 @@ class Progress:
         if self.mode == "quiet":
             return
         with self._lock:
-            if self.mode == "live":
+            if self.mode == "bar":
                 from tqdm import tqdm
 
                 tqdm.write(text, file=self.stream)

@@ -31,6 +31,18 @@ def as_finite(name: str, value: object) -> float:
     return x
 
 
+def as_bool(name: str, value: object) -> bool:
+    """A boolean from True/False or the text 1/0, true/false, yes/no, y/n (empty: False)."""
+    if isinstance(value, str):
+        v = value.strip().lower()
+        if v in ("1", "true", "yes", "y"):
+            return True
+        if v in ("0", "false", "no", "n", ""):
+            return False
+        raise ValueError(f"{name} must be a boolean (true/false), got {value!r}")
+    return bool(value)
+
+
 def check_positive(name: str, value: object) -> float:
     """Return `value` as a float after checking that it is finite and > 0."""
     x = as_finite(name, value)

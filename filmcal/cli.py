@@ -38,6 +38,7 @@ from pathlib import Path
 import filmcal.commands
 from filmcal._errors import DamagedFileError
 from filmcal._validation import arg_finite, arg_float_in, arg_grid, arg_int_in
+from filmcal._versions import VersionNote
 
 __all__ = ["main", "build_parser", "preflight", "SIZE_BOUNDS",
            "EXIT_OK", "EXIT_USER", "EXIT_INTERNAL", "EXIT_INTERRUPTED"]
@@ -402,6 +403,20 @@ def user_error_message(exc: BaseException, args: argparse.Namespace, options: di
     return None
 
 
+def _notes_as_one_line(prog: str) -> None:
+    """Show `VersionNote` warnings as one line ``prog: note: ...``; other warnings as Python shows them."""
+    show = warnings.showwarning
+
+    def showwarning(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, VersionNote):
+            sys.stderr.write(f"{prog}: note: {message}\n")
+        else:
+            show(message, category, filename, lineno, file, line)
+
+    warnings.showwarning = showwarning
+    warnings.simplefilter("always", VersionNote)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the `filmcal` command line; return the exit status.
 
@@ -440,6 +455,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         preflight(args, actions)
         with warnings.catch_warnings():
+            _notes_as_one_line(prog)
             # an image above Pillow's pixel limit is refused, not decoded with a warning
             warnings.filterwarnings("error", message=r".*decompression bomb", category=RuntimeWarning)
             return int(args.func(args) or 0)

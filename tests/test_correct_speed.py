@@ -80,12 +80,16 @@ def test_numpy_prediction_equals_the_fitted_surrogate(fitted, saved):
 
 def test_a_nearly_singular_surrogate_is_read_as_the_fit_computed_it(tmp_path):
     """Noise-free smooth data: condition ~1e13, where numpy's and scipy's Cholesky factors part in the 8th
-    digit; `load_for_prediction` then reads the files with scipy, as the fit did."""
+    digit; `load_for_prediction` then reads the files with scipy, as the fit did, or (where the two LAPACK
+    builds agree on the log marginal likelihood) with numpy. Two correct factorisations of a matrix of
+    condition 1e13 may part by up to cond * eps ~ 1e-3 in a prediction; seen: 1e-9..1.3e-8 (numpy 2.4/2.5,
+    scipy 1.17/1.18). 1e-6 leaves that margin, while a reader that mishandles the noise variance or a
+    transform is off by 1e-3 or more."""
     exact = _fit(0.0)
     save_surrogate(exact, tmp_path / "e")
     loaded = load_for_prediction(tmp_path / "e")
     X = _queries(50)
-    np.testing.assert_allclose(loaded.predict(X), exact.predict(X), rtol=1e-8)
+    np.testing.assert_allclose(loaded.predict(X), exact.predict(X), rtol=1e-6)
 
 
 def test_the_saved_settings_are_the_estimators():

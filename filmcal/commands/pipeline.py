@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 
 from filmcal.commands._common import print_json
+from filmcal.commands._options import add, local
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -16,36 +17,32 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "against Hertz and of the surrogate against FE, wheel-rail correction curves (S1002/60E2, 50 "
                     "and 100 kN, eta -7..2 mm, smooth and rough wheel) with 90 %% credible bands, contact outlines, "
                     "leave-one-case-out cross-validation of the correction on Table 1, and the HTML + PDF report (STUDY_DIR/report). Finished work is kept and reused: an interrupted "
-                    "run resumes where it stopped, and a second run only reads. The full run takes about 3 min "
-                    "(182 s measured 2026-11-24 on 2 idle cores; --quick 40 s). A folder keeps "
+                    "run resumes where it stopped, and a second run only reads. The full run takes a few minutes on "
+                    "2 cores (the README gives measured times). A folder keeps "
                     "the settings it was made with; other settings need another folder.")
-    p.add_argument("--study-dir", default=None,
-                   help="study folder (default ./filmcal-study, or ./filmcal-study-quick with --quick)")
-    p.add_argument("--quick", action="store_true",
-                   help="a small version for checks (40+12 FE runs, short chains, 3 offsets at 50 kN): about 45 s "
-                        "(40 s measured 2026-11-24 on 2 idle cores)")
-    p.add_argument("--films", default=None,
-                   help="film types, comma-separated (default MS,HS,HHS, or the films of --data; others from "
-                        "--films-file)")
-    p.add_argument("--data", metavar="CSV",
-                   help="your own sphere-on-flat dataset (the format of `filmcal calibrate --data`); default the "
-                        "paper's Table 1. --films then defaults to the dataset's films")
-    p.add_argument("--films-file", metavar="TOML", help="user film types (name, activation pressure or range, "
-                   "thickness, nu), recorded in the study")
-    p.add_argument("--imprint-models", default=None,
-                   help="what the film records, each calibrated and compared: edge, activation, capsule, "
-                        "comma-separated (default all three; edge,activation with --quick)")
-    p.add_argument("--kinematics", default=None,
-                   help="film kinematics of the FE model, each calibrated and compared: small, large or "
-                        "small,large (default small,large; small with --quick)")
-    p.add_argument("--workers", type=int, default=None,
-                   help="worker processes, one pool shared by every stage (default: all cores; 1: all in this process)")
-    p.add_argument("--seed", type=int, default=0, help="seed of designs, surrogate and chains (default 0)")
-    p.add_argument("--no-report", action="store_true", help="skip the HTML/PDF report")
-    p.add_argument("--progress", choices=["auto", "live", "log", "quiet"], default="auto",
-                   help="progress on stderr: live bars on a terminal, plain lines (a heartbeat at least every 10 s) "
-                        "for logs and CI, or quiet (default auto: live on a terminal, log otherwise)")
-    p.add_argument("--json", action="store_true", help="print the summary as one JSON object (progress on stderr)")
+    add(p, "study_dir", extra="(default ./filmcal-study, or ./filmcal-study-quick with --quick, "
+                             "./filmcal-study-smoke with --smoke)")
+    local(p, "--quick", action="store_true",
+          help="a small version for checks (40+12 FE runs, short chains, 3 offsets at 50 kN; "
+               "./filmcal-study-quick)")
+    local(p, "--smoke", action="store_true",
+          help="the whole path at its smallest size (20+5 FE runs, one offset, short chains, no cross-validation; "
+               "./filmcal-study-smoke): checks that an installation runs the job; its numbers are not a "
+               "calibration")
+    add(p, "films", extra="(default MS,HS,HHS, or the films of --data)")
+    local(p, "--data", metavar="CSV", help="your own sphere-on-flat dataset (the format of `filmcal calibrate "
+                                           "--data`); default the paper's Table 1. --films then defaults to the "
+                                           "dataset's films")
+    add(p, "films_file", extra="; recorded in the study")
+    add(p, "imprint_models", extra="(default all three; edge,activation with --quick and --smoke)")
+    add(p, "kinematics", help="film kinematics of the FE model, each calibrated and compared: small, large or "
+                              "small,large (default small,large; small with --quick and --smoke)",
+        choices=None, metavar="KINEMATICS")
+    add(p, "workers", extra="; one pool shared by every stage (default: all cores)")
+    add(p, "seed", extra="(default 0)", default=0)
+    local(p, "--no-report", action="store_true", help="skip the HTML/PDF report")
+    add(p, "progress", default="auto")
+    add(p, "json", action="store_true", help="print the summary as one JSON object (progress on stderr)")
     p.set_defaults(func=run)
 
 
@@ -67,16 +64,15 @@ def run(args: argparse.Namespace) -> int:
         registry.get(f)
     if not films or len(set(films)) != len(films):
         raise ValueError(f"--films must be distinct film types, got {args.films!r}")
-    if args.workers is not None and not 1 <= args.workers <= 64:
-        raise ValueError(f"--workers must be 1-64, got {args.workers}")
-    if not 0 <= args.seed < 2**32:
-        raise ValueError(f"--seed must be 0 to 2^32-1, got {args.seed}")
-    settings = PipelineSettings.quick() if args.quick else PipelineSettings()
+    if args.quick and args.smoke:
+        raise ValueError("--quick and --smoke are two sizes: give one of them")
+    size = "smoke" if args.smoke else "quick" if args.quick else None
+    settings = getattr(PipelineSettings, size)() if size else PipelineSettings()
     if args.imprint_models is not None:
         settings = replace(settings, imprint_models=tuple(m.strip() for m in args.imprint_models.split(",")))
     if args.kinematics is not None:
         settings = replace(settings, kinematics=tuple(k.strip() for k in args.kinematics.split(",")))
-    study_dir = args.study_dir or ("filmcal-study-quick" if args.quick else "filmcal-study")
+    study_dir = args.study_dir or ("filmcal-study" + (f"-{size}" if size else ""))
     from filmcal._progress import Progress
 
     from filmcal.report import write_report

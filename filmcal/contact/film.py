@@ -22,11 +22,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from filmcal.contact.names import KINEMATICS
 from filmcal.films import FilmType
 
 __all__ = ["FilmModel", "KINEMATICS"]
 
-KINEMATICS = ("small", "large")
 
 
 @dataclass(frozen=True)

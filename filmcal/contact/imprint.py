@@ -40,6 +40,7 @@ from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
+from filmcal.contact.names import DEFAULT_IMPRINT_MODEL, IMPRINT_MODELS
 from filmcal.contact.reading import GridField, RadialProfile, read_radial_profile
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -49,10 +50,6 @@ __all__ = ["IMPRINT_MODELS", "DEFAULT_IMPRINT_MODEL", "CAPSULE_RANGE_QUANTILE", 
            "EdgeImprint", "ActivationImprint", "CapsuleImprint", "get_imprint_model", "imprint_key",
            "read_imprints"]
 
-#: Names of the imprint models, in the order of the comparison.
-IMPRINT_MODELS: tuple[str, ...] = ("edge", "activation", "capsule")
-#: The imprint model used where none is named.
-DEFAULT_IMPRINT_MODEL = "activation"
 #: Quantile of the capsule burst strengths at the lower end of the film's range
 #: (its complement at the upper end).
 CAPSULE_RANGE_QUANTILE = 0.02

@@ -11,13 +11,14 @@ from __future__ import annotations
 from collections import OrderedDict
 from typing import Any, Iterable, Sequence
 
-from filmcal._validation import as_finite, check_choice
+from filmcal._validation import as_bool, as_finite
 from filmcal.contact import DEFAULT_IMPRINT_MODEL, IMPRINT_MODELS, get_imprint_model, imprint_key
 from filmcal.fem.forms import lame_parameters, oedometric_modulus_mpa
 from filmcal.hertz import (STEEL_MODULUS_MPA, STEEL_POISSON, contact_modulus_mpa, hertz_approach_mm,
                                hertz_max_pressure_mpa, hertz_pressure_mpa, hertz_radius_mm)
 from filmcal.fem.mesh import MeshSettings
-from filmcal.fem.model import CONTACT_MODES, ContactOptions, Film, SphereOnFlat
+from filmcal.contact.options import CONTACT_MODES, ContactOptions
+from filmcal.fem.model import Film, SphereOnFlat
 from filmcal.fem.result import FEResult
 from filmcal.fem.thinlayer import ThinLayerResult, thin_layer_contact
 
@@ -91,17 +92,6 @@ OUTPUT_KEYS = ("contact_radius_mm", "contact_area_mm2", "max_pressure_mpa", "her
                "iterations", "elapsed_s")
 
 
-def _as_bool(name: str, value: Any) -> bool:
-    if isinstance(value, str):
-        v = value.strip().lower()
-        if v in ("1", "true", "yes", "y"):
-            return True
-        if v in ("0", "false", "no", "n", ""):
-            return False
-        raise ValueError(f"{name} must be a boolean (true/false), got {value!r}")
-    return bool(value)
-
-
 def imprint_columns(films: Sequence, imprint_models: Sequence[str] | None = None) -> list[tuple[str, Any, str]]:
     """The (model, film type, output key) triples `evaluate_point` adds for `films`.
 
@@ -157,14 +147,10 @@ def evaluate_point(params: dict, films: Sequence = (), imprint_models: Sequence[
         v = params.get(name, default)
         return default if v is None or (isinstance(v, str) and v.strip() == "") else v
 
-    no_film = _as_bool("no_film", get("no_film", False))
+    no_film = as_bool("no_film", get("no_film", False))
     film = None if no_film else Film(as_finite("modulus_mpa", get("modulus_mpa")),
                                      as_finite("poisson", get("poisson", 0.33)))
-    options = ContactOptions(
-        sphere_contact=check_choice("sphere_contact", str(get("sphere_contact", "frictionless")), CONTACT_MODES),
-        flat_contact=check_choice("flat_contact", str(get("flat_contact", "tied")), CONTACT_MODES),
-        friction_coefficient=as_finite("friction_coefficient", get("friction_coefficient", 0.4)),
-        large_strain=_as_bool("large_strain", get("large_strain", False)))
+    options = ContactOptions.from_columns(params)
     mesh = MeshSettings(element_size_mm=as_finite("element_size_mm", get("element_size_mm", 0.1)))
     act = get("activation_pressure_mpa")
     res = solve_sphere_on_flat(as_finite("radius_mm", get("radius_mm")),

@@ -34,6 +34,7 @@ from threadpoolctl import threadpool_limits
 
 from filmcal._validation import check_choice, check_poisson, check_positive, check_range
 from filmcal.contact import DEFAULT_IMPRINT_MODEL, film_tip_length_mm, get_imprint_model
+from filmcal.contact.options import CONTACT_MODES, ContactOptions
 from filmcal.fem.condense import CondensedBody, condense, nested_dissection
 from filmcal.fem.contact import CLOSED, FREE, OPEN, ContactState, PairSystem, solve_pairs
 from filmcal.fem.forms import axial_traction, lame_parameters, linear_elasticity, oedometric_modulus_mpa
@@ -42,9 +43,8 @@ from filmcal.fem.largestrain import film_internal_force_and_tangent
 from filmcal.fem.mesh import BodyGrid, MeshSettings, film_grid, flat_grid, sphere_grid
 from filmcal.fem.result import FEResult
 
-__all__ = ["Film", "ContactOptions", "SphereOnFlat", "CONTACT_MODES"]
+__all__ = ["Film", "SphereOnFlat"]
 
-CONTACT_MODES = ("frictionless", "tied", "friction")
 
 
 @dataclass(frozen=True)
@@ -70,54 +70,6 @@ class Film:
     def oedometric_modulus_mpa(self) -> float:
         """M = E (1 - nu) / ((1 + nu)(1 - 2 nu))."""
         return oedometric_modulus_mpa(self.modulus_mpa, self.poisson)
-
-
-@dataclass(frozen=True)
-class ContactOptions:
-    """Interface and kinematics options of an evaluation.
-
-    Parameters
-    ----------
-    sphere_contact, flat_contact : {'frictionless', 'tied', 'friction'}
-        Tangential behaviour at the sphere-film and film-flat interfaces.
-    friction_coefficient : float
-        Coulomb coefficient for 'friction' interfaces (the paper: 0.4).
-    large_strain : bool
-        Geometrically nonlinear film (compressible neo-Hookean, total
-        Lagrangian) instead of small-strain linear elasticity.
-    load_steps : int or None
-        Load increments; None picks 1 for the path-independent linear cases,
-        4 for a large-strain film with frictionless/tied interfaces, and 32 for
-        friction or no-slip at the sphere (the loading path matters there, and
-        fewer increments leave stick-slip noise in the edge pressures).
-    max_iterations : int
-        Limit of active-set (and Newton) iterations per load step.
-    """
-
-    sphere_contact: str = "frictionless"
-    flat_contact: str = "tied"
-    friction_coefficient: float = 0.4
-    large_strain: bool = False
-    load_steps: int | None = None
-    max_iterations: int = 60
-
-    def __post_init__(self) -> None:
-        check_choice("sphere_contact", self.sphere_contact, CONTACT_MODES)
-        check_choice("flat_contact", self.flat_contact, CONTACT_MODES)
-        check_range("friction_coefficient", self.friction_coefficient, 0.0, 10.0, low_open=False)
-        if self.load_steps is not None and (int(self.load_steps) != self.load_steps or self.load_steps < 1):
-            raise ValueError(f"load_steps must be an integer >= 1, got {self.load_steps!r}")
-
-    @property
-    def path_dependent(self) -> bool:
-        return self.sphere_contact != "frictionless" or self.flat_contact == "friction"
-
-    def steps(self) -> int:
-        if self.load_steps is not None:
-            return int(self.load_steps)
-        if self.path_dependent:
-            return 32
-        return 4 if self.large_strain else 1
 
 
 def _face_dofs(basis: Basis, grid: BodyGrid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from filmcal._versions import NUMERIC_PACKAGES, software_versions, version_note
 from filmcal.report import figures as F
 from filmcal.report.document import Definitions, FigureBlock, Report, Section, Table, render_html, write_pdf
 
@@ -36,7 +37,6 @@ __all__ = ["build_report", "write_report", "read_study", "StudyData", "DesignDat
            "crossval_section", "wheel_rail_section", "glossary_section", "provenance_section",
            "REFERENCE_OFFSET_MM"]
 
-_PACKAGES = ("numpy", "scipy", "scikit-learn", "scikit-fem", "emcee", "arviz", "matplotlib", "h5py", "pyDOE")
 #: Offset of the reference case quoted on the title page (the paper's centred position).
 REFERENCE_OFFSET_MM = 0.0
 
@@ -63,6 +63,8 @@ class StudyData:
     seed: int | None
     settings_hash: str
     settings: dict
+    software: dict | None = None  # versions that made the study (None: not recorded)
+    software_later: list = field(default_factory=list)  # versions of later writers that differed
     posteriors: dict = field(default_factory=dict)  # film -> (CalibrationResult, file name, model label), preferred
     other_posteriors: dict = field(default_factory=dict)  # film -> [(CalibrationResult, file name, model label)]
     curves: dict = field(default_factory=dict)  # film -> list of row dicts
@@ -151,7 +153,8 @@ def read_study(study_dir: str | Path) -> StudyData:
     study = Study(study_dir)
     view = report_view(study)
     config = view["config"]
-    data = StudyData(study.root, config["films"], config["seed"], config["hash"], config["settings"])
+    data = StudyData(study.root, config["films"], config["seed"], config["hash"], config["settings"],
+                     config["software"], config["software_later"])
 
     def attempt(what: str, read: Callable[[], object]):
         try:
@@ -667,20 +670,34 @@ def _git_commit() -> str:
     return out.stdout.strip() if out.returncode == 0 else "unknown (not a git checkout)"
 
 
+def _installed(name: str) -> str:
+    try:
+        return metadata.version(name)
+    except metadata.PackageNotFoundError:
+        return "not installed"
+
+
 def provenance_section(folder: Path, settings_hash: str, seed: int | None, films: list[str], settings: dict,
-                       files: list[tuple[str, int, str]], problems: list[str]) -> Section:
+                       files: list[tuple[str, int, str]], problems: list[str], software: dict | None = None,
+                       software_later: list | None = None) -> Section:
     """Software versions, the settings and the study folder's files with their checksums."""
     import filmcal
 
     s = Section("Provenance")
-    versions = [["filmcal", filmcal.__version__], ["filmcal git commit", _git_commit()],
-                ["python", platform.python_version()], ["platform", platform.platform()]]
-    for name in _PACKAGES:
-        try:
-            versions.append([name, metadata.version(name)])
-        except metadata.PackageNotFoundError:
-            versions.append([name, "not installed"])
-    s.add(Table(["software", "version"], versions, "Software"))
+    now = software_versions()
+    made = software or {}
+    later = [entry.get("software", {}) for entry in software_later or []]
+    header = ["software", "made the study", *(f"later writer {i + 1}" for i in range(len(later))), "this report"]
+    versions = [["filmcal", "", *("" for _ in later), filmcal.__version__],
+                ["filmcal git commit", "", *("" for _ in later), _git_commit()],
+                ["platform", "", *("" for _ in later), platform.platform()]]
+    for name in ("python", *NUMERIC_PACKAGES, "matplotlib"):
+        current = now.get(name) or _installed(name)
+        versions.append([name, made.get(name, "not recorded"), *(w.get(name, "") for w in later), current])
+    note = version_note(software, now)
+    s.add(Table(header, versions, "Software: the versions that made the study's numbers, and this report's"))
+    if note:
+        s.add(f"This study was {note}.")
     rows = [["settings hash", settings_hash], ["seed", str(seed)], ["films", ", ".join(films)]]
     rows += [[k, json.dumps(v)] for k, v in settings.items()]
     s.add(Table(["setting", "value"], rows, "Pipeline settings (the hash is that of the recorded settings)"))
@@ -715,7 +732,8 @@ SECTION_BUILDERS: list[Callable[[StudyData], Section | list[Section]]] = [
     lambda d: crossval_section(d.crossval),
     lambda d: wheel_rail_section(d.curves, d.outlines),
     lambda d: glossary_section(),
-    lambda d: provenance_section(d.folder, d.settings_hash, d.seed, d.films, d.settings, d.files, d.problems),
+    lambda d: provenance_section(d.folder, d.settings_hash, d.seed, d.films, d.settings, d.files, d.problems,
+                                 d.software, d.software_later),
 ]
 
 

@@ -15,6 +15,7 @@ made it and recorded in the manifest with its SHA-256:
 from __future__ import annotations
 
 import contextlib
+import warnings
 import zlib
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -24,6 +25,9 @@ import numpy as np
 
 from filmcal._errors import InputError
 from filmcal._io import check_output_dir
+from filmcal._versions import VersionNote, version_note
+from filmcal.contact.names import DEFAULT_KINEMATICS, IMPRINT_MODELS, KINEMATICS
+from filmcal.contact.options import ContactOptions
 from filmcal.films import FilmRegistry, FilmType, load_films_file
 from filmcal.study.layout import StudyLayout, spec_key
 from filmcal.study.manifest import Manifest, StudyLock, utc_now
@@ -34,10 +38,6 @@ if TYPE_CHECKING:
 __all__ = ["Study", "FESettings", "CalibrationSpec", "IMPRINT_MODELS", "KINEMATICS", "seed_for", "output_column", "correctors", "comparison_weights", "report_view",
            "chosen_posteriors", "curve_components", "film_model"]
 
-#: What the film records (`filmcal.contact.imprint`): the edge of contact, or where it colours.
-IMPRINT_MODELS = ("edge", "activation", "capsule")
-#: Film kinematics of the FE model.
-KINEMATICS = ("small", "large")
 
 
 def seed_for(seed: int, stream: str) -> int:
@@ -70,10 +70,10 @@ class FESettings:
         Where the surrogates are trained (default: Table 1's experiments with margins).
     """
 
-    sphere_contact: str = "frictionless"
-    flat_contact: str = "tied"
-    friction_coefficient: float = 0.4
-    kinematics: str = "small"
+    sphere_contact: str = ContactOptions.sphere_contact
+    flat_contact: str = ContactOptions.flat_contact
+    friction_coefficient: float = ContactOptions.friction_coefficient
+    kinematics: str = DEFAULT_KINEMATICS
     film_thickness_mm: float = 0.09
     n_train: int = 200
     n_test: int = 100
@@ -90,9 +90,7 @@ class FESettings:
         if not (20 <= self.n_train <= 5000 and 5 <= self.n_test <= 5000):
             raise InputError(f"train_runs must be 20-5000 and test_runs 5-5000, got {self.n_train} and {self.n_test}")
 
-    def contact_options(self):
-        from filmcal.fem import ContactOptions
-
+    def contact_options(self) -> ContactOptions:
         return ContactOptions(sphere_contact=self.sphere_contact, flat_contact=self.flat_contact,
                               friction_coefficient=self.friction_coefficient,
                               large_strain=self.kinematics == "large")
@@ -176,6 +174,10 @@ class Study:
         else:
             raise InputError(f"--study-dir {str(self.root)!r} is not a study folder (no {self.layout.manifest.name}); "
                              "make one with `filmcal pipeline` or `filmcal calibrate --study-dir ...`")
+        #: One line when the study was made under other versions than this process's (else None).
+        self.version_note = version_note(self.manifest.data.get("software"))
+        if self.version_note is not None and self.layout.manifest.exists():
+            warnings.warn(VersionNote(f"study {self.root} was {self.version_note}"), stacklevel=2)
         self._lock = StudyLock(self.layout.lock)
         user = {name: FilmType.from_dict(name, d) for name, d in self.manifest.data["films"].items()}
         self.films = FilmRegistry(user)
@@ -206,6 +208,7 @@ class Study:
                 self.manifest = Manifest.read(self.layout.manifest)
             for name, film in self._new_films.items():
                 self.manifest.data["films"][name] = film.to_dict()
+            self.manifest.note_writer_software()
             self.manifest.write()
             yield self
         finally:
@@ -928,7 +931,9 @@ def report_view(study: Study) -> dict:
         {s["film"]["name"] for s in (e["spec"] for e in study.manifest.artefacts("posterior").values())}))
     seed = settings.get("seed", 0)
     config = {"films": films, "seed": seed, "settings": settings.get("pipeline", settings),
-              "hash": spec_key(settings or {"films": films})}
+              "hash": spec_key(settings or {"films": films}),
+              "software": study.manifest.data.get("software"),
+              "software_later": study.manifest.data.get("software_later", [])}
     posteriors = {}
     for film in films:
         found = study.posteriors(film)

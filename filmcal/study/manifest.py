@@ -18,6 +18,7 @@ from typing import Any
 
 from filmcal._errors import InputError
 from filmcal._io import atomic_write_json, read_json, sha256_file
+from filmcal._versions import software_versions
 
 __all__ = ["Manifest", "StudyLock", "FORMAT", "utc_now"]
 
@@ -37,8 +38,8 @@ class Manifest:
 
     @classmethod
     def new(cls, path: Path) -> "Manifest":
-        return cls(path, {"format": FORMAT, "created_utc": utc_now(), "films": {}, "artefacts": {},
-                          "stages": {}, "settings": None})
+        return cls(path, {"format": FORMAT, "created_utc": utc_now(), "software": software_versions(),
+                          "films": {}, "artefacts": {}, "stages": {}, "settings": None})
 
     @classmethod
     def read(cls, path: Path) -> "Manifest":
@@ -48,6 +49,17 @@ class Manifest:
         for key in ("films", "artefacts", "stages"):
             data.setdefault(key, {})
         return cls(path, data)
+
+    def note_writer_software(self) -> None:
+        """Keep the versions of a writer that differ from the study's own (``software_later``)."""
+        now = software_versions()
+        if self.data.get("software") is None:
+            self.data.setdefault("software_later", [])
+        elif self.data["software"] == now:
+            return
+        later = self.data.setdefault("software_later", [])
+        if all(entry.get("software") != now for entry in later):
+            later.append({"software": now, "first_written_utc": utc_now()})
 
     def write(self) -> None:
         atomic_write_json(self.path, self.data, indent=1)

@@ -89,6 +89,13 @@ class PipelineSettings:
         return cls(train_runs=40, test_runs=12, imprint_models=("edge", "activation"), kinematics=("small",),
                    offsets_mm=(-6.0, -3.0, 0.0), forces_kn=(50.0,), crossval_films=("HS",), max_steps=3000)
 
+    @classmethod
+    def smoke(cls) -> "PipelineSettings":
+        """The whole path at its smallest size (20+5 FE runs, one offset, short chains, no cross-validation):
+        a check that an installation runs the job, about 20 s; its numbers are not a calibration."""
+        return cls(train_runs=20, test_runs=5, imprint_models=("edge", "activation"), kinematics=("small",),
+                   offsets_mm=(0.0,), forces_kn=(50.0,), rough_ra_um=None, crossval_films=(), max_steps=400)
+
     def fe(self, kinematics: str, seed: int) -> FESettings:
         return FESettings(kinematics=kinematics, n_train=self.train_runs, n_test=self.test_runs, seed=seed)
 

@@ -25,7 +25,7 @@ import numpy as np
 from filmcal.hertz import hertz_radius_mm
 
 if TYPE_CHECKING:
-    from filmcal.fem import ContactOptions
+    from filmcal.contact.options import ContactOptions
     from filmcal.surrogate.gp import GPSurrogate
 
 __all__ = ["INPUTS", "LOG_INPUTS", "EDGE_COLUMN", "SurrogateDomain", "SurrogateValidation", "design_points",
@@ -83,8 +83,7 @@ class SurrogateDomain:
 
 def option_columns(options: "ContactOptions") -> dict:
     """The FE options as design columns of a campaign."""
-    return {"sphere_contact": options.sphere_contact, "flat_contact": options.flat_contact,
-            "friction_coefficient": options.friction_coefficient, "large_strain": options.large_strain}
+    return options.as_columns()
 
 
 def design_points(domain: SurrogateDomain, samples: int, seed: int, options: "ContactOptions") -> list[dict]:
@@ -294,7 +293,7 @@ class FERadiusModel:
     """
 
     def __init__(self, options: "ContactOptions | None" = None, output: str = EDGE_COLUMN, films=()) -> None:
-        from filmcal.fem import ContactOptions
+        from filmcal.contact.options import ContactOptions
 
         self.options = options or ContactOptions()
         self.output = output

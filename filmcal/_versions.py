@@ -1,0 +1,51 @@
+"""The versions of Python and of the packages that touch a study's numbers.
+
+A study records them when it is made (`software_versions`); reading it under
+other versions says so in one line (`version_note`), since the same seed can
+give other digits with another numpy, scipy or ArviZ.
+"""
+from __future__ import annotations
+
+import platform
+from importlib import metadata
+
+__all__ = ["NUMERIC_PACKAGES", "software_versions", "version_note", "VersionNote"]
+
+#: Distributions whose releases can change a number filmcal computes.
+NUMERIC_PACKAGES = ("numpy", "scipy", "scikit-learn", "scikit-fem", "emcee", "arviz", "h5py", "pyDOE")
+
+
+class VersionNote(UserWarning):
+    """A study is read under other versions than those that made it (one line for the user)."""
+
+
+def software_versions() -> dict[str, str]:
+    """``{"python": "3.11.7", "numpy": "2.4.6", ...}`` of this process (``"not installed"`` when missing)."""
+    out = {"python": platform.python_version()}
+    for name in NUMERIC_PACKAGES:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = "not installed"
+    return out
+
+
+def version_note(recorded: dict[str, str] | None, current: dict[str, str] | None = None) -> str | None:
+    """One line naming what differs between the recorded and the current versions, or None.
+
+    Parameters
+    ----------
+    recorded : dict or None
+        Versions stored with a study (None: a study made before versions were recorded).
+    current : dict, optional
+        This process's versions (default `software_versions()`).
+    """
+    current = current if current is not None else software_versions()
+    if not recorded:
+        return ("made before filmcal recorded package versions; its numbers may differ in the last digits from "
+                "a run of today's versions")
+    diff = [f"{k} {recorded.get(k, '?')} (now {current.get(k, '?')})" for k in sorted(set(recorded) | set(current))
+            if recorded.get(k) != current.get(k)]
+    if not diff:
+        return None
+    return "made with " + ", ".join(diff) + "; numbers computed now may differ in the last digits"

@@ -1,0 +1,241 @@
+"""The command line's vocabulary: one option per concept, with its name, help, bounds and default written once.
+
+Every command builds its options with `add` (a concept of `VOCABULARY`) or
+`local` (an option only that command has). An option renamed in this
+release stays for one release as a hidden alias (`renamed`) that prints one
+line naming its new spelling and sets the new option's value. The tests derive
+the concept -> option map from here: no command, JSON key or CSV column may
+use an old name of a concept.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from dataclasses import dataclass
+from typing import Any, Callable
+
+from filmcal._progress import MODES as PROGRESS_MODES
+from filmcal.contact.names import IMPRINT_MODELS, KINEMATICS, MIXTURE
+
+__all__ = ["Concept", "VOCABULARY", "add", "local", "renamed", "concept_of", "RENAMED"]
+
+
+@dataclass(frozen=True)
+class Concept:
+    """One concept of the command line.
+
+    Attributes
+    ----------
+    dest : str
+        Its name in Python signatures, JSON keys and CSV columns.
+    help : str
+        What it is (each command may add what it does with it).
+    type : callable, optional
+        argparse type (`float`, `int`, ...).
+    bounds : (low, high), optional
+        Inclusive bounds checked when the option is parsed, and stated in its help.
+    choices : tuple, optional
+        The allowed values.
+    metavar : str, optional
+    """
+
+    dest: str
+    help: str
+    type: Callable[[str], Any] | None = None
+    bounds: tuple[float, float] | None = None
+    choices: tuple[str, ...] | None = None
+    metavar: str | None = None
+
+    @property
+    def flag(self) -> str:
+        return "--" + self.dest.replace("_", "-")
+
+
+def _concepts(*items: Concept) -> dict[str, Concept]:
+    return {c.dest: c for c in items}
+
+
+_POSITIVE = (1e-12, 1e12)  # finite and > 0 (bounds stated as "> 0")
+
+VOCABULARY: dict[str, Concept] = _concepts(
+    Concept("film", "film type: MS, HS, HHS, or a film of --films-file (or of the study)", metavar="NAME"),
+    Concept("films", "film types, comma-separated", metavar="NAMES"),
+    Concept("films_file", "user film types (TOML: name, activation pressure or range, thickness, nu)",
+            metavar="TOML"),
+    Concept("film_modulus_mpa", "film Young's modulus E in MPa", float, _POSITIVE),
+    Concept("film_poisson", "film Poisson's ratio nu", float, (-0.999, 0.499)),
+    Concept("film_thickness_mm", "film thickness in mm", float, (0.001, 5.0)),
+    Concept("imprint_model", "what the film records: edge (the whole contact), activation (where the pressure "
+            "exceeds the film's activation pressure), capsule (the expected area of capsules broken)",
+            choices=IMPRINT_MODELS),
+    Concept("imprint_models", "what the film records, comma-separated: each is calibrated and compared "
+            f"({', '.join(IMPRINT_MODELS)})", metavar="MODELS"),
+    Concept("kinematics", "film kinematics: small (linear film) or large (neo-Hookean, large strain)",
+            choices=KINEMATICS),
+    Concept("sphere_radius_mm", "sphere radius R in mm", float, (1.0, 1e5)),
+    Concept("force_kn", "normal force F in kN", float, _POSITIVE),
+    Concept("forces_kn", "forces in kN: a list 50,100 or start:stop:step", metavar="LIST"),
+    Concept("calibration_forces_kn", "choose the posterior calibrated on this force range in kN, e.g. 50-100",
+            metavar="RANGE"),
+    Concept("offset_mm", "lateral offset eta in mm (the paper's convention; write --offset-mm=-3 for "
+            "negative values)", float, (-60.0, 60.0)),
+    Concept("offsets_mm", "lateral offsets eta in mm: a list -5,0 or start:stop:step", metavar="LIST"),
+    Concept("wheel_roughness_ra_um", "roughness Ra of the wheel in um (a synthetic self-affine surface)",
+            float, (0.0, 30.0)),
+    Concept("wheel_roughness_map", "a measured height map of the wheel (CSV of heights or a greyscale "
+            "PNG/TIFF)", metavar="FILE"),
+    Concept("scan", "a scanned imprint (PNG or TIFF)", metavar="FILE"),
+    Concept("simulator_command", "a command template run once per design point; placeholders are the "
+            "design's columns plus {work_dir} and {point_id}", metavar="TEMPLATE"),
+    Concept("simulator_python", "a Python function MODULE:FUNCTION called with the design's columns",
+            metavar="MODULE:FUNCTION"),
+    Concept("dask", "address of a Dask distributed scheduler (tcp://host:port) to run on", metavar="ADDRESS"),
+    Concept("progress", "progress on stderr: bar (live bars on a terminal), log (plain lines, a heartbeat at "
+            "least every 10 s), quiet, or auto (bar on a terminal, log otherwise)", type=lambda t: progress_mode(t),
+            metavar="{" + ",".join(PROGRESS_MODES) + "}"),
+    Concept("study_dir", "study folder", metavar="DIR"),
+    Concept("workers", "worker processes (1: everything in this process)", int, (1, 256)),
+    Concept("seed", "seed of every random step", int, (0, 2**32 - 1)),
+    Concept("json", "print one JSON object on stdout"),
+)
+
+#: Old option -> new option, of every command (filled as the parsers are built).
+RENAMED: dict[str, str] = {}
+
+
+def concept_of(action: argparse.Action) -> str | None:
+    """The concept an option was built from (None: a command-local option or a hidden alias)."""
+    return getattr(action, "filmcal_concept", None)
+
+
+def _bounded(concept: Concept):
+    if concept.bounds is None or concept.type not in (int, float):
+        return concept.type
+    from filmcal._validation import arg_float_in, arg_int_in
+
+    low, high = concept.bounds
+    return (arg_int_in if concept.type is int else arg_float_in)(low, high)
+
+
+def _bounds_text(concept: Concept) -> str:
+    if concept.bounds is None:
+        return ""
+    low, high = concept.bounds
+    if (low, high) == _POSITIVE:
+        return " [> 0]"
+    return f" [{low}-{high}]" if concept.type is int else f" [{low:g}-{high:g}]"
+
+
+def add(parser, dest: str, help: str | None = None, *, extra: str = "", **kwargs: Any) -> argparse.Action:
+    """Add the option of concept `dest` to a parser or group.
+
+    Parameters
+    ----------
+    help : str, optional
+        Replaces the concept's own help (use `extra` to add to it).
+    extra : str
+        Appended to the help (what this command does with the option, its default).
+    kwargs
+        Passed to ``add_argument`` (``default``, ``required``, ``action``, ``choices`` ...).
+    """
+    concept = VOCABULARY[dest]
+    options: dict[str, Any] = {"dest": dest}
+    if "action" not in kwargs:
+        if concept.type is not None:
+            options["type"] = _bounded(concept)
+        if concept.choices is not None:
+            options["choices"] = concept.choices
+        if concept.metavar is not None:
+            options["metavar"] = concept.metavar
+    elif dest == "json":
+        pass
+    options.update(kwargs)
+    sep = "" if extra[:1] in (";", ",", ":") else " "
+    text = (help or concept.help) + (f"{sep}{extra}" if extra else "") + _bounds_text(concept)
+    action = parser.add_argument(concept.flag, help=text.replace("%", "%%"), **options)
+    action.filmcal_concept = dest  # type: ignore[attr-defined]
+    if concept.bounds is not None and concept.type in (int, float):
+        action.type.filmcal_checked = True  # type: ignore[union-attr]
+    return action
+
+
+def local(parser, flag: str, **kwargs: Any) -> argparse.Action:
+    """A command-local option (a concept no other command has); its flag must not be a concept's."""
+    dest = kwargs.get("dest", flag.lstrip("-").replace("-", "_"))
+    if dest in VOCABULARY:
+        raise AssertionError(f"{flag}: {dest} is a concept of the vocabulary; build it with add()")
+    action = parser.add_argument(flag, **kwargs)
+    action.filmcal_local = True  # type: ignore[attr-defined]
+    return action
+
+
+class _Renamed(argparse.Action):
+    """A hidden old spelling: prints one line naming the new one, then sets the new option's value(s)."""
+
+    def __init__(self, option_strings, dest, new: str, convert: Callable[[Any], dict[str, Any]], **kwargs):
+        self.new = new
+        self.convert = convert
+        super().__init__(option_strings, dest, help=argparse.SUPPRESS, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        sys.stderr.write(f"{parser.prog}: note: {option_string} is renamed {self.new}; the old name goes in the "
+                         "next release\n")
+        for dest, value in self.convert(values).items():
+            setattr(namespace, dest, value)
+
+
+def renamed(parser, old: str, new: str, dest: str | None = None, *, flag_value: Any = None,
+            convert: Callable[[Any], dict[str, Any]] | None = None, type: Callable | None = None) -> None:
+    """Keep an old option as a hidden alias of `new` for one release.
+
+    Parameters
+    ----------
+    old, new : str
+        The old spelling and what to write instead (shown to the user).
+    dest : str, optional
+        The destination it sets (default: the new option's).
+    flag_value : optional
+        The old option was a flag: it sets `dest` to this value.
+    convert : callable, optional
+        ``convert(value) -> {dest: value, ...}`` for an old option that maps onto several.
+    type : callable, optional
+        Parses the old option's text.
+    """
+    dest = dest or new.split()[0].lstrip("-").replace("-", "_")
+    if convert is None:
+        if flag_value is not None:
+            convert = lambda _value, d=dest, v=flag_value: {d: v}  # noqa: E731
+        else:
+            convert = lambda value, d=dest: {d: value}  # noqa: E731
+    extra: dict[str, Any] = {"nargs": 0} if flag_value is not None else {}
+    if type is not None:
+        extra["type"] = type
+    action = parser.add_argument(old, dest=f"_renamed_{old.lstrip('-').replace('-', '_')}", action=_Renamed,
+                                 new=new, convert=convert, default=argparse.SUPPRESS, **extra)
+    action.filmcal_renamed = new  # type: ignore[attr-defined]
+    RENAMED[old] = new
+
+
+def split_model(text: str) -> dict[str, str]:
+    """The old ``--model IMPRINT/KINEMATICS`` as ``imprint_model`` and ``kinematics``."""
+    imprint, _, kinematics = str(text).partition("/")
+    out = {"imprint_model": imprint}
+    if kinematics:
+        out["kinematics"] = kinematics
+    return out
+
+
+
+def progress_mode(text: str) -> str:
+    """``--progress``'s value (the old ``live`` is ``bar``)."""
+    if text == "live":
+        sys.stderr.write("filmcal: note: --progress live is renamed --progress bar; the old name goes in the next "
+                         "release\n")
+        return "bar"
+    if text not in PROGRESS_MODES:
+        raise argparse.ArgumentTypeError(f"must be one of {', '.join(PROGRESS_MODES)}, got {text!r}")
+    return text
+
+
+#: The imprint-model choices of commands that read a study: a model, or the study's weighted mixture.
+STUDY_IMPRINT_MODELS = (*IMPRINT_MODELS, MIXTURE)
