@@ -74,7 +74,7 @@ def build_tables(kinematics: list[str], nodes: int, path: Path) -> dict:
                 for k in table:
                     table[k][key].append(rows[k])
         out[kin] = {"moduli_mpa": moduli.tolist(), "check_mpa": checks.tolist(), "poisson": nu, "cases": cases(),
-                    "radius_mm": table, "solves": solves, "elapsed_s": time.perf_counter() - t0}
+                    "sphere_radius_mm": table, "solves": solves, "elapsed_s": time.perf_counter() - t0}
         print(f"{kin}-strain tables: {solves} FE solves in {time.perf_counter() - t0:.1f} s ({load()})")
     path.write_text(json.dumps(out))
     return out
@@ -84,7 +84,7 @@ def models_of(tables: dict, film: str) -> dict[str, TabulatedRadiusModel]:
     out = {}
     for kin, t in tables.items():
         for imp in IMPRINTS:
-            rows = t["radius_mm"][f"{imp}-{film}"]
+            rows = t["sphere_radius_mm"][f"{imp}-{film}"]
             node, check = np.array(rows["node"], dtype=float), np.array(rows["check"], dtype=float)
             moduli = np.array(t["moduli_mpa"])
             usable = np.all(np.isfinite(node), axis=0)  # drop moduli where some case failed (film collapse)

@@ -51,7 +51,7 @@ def toy_model(params: dict) -> dict:
     The matrix for a radius is built once per process (like the FE model's
     per-radius mesh); each point then runs `TOY_SOLVES` dense solves.
     """
-    radius_mm = params["radius_mm"]
+    radius_mm = params["sphere_radius_mm"]
     if radius_mm not in _TOY_SETUP:
         rng = np.random.default_rng(int(radius_mm))
         a = rng.standard_normal((TOY_SIZE, TOY_SIZE))
@@ -85,7 +85,7 @@ def worker_pid_after(model, params: dict) -> int:
 def design(n_points: int, radius_mm: float, seed: int) -> list[dict]:
     """Points at one radius with E, nu and F drawn uniformly (E 500-5000 MPa, nu 0.2-0.45, F 25-100 kN)."""
     rng = np.random.default_rng(seed)
-    return [{"modulus_mpa": float(e), "poisson": float(nu), "radius_mm": radius_mm, "force_kn": float(f)}
+    return [{"modulus_mpa": float(e), "poisson": float(nu), "sphere_radius_mm": radius_mm, "force_kn": float(f)}
             for e, nu, f in zip(rng.uniform(500, 5000, n_points), rng.uniform(0.2, 0.45, n_points),
                                 rng.uniform(25, 100, n_points))]
 
@@ -168,7 +168,7 @@ class _Case:
         (folder / "deck.inp.tmpl").write_text("E={modulus_mpa} R={radius_mm}\n")
         with (folder / "design.csv").open("w", newline="") as stream:
             writer = csv.writer(stream)
-            writer.writerow(["key", "mode", "modulus_mpa", "radius_mm", "force_kn"])
+            writer.writerow(["key", "mode", "modulus_mpa", "sphere_radius_mm", "force_kn"])
             for i, mode in enumerate(modes):
                 writer.writerow([f"p{i:02d}", mode, 2000 + 100 * i, 300 + 10 * i, 25 + i])
         self.template = (f"{sys.executable} {folder / 'standin.py'} {{mode}} {{key}} {self.log} "

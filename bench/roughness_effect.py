@@ -33,7 +33,7 @@ from filmcal.contact.roughness import (PET_HARDNESS_MPA, WHEEL_SURFACE_DEFAULTS,
                                        rough_contact_law)
 from filmcal.films import get_film
 from filmcal.wheelrail.halfspace import sphere_on_flat_contact
-from filmcal.wheelrail.interface import FilmLayer, film_law
+from filmcal.contact.laws import FilmLayer, film_law
 from filmcal.wheelrail.wheelrail import WheelRailModel
 
 #: Posterior medians of the film moduli in the current study (MPa).
@@ -137,7 +137,7 @@ def main(argv: list[str] | None = None) -> int:
             rough = sphere_on_flat_contact(450.0, 1e3 * f_kn, film=f1, law=l1)
             a0, _ = _areas(smooth, model, ft, None)
             a1, s1 = _areas(rough, model, ft, laws[name])
-            row = {"case": "sphere-on-flat", "film": name, "modulus_mpa": e, "radius_mm": 450.0,
+            row = {"case": "sphere-on-flat", "film": name, "modulus_mpa": e, "sphere_radius_mm": 450.0,
                    "force_kn": f_kn, "smooth_mm2": a0, "rough_mm2": a1, "spots_mm2": s1,
                    "growth_pct": 100.0 * (a1 / a0 - 1.0),
                    "spots_vs_smooth_pct": 100.0 * (s1 / a0 - 1.0),

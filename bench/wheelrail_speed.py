@@ -57,7 +57,7 @@ from filmcal.wheelrail.edge import read_contact_edge, read_radial_edge_mm
 from filmcal.wheelrail.halfspace import (HalfSpaceContactSolver, SurfaceGrid,
                                          sphere_on_flat_contact)
 from filmcal.wheelrail.hertz import hertz_elliptic
-from filmcal.wheelrail.interface import FilmLayer, GreenwoodWilliamsonLaw, InterfaceLaw
+from filmcal.contact.laws import FilmLayer, GreenwoodWilliamsonLaw, InterfaceLaw
 from filmcal.wheelrail.wheelrail import WheelRailModel
 
 _HS_TYPE = get_film("HS")

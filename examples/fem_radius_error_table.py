@@ -44,7 +44,7 @@ def main() -> None:
     for name, opts in SETTINGS.items():
         for r, f in cases:
             model = get_model(r)
-            row = {"setting": name, "radius_mm": r, "force_kn": f / 1e3}
+            row = {"setting": name, "sphere_radius_mm": r, "force_kn": f / 1e3}
             for e in MODULI_MPA:
                 res = model.solve(Film(e, 0.33), f, opts)
                 row[f"E{e:g}"] = res.radius_error_mm if res.converged else float("nan")
@@ -61,7 +61,7 @@ def main() -> None:
     lines = ["| setting | R (mm) | F (kN) | " + " | ".join(f"E={e:g}" for e in MODULI_MPA) + " | MS | HS | HHS |",
              "|---|---|---|" + "---|" * (len(MODULI_MPA) + 3)]
     for row in rows:
-        lines.append(f"| {row['setting']} | {row['radius_mm']:g} | {row['force_kn']:g} | "
+        lines.append(f"| {row['setting']} | {row['sphere_radius_mm']:g} | {row['force_kn']:g} | "
                      + " | ".join(f"{row[f'E{e:g}']:+.3f}" for e in MODULI_MPA)
                      + f" | {row['MS']:+.2f} | {row['HS']:+.2f} | {row['HHS']:+.2f} |")
     (out / "radius_error_table.md").write_text("\n".join(lines) + "\n")

@@ -99,7 +99,7 @@ def plot_mesh(model: SphereOnFlat, result: FEResult, path: Path) -> None:
     axes[2].legend(handles=axes[2].lines, fontsize=8, loc="upper left")
     handles = list(axes[0].collections)
     fig.legend(handles, [h.get_label() for h in handles], loc="outside lower center", ncol=3, fontsize=9)
-    fig.suptitle(f"Axisymmetric model, sphere R{model.radius_mm:g} on flat with a {1000 * t:g} um film: "
+    fig.suptitle(f"Axisymmetric model, sphere R{model.sphere_radius_mm:g} on flat with a {1000 * t:g} um film: "
                  f"{sum(g.mesh.t.shape[1] for g in grids.values())} elements, {model.n_dofs} DOFs", fontsize=11)
     fig.savefig(path, dpi=150)
 

@@ -32,7 +32,7 @@ def run(out: Path, samples: int, workers: int | None, seed: int):
                          Parameter("poisson", 0.0, 0.49)))
     design = latin_design(space, samples, seed=seed)
     write_design_csv(out / "design.csv", ["modulus_mpa", "poisson"], design.points)
-    points = [dict(modulus_mpa=float(e), poisson=float(nu), radius_mm=r, force_kn=f)
+    points = [dict(modulus_mpa=float(e), poisson=float(nu), sphere_radius_mm=r, force_kn=f)
               for r, f in CASES for e, nu in design.points]
     executor = LocalPoolExecutor(workers)
     try:
@@ -47,7 +47,7 @@ def run(out: Path, samples: int, workers: int | None, seed: int):
 
 def _case(results, r, f):
     inp = results.inputs
-    return (inp["radius_mm"] == r) & (inp["force_kn"] == f)
+    return (inp["sphere_radius_mm"] == r) & (inp["force_kn"] == f)
 
 
 def smooth_residual_mm2(x: np.ndarray, area: np.ndarray) -> float:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from filmcal._lazy import lazy_exports
 
-__version__ = "0.1.0"
+from filmcal._versions import __version__
 
 _EXPORTS = {
     "filmcal.fem": ["SphereOnFlat", "Film", "ContactOptions", "MeshSettings", "FEResult", "get_model",

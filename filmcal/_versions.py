@@ -9,7 +9,10 @@ from __future__ import annotations
 import platform
 from importlib import metadata
 
-__all__ = ["NUMERIC_PACKAGES", "software_versions", "version_note", "VersionNote"]
+__all__ = ["__version__", "NUMERIC_PACKAGES", "software_versions", "version_note", "VersionNote"]
+
+#: filmcal's own version (re-exported as ``filmcal.__version__``).
+__version__ = "0.1.0"
 
 #: Distributions whose releases can change a number filmcal computes.
 NUMERIC_PACKAGES = ("numpy", "scipy", "scikit-learn", "scikit-fem", "emcee", "arviz", "h5py", "pyDOE")

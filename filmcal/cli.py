@@ -39,6 +39,7 @@ import filmcal.commands
 from filmcal._errors import DamagedFileError
 from filmcal._validation import arg_finite, arg_float_in, arg_grid, arg_int_in
 from filmcal._versions import VersionNote
+from filmcal.commands._options import bounds_text, missing_required
 
 __all__ = ["main", "build_parser", "preflight", "SIZE_BOUNDS",
            "EXIT_OK", "EXIT_USER", "EXIT_INTERNAL", "EXIT_INTERRUPTED"]
@@ -63,9 +64,10 @@ SIZE_BOUNDS: dict[str, tuple[float, float]] = {
     "samples": (1, 2000),
     "iterations": (1, 1000),
     "element_size_mm": (0.02, 5.0),
-    "radius_mm": (1.0, 1e5),
+    "sphere_radius_mm": (1.0, 1e5),
     "film_layers": (1, 8),
-    "grid_mm": (0.02, 2.0),
+    "grid_mm": (0.02, 1.0),  # the wheel-rail model's own bound is 0.01-1 (WheelRailModel)
+    "friction_coefficient": (0.0, 10.0),  # ContactOptions' bound
     "train_runs": (20, 5000),
     "test_runs": (5, 5000),
     "max_steps": (1, 1_000_000),
@@ -80,7 +82,7 @@ GRID_BOUNDS: dict[str, int] = {"forces_kn": 50, "offsets_mm": 200}
 # writes into, and files it only reads. Checked before any work.
 OUTPUT_FILE_DESTS = ("out", "csv", "plot", "pressure_csv", "outline_out")
 OUTPUT_DIR_DESTS = ("study_dir", "out_dir", "plots", "work_dir")
-INPUT_FILE_DESTS = ("design", "augment", "imprint", "roughness_law", "roughness_map", "data", "films_file",
+INPUT_FILE_DESTS = ("design", "augment", "scan", "roughness_law", "wheel_roughness_map", "data", "films_file",
                     "template_file")
 PLOT_SUFFIXES = (".png", ".pdf", ".svg")
 
@@ -147,8 +149,7 @@ def _harden(parser: argparse.ArgumentParser) -> None:
                 bounded = _after(convert, bounded)
             action.type = bounded
             if action.help and action.help is not argparse.SUPPRESS:
-                shown = f"{low}-{high}" if integer else f"{low:g}-{high:g}"
-                action.help = f"{action.help} [allowed {shown}]"
+                action.help = action.help + bounds_text(low, high, integer)
         elif convert is float:
             action.type = arg_finite()
 
@@ -164,7 +165,7 @@ def build_parser() -> argparse.ArgumentParser:
                "a bad or damaged file (one line on stderr), 70 an internal error (traceback), "
                "130 interrupted.",
     )
-    from filmcal import __version__
+    from filmcal._versions import __version__
     parser.add_argument("--version", action="version", version=f"filmcal {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
     for name in command_modules():
@@ -175,12 +176,17 @@ def build_parser() -> argparse.ArgumentParser:
 
 # --- checks of path options before any work ------------------------------------
 
-def _command_actions(parser: argparse.ArgumentParser, command: list[str]) -> dict[str, argparse.Action]:
-    """Destination -> option action of the (sub)command named by `command`."""
+def _command_parser(parser: argparse.ArgumentParser, command: list[str]) -> argparse.ArgumentParser:
+    """The (sub)parser of the command named by `command`."""
     current = parser
     for name in command:
         current = _subparsers(current).get(name, current)
-    return {action.dest: action for action in current._actions if action.option_strings}
+    return current
+
+
+def _command_actions(parser: argparse.ArgumentParser, command: list[str]) -> dict[str, argparse.Action]:
+    """Destination -> option action of the (sub)command named by `command`."""
+    return {action.dest: action for action in _command_parser(parser, command)._actions if action.option_strings}
 
 
 def _option_strings(actions: dict[str, argparse.Action]) -> dict[str, str]:
@@ -450,6 +456,10 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_USER
     path = [args.command] + ([args.action] if isinstance(getattr(args, "action", None), str) else [])
     prog = "filmcal " + " ".join(path)
+    missing = missing_required(_command_parser(parser, path), args)
+    if missing:
+        sys.stderr.write(f"{prog}: error: the following arguments are required: {', '.join(missing)}\n")
+        return EXIT_USER
     actions = _command_actions(parser, path)
     options = _option_strings(actions)
     try:

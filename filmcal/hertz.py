@@ -79,7 +79,7 @@ def contact_modulus_mpa(modulus_mpa: float | np.ndarray = STEEL_MODULUS_MPA,
     return _scalar_or_array(1.0 / ((1.0 - nu1**2) / e1 + (1.0 - nu2**2) / e2))
 
 
-def hertz_radius_mm(radius_mm: float | np.ndarray, force_n: float | np.ndarray,
+def hertz_radius_mm(sphere_radius_mm: float | np.ndarray, force_n: float | np.ndarray,
                     modulus_mpa: float | np.ndarray = STEEL_MODULUS_MPA,
                     poisson: float | np.ndarray = STEEL_POISSON,
                     modulus2_mpa: float | np.ndarray | None = None,
@@ -92,7 +92,7 @@ def hertz_radius_mm(radius_mm: float | np.ndarray, force_n: float | np.ndarray,
 
     Parameters
     ----------
-    radius_mm : float or array_like
+    sphere_radius_mm : float or array_like
         Sphere radius R (mm), > 0.
     force_n : float or array_like
         Normal force F (N), > 0.
@@ -106,13 +106,13 @@ def hertz_radius_mm(radius_mm: float | np.ndarray, force_n: float | np.ndarray,
     float or ndarray
         Contact radius a in mm (broadcast over the inputs).
     """
-    r = _positive("radius_mm", radius_mm)
+    r = _positive("sphere_radius_mm", sphere_radius_mm)
     f = _positive("force_n", force_n)
     e_star = contact_modulus_mpa(modulus_mpa, poisson, modulus2_mpa, poisson2)
     return _scalar_or_array(np.cbrt(3.0 * f * r / (4.0 * np.asarray(e_star))))
 
 
-def hertz_max_pressure_mpa(radius_mm: float | np.ndarray, force_n: float | np.ndarray,
+def hertz_max_pressure_mpa(sphere_radius_mm: float | np.ndarray, force_n: float | np.ndarray,
                            modulus_mpa: float | np.ndarray = STEEL_MODULUS_MPA,
                            poisson: float | np.ndarray = STEEL_POISSON,
                            modulus2_mpa: float | np.ndarray | None = None,
@@ -124,7 +124,7 @@ def hertz_max_pressure_mpa(radius_mm: float | np.ndarray, force_n: float | np.nd
 
     Parameters
     ----------
-    radius_mm, force_n, modulus_mpa, poisson, modulus2_mpa, poisson2
+    sphere_radius_mm, force_n, modulus_mpa, poisson, modulus2_mpa, poisson2
         As in `hertz_radius_mm`.
 
     Returns
@@ -132,22 +132,22 @@ def hertz_max_pressure_mpa(radius_mm: float | np.ndarray, force_n: float | np.nd
     float or ndarray
         p0 in MPa.
     """
-    a = np.asarray(hertz_radius_mm(radius_mm, force_n, modulus_mpa, poisson, modulus2_mpa, poisson2))
+    a = np.asarray(hertz_radius_mm(sphere_radius_mm, force_n, modulus_mpa, poisson, modulus2_mpa, poisson2))
     f = np.asarray(force_n, dtype=float)
     return _scalar_or_array(3.0 * f / (2.0 * np.pi * a**2))
 
 
-def hertz_approach_mm(radius_mm, force_n, modulus_mpa=STEEL_MODULUS_MPA, poisson=STEEL_POISSON,
+def hertz_approach_mm(sphere_radius_mm, force_n, modulus_mpa=STEEL_MODULUS_MPA, poisson=STEEL_POISSON,
                       modulus2_mpa=None, poisson2=None) -> float | np.ndarray:
     """Hertz mutual approach of distant points, delta = a^2 / R (mm)."""
-    a = np.asarray(hertz_radius_mm(radius_mm, force_n, modulus_mpa, poisson, modulus2_mpa, poisson2))
-    return _scalar_or_array(a**2 / np.asarray(radius_mm, dtype=float))
+    a = np.asarray(hertz_radius_mm(sphere_radius_mm, force_n, modulus_mpa, poisson, modulus2_mpa, poisson2))
+    return _scalar_or_array(a**2 / np.asarray(sphere_radius_mm, dtype=float))
 
 
-def hertz_pressure_mpa(r_mm, radius_mm: float, force_n: float, modulus_mpa=STEEL_MODULUS_MPA,
+def hertz_pressure_mpa(r_mm, sphere_radius_mm: float, force_n: float, modulus_mpa=STEEL_MODULUS_MPA,
                        poisson=STEEL_POISSON, modulus2_mpa=None, poisson2=None) -> np.ndarray:
     """Hertz pressure distribution p(r) = p0 sqrt(1 - r^2/a^2), zero outside (MPa)."""
-    a = hertz_radius_mm(radius_mm, force_n, modulus_mpa, poisson, modulus2_mpa, poisson2)
-    p0 = hertz_max_pressure_mpa(radius_mm, force_n, modulus_mpa, poisson, modulus2_mpa, poisson2)
+    a = hertz_radius_mm(sphere_radius_mm, force_n, modulus_mpa, poisson, modulus2_mpa, poisson2)
+    p0 = hertz_max_pressure_mpa(sphere_radius_mm, force_n, modulus_mpa, poisson, modulus2_mpa, poisson2)
     r = np.asarray(r_mm, dtype=float)
     return p0 * np.sqrt(np.clip(1.0 - (r / a) ** 2, 0.0, None))

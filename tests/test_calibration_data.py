@@ -79,11 +79,11 @@ def test_hertz_broadcasts_over_arrays():
 
 
 @pytest.mark.parametrize("kwargs, name", [
-    ({"radius_mm": -1.0, "force_n": 1e3}, "radius_mm"),
-    ({"radius_mm": 300.0, "force_n": np.nan}, "force_n"),
-    ({"radius_mm": 300.0, "force_n": 1e3, "poisson": 0.5}, "poisson"),
-    ({"radius_mm": 300.0, "force_n": 1e3, "modulus_mpa": 0.0}, "modulus_mpa"),
-    ({"radius_mm": 300.0, "force_n": 1e3, "modulus2_mpa": -2.0}, "modulus2_mpa"),
+    ({"sphere_radius_mm": -1.0, "force_n": 1e3}, "sphere_radius_mm"),
+    ({"sphere_radius_mm": 300.0, "force_n": np.nan}, "force_n"),
+    ({"sphere_radius_mm": 300.0, "force_n": 1e3, "poisson": 0.5}, "poisson"),
+    ({"sphere_radius_mm": 300.0, "force_n": 1e3, "modulus_mpa": 0.0}, "modulus_mpa"),
+    ({"sphere_radius_mm": 300.0, "force_n": 1e3, "modulus2_mpa": -2.0}, "modulus2_mpa"),
 ])
 def test_hertz_rejects_bad_parameters(kwargs, name):
     with pytest.raises(ValueError, match=name):

@@ -42,13 +42,13 @@ SLEEP_ENV = "FILMCAL_TEST_SLEEP_S"
 
 def point_key(params: dict) -> str:
     """A readable key of a toy design point."""
-    return f"R{params['radius_mm']:g}/F{params['force_kn']:g}/E{params['modulus_mpa']:g}"
+    return f"R{params['sphere_radius_mm']:g}/F{params['force_kn']:g}/E{params['modulus_mpa']:g}"
 
 
 def hertz_radius_mm(params: dict) -> float:
     """Hertz contact radius of two equal elastic bodies, a = (3FR / (4E*))^(1/3), E* = E / (2(1 - nu^2))."""
     e_star = params["modulus_mpa"] / (2.0 * (1.0 - params["poisson"] ** 2))
-    return (3.0 * params["force_kn"] * 1e3 * params["radius_mm"] / (4.0 * e_star)) ** (1.0 / 3.0)
+    return (3.0 * params["force_kn"] * 1e3 * params["sphere_radius_mm"] / (4.0 * e_star)) ** (1.0 / 3.0)
 
 
 def _log_call(params: dict) -> None:
@@ -94,8 +94,8 @@ def worker_info_model(params: dict) -> dict:
             "omp_num_threads": os.environ.get("OMP_NUM_THREADS", "")}
 
 
-def toy_design(forces, radius_mm=450.0, **extra) -> list[dict]:
-    return [{"modulus_mpa": 2800.0 + 10.0 * i, "poisson": 0.33, "radius_mm": radius_mm,
+def toy_design(forces, sphere_radius_mm=450.0, **extra) -> list[dict]:
+    return [{"modulus_mpa": 2800.0 + 10.0 * i, "poisson": 0.33, "sphere_radius_mm": sphere_radius_mm,
              "force_kn": float(force), **extra} for i, force in enumerate(forces)]
 
 
@@ -160,7 +160,7 @@ def test_killed_campaign_resumes_without_recomputing_finished_points(tmp_path):
     env = {**os.environ, CALL_LOG_ENV: str(log), SLEEP_ENV: "0.1",
            "PYTHONPATH": os.pathsep.join(filter(None, [str(TESTS_DIR), os.environ.get("PYTHONPATH")]))}
     command = [sys.executable, "-m", "filmcal.cli", "campaign", "run", "--design", str(design),
-               "--store", str(store), "--workers", "2", "--model", "test_campaign:counting_model", "--json"]
+               "--store", str(store), "--workers", "2", "--simulator-python", "test_campaign:counting_model", "--json"]
 
     from test_campaign_parallel import alive, descendants
 
@@ -264,7 +264,7 @@ def test_pool_timeout_kills_only_the_overdue_call(pool):
 
 def test_toy_model_reproduces_the_hertz_reference_case():
     # DESIGN.md: two steel bodies, R450, 75 kN -> a = 6.031 mm
-    params = {"modulus_mpa": 210000.0, "poisson": 0.3, "radius_mm": 450.0, "force_kn": 75.0}
+    params = {"modulus_mpa": 210000.0, "poisson": 0.3, "sphere_radius_mm": 450.0, "force_kn": 75.0}
     assert counting_model(params)["contact_radius_mm"] == pytest.approx(6.031, abs=5e-4)
 
 
@@ -283,7 +283,7 @@ def test_outputs_are_classified():
 def test_dask_cluster_gives_the_same_results_as_the_local_pool(tmp_path, pool, capsys):
     from dask.distributed import Client, LocalCluster
 
-    points = toy_design([20, 40, 60, 80], radius_mm=300.0) + toy_design([25, 50, 75], radius_mm=600.0)
+    points = toy_design([20, 40, 60, 80], sphere_radius_mm=300.0) + toy_design([25, 50, 75], sphere_radius_mm=600.0)
     local = Campaign(counting_model, tmp_path / "local.sqlite", executor=pool)
     local.run(points, progress=False)
     design = write_design_csv(tmp_path / "design.csv", points)
@@ -294,7 +294,7 @@ def test_dask_cluster_gives_the_same_results_as_the_local_pool(tmp_path, pool, c
             remote = Campaign(counting_model, tmp_path / "dask.sqlite", executor=executor)
             summary = remote.run(points, timeout_s=30.0, progress=False)
         assert run_cli(["campaign", "run", "--design", str(design), "--store", str(tmp_path / "cli.sqlite"),
-                        "--dask", cluster.scheduler_address, "--model", "test_campaign:counting_model"]) == 0
+                        "--dask", cluster.scheduler_address, "--simulator-python", "test_campaign:counting_model"]) == 0
     finally:
         cluster.close()
     assert summary.counts.ok == len(points)
@@ -311,16 +311,16 @@ def test_dask_cluster_gives_the_same_results_as_the_local_pool(tmp_path, pool, c
 
 def test_point_id_depends_on_values_and_settings_only():
     h = settings_hash("toy:model", {"mesh": "fine"})
-    assert point_id({"radius_mm": 450, "force_kn": 75.0}, h) == point_id({"force_kn": 75.0, "radius_mm": 450.0}, h)
-    assert point_id({"radius_mm": 450.0, "force_kn": 75.0}, h) != point_id({"radius_mm": 450.0, "force_kn": 75.5}, h)
-    assert point_id({"radius_mm": 450.0}, h) != point_id({"radius_mm": 450.0}, settings_hash("toy:model", {}))
+    assert point_id({"sphere_radius_mm": 450, "force_kn": 75.0}, h) == point_id({"force_kn": 75.0, "sphere_radius_mm": 450.0}, h)
+    assert point_id({"sphere_radius_mm": 450.0, "force_kn": 75.0}, h) != point_id({"sphere_radius_mm": 450.0, "force_kn": 75.5}, h)
+    assert point_id({"sphere_radius_mm": 450.0}, h) != point_id({"sphere_radius_mm": 450.0}, settings_hash("toy:model", {}))
     assert settings_hash("toy:model", {}) != settings_hash("toy:other", {})
 
 
 def test_points_are_submitted_grouped_by_radius(tmp_path):
     log = tmp_path / "calls.log"
-    points = [p for pair in zip(toy_design([20, 30], radius_mm=600.0, call_log=str(log)),
-                                toy_design([40, 50], radius_mm=300.0, call_log=str(log))) for p in pair]
+    points = [p for pair in zip(toy_design([20, 30], sphere_radius_mm=600.0, call_log=str(log)),
+                                toy_design([40, 50], sphere_radius_mm=300.0, call_log=str(log))) for p in pair]
     Campaign(counting_model, tmp_path / "runs.sqlite", executor=SerialExecutor()).run(points, progress=False)
     radii = [line.split("/")[0] for line in log.read_text().split()]
     assert radii == ["R300", "R300", "R600", "R600"]
@@ -357,8 +357,8 @@ def test_design_inputs_are_validated(tmp_path):
         as_design_points({"a": [1.0, 2.0], "b": [1.0]})
     with pytest.raises(FileNotFoundError):
         read_design_csv(tmp_path / "missing.csv")
-    (tmp_path / "d.csv").write_text("radius_mm,no_film,sphere_contact,force_kn\n450,true,tied,\n")
-    assert read_design_csv(tmp_path / "d.csv") == [{"radius_mm": 450.0, "no_film": True, "sphere_contact": "tied"}]
+    (tmp_path / "d.csv").write_text("sphere_radius_mm,no_film,sphere_contact,force_kn\n450,true,tied,\n")
+    assert read_design_csv(tmp_path / "d.csv") == [{"sphere_radius_mm": 450.0, "no_film": True, "sphere_contact": "tied"}]
     with pytest.raises(ValueError, match="timeout_s must be > 0"):
         Campaign(counting_model, tmp_path / "s.sqlite", executor=SerialExecutor()).run(toy_design([1]), timeout_s=0)
     with pytest.raises(ValueError, match="model must be callable"):
@@ -386,7 +386,7 @@ def test_cli_run_status_export(tmp_path, capsys):
     design = write_design_csv(tmp_path / "design.csv", toy_design([30, 60, 90]))
     store = tmp_path / "runs.sqlite"
     run = ["campaign", "run", "--design", str(design), "--store", str(store), "--workers", "1",
-           "--model", "test_campaign:counting_model", "--json"]
+           "--simulator-python", "test_campaign:counting_model", "--json"]
     assert run_cli(run) == 0
     assert json.loads(capsys.readouterr().out)["n_run"] == 3
     assert run_cli(run) == 0
@@ -402,11 +402,11 @@ def test_cli_run_status_export(tmp_path, capsys):
 
 @pytest.mark.parametrize("design_text, message", [
     (None, "does not exist"),
-    ("modulus_mpa,poisson,radius_mm\n2800,0.33,450\n", "lacks column(s) force_kn"),
-    ("modulus_mpa,poisson,radius_mm,force_kn\n2800,0.33,450,lots\n", "force_kn must be a finite number"),
-    ("modulus_mpa,poisson,radius_mm,force_kn\n2800,0.7,450,75\n", "poisson must lie in (-1, 0.5)"),
-    ("modulus_mpa,poisson,radius_mm,force_kn,mesh\n2800,0.3,450,75,1\n", "unknown design column(s) mesh"),
-    ("modulus_mpa,poisson,radius_mm,force_kn,sphere_contact\n2800,0.3,450,75,glued\n", "sphere_contact must be"),
+    ("modulus_mpa,poisson,sphere_radius_mm\n2800,0.33,450\n", "lacks column(s) force_kn"),
+    ("modulus_mpa,poisson,sphere_radius_mm,force_kn\n2800,0.33,450,lots\n", "force_kn must be a finite number"),
+    ("modulus_mpa,poisson,sphere_radius_mm,force_kn\n2800,0.7,450,75\n", "poisson must lie in (-1, 0.5)"),
+    ("modulus_mpa,poisson,sphere_radius_mm,force_kn,mesh\n2800,0.3,450,75,1\n", "unknown design column(s) mesh"),
+    ("modulus_mpa,poisson,sphere_radius_mm,force_kn,sphere_contact\n2800,0.3,450,75,glued\n", "sphere_contact must be"),
 ])
 def test_cli_rejects_bad_designs_with_one_line(tmp_path, capsys, design_text, message):
     design = tmp_path / "design.csv"
@@ -429,7 +429,7 @@ def test_cli_rejects_bad_designs_with_one_line(tmp_path, capsys, design_text, me
 ])
 def test_cli_rejects_bad_options_with_one_line(tmp_path, capsys, monkeypatch, argv):
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "d.csv").write_text("modulus_mpa,poisson,radius_mm,force_kn\n2800,0.33,450,75\n")
+    (tmp_path / "d.csv").write_text("modulus_mpa,poisson,sphere_radius_mm,force_kn\n2800,0.33,450,75\n")
     assert run_cli(argv) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "error" in err
@@ -440,5 +440,5 @@ def test_cli_model_option_imports_by_name_only(tmp_path, capsys):
     design = write_design_csv(tmp_path / "design.csv", toy_design([30]))
     for spec, message in [(str(tmp_path / "design.csv"), "MODULE:FUNCTION"), ("os.path:nothing_here", "cannot import")]:
         assert run_cli(["campaign", "run", "--design", str(design), "--store", str(tmp_path / "s.sqlite"),
-                        "--model", spec]) == 2
+                        "--simulator-python", spec]) == 2
         assert message in capsys.readouterr().err

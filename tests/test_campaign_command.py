@@ -60,9 +60,9 @@ elif a.mode == "garbage":
 elif a.mode == "nanout":
     print('{"contact_radius_mm": NaN}')
 '''
-TEMPLATE = ("{python} standin.py --mode {mode} --e {modulus_mpa} --r {radius_mm} --f {force_kn} "
+TEMPLATE = ("{python} standin.py --mode {mode} --e {modulus_mpa} --r {sphere_radius_mm} --f {force_kn} "
             "--key {key} --log {log} --sleep {sleep_s}")
-DECK = "*MATERIAL\nE={modulus_mpa} NU=0.3\n*STEP R={radius_mm}\n"
+DECK = "*MATERIAL\nE={modulus_mpa} NU=0.3\n*STEP R={sphere_radius_mm}\n"
 
 
 def hertz_radius_mm(modulus_mpa: float, radius_mm: float, force_kn: float) -> float:
@@ -76,7 +76,7 @@ def make_case(tmp_path: Path, modes: list[str], sleep_s: float = 0.3) -> dict:
     (tmp_path / "standin.py").write_text(STANDIN)
     (tmp_path / "deck.inp.tmpl").write_text(DECK)
     log = tmp_path / "starts.log"
-    rows = [{"key": f"p{i:02d}", "mode": mode, "modulus_mpa": 2000.0 + 100.0 * i, "radius_mm": 300.0 + 10 * i,
+    rows = [{"key": f"p{i:02d}", "mode": mode, "modulus_mpa": 2000.0 + 100.0 * i, "sphere_radius_mm": 300.0 + 10 * i,
              "force_kn": 25.0 + i, "sleep_s": sleep_s, "log": str(log), "python": sys.executable}
             for i, mode in enumerate(modes)]
     design = tmp_path / "design.csv"
@@ -91,7 +91,7 @@ def make_case(tmp_path: Path, modes: list[str], sleep_s: float = 0.3) -> dict:
 
 def cli(case: dict, *extra: str) -> list[str]:
     return [sys.executable, "-m", "filmcal.cli", "campaign", "run", "--design", str(case["design"]),
-            "--store", str(case["store"]), "--command", case["template"], *extra]
+            "--store", str(case["store"]), "--simulator-command", case["template"], *extra]
 
 
 def starts(log: Path) -> list[tuple[str, int]]:
@@ -144,7 +144,7 @@ def check_final_store(case: dict) -> dict:
         mode = row["mode"]
         if mode in ("ok", "file"):
             assert status == "ok", (row["key"], reason)
-            expected = hertz_radius_mm(row["modulus_mpa"], row["radius_mm"], row["force_kn"])
+            expected = hertz_radius_mm(row["modulus_mpa"], row["sphere_radius_mm"], row["force_kn"])
             assert outputs["contact_radius_mm"] == pytest.approx(expected, rel=1e-12)
             assert "label" not in outputs  # strings are not outputs
         else:
@@ -413,9 +413,9 @@ def test_placeholders_are_shell_quoted_and_checked_before_any_work(tmp_path):
     design.write_text("modulus_mpa\n2800\n")
     store = tmp_path / "runs.sqlite"
     run = subprocess.run([sys.executable, "-m", "filmcal.cli", "campaign", "run", "--design", str(design),
-                          "--store", str(store), "--command", "solver --e {modulus_mpa} --r {radius_mm}"],
+                          "--store", str(store), "--simulator-command", "solver --e {modulus_mpa} --r {sphere_radius_mm}"],
                          capture_output=True, text=True, timeout=60)
-    assert run.returncode == 2 and "{radius_mm}" in run.stderr and run.stderr.count("\n") == 1
+    assert run.returncode == 2 and "{sphere_radius_mm}" in run.stderr and run.stderr.count("\n") == 1
     assert not store.exists() and not (tmp_path / "runs.work").exists()
 
 
@@ -428,7 +428,7 @@ def test_output_columns_of_a_store_feed_a_surrogate(tmp_path):
     rows = [{k: v for k, v in r.items()} for r in case["rows"]]
     Campaign(model, case["store"], settings=model.settings(), executor=SerialExecutor(), group_by=()).run(
         rows, progress=False)
-    column = load_output_column(case["store"], "contact_radius_mm", inputs=["modulus_mpa", "radius_mm", "force_kn"])
+    column = load_output_column(case["store"], "contact_radius_mm", inputs=["modulus_mpa", "sphere_radius_mm", "force_kn"])
     assert len(column) == 4  # the ok runs only
     X = column.input_matrix()
     expected = [hertz_radius_mm(*x) for x in X]
@@ -436,7 +436,7 @@ def test_output_columns_of_a_store_feed_a_surrogate(tmp_path):
     # a Gaussian-process surrogate of the command's output, fitted on the store's column
     from filmcal.surrogate import GPSurrogate
 
-    names = ["modulus_mpa", "radius_mm", "force_kn"]
+    names = ["modulus_mpa", "sphere_radius_mm", "force_kn"]
     gp = GPSurrogate(inputs=names, output="contact_radius_mm", n_restarts=1, random_state=0).fit(X, column.values)
     assert gp.predict(X) == pytest.approx(column.values, rel=1e-3)
     deck = load_output_column(case["store"], "deck_modulus_mpa")
@@ -512,12 +512,12 @@ def test_retry_reruns_failed_points_only_and_keeps_ok_ones(tmp_path):
 
 
 @pytest.mark.parametrize("extra, message", [
-    (["--template-file", "deck.inp.tmpl"], "--template-file needs --command"),
-    (["--command", "echo {x}", "--template-file", "missing.tmpl"], "--template-file 'missing.tmpl' does not exist"),
-    (["--command", "echo {x}", "--template-file", "a/deck.inp", "--template-file", "b/deck.inp.tmpl"],
+    (["--template-file", "deck.inp.tmpl"], "--template-file needs --simulator-command"),
+    (["--simulator-command", "echo {x}", "--template-file", "missing.tmpl"], "--template-file 'missing.tmpl' does not exist"),
+    (["--simulator-command", "echo {x}", "--template-file", "a/deck.inp", "--template-file", "b/deck.inp.tmpl"],
      "render to the same name"),
-    (["--command", "echo {x}", "--model", "os:getcwd"], "not allowed with argument"),
-    (["--command", "   "], "--command must be a non-empty command template"),
+    (["--simulator-command", "echo {x}", "--simulator-python", "os:getcwd"], "not allowed with argument"),
+    (["--simulator-command", "   "], "--simulator-command must be a non-empty command template"),
 ])
 def test_command_options_are_checked_before_anything_is_written(tmp_path, monkeypatch, capsys, extra, message):
     from filmcal.cli import main

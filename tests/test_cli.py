@@ -32,6 +32,7 @@ def test_every_size_bound_is_used_and_stated():
     import argparse
 
     from filmcal import cli
+    from filmcal.commands._options import bounds_text
 
     parser = cli.build_parser()
     seen = set()
@@ -43,7 +44,8 @@ def test_every_size_bound_is_used_and_stated():
                 if action.dest in cli.SIZE_BOUNDS and getattr(action.type, "bounds", None):
                     seen.add(action.dest)
                     low, high = action.type.bounds
-                    assert action.help and (f"{low}-{high}" in action.help or f"{low:g}-{high:g}" in action.help)
+                    integer = isinstance(low, int) and isinstance(high, int)
+                    assert action.help and bounds_text(low, high, integer).strip() in action.help, action.help
     walk(parser)
     assert isinstance(parser, argparse.ArgumentParser)
     assert seen == set(cli.SIZE_BOUNDS), set(cli.SIZE_BOUNDS) - seen

@@ -19,7 +19,7 @@ from filmcal.surrogate.io import load_surrogate
 from filmcal.surrogate.radius import load_for_prediction
 from filmcal.surrogate.saved import SETTINGS, load_saved_surrogate
 
-NAMES = ("modulus_mpa", "poisson", "radius_mm", "force_kn")
+NAMES = ("modulus_mpa", "poisson", "sphere_radius_mm", "force_kn")
 HEAVY = ("sklearn", "scipy.stats", "emcee", "pandas", "arviz", "h5py")
 
 
@@ -40,7 +40,7 @@ def _fit(scatter: float) -> GPSurrogate:
     X = lo + u * (hi - lo)
     X[:, 0] = np.exp(X[:, 0])
     y = _excess(X) * (1.0 + scatter * np.random.default_rng(5).standard_normal(len(X)))
-    return GPSurrogate(NAMES, "radius_excess_mm", log_inputs=("modulus_mpa", "radius_mm", "force_kn"),
+    return GPSurrogate(NAMES, "radius_excess_mm", log_inputs=("modulus_mpa", "sphere_radius_mm", "force_kn"),
                        output_transform="log", n_restarts=1, random_state=0).fit(X, y)
 
 
@@ -59,7 +59,7 @@ def saved(fitted, tmp_path):
 def _queries(n=500):
     rng = np.random.default_rng(1)
     return {"modulus_mpa": np.exp(rng.uniform(np.log(500.0), np.log(1.5e4), n)), "poisson": rng.uniform(0.3, 0.36, n),
-            "radius_mm": rng.uniform(300.0, 600.0, n), "force_kn": rng.uniform(25.0, 100.0, n)}
+            "sphere_radius_mm": rng.uniform(300.0, 600.0, n), "force_kn": rng.uniform(25.0, 100.0, n)}
 
 
 def test_numpy_prediction_equals_the_fitted_surrogate(fitted, saved):

@@ -206,13 +206,13 @@ def test_command_rejects_bad_imprint_input(tmp_path):
     Image.fromarray(np.full((60, 60, 3), 250, dtype=np.uint8)).save(blank)
     wheel = ["--offset-mm=-3", "--force-kn", "100", "--study-dir", str(tmp_path), "--json"]
     cases = [
-        ["--imprint", str(tmp_path / "missing.png"), "--dpi", "600", *wheel],
-        ["--imprint", str(blank), *wheel],  # no pixel size
-        ["--imprint", str(blank), "--dpi", "600", *wheel],  # no stain
-        ["--imprint", str(blank), "--dpi", "600", "--mm-per-pixel", "0.04", *wheel],
-        ["--imprint", str(blank), "--dpi=-600", *wheel],
-        ["--imprint", str(blank), "--dpi", "600", "--measured-area-mm2", "150", *wheel],
-        ["--dpi", "600", "--measured-area-mm2", "150", *wheel],  # --dpi without --imprint
+        ["--scan", str(tmp_path / "missing.png"), "--dpi", "600", *wheel],
+        ["--scan", str(blank), *wheel],  # no pixel size
+        ["--scan", str(blank), "--dpi", "600", *wheel],  # no stain
+        ["--scan", str(blank), "--dpi", "600", "--mm-per-pixel", "0.04", *wheel],
+        ["--scan", str(blank), "--dpi=-600", *wheel],
+        ["--scan", str(blank), "--dpi", "600", "--measured-area-mm2", "150", *wheel],
+        ["--dpi", "600", "--measured-area-mm2", "150", *wheel],  # --dpi without --scan
     ]
     for args in cases:
         p = run_cli(*args)
@@ -269,7 +269,7 @@ def test_decompression_bomb_refused_before_decoding(tmp_path):
 def test_command_names_damaged_scan(tmp_path):
     data = _scan_png(tmp_path / "whole.png")
     (tmp_path / "cut.png").write_bytes(data[: len(data) // 2])
-    p = run_cli("--imprint", str(tmp_path / "cut.png"), "--offset-mm=-3", "--force-kn", "100",
+    p = run_cli("--scan", str(tmp_path / "cut.png"), "--offset-mm=-3", "--force-kn", "100",
                 "--study-dir", str(tmp_path), "--json")
     assert p.returncode == 2, p.stderr
     lines = p.stderr.strip().splitlines()

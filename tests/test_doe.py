@@ -122,7 +122,7 @@ def test_reaches_the_exhaustive_maximin_optimum_in_two_dimensions():
 
 def test_discrete_columns_are_optimised_as_realised():
     space = DesignSpace((Parameter("x", 0.0, 1.0), Parameter("y", 0.0, 1.0),
-                         Parameter("radius_mm", levels=(300, 450, 600))))
+                         Parameter("sphere_radius_mm", levels=(300, 450, 600))))
     aware = latin_design(space, 45, seed=2, n_outer=40)
     plain = OptimalLatinHypercube(3, seed=2, n_outer=40).random(45)
     plain_realised = space.to_unit(space.to_physical(plain))
@@ -185,7 +185,7 @@ def test_augment_rejects_bad_input():
 def test_linear_log_discrete_and_fixed_mapping():
     lin = Parameter("poisson", 0.0, 0.49)
     log = Parameter("modulus_mpa", 50.0, 5000.0, unit="MPa", scale="log")
-    levels = Parameter("radius_mm", levels=(600, 300, 450))
+    levels = Parameter("sphere_radius_mm", levels=(600, 300, 450))
     fixed = Parameter("force_kn", fixed=75.0)
     u = np.array([0.0, 0.25, 0.5, 0.9])
     np.testing.assert_allclose(lin.to_physical(u), 0.49 * u)
@@ -198,7 +198,7 @@ def test_linear_log_discrete_and_fixed_mapping():
     assert fixed.is_fixed and (fixed.low, fixed.high) == (75.0, 75.0)
 
     space = DesignSpace((log, lin, levels, fixed))
-    assert space.d == 3 and space.names == ("modulus_mpa", "poisson", "radius_mm", "force_kn")
+    assert space.d == 3 and space.names == ("modulus_mpa", "poisson", "sphere_radius_mm", "force_kn")
     physical = space.to_physical(np.array([[0.5, 0.5, 0.5]]))
     np.testing.assert_allclose(physical, [[500.0, 0.245, 450.0, 75.0]])
     np.testing.assert_allclose(space.to_unit(physical), [[0.5, 0.5, 0.5]])
@@ -243,7 +243,7 @@ def test_parse_parameter_forms():
     assert (p.name, p.low, p.high, p.scale) == ("modulus_mpa", 50.0, 5000.0, "log")
     assert parse_parameter("poisson = 0 : 0.49").high == 0.49
     assert parse_parameter("x=-1e-3:2e-3").low == -0.001
-    assert parse_parameter("radius_mm=300,450,600").levels == (300.0, 450.0, 600.0)
+    assert parse_parameter("sphere_radius_mm=300,450,600").levels == (300.0, 450.0, 600.0)
     assert parse_parameter("force_kn=75").fixed == 75.0
     for bad, message in [("x", "expected name=low:high"), ("x=", "expected name=low:high"),
                          ("x=1:2:3:4", "expected low:high"), ("x=a:2", "x: 'a' is not"),
@@ -285,7 +285,7 @@ def test_cli_writes_csv_and_json(tmp_path, capsys):
     out = tmp_path / "design.csv"
     status, stdout, _ = run_cli(capsys, "--samples", "20", "--seed", "0",
                                 "--param", "modulus_mpa=50:5000:log", "--param", "poisson=0:0.49",
-                                "--param", "radius_mm=300,450,600", "--param", "force_kn=75",
+                                "--param", "sphere_radius_mm=300,450,600", "--param", "force_kn=75",
                                 "--out", str(out), "--json", "--iterations", "20")
     assert status == 0
     report = json.loads(stdout)
@@ -293,13 +293,13 @@ def test_cli_writes_csv_and_json(tmp_path, capsys):
                 "elapsed_s"):
         assert key in report
     names, points = read_design_csv(out)
-    assert names == ("modulus_mpa", "poisson", "radius_mm", "force_kn")
+    assert names == ("modulus_mpa", "poisson", "sphere_radius_mm", "force_kn")
     assert points.shape == (20, 4)
     assert set(points[:, 2]) == {300.0, 450.0, 600.0} and set(points[:, 3]) == {75.0}
     assert points[:, 0].min() >= 50.0 and points[:, 0].max() <= 5000.0
     space = DesignSpace(tuple(parse_parameter(s) for s in
                               ("modulus_mpa=50:5000:log", "poisson=0:0.49",
-                               "radius_mm=300,450,600", "force_kn=75")))
+                               "sphere_radius_mm=300,450,600", "force_kn=75")))
     assert report["min_distance"] == pytest.approx(min_distance(space.to_unit(points)))
     assert report["latin"] is False                           # a discrete column
 

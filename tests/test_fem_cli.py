@@ -9,7 +9,7 @@ import pytest
 from filmcal import cli
 from filmcal.hertz import hertz_max_pressure_mpa, hertz_radius_mm
 
-BASE = ["fem", "--radius-mm", "450", "--force-kn", "75", "--json"]
+BASE = ["fem", "--sphere-radius-mm", "450", "--force-kn", "75", "--json"]
 
 
 def _run(capsys, *args) -> tuple[int, dict | None, str]:
@@ -19,7 +19,7 @@ def _run(capsys, *args) -> tuple[int, dict | None, str]:
 
 
 def test_film_type_reports_the_activation_imprint(capsys):
-    code, out, _ = _run(capsys, "--film-modulus-mpa", "2800", "--film-type", "HS")
+    code, out, _ = _run(capsys, "--film-modulus-mpa", "2800", "--film", "HS")
     assert code == 0
     assert out["imprint_model"] == "activation" and out["film_type"] == "HS"
     assert out["activation_pressure_mpa"] == 50.0
@@ -28,7 +28,7 @@ def test_film_type_reports_the_activation_imprint(capsys):
 
 
 def test_no_film_imprint_is_the_hertz_contour(capsys):
-    code, out, _ = _run(capsys, "--no-film", "--film-type", "HHS")
+    code, out, _ = _run(capsys, "--no-film", "--film", "HHS")
     a = hertz_radius_mm(450.0, 75e3)
     p0 = hertz_max_pressure_mpa(450.0, 75e3)
     assert code == 0
@@ -42,20 +42,20 @@ def test_imprint_models_and_user_films(capsys, tmp_path):
     radii = {}
     for model in ("edge", "activation", "capsule"):
         code, out, _ = _run(capsys, "--film-modulus-mpa", "2800", "--films-file", str(films),
-                            "--film-type", "WIDE", "--imprint", model)
+                            "--film", "WIDE", "--imprint-model", model)
         assert code == 0 and out["imprint_model"] == model
         radii[model] = out["imprint_radius_mm"]
     assert radii["edge"] == pytest.approx(out["contact_radius_mm"])
     assert radii["edge"] > radii["activation"] > radii["capsule"]
-    code, out, _ = _run(capsys, "--film-modulus-mpa", "2800", "--films-file", str(films), "--film-type", "LOT7")
+    code, out, _ = _run(capsys, "--film-modulus-mpa", "2800", "--films-file", str(films), "--film", "LOT7")
     assert code == 0 and out["activation_pressure_mpa"] == 45.0
     code, legacy, _ = _run(capsys, "--film-modulus-mpa", "2800", "--activation-pressure-mpa", "45")
     assert code == 0 and legacy["imprint_radius_mm"] == pytest.approx(out["imprint_radius_mm"], abs=1e-12)
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--film-type", "NOPE"], "unknown film 'NOPE'"),
-    (["--imprint", "capsule"], "--imprint needs --film-type"),
+    (["--film", "NOPE"], "unknown film 'NOPE'"),
+    (["--imprint-model", "capsule"], "--imprint-model needs --film"),
     (["--activation-pressure-mpa", "-5"], "--activation-pressure-mpa must be > 0"),
 ])
 def test_bad_input_is_one_line_and_status_2(capsys, args, message):
@@ -67,6 +67,6 @@ def test_bad_input_is_one_line_and_status_2(capsys, args, message):
 def test_capsule_needs_a_range(capsys, tmp_path):
     films = tmp_path / "films.toml"
     films.write_text('[LOT7]\nactivation_pressure_mpa = 45\n')
-    code, _, err = _run(capsys, "--film-modulus-mpa", "2800", "--films-file", str(films), "--film-type", "LOT7",
-                        "--imprint", "capsule")
+    code, _, err = _run(capsys, "--film-modulus-mpa", "2800", "--films-file", str(films), "--film", "LOT7",
+                        "--imprint-model", "capsule")
     assert code == 2 and "LOT7 has no range_mpa" in err

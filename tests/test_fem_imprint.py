@@ -130,7 +130,7 @@ def test_solve_with_film_type_reports_the_imprint(model450):
 
 def test_evaluate_point_reads_every_pair_from_one_solve():
     films = [get_film("MS"), get_film("HS"), FilmType("LOT7", activation_pressure_mpa=45.0)]
-    point = {"radius_mm": 450.0, "force_kn": 75.0, "modulus_mpa": 2800.0, "poisson": 0.33}
+    point = {"sphere_radius_mm": 450.0, "force_kn": 75.0, "modulus_mpa": 2800.0, "poisson": 0.33}
     out = evaluate_point(point, films=films)
     expected = {"radius_activation_MS_mm", "radius_activation_HS_mm", "radius_activation_LOT7_mm",
                 "radius_capsule_MS_mm", "radius_capsule_HS_mm"}  # LOT7 has no range: no capsule

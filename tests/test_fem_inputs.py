@@ -28,7 +28,7 @@ def test_bad_force_and_radius(model450):
     for f in (0.0, -5.0, math.nan, math.inf):
         with pytest.raises(ValueError, match="force_n"):
             model450.solve(None, f)
-    with pytest.raises(ValueError, match="radius_mm"):
+    with pytest.raises(ValueError, match="sphere_radius_mm"):
         get_model(-450.0)
 
 
@@ -56,9 +56,9 @@ def test_bad_contact_options():
 
 def test_evaluate_point_names_the_bad_key():
     with pytest.raises(ValueError, match="force_kn"):
-        evaluate_point(dict(modulus_mpa=2800, poisson=0.33, radius_mm=450, force_kn="x"))
+        evaluate_point(dict(modulus_mpa=2800, poisson=0.33, sphere_radius_mm=450, force_kn="x"))
     with pytest.raises(ValueError, match="sphere_contact"):
-        evaluate_point(dict(modulus_mpa=2800, poisson=0.33, radius_mm=450, force_kn=75, sphere_contact="glue"))
+        evaluate_point(dict(modulus_mpa=2800, poisson=0.33, sphere_radius_mm=450, force_kn=75, sphere_contact="glue"))
 
 
 def _cli(*args):
@@ -66,13 +66,13 @@ def _cli(*args):
 
 
 @pytest.mark.parametrize("args", [
-    ["--radius-mm", "450", "--force-kn", "75", "--film-modulus-mpa", "2800", "--film-poisson", "0.7"],
-    ["--radius-mm", "450", "--force-kn", "-75", "--no-film"],
-    ["--radius-mm", "-450", "--force-kn", "75", "--no-film"],
-    ["--radius-mm", "450", "--force-kn", "nan", "--no-film"],
-    ["--radius-mm", "450", "--force-kn", "abc", "--no-film"],
-    ["--radius-mm", "450", "--force-kn", "75", "--film-modulus-mpa", "0"],
-    ["--radius-mm", "450", "--force-kn", "75", "--no-film", "--sphere-contact", "glued"],
+    ["--sphere-radius-mm", "450", "--force-kn", "75", "--film-modulus-mpa", "2800", "--film-poisson", "0.7"],
+    ["--sphere-radius-mm", "450", "--force-kn", "-75", "--no-film"],
+    ["--sphere-radius-mm", "-450", "--force-kn", "75", "--no-film"],
+    ["--sphere-radius-mm", "450", "--force-kn", "nan", "--no-film"],
+    ["--sphere-radius-mm", "450", "--force-kn", "abc", "--no-film"],
+    ["--sphere-radius-mm", "450", "--force-kn", "75", "--film-modulus-mpa", "0"],
+    ["--sphere-radius-mm", "450", "--force-kn", "75", "--no-film", "--sphere-contact", "glued"],
 ])
 def test_cli_bad_input_exits_2_with_one_line(args):
     p = _cli(*args, "--json")
@@ -84,7 +84,7 @@ def test_cli_bad_input_exits_2_with_one_line(args):
 
 def test_cli_json_contract():
     import json
-    p = _cli("--radius-mm", "450", "--force-kn", "75", "--film-modulus-mpa", "2800", "--film-poisson", "0.33",
+    p = _cli("--sphere-radius-mm", "450", "--force-kn", "75", "--film-modulus-mpa", "2800", "--film-poisson", "0.33",
              "--json")
     assert p.returncode == 0, p.stderr
     out = json.loads(p.stdout)

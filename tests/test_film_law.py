@@ -8,7 +8,7 @@ import pytest
 from scipy.integrate import quad
 
 from filmcal.elastic import lame_parameters, oedometric_modulus_mpa
-from filmcal.wheelrail.interface import (ExponentialLaw, FilmLayer, LargeStrainFilm, SeriesLaw,
+from filmcal.contact.laws import (ExponentialLaw, FilmLayer, LargeStrainFilm, SeriesLaw,
                                          film_law)
 
 

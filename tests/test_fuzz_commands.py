@@ -62,13 +62,13 @@ def bomb_png(tmp_path_factory) -> bytes:
 def folder(tmp_path, monkeypatch, bomb_png):
     """A working folder with good and bad inputs of every kind."""
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "design.csv").write_text("modulus_mpa,poisson,radius_mm,force_kn\n2800,0.33,450,75\n")
+    (tmp_path / "design.csv").write_text("modulus_mpa,poisson,sphere_radius_mm,force_kn\n2800,0.33,450,75\n")
     (tmp_path / "binary.csv").write_bytes(b"\x00\x01\xffgarbage\xfe")
     (tmp_path / "empty.csv").write_bytes(b"")
     (tmp_path / "wrongcols.csv").write_text("a,b\n1,2\n")
-    (tmp_path / "nan.csv").write_text("modulus_mpa,poisson,radius_mm,force_kn\nnan,0.33,450,75\n")
-    (tmp_path / "negative.csv").write_text("modulus_mpa,poisson,radius_mm,force_kn\n2800,0.33,-450,75\n")
-    (tmp_path / "ragged.csv").write_text("modulus_mpa,poisson,radius_mm,force_kn\n2800,0.33\n")
+    (tmp_path / "nan.csv").write_text("modulus_mpa,poisson,sphere_radius_mm,force_kn\nnan,0.33,450,75\n")
+    (tmp_path / "negative.csv").write_text("modulus_mpa,poisson,sphere_radius_mm,force_kn\n2800,0.33,-450,75\n")
+    (tmp_path / "ragged.csv").write_text("modulus_mpa,poisson,sphere_radius_mm,force_kn\n2800,0.33\n")
     (tmp_path / "badprofile.csv").write_text("y_mm,z_mm\n0,nan\n1,2\n")
     (tmp_path / "law.csv").write_text("closure_um,pressure_mpa\n1,abc\n")
     (tmp_path / "films.toml").write_text('[LOT7]\nthickness_mm = "thick"\n')
@@ -114,15 +114,15 @@ def xfail(*values, reason):
 WHEEL = ["--force-kn", "100", "--measured-area-mm2", "150", "--offset-mm=-3"]
 SPHERE = ["--force-kn", "75", "--sphere-radius-mm", "450", "--measured-radius-mm", "7.1"]
 WR = ["--offset-mm=-3", "--force-kn", "100"]
-FEM = ["--radius-mm", "450", "--force-kn", "75"]
+FEM = ["--sphere-radius-mm", "450", "--force-kn", "75"]
 DOE = ["--samples", "5", "--param", "a=0:1", "--out", "d.csv"]
 
 # (argv, words of which the stderr line must contain one)
 CASES = [
     # fem
-    (["fem", "--radius-mm", "-1", "--force-kn", "75", "--no-film"], ["--radius-mm"]),
-    (["fem", "--radius-mm", "0", "--force-kn", "75", "--no-film"], ["--radius-mm"]),
-    (["fem", "--radius-mm", "450", "--force-kn", "0", "--no-film"], ["--force-kn", "force"]),
+    (["fem", "--sphere-radius-mm", "-1", "--force-kn", "75", "--no-film"], ["--sphere-radius-mm"]),
+    (["fem", "--sphere-radius-mm", "0", "--force-kn", "75", "--no-film"], ["--sphere-radius-mm"]),
+    (["fem", "--sphere-radius-mm", "450", "--force-kn", "0", "--no-film"], ["--force-kn", "force"]),
     (["fem", *FEM, "--film-modulus-mpa", "-5"], ["--film-modulus-mpa"]),
     (["fem", *FEM, "--film-modulus-mpa", "0"], ["--film-modulus-mpa"]),
     (["fem", *FEM, "--film-modulus-mpa", "2800", "--film-poisson", "0.5"], ["--film-poisson"]),
@@ -131,7 +131,7 @@ CASES = [
     (["fem", *FEM, "--no-film", "--friction-coefficient", "-0.1"], ["--friction-coefficient"]),
     (["fem", *FEM, "--no-film", "--film-modulus-mpa", "2800"], ["--film-modulus-mpa", "--no-film"]),
     (["fem", *FEM], ["--film-modulus-mpa", "--no-film"]),
-    (["fem", "--radius-mm", "1e300", "--force-kn", "75", "--no-film"], ["--radius-mm"]),
+    (["fem", "--sphere-radius-mm", "1e300", "--force-kn", "75", "--no-film"], ["--sphere-radius-mm"]),
     # doe
     (["doe", "--samples", "1", "--param", "a=0:1", "--out", "d.csv"], ["--samples"]),
     (["doe", "--samples", "5", "--param", "a=1:0", "--out", "d.csv"], ["a:", "low"]),
@@ -150,11 +150,11 @@ CASES = [
     (["campaign", "run", "--design", "empty.csv", "--store", "r.sqlite"], ["empty.csv"]),
     (["campaign", "run", "--design", "wrongcols.csv", "--store", "r.sqlite"], ["column"]),
     (["campaign", "run", "--design", "nan.csv", "--store", "r.sqlite"], ["modulus_mpa"]),
-    (["campaign", "run", "--design", "negative.csv", "--store", "r.sqlite"], ["radius_mm"]),
+    (["campaign", "run", "--design", "negative.csv", "--store", "r.sqlite"], ["sphere_radius_mm"]),
     (["campaign", "run", "--design", "ragged.csv", "--store", "r.sqlite"], ["ragged.csv", "row", "--design"]),
-    (["campaign", "run", "--design", "design.csv", "--store", "r.sqlite", "--model", "garbage"], ["--model"]),
-    (["campaign", "run", "--design", "design.csv", "--store", "r.sqlite", "--model", "nosuchmodule:f"],
-     ["--model", "nosuchmodule"]),
+    (["campaign", "run", "--design", "design.csv", "--store", "r.sqlite", "--simulator-python", "garbage"], ["--simulator-python"]),
+    (["campaign", "run", "--design", "design.csv", "--store", "r.sqlite", "--simulator-python", "nosuchmodule:f"],
+     ["--simulator-python", "nosuchmodule"]),
     (["campaign", "run", "--design", "design.csv", "--store", "r.sqlite", "--dask", "garbage"], ["--dask"]),
     (["campaign", "run", "--design", "design.csv", "--store", "garbled.sqlite"], ["garbled.sqlite"]),
     (["campaign", "status", "--store", "garbled.sqlite"], ["garbled.sqlite"]),
@@ -168,8 +168,8 @@ CASES = [
     (["calibrate", "--film", "XX", "--study-dir", "emptystudy"], ["XX", "--film"]),
     (["calibrate", "--film", " HS", "--study-dir", "emptystudy"], ["HS", "--film"]),
     (["calibrate", "--film", "", "--study-dir", "emptystudy"], ["film"]),
-    (["calibrate", "--film", "HS", "--loads", "abc", "--study-dir", "emptystudy"], ["--loads"]),
-    (["calibrate", "--film", "HS", "--loads", "100-50", "--study-dir", "emptystudy"], ["--loads"]),
+    (["calibrate", "--film", "HS", "--forces-kn", "abc", "--study-dir", "emptystudy"], ["--forces-kn"]),
+    (["calibrate", "--film", "HS", "--forces-kn", "100-50", "--study-dir", "emptystudy"], ["--forces-kn"]),
     (["calibrate", "--film", "LOT7", "--films-file", "films.toml", "--study-dir", "emptystudy"], ["films.toml"]),
     (["calibrate", "--film", "LOT7", "--films-file", "notoml.toml", "--study-dir", "emptystudy"], ["notoml.toml"]),
     (["calibrate", "--film", "HS", "--data", "binary.csv", "--study-dir", "emptystudy"], ["binary.csv"]),
@@ -197,14 +197,14 @@ CASES = [
     (["wheelrail", *WR, "--film-modulus-mpa", "2800", "--film-poisson", "0.7"], ["--film-poisson", "poisson"]),
     (["wheelrail", *WR, "--film-modulus-mpa", "-1"], ["--film-modulus-mpa"]),
     (["wheelrail", *WR, "--no-film", "--wheel-radius-mm", "0"], ["--wheel-radius-mm", "radius"]),
-    (["wheelrail", *WR, "--no-film", "--roughness-ra-um", "-1"], ["--roughness-ra-um"]),
-    (["wheelrail", *WR, "--no-film", "--roughness-map", "bomb.png", "--roughness-pixel-um", "1",
+    (["wheelrail", *WR, "--no-film", "--wheel-roughness-ra-um", "-1"], ["--wheel-roughness-ra-um"]),
+    (["wheelrail", *WR, "--no-film", "--wheel-roughness-map", "bomb.png", "--roughness-pixel-um", "1",
       "--roughness-height-range-um", "5"], ["bomb.png"]),
-    (["wheelrail", *WR, "--no-film", "--roughness-map", "cut.png", "--roughness-pixel-um", "1",
+    (["wheelrail", *WR, "--no-film", "--wheel-roughness-map", "cut.png", "--roughness-pixel-um", "1",
       "--roughness-height-range-um", "5"], ["cut.png"]),
-    (["wheelrail", *WR, "--no-film", "--roughness-map", "notimage.png", "--roughness-pixel-um", "1",
+    (["wheelrail", *WR, "--no-film", "--wheel-roughness-map", "notimage.png", "--roughness-pixel-um", "1",
       "--roughness-height-range-um", "5"], ["notimage.png"]),
-    (["wheelrail", *WR, "--no-film", "--roughness-map", "binary.csv", "--roughness-pixel-um", "1"],
+    (["wheelrail", *WR, "--no-film", "--wheel-roughness-map", "binary.csv", "--roughness-pixel-um", "1"],
      ["binary.csv"]),
     # correct
     (["correct", "--film", "XX", *WHEEL, "--study-dir", "emptystudy"], ["XX", "--film", "--study-dir"]),
@@ -214,13 +214,13 @@ CASES = [
     (["correct", "--film", "HS", *WHEEL, "--study-dir", "badstudy"], ["badstudy/study.json"]),
     (["correct", "--film", "HS", *SPHERE, "--study-dir", "binstudy"], ["binstudy/study.json"]),
     (["correct", "--film", "HS", "--force-kn", "100", "--offset-mm=-3", "--study-dir", "badstudy"],
-     ["--measured-area-mm2", "--imprint"]),
+     ["--measured-area-mm2", "--scan"]),
     (["correct", "--film", "HS", *WHEEL, "--measured-radius-mm", "7", "--study-dir", "badstudy"],
      ["--measured", "either"]),
     (["correct", "--film", "HS", "--force-kn", "100", "--measured-area-mm2", "-5", "--offset-mm=-3",
       "--study-dir", "badstudy"], ["--measured-area-mm2"]),
     (["correct", "--film", "HS", *WHEEL, "--dpi", "600", "--study-dir", "badstudy"], ["--dpi"]),
-    (["correct", "--film", "HS", *WHEEL, "--imprint", "cut.png", "--study-dir", "badstudy"], ["--imprint"]),
+    (["correct", "--film", "HS", *WHEEL, "--scan", "cut.png", "--study-dir", "badstudy"], ["--scan"]),
     (["correct", "--film", "HS", *WHEEL, "--measurement-std-mm2", "-1", "--study-dir", "badstudy"],
      ["--measurement-std-mm2"]),
     # curves

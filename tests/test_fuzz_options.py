@@ -22,6 +22,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from filmcal import cli
+from filmcal.commands._options import bounds_text
 
 PARSER = cli.build_parser()
 
@@ -133,9 +134,16 @@ def test_size_options_refuse_values_outside_their_bounds_and_state_them(capsys, 
         code, out, err = run(capsys, [*path, f"{action.option_strings[-1]}={value}"])
         assert_refused(code, out, err, action.option_strings[-1])
     assert not no_work
+    # the parser's own conversion accepts the bounds themselves and refuses just beyond them
+    step = 1 if integer else 1e-9 * max(abs(low), abs(high), 1.0)
+    for bound in (low, high):
+        assert action.type(repr(bound)) == bound
+    for beyond in (low - step, high + step):
+        with pytest.raises((argparse.ArgumentTypeError, ValueError, TypeError)):
+            action.type(repr(beyond))
     code, out, _ = run(capsys, [*path, "--help"])
     text = " ".join(out.split())
-    shown = f"{low}-{high}" if integer else f"{low:g}-{high:g}"
+    shown = bounds_text(low, high, integer).strip()
     assert code == 0 and shown in text, (shown, text)
 
 
@@ -220,7 +228,7 @@ def base_argv(path: tuple[str, ...], tmp: Path) -> list[str]:
     design = tmp / "in" / "design.csv"
     store = tmp / "in" / "runs.sqlite"
     base = {
-        ("fem",): ["--radius-mm", "450", "--force-kn", "75", "--no-film"],
+        ("fem",): ["--sphere-radius-mm", "450", "--force-kn", "75", "--no-film"],
         ("doe",): ["--samples", "5", "--param", "a=0:1", "--out", str(tmp / "d.csv")],
         ("campaign", "run"): ["--design", str(design), "--store", str(tmp / "r.sqlite")],
         ("campaign", "status"): ["--store", str(store)],
@@ -296,8 +304,8 @@ def test_path_options_are_checked_before_any_work(capsys, no_work, inputs, case)
 @pytest.mark.parametrize("argv", [
     ["campaign", "run", "--design", "{design}", "--store", "/proc/x.sqlite"],
     ["doe", "--samples", "5", "--param", "a=0:1", "--out", "/proc/design.csv"],
-    ["fem", "--radius-mm", "450", "--force-kn", "75", "--no-film", "--plot", "/proc/p.png"],
-    ["fem", "--radius-mm", "450", "--force-kn", "75", "--no-film", "--plot", "{tmp}/p.txt"],
+    ["fem", "--sphere-radius-mm", "450", "--force-kn", "75", "--no-film", "--plot", "/proc/p.png"],
+    ["fem", "--sphere-radius-mm", "450", "--force-kn", "75", "--no-film", "--plot", "{tmp}/p.txt"],
     ["profile", "S1002", "--plot", "{tmp}/adir"],
 ])
 def test_unwritable_or_odd_outputs(capsys, no_work, inputs, argv):
@@ -318,7 +326,7 @@ def test_bare_filmcal_prints_usage_on_stderr_and_exits_2(capsys):
 def test_unknown_command_and_option(capsys, no_work):
     code, out, err = run(capsys, ["frobnicate"])
     assert_refused(code, out, err, "frobnicate")
-    code, out, err = run(capsys, ["fem", "--radius-mm", "450", "--force-kn", "75", "--no-film", "--bogus"])
+    code, out, err = run(capsys, ["fem", "--sphere-radius-mm", "450", "--force-kn", "75", "--no-film", "--bogus"])
     assert_refused(code, out, err, "--bogus")
     code, out, err = run(capsys, ["campaign"])
     assert_refused(code, out, err, "ACTION")

@@ -15,7 +15,7 @@ from filmcal.wheelrail.halfspace import (
 )
 from filmcal.hertz import contact_modulus_mpa
 from filmcal.wheelrail.hertz import hertz_elliptic
-from filmcal.wheelrail.interface import (
+from filmcal.contact.laws import (
     ExponentialLaw,
     FilmLayer,
     GreenwoodWilliamsonLaw,

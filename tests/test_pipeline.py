@@ -42,7 +42,7 @@ def test_quick_pipeline_writes_every_stage(quick_study):
     assert abs(sum(comparison["weights"].values()) - 1) < 1e-9
     verification = json.loads((study / "fe-verification.json").read_text())
     for case in verification["hertz"]:  # no film: the FE model reproduces Hertz (DESIGN: R450/75 kN 6.031 mm)
-        a = hertz_radius_mm(case["radius_mm"], case["force_n"])
+        a = hertz_radius_mm(case["sphere_radius_mm"], case["force_n"])
         assert abs(case["fe_radius_mm"] / a - 1) < 2e-3
     # leave-one-case-out on Table 1: the Hertz area (the truth) inside the corrected 90 % interval in >= 8 of 10
     crossval = json.loads((study / "crossval" / "crossval-HS.json").read_text())
@@ -240,7 +240,7 @@ def test_correct_a_scanned_sphere_imprint(quick_study, tmp_path):
     cover = np.mean([(x + dx) ** 2 + (y + dy) ** 2 <= r_mm**2 for dx in sub for dy in sub], axis=0)
     rgb = np.stack([250 - 40 * cover, 250 - 200 * cover, 250 - 150 * cover], axis=-1).astype(np.uint8)
     Image.fromarray(rgb).save(tmp_path / "scan.png", dpi=(dpi, dpi))
-    p = subprocess.run([sys.executable, "-m", "filmcal.cli", "correct", "--film", "HS", "--imprint",
+    p = subprocess.run([sys.executable, "-m", "filmcal.cli", "correct", "--film", "HS", "--scan",
                         str(tmp_path / "scan.png"), "--sphere-radius-mm", "450", "--force-kn", "75", "--study-dir",
                         str(study), "--outline-out", str(tmp_path / "outline.csv"), "--json"],
                        capture_output=True, text=True, timeout=300)

@@ -125,20 +125,20 @@ def write_synthetic_study(folder: Path, parts=SYNTHETIC_PARTS) -> Path:
     study = Study(folder, create=True)
     lay = study.layout
     files = {}
-    hertz = [{"radius_mm": r, "force_n": f, "hertz_radius_mm": float(hertz_radius_mm(r, f)),
+    hertz = [{"sphere_radius_mm": r, "force_n": f, "hertz_radius_mm": float(hertz_radius_mm(r, f)),
               "fe_radius_mm": float(hertz_radius_mm(r, f)) * (1 + 2e-4 * (k - 4))} for k, (r, f) in enumerate(CASES)]
     a = float(hertz_radius_mm(450.0, 75e3))
     r_mm = np.linspace(0, 1.2 * a, 40)
     profiles = {"no film": {"r_mm": r_mm.tolist(), "pressure_mpa": hertz_pressure_mpa(r_mm, 450.0, 75e3).tolist(),
                             "contact_radius_mm": a}}
     films = {"HS": {"modulus_mpa": 2800.0, "cases": [
-        {"radius_mm": r, "force_n": f, "fe_radius_mm": float(hertz_radius_mm(r, f)) + 1.0,
+        {"sphere_radius_mm": r, "force_n": f, "fe_radius_mm": float(hertz_radius_mm(r, f)) + 1.0,
          "surrogate_mean_mm": float(hertz_radius_mm(r, f)) + 1.0 + 0.004 * np.sin(k), "surrogate_std_mm": 0.004}
         for k, (r, f) in enumerate(CASES)]}}
     files["verification"] = (lay.verification, json.dumps({"hertz": hertz, "profiles": profiles, "films": films,
-                                                            "profile_case": {"radius_mm": 450.0, "force_n": 75e3}}))
+                                                            "profile_case": {"sphere_radius_mm": 450.0, "force_n": 75e3}}))
     quality = {"min_distance": 0.2, "phi_p": 5.0, "centered_l2": 0.01, "max_abs_correlation": 0.1}
-    design = {"names": ["modulus_mpa", "poisson", "radius_mm", "force_kn"]}
+    design = {"names": ["modulus_mpa", "poisson", "sphere_radius_mm", "force_kn"]}
     for part, n, seed in (("train", 30, 1), ("test", 10, 2)):
         design[part] = {"n": n, "seed": seed, "unit": qmc.LatinHypercube(d=4, seed=seed).random(n).tolist(),
                         "quality": quality, "random_lhs_median": quality}
@@ -149,7 +149,7 @@ def write_synthetic_study(folder: Path, parts=SYNTHETIC_PARTS) -> Path:
     excess = np.geomspace(0.15, 2.5, 12)
     fe = hertz_radius_mm(radius, force * 1e3) + excess
     points = {"modulus_mpa": rng.uniform(500, 9000, 12).tolist(), "poisson": [0.33] * 12,
-              "radius_mm": radius.tolist(), "force_kn": force.tolist(), "radius_fe_mm": fe.tolist(),
+              "sphere_radius_mm": radius.tolist(), "force_kn": force.tolist(), "radius_fe_mm": fe.tolist(),
               "radius_mean_mm": (fe + rng.normal(0, 0.005, 12)).tolist(), "radius_std_mm": [0.005] * 12}
     summary = {"n": 12, "radius_rms_error_mm": 0.005, "radius_max_error_mm": 0.01, "area_rms_relative_error": 0.002,
                "area_max_relative_error": 0.005, "coverage90": 0.9, "q2": 0.9999}

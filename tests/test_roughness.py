@@ -11,7 +11,7 @@ from filmcal.contact.roughness import (PET_HARDNESS_MPA, RoughSurface, bearing_a
                                        rough_contact_law, solve_periodic_contact)
 from filmcal.elastic import oedometric_modulus_mpa
 from filmcal.wheelrail.halfspace import sphere_on_flat_contact
-from filmcal.wheelrail.interface import FilmLayer, TabularLaw
+from filmcal.contact.laws import FilmLayer, TabularLaw
 
 RIGID = 1e15  # a rigid rough body, for the analytic cases
 

@@ -7,7 +7,7 @@ from filmcal.contact.imprint import get_imprint_model
 from filmcal.contact.roughness import WHEEL_SURFACE_DEFAULTS, RoughSurface, rough_contact_law
 from filmcal.films import get_film
 from filmcal.wheelrail.halfspace import HalfSpaceContactSolver, sphere_on_flat_contact
-from filmcal.wheelrail.interface import FilmLayer, film_law
+from filmcal.contact.laws import FilmLayer, film_law
 
 #: Posterior medians of the film moduli in the current study (MPa).
 CALIBRATED_MPA = {"MS": 768.0, "HS": 2739.0, "HHS": 6291.0}

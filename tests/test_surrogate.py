@@ -23,7 +23,7 @@ from threadpoolctl import threadpool_limits
 
 from filmcal.surrogate import GPSurrogate, leave_one_out, validate
 
-NAMES = ("modulus_mpa", "poisson", "radius_mm", "force_n")
+NAMES = ("modulus_mpa", "poisson", "sphere_radius_mm", "force_n")
 LOWER = np.array([np.log(50.0), 0.0, 200.0, 10e3])
 UPPER = np.array([np.log(20000.0), 0.45, 800.0, 150e3])
 NOISE_MM = 1e-3

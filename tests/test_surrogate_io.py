@@ -29,7 +29,7 @@ def data() -> tuple[np.ndarray, np.ndarray]:
 
 @pytest.fixture(scope="module")
 def fitted(data) -> GPSurrogate:
-    return GPSurrogate(NAMES, "radius_mm", log_inputs=("modulus_mpa",), output_transform="log",
+    return GPSurrogate(NAMES, "sphere_radius_mm", log_inputs=("modulus_mpa",), output_transform="log",
                        input_bounds={"modulus_mpa": (50.0, 2e4)}, n_restarts=1, random_state=3).fit(*data)
 
 

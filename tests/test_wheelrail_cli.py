@@ -36,14 +36,14 @@ def test_options_rail_inclination_radius_roughness_plot(capsys, tmp_path):
     png = tmp_path / "map.png"
     code, out, err = _run(capsys, "--offset-mm=-3", "--force-kn", "50", "--no-film", "--rail", "60E1",
                           "--inclination", "1/30", "--wheel-radius-mm", "430",
-                          "--roughness-ra-um", "1.5", "--grid-mm", "0.2", "--film-type", "HS",
+                          "--wheel-roughness-ra-um", "1.5", "--grid-mm", "0.2", "--film", "HS",
                           "--plot", str(png), "--json")
     assert code == 0, err
     data = json.loads(out)
     assert data["rail"] == "60E1"
     assert data["rail_inclination"] == pytest.approx(1 / 30)
     assert data["nominal_radius_mm"] == 430.0
-    assert data["roughness_ra_um"] == 1.5
+    assert data["wheel_roughness_ra_um"] == 1.5
     assert data["grid_mm"] == 0.2
     assert 0.0 < data["imprint_area_mm2"] < data["support_area_mm2"]
     assert png.stat().st_size > 10_000
@@ -81,22 +81,22 @@ def test_text_output(capsys):
     ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "-1"],
     ["--offset-mm=-3", "--force-kn", "100", "--no-film", "--inclination", "1/0"],
     ["--offset-mm=-3", "--force-kn", "100", "--no-film", "--inclination", "steep"],
-    ["--offset-mm=-3", "--force-kn", "100", "--no-film", "--roughness-ra-um", "-2"],
+    ["--offset-mm=-3", "--force-kn", "100", "--no-film", "--wheel-roughness-ra-um", "-2"],
     ["--offset-mm=-3", "--force-kn", "100", "--no-film", "--grid-mm", "5"],
     ["--offset-mm=-3", "--force-kn", "100", "--no-film", "--wheel", "/no/such/wheel.csv"],
     ["--offset-mm=-3", "--force-kn", "100"],
     ["--offset-mm=-3", "--force-kn", "100", "--no-film", "--film-modulus-mpa", "2800"],
-    ["--offset-mm=-3", "--force-kn", "100", "--no-film", "--large-strain"],
-    ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--film-type", "XS"],
+    ["--offset-mm=-3", "--force-kn", "100", "--no-film", "--kinematics", "large"],
+    ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--film", "XS"],
     ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--films-file",
-     "/no/such/films.toml", "--film-type", "HS"],
-    ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--imprint", "halo",
-     "--film-type", "HS"],
-    ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--roughness-ra-um",
+     "/no/such/films.toml", "--film", "HS"],
+    ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--imprint-model", "halo",
+     "--film", "HS"],
+    ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--wheel-roughness-ra-um",
      "1.5", "--roughness-law", "/no/such/law.csv"],
-    ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--roughness-map",
+    ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--wheel-roughness-map",
      "/no/such/map.csv", "--roughness-pixel-um", "1"],
-    ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--roughness-ra-um",
+    ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--wheel-roughness-ra-um",
      "1.5", "--hardness-mpa", "-5"],
 ])
 def test_bad_input_exits_2_with_one_line(capsys, argv):
@@ -141,9 +141,9 @@ def test_rough_wheel_grows_the_imprint_in_the_papers_order(capsys):
     for film, modulus in CALIBRATED_MPA.items():
         for force in ("50", "100"):
             args = ["--offset-mm=-3", "--force-kn", force, "--film-modulus-mpa", modulus,
-                    "--film-type", film]
+                    "--film", film]
             smooth = _json(capsys, *args)
-            rough = _json(capsys, *args, "--roughness-ra-um", "1.5")
+            rough = _json(capsys, *args, "--wheel-roughness-ra-um", "1.5")
             assert rough["roughness"]["model"] == "FFT boundary elements"
             assert rough["imprint_model"] == "activation"
             growth[film, force] = rough["imprint_area_mm2"] / smooth["imprint_area_mm2"] - 1.0
@@ -156,9 +156,9 @@ def test_rough_wheel_grows_the_imprint_in_the_papers_order(capsys):
 
 
 def test_large_strain_film_stiffens_the_soft_film(capsys):
-    args = ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "768", "--film-type", "MS"]
+    args = ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "768", "--film", "MS"]
     small = _json(capsys, *args)
-    large = _json(capsys, *args, "--large-strain")
+    large = _json(capsys, *args, "--kinematics", "large")
     assert small["film"]["kinematics"] == "small" and large["film"]["kinematics"] == "large"
     assert large["converged"]
     # the neo-Hookean film stiffens in compression: a smaller, more loaded patch
@@ -175,16 +175,16 @@ def test_user_film_and_imprint_models(capsys, tmp_path):
     films = tmp_path / "films.toml"
     films.write_text("[LOT7]\nrange_mpa = [30, 110]\nthickness_mm = 0.1\n")
     base = ["--offset-mm=-3", "--force-kn", "50", "--film-modulus-mpa", "2739"]
-    hs = _json(capsys, *base, "--film-type", "HS")
-    lot = _json(capsys, *base, "--film-type", "LOT7", "--films-file", str(films))
+    hs = _json(capsys, *base, "--film", "HS")
+    lot = _json(capsys, *base, "--film", "LOT7", "--films-file", str(films))
     assert lot["film"]["thickness_mm"] == 0.1 and lot["activation_pressure_mpa"] == 30.0
-    edge = _json(capsys, *base, "--film-type", "HS", "--imprint", "edge")
-    capsule = _json(capsys, *base, "--film-type", "HS", "--imprint", "capsule")
+    edge = _json(capsys, *base, "--film", "HS", "--imprint-model", "edge")
+    capsule = _json(capsys, *base, "--film", "HS", "--imprint-model", "capsule")
     # a lower activation pressure colours more; the edge colours the most
     assert hs["imprint_area_mm2"] < edge["imprint_area_mm2"]
     assert capsule["imprint_model"] == "capsule"
     assert 0.5 * hs["imprint_area_mm2"] < capsule["imprint_area_mm2"] < edge["imprint_area_mm2"]
-    thin = _json(capsys, *base, "--film-type", "LOT7", "--films-file", str(films),
+    thin = _json(capsys, *base, "--film", "LOT7", "--films-file", str(films),
                  "--film-thickness-mm", "0.09")
     assert lot["imprint_area_mm2"] > thin["imprint_area_mm2"] * 0.99  # thicker film, larger patch
 
@@ -195,21 +195,14 @@ def test_measured_height_map_and_law(capsys, tmp_path):
     heights = 2.0 * np.cos(2 * np.pi * x / 32.0)[:, None] * np.cos(2 * np.pi * x / 16.0)[None, :]
     path = tmp_path / "wheel_heights.csv"
     np.savetxt(path, heights, delimiter=",")
-    base = ["--offset-mm=-3", "--force-kn", "50", "--film-modulus-mpa", "2739", "--film-type", "HS"]
+    base = ["--offset-mm=-3", "--force-kn", "50", "--film-modulus-mpa", "2739", "--film", "HS"]
     smooth = _json(capsys, *base)
-    mapped = _json(capsys, *base, "--roughness-map", str(path), "--roughness-pixel-um", "1")
+    mapped = _json(capsys, *base, "--wheel-roughness-map", str(path), "--roughness-pixel-um", "1")
     assert mapped["roughness"]["pixel_um"] == 1.0
     assert mapped["imprint_area_mm2"] > smooth["imprint_area_mm2"]
     law = tmp_path / "law.csv"
     law.write_text("closure_um,pressure_mpa\n0,0\n1,5\n2,40\n3,300\n")
     measured = _json(capsys, *base, "--roughness-law", str(law))
     assert measured["imprint_area_mm2"] > smooth["imprint_area_mm2"]
-    code, out, err = _run(capsys, *base, "--roughness-map", str(path), "--json")
+    code, out, err = _run(capsys, *base, "--wheel-roughness-map", str(path), "--json")
     assert code == 2 and "roughness-pixel-um" in err
-
-
-def test_imprint_choices_are_the_imprint_models():
-    from filmcal.commands.wheelrail import IMPRINT_CHOICES
-    from filmcal.contact.imprint import IMPRINT_MODELS
-
-    assert set(IMPRINT_CHOICES) == set(IMPRINT_MODELS)

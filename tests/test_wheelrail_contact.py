@@ -8,7 +8,7 @@ import pytest
 
 from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, contact_modulus_mpa
 from filmcal.wheelrail.hertz import hertz_elliptic
-from filmcal.wheelrail.interface import FilmLayer, GreenwoodWilliamsonLaw
+from filmcal.contact.laws import FilmLayer, GreenwoodWilliamsonLaw
 from filmcal.wheelrail.placement import place_wheel_on_rail
 from filmcal.wheelrail.profiles import PolynomialSection, Profile, rail_head
 from filmcal.wheelrail.wheelrail import (ContactPlane, ContactRegion, WheelRailCase, WheelRailModel,

@@ -14,7 +14,7 @@ from filmcal.hertz import contact_modulus_mpa
 from filmcal.wheelrail.edge import (patch_ring_areas_mm2, read_contact_edge, read_fitted_outline,
                                     read_radial_edge_mm)
 from filmcal.wheelrail.halfspace import HalfSpaceContactSolver, sphere_on_flat_contact
-from filmcal.wheelrail.interface import FilmLayer
+from filmcal.contact.laws import FilmLayer
 
 
 @pytest.fixture(scope="module")

@@ -3,7 +3,7 @@
 `CommandModel` is a campaign model built from a shell command template, as
 design-exploration tools drive Abaqus or any other solver::
 
-    python3 sim.py --e {modulus_mpa} --r {radius_mm}
+    python3 sim.py --e {modulus_mpa} --r {sphere_radius_mm}
 
 For every point it
 
@@ -199,7 +199,7 @@ class CommandModel:
 
     def __post_init__(self) -> None:
         if not isinstance(self.template, str) or not self.template.strip():
-            raise InputError("--command must be a non-empty command template")
+            raise InputError("--simulator-command must be a non-empty command template")
         object.__setattr__(self, "work_root", Path(self.work_root))
         object.__setattr__(self, "template_files", tuple((str(n), str(t)) for n, t in self.template_files))
         names = [name for name, _ in self.template_files]

@@ -302,14 +302,14 @@ class Campaign:
     Examples
     --------
     >>> campaign = Campaign(model, "runs.sqlite", executor=SerialExecutor())  # doctest: +SKIP
-    >>> summary = campaign.run([{"radius_mm": 450.0, "force_kn": 75.0}])  # doctest: +SKIP
+    >>> summary = campaign.run([{"sphere_radius_mm": 450.0, "force_kn": 75.0}])  # doctest: +SKIP
     >>> campaign.status()  # doctest: +SKIP
     RunCounts(ok=1, failed=0, pending=0)
     """
 
     def __init__(self, model: Model, store_path: str | Path, *, settings: Mapping[str, Any] | None = None,
                  executor: Executor | None = None, workers: int | None = None, dask: Any = None,
-                 group_by: Iterable[str] = ("radius_mm",), model_name: str | None = None) -> None:
+                 group_by: Iterable[str] = ("sphere_radius_mm",), model_name: str | None = None) -> None:
         if not callable(model):
             raise ValueError(f"model must be callable, got {type(model).__name__}")
         if executor is not None and not isinstance(executor, Executor):

@@ -83,9 +83,9 @@ def _now() -> str:
 
 
 def _package_version() -> str:
-    import filmcal
+    from filmcal._versions import __version__
 
-    return filmcal.__version__
+    return __version__
 
 
 def _json_outputs(outputs: Mapping[str, Any]) -> str:

@@ -16,8 +16,9 @@ from typing import Any, Callable
 
 from filmcal._progress import MODES as PROGRESS_MODES
 from filmcal.contact.names import IMPRINT_MODELS, KINEMATICS, MIXTURE
+from filmcal.contact.options import CONTACT_MODES, ContactOptions
 
-__all__ = ["Concept", "VOCABULARY", "add", "local", "renamed", "concept_of", "RENAMED"]
+__all__ = ["Concept", "VOCABULARY", "add", "local", "renamed", "concept_of", "RENAMED", "missing_required"]
 
 
 @dataclass(frozen=True)
@@ -108,6 +109,12 @@ def concept_of(action: argparse.Action) -> str | None:
     return getattr(action, "filmcal_concept", None)
 
 
+def missing_required(parser: argparse.ArgumentParser, args: argparse.Namespace) -> list[str]:
+    """Required vocabulary options that neither their name nor an old alias gave."""
+    return [a.option_strings[0] for a in parser._actions
+            if getattr(a, "filmcal_required", False) and getattr(args, a.dest, None) is None]
+
+
 def _bounded(concept: Concept):
     if concept.bounds is None or concept.type not in (int, float):
         return concept.type
@@ -121,9 +128,12 @@ def _bounds_text(concept: Concept) -> str:
     if concept.bounds is None:
         return ""
     low, high = concept.bounds
-    if (low, high) == _POSITIVE:
-        return " [> 0]"
-    return f" [{low}-{high}]" if concept.type is int else f" [{low:g}-{high:g}]"
+    return bounds_text(low, high, concept.type is int)
+
+
+def bounds_text(low: float, high: float, integer: bool) -> str:
+    """How a help states an option's inclusive bounds."""
+    return f" [allowed {low} to {high}]" if integer else f" [allowed {low:g} to {high:g}]"
 
 
 def add(parser, dest: str, help: str | None = None, *, extra: str = "", **kwargs: Any) -> argparse.Action:
@@ -150,10 +160,12 @@ def add(parser, dest: str, help: str | None = None, *, extra: str = "", **kwargs
     elif dest == "json":
         pass
     options.update(kwargs)
+    required = bool(options.pop("required", False))  # checked after parsing: an old alias may give it
     sep = "" if extra[:1] in (";", ",", ":") else " "
     text = (help or concept.help) + (f"{sep}{extra}" if extra else "") + _bounds_text(concept)
     action = parser.add_argument(concept.flag, help=text.replace("%", "%%"), **options)
     action.filmcal_concept = dest  # type: ignore[attr-defined]
+    action.filmcal_required = required  # type: ignore[attr-defined]
     if concept.bounds is not None and concept.type in (int, float):
         action.type.filmcal_checked = True  # type: ignore[union-attr]
     return action
@@ -185,7 +197,8 @@ class _Renamed(argparse.Action):
 
 
 def renamed(parser, old: str, new: str, dest: str | None = None, *, flag_value: Any = None,
-            convert: Callable[[Any], dict[str, Any]] | None = None, type: Callable | None = None) -> None:
+            convert: Callable[[Any], dict[str, Any]] | None = None, type: Callable | None = None,
+            choices: tuple | None = None) -> None:
     """Keep an old option as a hidden alias of `new` for one release.
 
     Parameters
@@ -210,10 +223,29 @@ def renamed(parser, old: str, new: str, dest: str | None = None, *, flag_value: 
     extra: dict[str, Any] = {"nargs": 0} if flag_value is not None else {}
     if type is not None:
         extra["type"] = type
+    if choices is not None:
+        extra["choices"] = choices
     action = parser.add_argument(old, dest=f"_renamed_{old.lstrip('-').replace('-', '_')}", action=_Renamed,
                                  new=new, convert=convert, default=argparse.SUPPRESS, **extra)
     action.filmcal_renamed = new  # type: ignore[attr-defined]
     RENAMED[old] = new
+
+
+def add_contact_options(parser, prefix: str = "") -> None:
+    """The FE interface options, with `ContactOptions`' defaults (``prefix``: "FE " where a command has others)."""
+    d = ContactOptions()
+    local(parser, "--sphere-contact", choices=CONTACT_MODES, default=d.sphere_contact,
+          help=f"{prefix}sphere-film interface (default {d.sphere_contact})")
+    local(parser, "--flat-contact", choices=CONTACT_MODES, default=d.flat_contact,
+          help=f"{prefix}film-flat interface, never separating (default {d.flat_contact})")
+    local(parser, "--friction-coefficient", type=float, default=d.friction_coefficient,
+          help=f"Coulomb coefficient of 'friction' interfaces (default {d.friction_coefficient:g}, as the paper)")
+
+
+def contact_options(args: argparse.Namespace) -> ContactOptions:
+    """`ContactOptions` of a command's parsed interface and kinematics options."""
+    return ContactOptions(sphere_contact=args.sphere_contact, flat_contact=args.flat_contact,
+                          friction_coefficient=args.friction_coefficient, large_strain=args.kinematics == "large")
 
 
 def split_model(text: str) -> dict[str, str]:

@@ -5,6 +5,8 @@ import argparse
 from pathlib import Path
 
 from filmcal.commands._common import print_json
+from filmcal.commands._options import STUDY_IMPRINT_MODELS, add, add_contact_options, local, renamed
+from filmcal.contact.names import DEFAULT_KINEMATICS, MIXTURE
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -16,38 +18,36 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "likelihood. The FE model is seen through a Gaussian-process surrogate trained on an optimal "
                     "Latin hypercube of FE runs (kept in --study-dir and reused). Prints E and the oedometric "
                     "modulus M = E(1-nu)/((1+nu)(1-2nu)) with 90 %% intervals and the sampler's diagnostics.")
-    p.add_argument("--film", required=True, help="film type: MS, HS, HHS or one of --films-file")
-    p.add_argument("--films-file", metavar="TOML", help="user film types (name, activation pressure or range, "
-                   "thickness, nu); recorded in the study")
-    p.add_argument("--data", metavar="CSV", help="your own sphere-on-flat dataset (columns film, sphere_radius_mm, "
-                   "force_kn and one of measured_radius_mm, measured_area_mm2, radius_error_mm; optional repeat, "
-                   "measurement_std_mm, flat_ra_um); default: the paper's Table 1")
-    p.add_argument("--imprint", choices=["edge", "activation", "capsule", "stacked"], default="edge",
-                   help="what the film records: the contact edge (default), the contour of the film's activation "
-                        "pressure, the capsule model's expected stained area, or stacked: every model the film "
-                        "allows, compared by PSIS-LOO and combined by stacking weights (imprint_weights)")
-    p.add_argument("--loads", help="load range in kN, e.g. 50-100 (the paper's choice); all loads by default")
-    p.add_argument("--poisson", choices=["fixed", "free"], default="fixed",
-                   help="nu fixed at the film's nominal value (default, 0.33 as the paper) or uniform over "
-                        "0.29-0.37 (then only M is identified)")
-    p.add_argument("--discrepancy", choices=["none", "load"], default="none",
-                   help="'load': an offset per load level (normal prior, 0.2 mm)")
-    p.add_argument("--sphere-contact", choices=["frictionless", "tied", "friction"], default="frictionless",
-                   help="FE sphere-film interface (default frictionless)")
-    p.add_argument("--flat-contact", choices=["frictionless", "tied", "friction"], default="tied",
-                   help="FE film-flat interface (default tied)")
-    p.add_argument("--friction-coefficient", type=float, default=0.4, help="for 'friction' interfaces (0.4)")
-    p.add_argument("--large-strain", action="store_true", help="neo-Hookean large-strain film in the FE model")
-    p.add_argument("--study-dir", default="filmcal-study",
-                   help="study folder of the FE runs, surrogates and chains (default ./filmcal-study; created when "
-                        "missing); artefacts made with other settings are kept beside, never reused")
-    p.add_argument("--train-runs", type=int, default=200, help="FE runs to train the surrogate (20-5000, default 200)")
-    p.add_argument("--test-runs", type=int, default=100, help="held-out FE runs to validate it (5-5000, default 100)")
-    p.add_argument("--workers", type=int, default=None, help="FE worker processes (1-64, default: all cores)")
-    p.add_argument("--seed", type=int, default=0, help="the study's seed (0 to 2^32-1, default 0)")
-    p.add_argument("--max-steps", type=int, default=None, help="cap on MCMC steps per walker (100-10^6)")
-    p.add_argument("--plots", metavar="DIR", help="write trace, corner, per-case (Fig. 3) and predictive plots")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add(p, "film", required=True)
+    add(p, "films_file", extra="; recorded in the study")
+    local(p, "--data", metavar="CSV", help="your own sphere-on-flat dataset (columns film, sphere_radius_mm, "
+          "force_kn and one of measured_radius_mm, measured_area_mm2, radius_error_mm; optional repeat, "
+          "measurement_std_mm, flat_ra_um); default: the paper's Table 1")
+    add(p, "imprint_model", choices=STUDY_IMPRINT_MODELS, default=MIXTURE,
+        extra=f"; or {MIXTURE} (default): every model the film allows, compared by PSIS-LOO and combined by "
+              "their weights (imprint_weights)")
+    add(p, "forces_kn", help="calibrate on the cases whose force lies in this range in kN, e.g. 50-100 (the "
+                             "paper's choice); all forces by default", metavar="RANGE")
+    local(p, "--poisson", choices=["fixed", "free"], default="fixed",
+          help="nu fixed at the film's nominal value (default, 0.33 as the paper) or uniform over "
+               "0.29-0.37 (then only M is identified)")
+    local(p, "--discrepancy", choices=["none", "load"], default="none",
+          help="'load': an offset per load level (normal prior, 0.2 mm)")
+    add_contact_options(p, prefix="FE ")
+    add(p, "kinematics", default=DEFAULT_KINEMATICS, extra=f"of the FE model (default {DEFAULT_KINEMATICS})")
+    add(p, "study_dir", default="filmcal-study",
+        extra="of the FE runs, surrogates and chains (default ./filmcal-study; created when missing); artefacts "
+              "made with other settings are kept beside, never reused")
+    local(p, "--train-runs", type=int, default=200, help="FE runs to train the surrogate (default 200)")
+    local(p, "--test-runs", type=int, default=100, help="held-out FE runs to validate it (default 100)")
+    add(p, "workers", extra="(default: all cores)")
+    add(p, "seed", default=0, extra="(default 0)")
+    local(p, "--max-steps", type=int, default=None, help="cap on MCMC steps per walker (default: until converged)")
+    local(p, "--plots", metavar="DIR", help="write trace, corner, per-case (Fig. 3) and predictive plots")
+    add(p, "json", action="store_true")
+    renamed(p, "--imprint", "--imprint-model", type=lambda t: MIXTURE if t == "stacked" else t)
+    renamed(p, "--loads", "--forces-kn")
+    renamed(p, "--large-strain", "--kinematics large", "kinematics", flag_value="large")
     p.set_defaults(func=run)
 
 
@@ -55,19 +55,12 @@ def _spec(args: argparse.Namespace):
     """The calibration spec of the command's options (validated before any work)."""
     from filmcal.study import CalibrationSpec, FESettings
 
-    if args.workers is not None and not 1 <= args.workers <= 64:
-        raise ValueError(f"--workers must be 1-64, got {args.workers}")
-    if not 0 <= args.seed < 2**32:
-        raise ValueError(f"--seed must be 0 to 2^32-1, got {args.seed}")
-    if args.max_steps is not None and not 100 <= args.max_steps <= 1_000_000:
-        raise ValueError(f"--max-steps must be 100-1000000, got {args.max_steps}")
-    if not (0 <= args.friction_coefficient <= 2):
-        raise ValueError(f"--friction-coefficient must be 0-2, got {args.friction_coefficient}")
     fe = FESettings(sphere_contact=args.sphere_contact, flat_contact=args.flat_contact,
                     friction_coefficient=args.friction_coefficient,
-                    kinematics="large" if args.large_strain else "small", n_train=args.train_runs,
+                    kinematics=args.kinematics, n_train=args.train_runs,
                     n_test=args.test_runs, seed=args.seed)
-    return CalibrationSpec(args.film, imprint="edge" if args.imprint == "stacked" else args.imprint, fe=fe, loads=args.loads, poisson=args.poisson,
+    imprint = "edge" if args.imprint_model == MIXTURE else args.imprint_model
+    return CalibrationSpec(args.film, imprint=imprint, fe=fe, loads=args.forces_kn, poisson=args.poisson,
                            discrepancy=None if args.discrepancy == "none" else args.discrepancy,
                            max_steps=args.max_steps)
 
@@ -79,8 +72,8 @@ def run(args: argparse.Namespace) -> int:
     from filmcal.calibration.data import parse_load_range
     from filmcal.calibration.datasets import load_dataset
 
-    if args.loads is not None:
-        parse_load_range(args.loads)  # refused before the study folder is written
+    if args.forces_kn is not None:
+        parse_load_range(args.forces_kn)  # refused before the study folder is written
     if args.data is not None:
         load_dataset(args.data)
     study = Study(args.study_dir, create=True, films_file=args.films_file)
@@ -94,15 +87,15 @@ def run(args: argparse.Namespace) -> int:
     from filmcal.study import IMPRINT_MODELS
 
     spec = replace(spec, fe=replace(spec.fe, film_thickness_mm=film.thickness_mm))
-    stacked = args.imprint == "stacked"
-    imprints = [m for m in IMPRINT_MODELS if m == "edge" or film.has_activation] if stacked else [args.imprint]
+    mixture = args.imprint_model == MIXTURE
+    imprints = [m for m in IMPRINT_MODELS if m == "edge" or film.has_activation] if mixture else [args.imprint_model]
     with study.writing("filmcal calibrate"):
         calibrated = {}
         for imprint in imprints:
             one = replace(spec, imprint=imprint)
             calibrated[one.model_label] = study.calibrate(one, dataset=args.data, workers=args.workers,
                                                           progress=False)
-        if stacked and len(calibrated) > 1:
+        if mixture and len(calibrated) > 1:
             comparison, _ = study.compare(film.name, calibrated)
             label = comparison["preferred"]
             assessment = comparison["models"][label]
@@ -118,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
     out = result.to_dict()
     out.update(rms_residual_mm=assessment["rms_residual_mm"], ppc_inside_90=assessment["ppc_inside_90"],
                elpd_loo=assessment["elpd_loo"], elpd_loo_se=assessment["elpd_loo_se"])
-    out["imprint_model"] = "stacked" if stacked else full["imprint"]
+    out["imprint_model"] = MIXTURE if mixture and comparison is not None else full["imprint"]
     if comparison is not None:
         from filmcal.calibration import combine_posteriors
         from filmcal.calibration.posterior import summarize
@@ -142,7 +135,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         m, ci = out["modulus_mpa"]["median"], out["modulus_mpa"]["ci90"]
         om, oci = out["oedometric_modulus_mpa"]["median"], out["oedometric_modulus_mpa"]["ci90"]
-        print(f"film {film.name}, imprint model {out['imprint_model']}, loads {args.loads or 'all'}, "
+        print(f"film {film.name}, imprint model {out['imprint_model']}, forces {args.forces_kn or 'all'} kN, "
               f"{out['n_data']} cases")
         if "imprint_weights" in out:
             print("weights " + ", ".join(f"{k} {v:.2f}" for k, v in out["imprint_weights"].items()))

@@ -13,14 +13,16 @@ import argparse
 import importlib
 import re
 import shlex
+import sys
 from pathlib import Path
 from typing import Any, Callable
 
 from filmcal._validation import check_choice, check_poisson, check_positive, check_range
 from filmcal.commands._common import print_json
+from filmcal.commands._options import add, local, renamed
 
 DEFAULT_MODEL = "filmcal.fem:evaluate_point"
-REQUIRED_COLUMNS = ("modulus_mpa", "poisson", "radius_mm", "force_kn")
+REQUIRED_COLUMNS = ("modulus_mpa", "poisson", "sphere_radius_mm", "force_kn")
 CONTACT_CHOICES = ("frictionless", "tied", "friction")
 _MODEL_SPEC = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")
 
@@ -46,7 +48,7 @@ def _friction(name: str, value: Any) -> float:
 COLUMN_CHECKS: dict[str, Callable[[str, Any], Any]] = {
     "modulus_mpa": check_positive,
     "poisson": check_poisson,
-    "radius_mm": check_positive,
+    "sphere_radius_mm": check_positive,
     "force_kn": check_positive,
     "sphere_contact": _contact,
     "flat_contact": _contact,
@@ -59,7 +61,7 @@ COLUMN_CHECKS: dict[str, Callable[[str, Any], Any]] = {
 }
 # The FE model builds its meshes once per (radius, element size, film
 # thickness) in each worker: submit points sorted by these.
-FE_SETUP_COLUMNS = ("radius_mm", "element_size_mm", "film_thickness_mm")
+FE_SETUP_COLUMNS = ("sphere_radius_mm", "element_size_mm", "film_thickness_mm")
 
 
 def check_fe_design(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -91,7 +93,7 @@ def check_fe_design(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
 def import_model(spec: str) -> Callable[[dict], dict]:
     """Import the model ``module:function`` by name (nothing is read from data files)."""
     if not _MODEL_SPEC.match(spec):
-        raise ValueError(f"model must be given as MODULE:FUNCTION, got {spec!r}")
+        raise ValueError(f"--simulator-python must be given as MODULE:FUNCTION, got {spec!r}")
     module_name, function_name = spec.split(":")
     try:
         model = getattr(importlib.import_module(module_name), function_name)
@@ -111,11 +113,24 @@ def default_work_dir(store: str | Path) -> Path:
 def _lock_command(args: argparse.Namespace) -> str:
     """The holder's command as shown to a campaign refused by the store lock."""
     words = ["filmcal", "campaign", "run", "--design", str(args.design), "--store", str(args.store)]
-    if args.command_template is not None:
-        words += ["--command", args.command_template]
-    elif args.model != DEFAULT_MODEL:
-        words += ["--model", args.model]
+    if args.simulator_command is not None:
+        words += ["--simulator-command", args.simulator_command]
+    elif args.simulator_python != DEFAULT_MODEL:
+        words += ["--simulator-python", args.simulator_python]
     return " ".join(shlex.quote(word) for word in words)
+
+
+#: Design columns of the FE model renamed in this release (old -> new), read for one release more.
+RENAMED_COLUMNS = {"radius_mm": "sphere_radius_mm"}
+
+
+def _renamed_columns(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Design points with old column names renamed (one note line per old name)."""
+    old = {name for point in points for name in point if name in RENAMED_COLUMNS}
+    for name in sorted(old):
+        sys.stderr.write(f"filmcal campaign run: note: design column {name} is renamed {RENAMED_COLUMNS[name]}; "
+                         "the old name goes in the next release\n")
+    return [{RENAMED_COLUMNS.get(k, k): v for k, v in point.items()} for point in points]
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -128,31 +143,33 @@ def _run(args: argparse.Namespace) -> int:
     # work and before any file is written
     if args.dask is not None:
         args.dask = check_dask_address(args.dask)
-    if args.template_file and args.command_template is None:
-        raise InputError("--template-file needs --command")
-    if args.work_dir is not None and args.command_template is None:
-        raise InputError("--work-dir needs --command")
+    if args.template_file and args.simulator_command is None:
+        raise InputError("--template-file needs --simulator-command")
+    if args.work_dir is not None and args.simulator_command is None:
+        raise InputError("--work-dir needs --simulator-command")
     points = read_design_csv(args.design)
-    if args.command_template is not None:
+    if args.simulator_command is None and args.simulator_python == DEFAULT_MODEL:
+        points = _renamed_columns(points)
+    if args.simulator_command is not None:
         work_dir = Path(args.work_dir) if args.work_dir else default_work_dir(args.store)
         check_output_dir(work_dir, "--work-dir")
-        model = CommandModel.from_files(args.command_template, work_dir, args.template_file or (), args.timeout_s)
+        model = CommandModel.from_files(args.simulator_command, work_dir, args.template_file or (), args.timeout_s)
         model.check_design(points)
         settings, group_by, model_name = model.settings(), (), None
     else:
         group_by = ()
-        if args.model == DEFAULT_MODEL:
+        if args.simulator_python == DEFAULT_MODEL:
             points = check_fe_design(points)
             group_by = FE_SETUP_COLUMNS
-        model = import_model(args.model)
-        settings, model_name = None, args.model
+        model = import_model(args.simulator_python)
+        settings, model_name = None, args.simulator_python
     executor = DaskExecutor(args.dask) if args.dask is not None else None
     try:
         campaign = Campaign(model, args.store, settings=settings, executor=executor,
                             workers=None if executor is not None else args.workers,
                             group_by=group_by, model_name=model_name)
         summary = campaign.run(points, retry_failed=args.retry_failed, timeout_s=args.timeout_s,
-                               progress=not args.no_progress, lock_command=_lock_command(args))
+                               progress=args.progress != "quiet", lock_command=_lock_command(args))
     except BaseException:
         if executor is not None:
             executor.abort()
@@ -211,7 +228,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     parser = subparsers.add_parser(
         "campaign",
         help="run a design through the FE model into an SQLite store (resumable)",
-        description="Evaluate a design (CSV: modulus_mpa, poisson, radius_mm, force_kn, plus optional FE "
+        description="Evaluate a design (CSV: modulus_mpa, poisson, sphere_radius_mm, force_kn, plus optional FE "
                     "options) with the FE model, in parallel, storing one row per point in SQLite. "
                     "Running again resumes: finished points are not recomputed.",
     )
@@ -222,39 +239,38 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         description="Evaluate every design point without a finished run in the store, with the FE model "
                     f"(design columns {', '.join(REQUIRED_COLUMNS)}, force in kN; optional "
                     f"{', '.join(name for name in COLUMN_CHECKS if name not in REQUIRED_COLUMNS)}), "
-                    "a Python model (--model) or an external command (--command: a shell command template "
+                    "a Python model (--simulator-python) or an external command (--simulator-command: a shell "
+                    "command template "
                     "with {column} placeholders, run in a fresh folder per point, printing one JSON object "
                     "whose numeric values are the outputs, or writing outputs.json). A point whose model "
                     "raises, does not converge, exits non-zero, prints no JSON, returns NaN or runs past "
                     "--timeout-s is stored as failed with its reason. One run writes to a store at a time: "
                     "a second is refused (exit 2).",
     )
-    run_parser.add_argument("--design", required=True, help="design CSV file (e.g. from `filmcal doe --out`)")
-    run_parser.add_argument("--store", required=True, help="SQLite store of the runs (created if missing)")
+    local(run_parser, "--design", required=True, help="design CSV file (e.g. from `filmcal doe --out`)")
+    local(run_parser, "--store", required=True, help="SQLite store of the runs (created if missing)")
     where = run_parser.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=int, metavar="N",
-                       help="local worker processes (default: number of CPUs; never more than points to run)")
-    where.add_argument("--dask", metavar="ADDRESS",
-                       help="run on a Dask distributed cluster, given its scheduler address (tcp://host:8786)")
-    run_parser.add_argument("--timeout-s", type=float, metavar="T",
-                            help="deadline of each point in seconds; a point past it fails with 'timeout after T s' "
-                                 "(an external command's process group is killed)")
-    run_parser.add_argument("--retry-failed", action="store_true", help="evaluate again the points that failed")
+    add(where, "workers", extra="(default: number of CPUs; never more than points to run)")
+    add(where, "dask")
+    local(run_parser, "--timeout-s", type=float, metavar="T",
+          help="deadline of each point in seconds; a point past it fails with 'timeout after T s' "
+               "(an external command's process group is killed)")
+    local(run_parser, "--retry-failed", action="store_true", help="evaluate again the points that failed")
     model = run_parser.add_mutually_exclusive_group()
-    model.add_argument("--model", default=DEFAULT_MODEL, metavar="MODULE:FUNCTION",
-                       help=f"Python model to evaluate, imported by name (default: {DEFAULT_MODEL})")
-    model.add_argument("--command", dest="command_template", metavar="TEMPLATE",
-                       help="external command template, e.g. 'python3 sim.py --e {modulus_mpa} --r {radius_mm}'; "
-                            "placeholders: design columns, {point_id}, {work_dir}; values are shell-quoted, so "
-                            "do not quote placeholders")
-    run_parser.add_argument("--template-file", action="append", metavar="FILE",
-                            help="input file template rendered into each point's folder ({column} placeholders; "
-                                 "NAME.tmpl is written as NAME); repeat for several files")
-    run_parser.add_argument("--work-dir", metavar="DIR",
-                            help="folder of the per-point working folders of --command "
-                                 "(default: <store name without suffix>.work beside the store)")
-    run_parser.add_argument("--no-progress", action="store_true", help="do not show a progress bar")
-    run_parser.add_argument("--json", action="store_true", help="print the run summary as one JSON object")
+    add(model, "simulator_python", default=DEFAULT_MODEL, extra=f"(default: {DEFAULT_MODEL}, the FE model)")
+    add(model, "simulator_command", extra="; e.g. 'python3 sim.py --e {modulus_mpa} --r {sphere_radius_mm}'; "
+                                          "values are shell-quoted, so do not quote placeholders")
+    local(run_parser, "--template-file", action="append", metavar="FILE",
+          help="input file template rendered into each point's folder ({column} placeholders; "
+               "NAME.tmpl is written as NAME); repeat for several files")
+    local(run_parser, "--work-dir", metavar="DIR",
+          help="folder of the per-point working folders of --simulator-command "
+               "(default: <store name without suffix>.work beside the store)")
+    add(run_parser, "progress", default="auto")
+    add(run_parser, "json", action="store_true")
+    renamed(run_parser, "--model", "--simulator-python")
+    renamed(run_parser, "--command", "--simulator-command")
+    renamed(run_parser, "--no-progress", "--progress quiet", "progress", flag_value="quiet")
 
     status_parser = actions.add_parser(
         "status", help="count the ok, failed and pending runs of a store",
@@ -262,17 +278,17 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                     "campaign is running on it, if any (JSON key running: pid, host, command, started_at). "
                     "Reading never changes the store.",
     )
-    status_parser.add_argument("--store", required=True, help="SQLite store of the runs")
-    status_parser.add_argument("--json", action="store_true", help="print the counts as one JSON object")
+    local(status_parser, "--store", required=True, help="SQLite store of the runs")
+    add(status_parser, "json", action="store_true", help="print the counts as one JSON object")
 
     export_parser = actions.add_parser(
         "export", help="write the runs of a store to CSV",
         description="Write one CSV row per run: point_id, inputs, outputs, status, reason, elapsed_s, "
                     "attempts, settings_hash, package_version, created_at, finished_at.",
     )
-    export_parser.add_argument("--store", required=True, help="SQLite store of the runs")
-    export_parser.add_argument("--out", required=True, help="CSV file to write")
-    export_parser.add_argument("--json", action="store_true", help="print the file name and row count as JSON")
+    local(export_parser, "--store", required=True, help="SQLite store of the runs")
+    local(export_parser, "--out", required=True, help="CSV file to write")
+    add(export_parser, "json", action="store_true", help="print the file name and row count as JSON")
 
     parser.set_defaults(func=run)
     return parser

@@ -6,6 +6,8 @@ import math
 from pathlib import Path
 
 from filmcal.commands._common import print_json
+from filmcal.commands._options import STUDY_IMPRINT_MODELS, add, local, renamed, split_model
+from filmcal.contact.names import MIXTURE
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -13,61 +15,63 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "correct", help="correct a contact area measured with film (wheel-rail or sphere-on-flat imprint)",
         description="Remove the film's enlargement from a measured imprint, using the film type's calibrated "
                     "posterior from the study folder (never recalibrated: when the study compared imprint models, "
-                    "their stacking-weighted mixture, unless --model pins one). Wheel-rail form: --measured-area-mm2 --offset-mm --force-kn (S1002 on 60E2 by "
+                    "their stacking-weighted mixture, unless --imprint-model / --kinematics pin one). Wheel-rail form: --measured-area-mm2 --offset-mm --force-kn (S1002 on 60E2 by "
                     "default). Sphere-on-flat form: --measured-radius-mm --sphere-radius-mm --force-kn. Instead of "
-                    "the measured area or radius, --imprint reads a scanned imprint (PNG or TIFF; red stain on "
+                    "the measured area or radius, --scan reads a scanned imprint (PNG or TIFF; red stain on "
                     "white, thresholded by Otsu's method): its stained area (sphere-on-flat: the radius of the "
                     "circle of that area), whose uncertainty adds in quadrature to --measurement-std-mm2 / "
                     "--measurement-std-mm; --outline-out then writes the outline without film. Prints the "
-                    "posterior mean area, its standard deviation and 90 %% interval (with --imprint, --json adds "
+                    "posterior mean area, its standard deviation and 90 %% interval (with --scan, --json adds "
                     "measured_area_mm2 and measured_area_std_mm2, the image's own uncertainty, and the imprint's "
                     "details). The wheel-rail form solves the contact without film and with the film at five "
                     "moduli spanning the posteriors (one solve serves every imprint model of a film kinematics); "
                     "the study keeps those solved areas when no other process is writing it, so correcting again "
                     "at the same offset and force reads them instead of solving.")
-    p.add_argument("--film", required=True, help="film type: MS, HS, HHS or one defined in the study")
-    p.add_argument("--model", metavar="IMPRINT/KINEMATICS",
-                   help="pin one calibrated model, e.g. activation/small (default: the study's mixture of compared "
-                        "models, or its only posterior)")
-    p.add_argument("--poisson", choices=["fixed", "free"], help="choose the posterior calibrated with this nu mode")
-    p.add_argument("--force-kn", type=float, required=True, help="normal force (wheel load) in kN")
-    p.add_argument("--measured-area-mm2", type=float, help="wheel-rail: imprint area on the film (mm2)")
-    p.add_argument("--offset-mm", type=float, help="wheel-rail: lateral offset eta (mm, the paper's convention)")
-    p.add_argument("--measurement-std-mm2", type=float, default=0.0,
-                   help="wheel-rail: standard uncertainty of the measured area (mm2, default 0)")
-    p.add_argument("--rail", default="60E2", help="rail profile: 60E2 (default), 60E1 or a CSV file")
-    p.add_argument("--wheel", default="S1002", help="wheel profile: S1002 (default) or a CSV file")
-    p.add_argument("--inclination", type=float, default=1 / 40, help="rail inclination (default 0.025 = 1:40)")
-    p.add_argument("--wheel-radius-mm", type=float, default=460.0, help="nominal rolling radius (default 460)")
-    p.add_argument("--measured-radius-mm", type=float, help="sphere-on-flat: imprint radius on the film (mm)")
-    p.add_argument("--sphere-radius-mm", type=float, help="sphere-on-flat: sphere radius R (mm)")
-    p.add_argument("--measurement-std-mm", type=float, default=0.0,
-                   help="sphere-on-flat: standard uncertainty of the measured radius (mm, default 0)")
-    p.add_argument("--imprint", metavar="PATH",
-                   help="scanned imprint (PNG or TIFF) instead of --measured-area-mm2 / --measured-radius-mm")
-    p.add_argument("--dpi", type=float,
-                   help="--imprint: scan resolution in dots per inch (default: the file's resolution metadata)")
-    p.add_argument("--mm-per-pixel", type=float, help="--imprint: pixel size in mm (instead of --dpi)")
-    p.add_argument("--threshold", type=float,
-                   help="--imprint: stain intensity 0-1 (1 - green channel) above which a pixel is stained "
-                        "(default: Otsu's threshold)")
-    p.add_argument("--min-region-mm2", type=float,
-                   help="--imprint: smallest stained region kept, smaller specks are dust (mm2, default 1)")
-    p.add_argument("--outline-out", metavar="FILE.csv",
-                   help="--imprint: write the outline without film as CSV with columns part,ring,x_mm,y_mm; "
-                        "part is measured (the imprint), mean (posterior mean area), lo and hi (5 %% and 95 %% "
-                        "area quantiles: the inner and outer edge of the band); ring numbers the closed polygons "
-                        "(two for a two-patch contact); x to the right, y up, mm from the image's lower-left "
-                        "corner. Wheel-rail: shrunk by the model's film enlargement round the patch; "
-                        "sphere-on-flat: a uniform inward offset")
-    p.add_argument("--field-side", choices=("right", "left", "up", "down"), default="right",
-                   help="--outline-out, wheel-rail: direction of the rail's field side in the scan (default "
-                        "right); the rolling direction is the other image axis")
-    p.add_argument("--loads", help="choose the posterior calibrated on this load range in kN, e.g. 50-100")
-    p.add_argument("--study-dir", default="filmcal-study",
-                   help="study folder with the calibrated posterior (default ./filmcal-study; must exist)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the scatter draws (default 0)")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add(p, "film", required=True)
+    add(p, "imprint_model", choices=STUDY_IMPRINT_MODELS, default=MIXTURE,
+        extra=f"; or {MIXTURE} (default): the study's weighted mixture of the models it compared")
+    add(p, "kinematics", extra="(default: every kinematics of the chosen posteriors, by their weights)")
+    local(p, "--poisson", choices=["fixed", "free"], help="choose the posterior calibrated with this nu mode")
+    add(p, "force_kn", required=True, extra="(the wheel load, or the sphere's force)")
+    local(p, "--measured-area-mm2", type=float, help="wheel-rail: imprint area on the film (mm2)")
+    add(p, "offset_mm", extra="(wheel-rail)")
+    local(p, "--measurement-std-mm2", type=float, default=0.0,
+          help="wheel-rail: standard uncertainty of the measured area (mm2, default 0)")
+    local(p, "--rail", default="60E2", help="rail profile: 60E2 (default), 60E1 or a CSV file")
+    local(p, "--wheel", default="S1002", help="wheel profile: S1002 (default) or a CSV file")
+    local(p, "--inclination", type=float, default=1 / 40, help="rail inclination (default 0.025 = 1:40)")
+    local(p, "--wheel-radius-mm", type=float, default=460.0, help="nominal rolling radius (default 460)")
+    local(p, "--measured-radius-mm", type=float, help="sphere-on-flat: imprint radius on the film (mm)")
+    add(p, "sphere_radius_mm", extra="(sphere-on-flat)")
+    local(p, "--measurement-std-mm", type=float, default=0.0,
+          help="sphere-on-flat: standard uncertainty of the measured radius (mm, default 0)")
+    add(p, "scan", extra="instead of --measured-area-mm2 / --measured-radius-mm")
+    local(p, "--dpi", type=float,
+          help="--scan: scan resolution in dots per inch (default: the file's resolution metadata)")
+    local(p, "--mm-per-pixel", type=float, help="--scan: pixel size in mm (instead of --dpi)")
+    local(p, "--threshold", type=float,
+          help="--scan: stain intensity 0-1 (1 - green channel) above which a pixel is stained "
+               "(default: Otsu's threshold)")
+    local(p, "--min-region-mm2", type=float,
+          help="--scan: smallest stained region kept, smaller specks are dust (mm2, default 1)")
+    local(p, "--outline-out", metavar="FILE.csv",
+          help="--scan: write the outline without film as CSV with columns part,ring,x_mm,y_mm; "
+               "part is measured (the imprint), mean (posterior mean area), lo and hi (5 %% and 95 %% "
+               "area quantiles: the inner and outer edge of the band); ring numbers the closed polygons "
+               "(two for a two-patch contact); x to the right, y up, mm from the image's lower-left "
+               "corner. Wheel-rail: shrunk by the model's film enlargement round the patch; "
+               "sphere-on-flat: a uniform inward offset")
+    local(p, "--field-side", choices=("right", "left", "up", "down"), default="right",
+          help="--outline-out, wheel-rail: direction of the rail's field side in the scan (default "
+               "right); the rolling direction is the other image axis")
+    add(p, "calibration_forces_kn")
+    add(p, "study_dir", default="filmcal-study", extra="with the calibrated posterior (default ./filmcal-study; "
+                                                       "must exist)")
+    add(p, "seed", default=0, extra="of the scatter draws (default 0)")
+    add(p, "json", action="store_true")
+    renamed(p, "--model", "--imprint-model IMPRINT --kinematics KINEMATICS", convert=split_model)
+    renamed(p, "--imprint", "--scan")
+    renamed(p, "--loads", "--calibration-forces-kn")
     p.set_defaults(func=run)
 
 
@@ -103,13 +107,13 @@ def _check_plausible_area(area_mm2: float, area_no_film_mm2: float, offset_mm: f
 
 
 def _check_imprint_options(args: argparse.Namespace) -> None:
-    """--imprint replaces the measured area or radius; its options need it."""
-    if args.imprint is not None and (args.measured_area_mm2 is not None or args.measured_radius_mm is not None):
-        raise ValueError("give either --imprint or --measured-area-mm2 / --measured-radius-mm, not both")
-    if args.imprint is None:
+    """--scan replaces the measured area or radius; its options need it."""
+    if args.scan is not None and (args.measured_area_mm2 is not None or args.measured_radius_mm is not None):
+        raise ValueError("give either --scan or --measured-area-mm2 / --measured-radius-mm, not both")
+    if args.scan is None:
         for name in ("dpi", "mm_per_pixel", "threshold", "min_region_mm2", "outline_out"):
             if getattr(args, name) is not None:
-                raise ValueError(f"--{name.replace('_', '-')} needs --imprint")
+                raise ValueError(f"--{name.replace('_', '-')} needs --scan")
     elif args.outline_out is not None and not Path(args.outline_out).resolve().parent.is_dir():
         raise FileNotFoundError(f"folder of --outline-out not found: {Path(args.outline_out).parent}")
 
@@ -118,7 +122,7 @@ def _read_imprint(args: argparse.Namespace):
     from filmcal.correction import read_imprint
 
     min_region = 1.0 if args.min_region_mm2 is None else args.min_region_mm2
-    return read_imprint(args.imprint, dpi=args.dpi, mm_per_pixel=args.mm_per_pixel, threshold=args.threshold,
+    return read_imprint(args.scan, dpi=args.dpi, mm_per_pixel=args.mm_per_pixel, threshold=args.threshold,
                         min_region_mm2=min_region)
 
 
@@ -128,26 +132,25 @@ def run(args: argparse.Namespace) -> int:
     sphere = args.measured_radius_mm is not None or args.sphere_radius_mm is not None
     wheel_rail = args.measured_area_mm2 is not None or args.offset_mm is not None
     if sphere == wheel_rail:
-        raise ValueError("give either --measured-area-mm2 (or --imprint) with --offset-mm (wheel-rail) or "
-                         "--measured-radius-mm (or --imprint) with --sphere-radius-mm (sphere on flat)")
+        raise ValueError("give either --measured-area-mm2 (or --scan) with --offset-mm (wheel-rail) or "
+                         "--measured-radius-mm (or --scan) with --sphere-radius-mm (sphere on flat)")
     _check_imprint_options(args)
-    if sphere and (args.sphere_radius_mm is None or (args.measured_radius_mm is None and args.imprint is None)):
-        raise ValueError("sphere-on-flat needs --measured-radius-mm (or --imprint) and --sphere-radius-mm")
-    if wheel_rail and (args.offset_mm is None or (args.measured_area_mm2 is None and args.imprint is None)):
-        raise ValueError("wheel-rail needs --measured-area-mm2 (or --imprint) and --offset-mm")
-    for name in ("force_kn", "measured_area_mm2", "measured_radius_mm", "sphere_radius_mm"):
+    if sphere and (args.sphere_radius_mm is None or (args.measured_radius_mm is None and args.scan is None)):
+        raise ValueError("sphere-on-flat needs --measured-radius-mm (or --scan) and --sphere-radius-mm")
+    if wheel_rail and (args.offset_mm is None or (args.measured_area_mm2 is None and args.scan is None)):
+        raise ValueError("wheel-rail needs --measured-area-mm2 (or --scan) and --offset-mm")
+    for name in ("measured_area_mm2", "measured_radius_mm"):
         value = getattr(args, name)
         if value is not None and not (value > 0 and value < float("inf")):
             raise ValueError(f"{name} must be finite and > 0, got {value}")
     for name in ("measurement_std_mm2", "measurement_std_mm"):
         if not getattr(args, name) >= 0:
             raise ValueError(f"{name} must be >= 0, got {getattr(args, name)}")
-    if not 0 <= args.seed < 2**32:
-        raise ValueError(f"--seed must be 0 to 2^32-1, got {args.seed}")
     study = Study(args.study_dir)  # an existing study: a mistyped folder is an error, not a new study
     study.film(args.film)
-    imprint = None if args.imprint is None else _read_imprint(args)
-    match = {"model": args.model, "poisson": args.poisson, "loads": args.loads}
+    imprint = None if args.scan is None else _read_imprint(args)
+    match = {"imprint": None if args.imprint_model == MIXTURE else args.imprint_model,
+             "kinematics": args.kinematics, "poisson": args.poisson, "loads": args.calibration_forces_kn}
     corrector = None
     if sphere:
         if imprint is not None:
@@ -156,7 +159,7 @@ def run(args: argparse.Namespace) -> int:
         else:
             radius, radius_std = args.measured_radius_mm, args.measurement_std_mm
         if radius is None or args.sphere_radius_mm is None:
-            raise ValueError("sphere-on-flat needs --measured-radius-mm (or --imprint) and --sphere-radius-mm")
+            raise ValueError("sphere-on-flat needs --measured-radius-mm (or --scan) and --sphere-radius-mm")
         _check_plausible_radius(radius, args.sphere_radius_mm, args.force_kn)
         parts = correctors(study, args.film, "sphere", random_state=args.seed, **match)
         results = [c.correct(radius, args.sphere_radius_mm, args.force_kn * 1e3, radius_std) for _, c, _ in parts]
@@ -166,7 +169,7 @@ def run(args: argparse.Namespace) -> int:
         else:
             area, area_std = args.measured_area_mm2, args.measurement_std_mm2
         if area is None or args.offset_mm is None:
-            raise ValueError("wheel-rail needs --measured-area-mm2 (or --imprint) and --offset-mm")
+            raise ValueError("wheel-rail needs --measured-area-mm2 (or --scan) and --offset-mm")
         parts = correctors(study, args.film, "wheel-rail", random_state=args.seed,
                            wheel_rail=dict(wheel=args.wheel, rail=args.rail, rail_inclination=args.inclination,
                                            nominal_radius_mm=args.wheel_radius_mm), **match)
@@ -187,7 +190,7 @@ def run(args: argparse.Namespace) -> int:
     if imprint is not None:
         details = {k: v for k, v in imprint.to_dict().items() if k not in ("area_mm2", "area_std_mm2")}
         out.update(measured_area_mm2=imprint.area_mm2, measured_area_std_mm2=imprint.area_std_mm2,
-                   imprint={"file": str(args.imprint), **details})
+                   scan={"file": str(args.scan), **details})
     if args.outline_out is not None:
         outline = _corrected_outline(args, imprint, result, corrector)
         outline.write_csv(args.outline_out)

@@ -9,6 +9,7 @@ import numpy as np
 from filmcal._io import atomic_path
 from filmcal._validation import arg_int_in
 from filmcal.commands._common import print_json
+from filmcal.commands._options import add, bounds_text, local
 
 if TYPE_CHECKING:
     from filmcal.doe import DesignSpace
@@ -35,25 +36,24 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                     "written as CSV (one column per parameter, one row per point). Quality "
                     "metrics are computed in the unit cube.",
     )
-    parser.add_argument("--samples", type=arg_int_in(1, MAX_SAMPLES), required=True, metavar="N",
-                        help=f"number of points (2-{MAX_SAMPLES}); with --augment, the number "
-                             f"of points to add (1-{MAX_SAMPLES})")
-    parser.add_argument("--param", action="append", required=True, metavar="SPEC",
+    local(parser, "--samples", type=arg_int_in(1, MAX_SAMPLES), required=True, metavar="N",
+          help="number of points (at least 2 for a new design); with --augment, the number of points to add"
+               + bounds_text(1, MAX_SAMPLES, True))
+    local(parser, "--param", action="append", required=True, metavar="SPEC",
                         help="a parameter, repeatable: name=low:high (linear range), "
                              "name=low:high:log (log scale, low > 0), name=v1,v2,... "
                              f"(discrete levels), name=value (fixed); at most {MAX_PARAMS}")
-    parser.add_argument("--out", required=True, metavar="CSV",
+    local(parser, "--out", required=True, metavar="CSV",
                         help="file to write the design to")
-    parser.add_argument("--seed", type=arg_int_in(0, 2**32 - 1), default=0,
-                        help="random seed, 0-4294967295; the same seed gives the same design (default 0)")
-    parser.add_argument("--augment", metavar="CSV",
+    add(parser, "seed", default=0, extra="; the same seed gives the same design (default 0)")
+    local(parser, "--augment", metavar="CSV",
                         help="existing design to extend by --samples points; its columns "
                              "must be the --param names. The output holds the existing "
                              "points first, unchanged")
-    parser.add_argument("--iterations", type=arg_int_in(1, MAX_ITERATIONS), default=ITERATIONS_DEFAULT,
-                        metavar="K", help=f"outer iterations of the optimiser (1-{MAX_ITERATIONS}); time "
-                                          f"grows linearly (default {ITERATIONS_DEFAULT})")
-    parser.add_argument("--json", action="store_true",
+    local(parser, "--iterations", type=arg_int_in(1, MAX_ITERATIONS), default=ITERATIONS_DEFAULT,
+          metavar="K", help=f"outer iterations of the optimiser; time grows linearly (default {ITERATIONS_DEFAULT})"
+                            + bounds_text(1, MAX_ITERATIONS, True))
+    add(parser, "json", action="store_true",
                         help="print the quality metrics as one JSON object")
     parser.set_defaults(func=run)
 

@@ -4,7 +4,8 @@ from __future__ import annotations
 import argparse
 
 from filmcal.commands._common import print_json
-from filmcal.contact import DEFAULT_IMPRINT_MODEL, IMPRINT_MODELS
+from filmcal.commands._options import add, add_contact_options, local, renamed
+from filmcal.contact.names import DEFAULT_IMPRINT_MODEL, DEFAULT_KINEMATICS, IMPRINT_MODELS
 from filmcal.films import FILM_POISSON, FILM_THICKNESS_MM
 
 
@@ -15,52 +16,45 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "(radius R) pressed with force F on a steel flat, with a Prescale film (E, nu, 90 um) "
                     "between them or without one. Prints the contact radius (the zero-pressure edge) read with "
                     "sub-element accuracy, the area, the maximum pressure and the Hertz radius for reference; "
-                    "with --film-type, also the imprint that film records (--imprint).")
-    p.add_argument("--radius-mm", type=float, required=True, help="sphere radius R in mm (e.g. 300, 450, 600)")
-    p.add_argument("--force-kn", type=float, required=True, help="normal force F in kN (e.g. 25-100)")
+                    "with --film, also the imprint that film records (--imprint-model).")
+    add(p, "sphere_radius_mm", required=True, extra="(e.g. 300, 450, 600)")
+    add(p, "force_kn", required=True, extra="(e.g. 25-100)")
     film = p.add_mutually_exclusive_group(required=True)
-    film.add_argument("--film-modulus-mpa", type=float, help="film Young's modulus E in MPa")
-    film.add_argument("--no-film", action="store_true", help="steel on steel, no film")
-    p.add_argument("--film-poisson", type=float, default=None,
-                   help=f"film Poisson's ratio nu (default: the film type's, else {FILM_POISSON:g})")
-    p.add_argument("--film-thickness-mm", type=float, default=None,
-                   help=f"film thickness (default: the film type's, else {FILM_THICKNESS_MM:g} mm)")
-    p.add_argument("--film-layers", type=int, default=1, help="element layers through the film (default 1)")
-    p.add_argument("--sphere-contact", choices=["frictionless", "tied", "friction"], default="frictionless",
-                   help="sphere-film interface (default frictionless)")
-    p.add_argument("--flat-contact", choices=["frictionless", "tied", "friction"], default="tied",
-                   help="film-flat interface, never separating (default tied)")
-    p.add_argument("--friction-coefficient", type=float, default=0.4,
-                   help="Coulomb coefficient of 'friction' interfaces (default 0.4, as the paper)")
-    p.add_argument("--large-strain", action="store_true",
-                   help="geometrically nonlinear neo-Hookean film instead of small strain")
-    p.add_argument("--element-size-mm", type=float, default=0.1,
-                   help="element size in the contact zone (default 0.1 mm, as the paper)")
+    add(film, "film_modulus_mpa")
+    local(film, "--no-film", action="store_true", help="steel on steel, no film")
+    add(p, "film_poisson", extra=f"(default: the film type's, else {FILM_POISSON:g})")
+    add(p, "film_thickness_mm", extra=f"(default: the film type's, else {FILM_THICKNESS_MM:g} mm)")
+    local(p, "--film-layers", type=int, default=1, help="element layers through the film (default 1)")
+    add_contact_options(p)
+    add(p, "kinematics", default=DEFAULT_KINEMATICS, extra=f"(default {DEFAULT_KINEMATICS})")
+    local(p, "--element-size-mm", type=float,
+          help="element size in the contact zone in mm (default: the paper's contact-zone elements, "
+               "filmcal.fem.MeshSettings)")
     imprint = p.add_mutually_exclusive_group()
-    imprint.add_argument("--film-type", metavar="NAME",
-                         help="also report this film type's imprint (imprint_radius_mm, imprint_area_mm2): "
-                              "MS, HS, HHS or a film of --films-file")
-    imprint.add_argument("--activation-pressure-mpa", type=float, metavar="P",
-                         help="also report the imprint of a film that colours above P MPa")
-    p.add_argument("--imprint", choices=IMPRINT_MODELS, default=DEFAULT_IMPRINT_MODEL,
-                   help="what the film records (default activation): 'edge' the whole contact, "
-                        "'activation' where the pressure exceeds the film's activation pressure, "
-                        "'capsule' the expected area of capsules broken (strengths spread over the film's range)")
-    p.add_argument("--films-file", metavar="TOML", help="user film types (one TOML table per film)")
-    p.add_argument("--pressure-csv", metavar="FILE", help="write the pressure distribution p(r) to a CSV file")
-    p.add_argument("--plot", metavar="PNG", help="plot the pressure distribution against Hertz to a PNG")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add(imprint, "film", extra="; also report its imprint (imprint_radius_mm, imprint_area_mm2)")
+    local(imprint, "--activation-pressure-mpa", type=float, metavar="P",
+          help="also report the imprint of a film that colours above P MPa")
+    add(p, "imprint_model", default=DEFAULT_IMPRINT_MODEL, extra=f"(default {DEFAULT_IMPRINT_MODEL})")
+    add(p, "films_file")
+    local(p, "--pressure-csv", metavar="FILE", help="write the pressure distribution p(r) to a CSV file")
+    local(p, "--plot", metavar="PNG", help="plot the pressure distribution against Hertz to a PNG")
+    add(p, "json", action="store_true")
+    renamed(p, "--radius-mm", "--sphere-radius-mm", type=float)
+    renamed(p, "--film-type", "--film")
+    renamed(p, "--imprint", "--imprint-model", choices=IMPRINT_MODELS)
+    renamed(p, "--large-strain", "--kinematics large", "kinematics", flag_value="large")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from filmcal.fem import ContactOptions, Film, MeshSettings, solve_sphere_on_flat
+    from filmcal.commands._options import contact_options
+    from filmcal.fem import Film, MeshSettings, solve_sphere_on_flat
 
     from filmcal.films import FilmRegistry, FilmType
 
     film_type = None
-    if args.film_type is not None:
-        film_type = FilmRegistry.from_file(args.films_file).get(args.film_type)
+    if args.film is not None:
+        film_type = FilmRegistry.from_file(args.films_file).get(args.film)
     elif args.activation_pressure_mpa is not None:
         if not args.activation_pressure_mpa > 0:
             raise ValueError(f"--activation-pressure-mpa must be > 0, got {args.activation_pressure_mpa:g}")
@@ -68,18 +62,17 @@ def run(args: argparse.Namespace) -> int:
                              activation_pressure_mpa=args.activation_pressure_mpa)
     elif args.films_file is not None:
         FilmRegistry.from_file(args.films_file)  # report a bad file even when unused
-    if film_type is None and args.imprint != DEFAULT_IMPRINT_MODEL:
-        raise ValueError("--imprint needs --film-type (or --activation-pressure-mpa)")
+    if film_type is None and args.imprint_model != DEFAULT_IMPRINT_MODEL:
+        raise ValueError("--imprint-model needs --film (or --activation-pressure-mpa)")
     poisson = args.film_poisson if args.film_poisson is not None else (
         film_type.poisson if film_type is not None else FILM_POISSON)
     thickness = args.film_thickness_mm if args.film_thickness_mm is not None else (
         film_type.thickness_mm if film_type is not None else FILM_THICKNESS_MM)
     film = None if args.no_film else Film(args.film_modulus_mpa, poisson)
-    options = ContactOptions(sphere_contact=args.sphere_contact, flat_contact=args.flat_contact,
-                             friction_coefficient=args.friction_coefficient, large_strain=args.large_strain)
-    mesh = MeshSettings(element_size_mm=args.element_size_mm)
-    res = solve_sphere_on_flat(args.radius_mm, args.force_kn * 1e3, film, options, mesh,
-                               thickness, args.film_layers, film_type=film_type, imprint_model=args.imprint)
+    options = contact_options(args)
+    mesh = MeshSettings() if args.element_size_mm is None else MeshSettings(element_size_mm=args.element_size_mm)
+    res = solve_sphere_on_flat(args.sphere_radius_mm, args.force_kn * 1e3, film, options, mesh,
+                               thickness, args.film_layers, film_type=film_type, imprint_model=args.imprint_model)
     if args.pressure_csv:
         import numpy as np
         np.savetxt(args.pressure_csv, np.column_stack([res.r_mm, res.pressure_mpa, res.film_strain]),
@@ -92,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
         print_json(out)
     else:
         state = "converged" if res.converged else f"NOT converged: {res.reason}"
-        print(f"R = {res.radius_mm:g} mm, F = {res.force_n / 1e3:g} kN, "
+        print(f"R = {res.sphere_radius_mm:g} mm, F = {res.force_n / 1e3:g} kN, "
               + ("no film" if film is None else f"film E = {film.modulus_mpa:g} MPa, nu = {film.poisson:g}"))
         print(f"contact radius  {res.contact_radius_mm:.4f} mm   (Hertz {res.hertz_radius_mm:.4f} mm, "
               f"difference {res.radius_error_mm:+.4f} mm)")

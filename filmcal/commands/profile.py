@@ -11,6 +11,7 @@ import numpy as np
 from filmcal._io import atomic_path
 from filmcal._validation import arg_finite, check_range
 from filmcal.commands._common import print_json
+from filmcal.commands._options import add, local
 from filmcal.wheelrail.profiles import (
     PROFILE_KINDS, PROFILE_NAMES, Profile, get_profile, load_profile_csv, profile_dimensions,
 )
@@ -31,19 +32,19 @@ def add_parser(subparsers) -> None:
     )
     parser.add_argument("name", help=f"profile name ({', '.join(PROFILE_NAMES)}) or a CSV file "
                                      "with columns y_mm,z_mm")
-    parser.add_argument("--step-mm", type=arg_finite(), default=0.5,
+    local(parser, "--step-mm", type=arg_finite(), default=0.5,
                         help="spacing of the points along the profile in mm, 0.001-50 (default 0.5)")
-    parser.add_argument("--kind", choices=PROFILE_KINDS, default="rail",
+    local(parser, "--kind", choices=PROFILE_KINDS, default="rail",
                         help="for a CSV file: whether it is a wheel or a rail profile (default rail)")
     fmt = parser.add_mutually_exclusive_group()
-    fmt.add_argument("--csv", action="store_true",
+    local(fmt, "--csv", action="store_true",
                      help="print the points as CSV y_mm,z_mm on stdout (the default output)")
-    fmt.add_argument("--json", action="store_true",
+    add(fmt, "json", action="store_true",
                      help="print a JSON summary: name, kind, y-range, number of points, checked "
                           "dimensions and the largest mismatches at section joints")
-    parser.add_argument("--out", metavar="FILE",
+    local(parser, "--out", metavar="FILE",
                         help="write the CSV points to FILE instead of stdout")
-    parser.add_argument("--plot", metavar="FILE.png", help="draw the profile into a PNG file")
+    local(parser, "--plot", metavar="FILE.png", help="draw the profile into a PNG file")
     parser.set_defaults(func=run)
 
 

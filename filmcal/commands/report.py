@@ -6,6 +6,7 @@ import sys
 import warnings
 
 from filmcal.commands._common import print_json
+from filmcal.commands._options import add, local
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -22,9 +23,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "only; the figures are drawn on every core: 13 s for a three-film quick study, 20 s for the full "
                     "one (measured 2026-11-24 with `time filmcal report --study-dir D --out-dir R` on 2 idle "
                     "cores).")
-    p.add_argument("--study-dir", default="filmcal-study", help="study folder (default ./filmcal-study)")
-    p.add_argument("--out-dir", default=None, help="output folder (default STUDY_DIR/report)")
-    p.add_argument("--json", action="store_true", help="print the written paths as one JSON object")
+    add(p, "study_dir", default="filmcal-study", help="study folder (default ./filmcal-study)")
+    local(p, "--out-dir", default=None, help="output folder (default STUDY_DIR/report)")
+    add(p, "json", action="store_true", help="print the written paths as one JSON object")
     p.set_defaults(func=run)
 
 

@@ -72,7 +72,7 @@ class FilmModel:
             Solver film, solver law, and the roughness law.
         """
         from filmcal.contact.roughness import RoughSurface, rough_contact_law
-        from filmcal.wheelrail.interface import FilmLayer, film_law
+        from filmcal.contact.laws import FilmLayer, film_law
 
         layer = FilmLayer(float(modulus_mpa), self.film.poisson, self.film.thickness_mm)
         law = roughness

@@ -5,7 +5,7 @@ it only at its asperities. On the scale of the contact grid (0.1 mm) the
 interface behaves as a nonlinear spring in series with the film and the
 bodies: the rough interface closes by ``c(p)`` under a nominal pressure
 ``p``. This module computes that law numerically from the surface itself and
-returns it as an :class:`filmcal.wheelrail.interface.TabularLaw`, usable at
+returns it as an :class:`filmcal.contact.laws.TabularLaw`, usable at
 the film-wheel interface of :mod:`filmcal.wheelrail` and at the film-flat
 interface of :func:`filmcal.wheelrail.halfspace.sphere_on_flat_contact`.
 
@@ -98,7 +98,7 @@ from scipy.special import erf
 
 from filmcal._validation import check_poisson, check_positive, check_range
 from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON
-from filmcal.wheelrail.interface import TabularLaw
+from filmcal.contact.laws import TabularLaw
 
 __all__ = [
     "RoughSurface",
@@ -671,7 +671,7 @@ def solve_periodic_contact(surface: RoughSurface, nominal_pressures_mpa: np.ndar
 class RoughContactLaw(TabularLaw):
     """Pressure-closure law of a rough steel surface on the film, from the BEM.
 
-    A :class:`~filmcal.wheelrail.interface.TabularLaw` (closure as a monotone
+    A :class:`~filmcal.contact.laws.TabularLaw` (closure as a monotone
     function of the nominal pressure; hard above the last tabulated pressure)
     that also keeps the local pressure distributions.
 

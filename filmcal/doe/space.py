@@ -291,7 +291,7 @@ def parse_parameter(spec: str) -> Parameter:
     --------
     >>> parse_parameter("modulus_mpa=50:5000:log").scale
     'log'
-    >>> parse_parameter("radius_mm=300,450,600").levels
+    >>> parse_parameter("sphere_radius_mm=300,450,600").levels
     (300.0, 450.0, 600.0)
     """
     name, sep, body = spec.partition("=")

@@ -34,22 +34,22 @@ _MODELS: "OrderedDict[tuple, SphereOnFlat]" = OrderedDict()
 _MAX_MODELS = 8
 
 
-def get_model(radius_mm: float, mesh: MeshSettings | None = None, film_thickness_mm: float = 0.09,
+def get_model(sphere_radius_mm: float, mesh: MeshSettings | None = None, film_thickness_mm: float = 0.09,
               film_layers: int = 1) -> SphereOnFlat:
     """A `SphereOnFlat` for these settings, built once per process and kept (LRU of 8)."""
     mesh = MeshSettings() if mesh is None else mesh
-    key = (float(radius_mm), mesh, float(film_thickness_mm), int(film_layers))
+    key = (float(sphere_radius_mm), mesh, float(film_thickness_mm), int(film_layers))
     if key in _MODELS:
         _MODELS.move_to_end(key)
         return _MODELS[key]
-    model = SphereOnFlat(radius_mm, mesh, film_thickness_mm, film_layers)
+    model = SphereOnFlat(sphere_radius_mm, mesh, film_thickness_mm, film_layers)
     _MODELS[key] = model
     while len(_MODELS) > _MAX_MODELS:
         _MODELS.popitem(last=False)
     return model
 
 
-def solve_sphere_on_flat(radius_mm: float, force_n: float, film: Film | None = None,
+def solve_sphere_on_flat(sphere_radius_mm: float, force_n: float, film: Film | None = None,
                          options: ContactOptions | None = None, mesh: MeshSettings | None = None,
                          film_thickness_mm: float = 0.09, film_layers: int = 1,
                          activation_pressure_mpa: float | None = None, film_type=None,
@@ -58,7 +58,7 @@ def solve_sphere_on_flat(radius_mm: float, force_n: float, film: Film | None = N
 
     Parameters
     ----------
-    radius_mm : float
+    sphere_radius_mm : float
         Sphere radius R (mm).
     force_n : float
         Normal force F (N).
@@ -75,15 +75,15 @@ def solve_sphere_on_flat(radius_mm: float, force_n: float, film: Film | None = N
     imprint_model : {'activation', 'edge', 'capsule'}
         What the film records (default activation).
     """
-    model = get_model(radius_mm, mesh, film_thickness_mm, film_layers)
+    model = get_model(sphere_radius_mm, mesh, film_thickness_mm, film_layers)
     return model.solve(film, force_n, options, activation_pressure_mpa, film_type, imprint_model)
 
 
-def solve_many(radius_mm: float, points: Iterable[tuple[Film | None, float]],
+def solve_many(sphere_radius_mm: float, points: Iterable[tuple[Film | None, float]],
                options: ContactOptions | None = None, mesh: MeshSettings | None = None,
                film_thickness_mm: float = 0.09, film_layers: int = 1) -> list[FEResult]:
     """Evaluate many (film, force_n) points for one sphere radius, sharing the condensed bodies."""
-    model = get_model(radius_mm, mesh, film_thickness_mm, film_layers)
+    model = get_model(sphere_radius_mm, mesh, film_thickness_mm, film_layers)
     return [model.solve(film, force, options) for film, force in points]
 
 
@@ -123,7 +123,7 @@ def evaluate_point(params: dict, films: Sequence = (), imprint_models: Sequence[
     Parameters
     ----------
     params : dict
-        ``radius_mm``, ``force_kn`` and, unless ``no_film`` is true,
+        ``sphere_radius_mm``, ``force_kn`` and, unless ``no_film`` is true,
         ``modulus_mpa`` and ``poisson``; optional ``sphere_contact``,
         ``flat_contact``, ``friction_coefficient``, ``large_strain``,
         ``element_size_mm``, ``film_thickness_mm``, ``activation_pressure_mpa``.
@@ -153,7 +153,7 @@ def evaluate_point(params: dict, films: Sequence = (), imprint_models: Sequence[
     options = ContactOptions.from_columns(params)
     mesh = MeshSettings(element_size_mm=as_finite("element_size_mm", get("element_size_mm", 0.1)))
     act = get("activation_pressure_mpa")
-    res = solve_sphere_on_flat(as_finite("radius_mm", get("radius_mm")),
+    res = solve_sphere_on_flat(as_finite("sphere_radius_mm", get("sphere_radius_mm")),
                                1e3 * as_finite("force_kn", get("force_kn")), film, options, mesh,
                                as_finite("film_thickness_mm", get("film_thickness_mm", 0.09)),
                                activation_pressure_mpa=None if act is None else as_finite("activation_pressure_mpa", act))

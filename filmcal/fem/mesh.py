@@ -68,12 +68,12 @@ class MeshSettings:
                         low_open=False, high_open=False)
 
 
-def default_contact_zone_mm(radius_mm: float, settings: MeshSettings) -> float:
+def default_contact_zone_mm(sphere_radius_mm: float, settings: MeshSettings) -> float:
     """Radius of the refined contact zone used when the settings leave it open."""
     if settings.contact_zone_mm is not None:
         return float(settings.contact_zone_mm)
     from filmcal.hertz import hertz_radius_mm
-    zone = max(4.0, 1.6 * hertz_radius_mm(radius_mm, 150e3))
+    zone = max(4.0, 1.6 * hertz_radius_mm(sphere_radius_mm, 150e3))
     zone = min(zone, 0.6 * settings.body_size_mm)
     h = settings.element_size_mm
     return float(np.ceil(zone / h - 1e-9) * h)
@@ -150,15 +150,15 @@ def _radial_and_depth(zone_mm: float, s: MeshSettings) -> tuple[np.ndarray, np.n
     return r, depth
 
 
-def sphere_grid(radius_mm: float, settings: MeshSettings, film_thickness_mm: float = 0.0) -> BodyGrid:
+def sphere_grid(sphere_radius_mm: float, settings: MeshSettings, film_thickness_mm: float = 0.0) -> BodyGrid:
     """Mesh of the sphere body: exact spherical contact face, flat top.
 
     Its lowest point lies at z = film_thickness_mm.
     """
-    R = check_positive("radius_mm", radius_mm)
+    R = check_positive("sphere_radius_mm", sphere_radius_mm)
     L = settings.body_size_mm
     if R < L:
-        raise ValueError(f"radius_mm must be >= body_size_mm ({L:g} mm) for a spherical cap body, got {R:g}")
+        raise ValueError(f"sphere_radius_mm must be >= body_size_mm ({L:g} mm) for a spherical cap body, got {R:g}")
     zone = default_contact_zone_mm(R, settings)
     r, depth = _radial_and_depth(zone, settings)
 

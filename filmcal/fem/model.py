@@ -141,7 +141,7 @@ class SphereOnFlat:
 
     Parameters
     ----------
-    radius_mm : float
+    sphere_radius_mm : float
         Sphere radius R (mm).
     mesh : MeshSettings, optional
     film_thickness_mm : float
@@ -158,11 +158,11 @@ class SphereOnFlat:
     >>> res.contact_radius_mm - res.hertz_radius_mm          # doctest: +SKIP
     """
 
-    def __init__(self, radius_mm: float, mesh: MeshSettings | None = None, film_thickness_mm: float = 0.09,
+    def __init__(self, sphere_radius_mm: float, mesh: MeshSettings | None = None, film_thickness_mm: float = 0.09,
                  film_layers: int = 1, steel_modulus_mpa: float = STEEL_MODULUS_MPA,
                  steel_poisson: float = STEEL_POISSON) -> None:
         t0 = time.perf_counter()
-        self.radius_mm = check_positive("radius_mm", radius_mm)
+        self.sphere_radius_mm = check_positive("sphere_radius_mm", sphere_radius_mm)
         self.mesh = MeshSettings() if mesh is None else mesh
         self.film_thickness_mm = check_range("film_thickness_mm", film_thickness_mm, 0.0, 5.0, high_open=False)
         self.steel_modulus_mpa = check_positive("steel_modulus_mpa", steel_modulus_mpa)
@@ -172,7 +172,7 @@ class SphereOnFlat:
 
         # sphere body: u_r = 0 on the axis, the axis node of the top pinned in z
         # (its rigid displacement w is an unknown fixed by the force balance)
-        self.sphere = sphere_grid(self.radius_mm, self.mesh, self.film_thickness_mm)
+        self.sphere = sphere_grid(self.sphere_radius_mm, self.mesh, self.film_thickness_mm)
         sb = Basis(self.sphere.mesh, e)
         Ks = linear_elasticity.assemble(sb, lam=lam, mu=mu)
         top = self.sphere.node_at[:, -1]
@@ -197,7 +197,7 @@ class SphereOnFlat:
         self._film_basis = Basis(self.film.mesh, e)
         self._K_lam = linear_elasticity.assemble(self._film_basis, lam=1.0, mu=0.0).toarray()
         self._K_mu = linear_elasticity.assemble(self._film_basis, lam=0.0, mu=1.0).toarray()
-        self.gap0_mm = self.radius_mm - np.sqrt(self.radius_mm**2 - self.r_face_mm**2)
+        self.gap0_mm = self.sphere_radius_mm - np.sqrt(self.sphere_radius_mm**2 - self.r_face_mm**2)
         self.face_area_mm2 = self._tributary_areas(self.r_face_mm)
         self._lower_cache: dict[str, _Lower] = {}
         self.n_dofs = int(sb.N + fb.N + self._film_basis.N)
@@ -320,10 +320,10 @@ class SphereOnFlat:
         force_n = check_positive("force_n", force_n)
         opts = ContactOptions() if options is None else options
         h = self.mesh.element_size_mm
-        a_h = hertz_radius_mm(self.radius_mm, force_n)
+        a_h = hertz_radius_mm(self.sphere_radius_mm, force_n)
         if a_h < 10.0 * h:
             raise ValueError(f"element_size_mm = {h:g} cannot resolve a contact radius of about {a_h:.2f} mm "
-                             f"(R = {self.radius_mm:g} mm, F = {force_n:g} N): use element_size_mm <= {a_h / 10:.3g}")
+                             f"(R = {self.sphere_radius_mm:g} mm, F = {force_n:g} N): use element_size_mm <= {a_h / 10:.3g}")
         with_film = film is not None
         sphere_mode = opts.sphere_contact
         flat_mode = opts.flat_contact if with_film else "tied"
@@ -450,7 +450,7 @@ class SphereOnFlat:
         return False, "film Newton iterations did not converge", x, state, iterations
 
     def _initial_state(self, n_lam, normal, tangential, force_n) -> ContactState:
-        a_guess = hertz_radius_mm(self.radius_mm, force_n)
+        a_guess = hertz_radius_mm(self.sphere_radius_mm, force_n)
         ns = np.where(self.r_face_mm <= 0.8 * a_guess, CLOSED, OPEN)
         ns[0] = CLOSED
         return ContactState(np.zeros(n_lam), 0.0, ns, np.full(len(tangential), FREE))
@@ -510,14 +510,15 @@ class SphereOnFlat:
             converged = False
             reason = (f"contact reached the edge of the refined zone (r = {self.r_face_mm[-1]:.2f} mm): "
                       "enlarge MeshSettings.contact_zone_mm")
-        a_h = hertz_radius_mm(self.radius_mm, force_n)
+        a_h = hertz_radius_mm(self.sphere_radius_mm, force_n)
         strain = self._film_strain(low, x) if film is not None else np.zeros(n)
         result = FEResult(
-            radius_mm=self.radius_mm, force_n=force_n,
+            sphere_radius_mm=self.sphere_radius_mm, force_n=force_n,
             film_modulus_mpa=None if film is None else film.modulus_mpa,
             film_poisson=None if film is None else film.poisson,
             sphere_contact=opts.sphere_contact, flat_contact=opts.flat_contact if film is not None else "none",
-            friction_coefficient=opts.friction_coefficient, large_strain=opts.large_strain and film is not None,
+            friction_coefficient=opts.friction_coefficient,
+            kinematics="large" if opts.large_strain and film is not None else "small",
             contact_radius_mm=0.0, contact_area_mm2=0.0,
             max_pressure_mpa=float(np.max(pressure)), hertz_radius_mm=a_h,
             approach_mm=float(-state.rigid_w), film_strain_max=float(-np.min(strain)) if film is not None else 0.0,

@@ -26,14 +26,14 @@ class FEResult:
     other (model, film type) pair from the same solution.
     """
 
-    radius_mm: float
+    sphere_radius_mm: float
     force_n: float
     film_modulus_mpa: float | None
     film_poisson: float | None
     sphere_contact: str
     flat_contact: str
     friction_coefficient: float
-    large_strain: bool
+    kinematics: str
     contact_radius_mm: float
     contact_area_mm2: float
     max_pressure_mpa: float

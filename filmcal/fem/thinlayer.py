@@ -53,14 +53,14 @@ class ThinLayerResult:
     converged: bool
 
 
-def thin_layer_contact(radius_mm: float, force_n: float, film_modulus_mpa: float | None = None,
+def thin_layer_contact(sphere_radius_mm: float, force_n: float, film_modulus_mpa: float | None = None,
                        film_poisson: float = 0.33, film_thickness_mm: float = 0.09,
                        ring_width_mm: float = 0.02, zone_mm: float | None = None) -> ThinLayerResult:
     """Solve sphere-on-flat contact of two steel half-spaces with a spring film between.
 
     Parameters
     ----------
-    radius_mm, force_n : float
+    sphere_radius_mm, force_n : float
         Sphere radius R (mm) and normal force F (N).
     film_modulus_mpa : float or None
         Film Young's modulus; None for no film.
@@ -78,7 +78,7 @@ def thin_layer_contact(radius_mm: float, force_n: float, film_modulus_mpa: float
         edge (``edge_mm``: last loaded ring's outer radius, first unloaded
         ring's outer radius).
     """
-    R = check_positive("radius_mm", radius_mm)
+    R = check_positive("sphere_radius_mm", sphere_radius_mm)
     F = check_positive("force_n", force_n)
     estar = contact_modulus_mpa()
     a_h = hertz_radius_mm(R, F)

@@ -47,7 +47,7 @@ def plot_pressure_profile(result, path: str) -> None:
     ax = fig.subplots()
     r = result.r_mm
     rr = np.linspace(0, r[-1], 800)
-    ax.plot(rr, hertz_pressure_mpa(rr, result.radius_mm, result.force_n), "k--", lw=1, label="Hertz, no film")
+    ax.plot(rr, hertz_pressure_mpa(rr, result.sphere_radius_mm, result.force_n), "k--", lw=1, label="Hertz, no film")
     label = "FE, no film" if result.film_modulus_mpa is None else (
         f"FE, film E = {result.film_modulus_mpa:g} MPa, nu = {result.film_poisson:g}")
     ax.plot(r, result.pressure_mpa, ".-", ms=3, lw=1, label=label)
@@ -56,7 +56,7 @@ def plot_pressure_profile(result, path: str) -> None:
     ax.set_xlim(0, 1.25 * max(result.contact_radius_mm, result.hertz_radius_mm))
     ax.set_xlabel("r (mm)")
     ax.set_ylabel("contact pressure (MPa)")
-    ax.set_title(f"Sphere R{result.radius_mm:g} on flat, F = {result.force_n / 1e3:g} kN")
+    ax.set_title(f"Sphere R{result.sphere_radius_mm:g} on flat, F = {result.force_n / 1e3:g} kN")
     ax.legend(fontsize=8)
     ax.grid(lw=0.3)
     fig.savefig(path, dpi=120)
@@ -87,7 +87,7 @@ def plot_pressure_profiles(profiles: dict, radius_mm: float, force_n: float) -> 
 
 
 def _case_labels(rows: list[dict]) -> list[str]:
-    return [f"R{r['radius_mm']:g}\n{r['force_n'] / 1e3:g} kN" for r in rows]
+    return [f"R{r['sphere_radius_mm']:g}\n{r['force_n'] / 1e3:g} kN" for r in rows]
 
 
 def plot_hertz_verification(rows: list[dict]) -> Figure:
@@ -249,7 +249,7 @@ def plot_surrogate_validation(points: dict) -> Figure:
     """
     from filmcal.hertz import hertz_radius_mm
 
-    a_h = hertz_radius_mm(np.asarray(points["radius_mm"]), 1e3 * np.asarray(points["force_kn"]))
+    a_h = hertz_radius_mm(np.asarray(points["sphere_radius_mm"]), 1e3 * np.asarray(points["force_kn"]))
     fe = np.asarray(points["radius_fe_mm"]) - a_h
     mean = np.asarray(points["radius_mean_mm"]) - a_h
     std = np.asarray(points["radius_std_mm"])

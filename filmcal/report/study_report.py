@@ -123,7 +123,7 @@ def _read_design(path: Path | None) -> DesignData | None:
 
     space = _domain().space()
     params = list(space.parameters)
-    labels = {"radius_mm": "sphere radius R (mm)", "force_kn": "load F (kN)", **PARAMETER_LABELS}
+    labels = {"sphere_radius_mm": "sphere radius R (mm)", "force_kn": "load F (kN)", **PARAMETER_LABELS}
     train = np.asarray(space.to_physical(np.asarray(d["train"]["unit"])))
     test = np.asarray(space.to_physical(np.asarray(d["test"]["unit"])))
     return DesignData([labels.get(p.name, p.name) for p in params], train, test,
@@ -319,7 +319,7 @@ def verification_section(v: dict | None) -> Section:
     s = Section("FE model verification")
     if v is None:
         return _missing(s, "fe-verification.json")
-    rows = [[f"R{r['radius_mm']:g}", f"{r['force_n'] / 1e3:g}", f"{r['hertz_radius_mm']:.4f}",
+    rows = [[f"R{r['sphere_radius_mm']:g}", f"{r['force_n'] / 1e3:g}", f"{r['hertz_radius_mm']:.4f}",
              f"{r['fe_radius_mm']:.4f}", f"{100 * (r['fe_radius_mm'] / r['hertz_radius_mm'] - 1):+.3f}"]
             for r in v["hertz"]]
     s.add("Without film the axisymmetric FE model (two steel bodies) must reproduce Hertz's contact radius "
@@ -328,7 +328,7 @@ def verification_section(v: dict | None) -> Section:
           FigureBlock(F.plot_hertz_verification(v["hertz"]), "Relative error of the FE contact radius without "
                       "film against Hertz, per Table 1 case.", "FE without film against Hertz"))
     case = v["profile_case"]
-    s.add(FigureBlock(F.plot_pressure_profiles(v["profiles"], case["radius_mm"], case["force_n"]),
+    s.add(FigureBlock(F.plot_pressure_profiles(v["profiles"], case["sphere_radius_mm"], case["force_n"]),
                       "Contact pressure without film (against Hertz) and with each film at its posterior median E: "
                       "the film lowers the peak and widens the patch.",
                       "Contact pressure without and with film"))
@@ -681,14 +681,14 @@ def provenance_section(folder: Path, settings_hash: str, seed: int | None, films
                        files: list[tuple[str, int, str]], problems: list[str], software: dict | None = None,
                        software_later: list | None = None) -> Section:
     """Software versions, the settings and the study folder's files with their checksums."""
-    import filmcal
+    from filmcal._versions import __version__
 
     s = Section("Provenance")
     now = software_versions()
     made = software or {}
     later = [entry.get("software", {}) for entry in software_later or []]
     header = ["software", "made the study", *(f"later writer {i + 1}" for i in range(len(later))), "this report"]
-    versions = [["filmcal", "", *("" for _ in later), filmcal.__version__],
+    versions = [["filmcal", "", *("" for _ in later), __version__],
                 ["filmcal git commit", "", *("" for _ in later), _git_commit()],
                 ["platform", "", *("" for _ in later), platform.platform()]]
     for name in ("python", *NUMERIC_PACKAGES, "matplotlib"):

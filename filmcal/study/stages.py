@@ -281,11 +281,11 @@ def _comparison_stage(study: Study, settings: PipelineSettings, results: dict, s
     return out, computed
 
 
-def _fe_solve(radius_mm: float, force_n: float, film: tuple[float, float] | None, options) -> dict:
+def _fe_solve(sphere_radius_mm: float, force_n: float, film: tuple[float, float] | None, options) -> dict:
     """One FE solve of the verification: the sphere on the flat, bare (`film` None) or with film ``(E, nu)``."""
     from filmcal.fem import Film, get_model
 
-    res = get_model(radius_mm).solve(None if film is None else Film(*film), force_n, options)
+    res = get_model(sphere_radius_mm).solve(None if film is None else Film(*film), force_n, options)
     return {"fe_radius_mm": res.contact_radius_mm, "hertz_radius_mm": res.hertz_radius_mm,
             "fe_max_pressure_mpa": res.max_pressure_mpa, "converged": res.converged, "profile": _profile(res)}
 
@@ -314,7 +314,7 @@ def _verification_stage(study: Study, settings: PipelineSettings, seed: int, med
         st.advance(note=f"{film or 'no film'}, R{r:.0f}/{f / 1e3:.0f} kN")
 
     run_tasks(tasks, workers, keep)
-    hertz = [{"radius_mm": r, "force_n": f, **{k: v for k, v in solved[None, r, f].items() if k != "profile"}}
+    hertz = [{"sphere_radius_mm": r, "force_n": f, **{k: v for k, v in solved[None, r, f].items() if k != "profile"}}
              for r, f in cases]
     model, _, _ = study.radius_model(settings.fe(settings.kinematics[0], seed), "contact_radius_mm", progress=False)
     out_films = {}
@@ -323,14 +323,14 @@ def _verification_stage(study: Study, settings: PipelineSettings, seed: int, med
         for r, f in cases:
             mean, std = model.predict(e, nu, r, f)
             res = solved[film, r, f]
-            rows.append({"radius_mm": r, "force_n": f, "fe_radius_mm": res["fe_radius_mm"],
+            rows.append({"sphere_radius_mm": r, "force_n": f, "fe_radius_mm": res["fe_radius_mm"],
                          "surrogate_mean_mm": float(mean), "surrogate_std_mm": float(std),
                          "converged": res["converged"]})
         out_films[film] = {"modulus_mpa": e, "cases": rows}
     r, f = PROFILE_CASE
     profiles = {"no film": solved[None, r, f]["profile"]}
     profiles.update({f"{film} film, E = {e:.0f} MPa": solved[film, r, f]["profile"] for film, (e, _) in films.items()})
-    atomic_write_json(path, {"hertz": hertz, "films": out_films, "profile_case": {"radius_mm": r, "force_n": f},
+    atomic_write_json(path, {"hertz": hertz, "films": out_films, "profile_case": {"sphere_radius_mm": r, "force_n": f},
                              "profiles": profiles}, indent=None)
     study.record(path, "verification", {"films": medians})
     return None, True

@@ -27,7 +27,7 @@ import numpy as np
 import sklearn
 from sklearn.utils.validation import check_is_fitted
 
-import filmcal
+from filmcal._versions import __version__
 from filmcal.surrogate.gp import GPSurrogate
 from filmcal.surrogate.kernels import kernel_from_dict, kernel_to_dict
 from filmcal.surrogate.saved import FORMAT, FORMAT_VERSION, base_path, read_saved
@@ -91,7 +91,7 @@ def save_surrogate(surrogate: GPSurrogate, path: str | Path) -> tuple[Path, Path
     meta = {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
-        "filmcal_version": filmcal.__version__,
+        "filmcal_version": __version__,
         "sklearn_version": sklearn.__version__,
         "numpy_version": np.__version__,
         "arrays": npz_path.name,

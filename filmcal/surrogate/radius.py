@@ -32,8 +32,8 @@ __all__ = ["INPUTS", "LOG_INPUTS", "EDGE_COLUMN", "SurrogateDomain", "SurrogateV
            "option_columns", "radius_excess_mm", "fit_radius_surrogate", "validate_radius_surrogate", "fit_and_validate",
            "SurrogateRadiusModel", "FERadiusModel", "CaseTable", "load_for_prediction"]
 
-INPUTS = ("modulus_mpa", "poisson", "radius_mm", "force_kn")
-LOG_INPUTS = ("modulus_mpa", "radius_mm", "force_kn")
+INPUTS = ("modulus_mpa", "poisson", "sphere_radius_mm", "force_kn")
+LOG_INPUTS = ("modulus_mpa", "sphere_radius_mm", "force_kn")
 #: The FE output read where the contact pressure falls to zero (the ``edge`` imprint model).
 EDGE_COLUMN = "contact_radius_mm"
 
@@ -59,20 +59,20 @@ class SurrogateDomain:
 
         return DesignSpace((Parameter("modulus_mpa", *self.modulus_mpa, unit="MPa", scale="log"),
                             Parameter("poisson", *self.poisson),
-                            Parameter("radius_mm", levels=tuple(self.radius_levels_mm), unit="mm"),
+                            Parameter("sphere_radius_mm", levels=tuple(self.radius_levels_mm), unit="mm"),
                             Parameter("force_kn", *self.force_kn, unit="kN")))
 
     def bounds(self) -> dict[str, tuple[float, float]]:
         """Lower and upper bound of each input."""
         return {"modulus_mpa": self.modulus_mpa, "poisson": self.poisson,
-                "radius_mm": (min(self.radius_levels_mm), max(self.radius_levels_mm)),
+                "sphere_radius_mm": (min(self.radius_levels_mm), max(self.radius_levels_mm)),
                 "force_kn": self.force_kn}
 
-    def contains(self, modulus_mpa, poisson, radius_mm, force_kn) -> np.ndarray:
+    def contains(self, modulus_mpa, poisson, sphere_radius_mm, force_kn) -> np.ndarray:
         """Elementwise: inside the domain (radius within the levels' span)."""
         b = self.bounds()
-        inside = np.ones(np.broadcast(modulus_mpa, poisson, radius_mm, force_kn).shape, bool)
-        for name, x in zip(INPUTS, (modulus_mpa, poisson, radius_mm, force_kn)):
+        inside = np.ones(np.broadcast(modulus_mpa, poisson, sphere_radius_mm, force_kn).shape, bool)
+        for name, x in zip(INPUTS, (modulus_mpa, poisson, sphere_radius_mm, force_kn)):
             lo, hi = b[name]
             inside &= (np.asarray(x) >= lo * (1 - 1e-12)) & (np.asarray(x) <= hi * (1 + 1e-12))
         return inside
@@ -97,7 +97,7 @@ def design_points(domain: SurrogateDomain, samples: int, seed: int, options: "Co
 
 def radius_excess_mm(X: dict, radius_mm: np.ndarray) -> np.ndarray:
     """Radius minus the Hertz radius of the same (R, F): the film's enlargement."""
-    return np.asarray(radius_mm, float) - hertz_radius_mm(X["radius_mm"], np.asarray(X["force_kn"]) * 1e3)
+    return np.asarray(radius_mm, float) - hertz_radius_mm(X["sphere_radius_mm"], np.asarray(X["force_kn"]) * 1e3)
 
 
 def fit_radius_surrogate(X: dict, radius_mm: np.ndarray, domain: SurrogateDomain, random_state: int = 0,
@@ -144,7 +144,7 @@ def validate_radius_surrogate(surrogate: "GPSurrogate", X: dict, radius_mm: np.n
 
     v = validate(surrogate, X, radius_excess_mm(X, radius_mm), noise=True)
     excess, std = surrogate.predict(X, return_std=True, noise=True)
-    mean = excess + hertz_radius_mm(X["radius_mm"], np.asarray(X["force_kn"]) * 1e3)
+    mean = excess + hertz_radius_mm(X["sphere_radius_mm"], np.asarray(X["force_kn"]) * 1e3)
     area_rel = (mean / radius_mm) ** 2 - 1.0
     err = mean - radius_mm
     points = {**{k: np.asarray(X[k], dtype=float) for k in INPUTS}, "radius_fe_mm": np.asarray(radius_mm, float),
@@ -184,9 +184,9 @@ class SurrogateRadiusModel:
     def predict(self, modulus_mpa, poisson, sphere_radius_mm, force_n):
         e, nu, r, f = _broadcast(modulus_mpa, poisson, sphere_radius_mm, force_n)
         shape = e.shape
-        X = {"modulus_mpa": e.ravel(), "poisson": nu.ravel(), "radius_mm": r.ravel(), "force_kn": f.ravel() / 1e3}
+        X = {"modulus_mpa": e.ravel(), "poisson": nu.ravel(), "sphere_radius_mm": r.ravel(), "force_kn": f.ravel() / 1e3}
         mean, std = self.surrogate.predict(X, return_std=True, noise=True)
-        mean = mean + hertz_radius_mm(X["radius_mm"], f.ravel())
+        mean = mean + hertz_radius_mm(X["sphere_radius_mm"], f.ravel())
         inside = self.domain.contains(*(X[n] for n in INPUTS))
         mean = np.where(inside, mean, np.nan)
         return mean.reshape(shape), std.reshape(shape)
@@ -305,7 +305,7 @@ class FERadiusModel:
         e, nu, r, f = _broadcast(modulus_mpa, poisson, sphere_radius_mm, force_n)
         out = np.empty(e.shape)
         for idx in np.ndindex(e.shape):
-            point = {"modulus_mpa": float(e[idx]), "poisson": float(nu[idx]), "radius_mm": float(r[idx]),
+            point = {"modulus_mpa": float(e[idx]), "poisson": float(nu[idx]), "sphere_radius_mm": float(r[idx]),
                      "force_kn": float(f[idx]) / 1e3, **option_columns(self.options)}
             res = evaluate_point(point, films=self.films) if self.films else evaluate_point(point)
             out[idx] = float(res.get(self.output, np.nan)) if res.get("converged", True) else np.nan

@@ -11,7 +11,7 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     'filmcal.wheelrail.edge': ['EdgeReading', 'EdgeWindow', 'patch_ring_areas_mm2', 'read_contact_edge', 'read_fitted_outline', 'read_radial_edge_mm'],
     'filmcal.wheelrail.halfspace': ['ContactResult', 'HalfSpaceContactSolver', 'SurfaceGrid', 'rectangle_influence_mm', 'sphere_on_flat_contact'],
     'filmcal.wheelrail.hertz': ['HertzContact', 'hertz_elliptic'],
-    'filmcal.wheelrail.interface': ['ExponentialLaw', 'FilmLayer', 'GreenwoodWilliamsonLaw', 'HardLaw', 'InterfaceLaw', 'TabularLaw'],
+    'filmcal.contact.laws': ['ExponentialLaw', 'FilmLayer', 'GreenwoodWilliamsonLaw', 'HardLaw', 'InterfaceLaw', 'TabularLaw'],
     'filmcal.wheelrail.placement': ['ContactPoint', 'WheelRailPlacement', 'offset_range_mm', 'place_wheel_on_rail'],
     'filmcal.wheelrail.wheelrail': ['ContactPatch', 'ContactPlane', 'ContactRegion', 'WheelRailCase', 'WheelRailGeometry', 'WheelRailModel', 'WheelRailResult', 'get_wheel_rail_model', 'local_hertz', 'solve_wheel_rail', 'solve_wheel_rail_many'],
     'filmcal.wheelrail.profiles': ['PROFILE_NAMES', 'Profile', 'flange_height_mm', 'flange_thickness_mm', 'get_profile', 'head_width_mm', 'load_profile_csv', 'profile_dimensions'],

@@ -10,7 +10,7 @@ vanishes. ``p**2`` is smooth across a Hertzian edge, so the outline lies
 inside the boundary cells where the pressure would fall to zero, not at the
 centres of the first unloaded cells.
 
-For the film springs of :mod:`filmcal.wheelrail.interface` (Winkler springs
+For the film springs of :mod:`filmcal.contact.laws` (Winkler springs
 ``t / M`` in series with the steel half-spaces) this outline agrees with the
 finite-element continuum film's edge within 0.01 mm in radius on sphere-on-
 flat cases of Table 1 for E = 1000-5000 MPa

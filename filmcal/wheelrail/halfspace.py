@@ -11,7 +11,7 @@ and the rigid approach ``delta`` with::
 
 where ``u = K p`` is the elastic closure of the two half-spaces and ``c(p)`` the
 closure of a compliant interface in series (film and/or roughness, see
-:mod:`filmcal.wheelrail.interface`).
+:mod:`filmcal.contact.laws`).
 
 Method
 ------
@@ -94,7 +94,7 @@ import scipy.fft as sfft
 
 from filmcal._validation import as_finite, check_positive
 from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, contact_modulus_mpa
-from filmcal.wheelrail.interface import FilmLayer, InterfaceLaw
+from filmcal.contact.laws import FilmLayer, InterfaceLaw
 
 __all__ = [
     "SurfaceGrid",
@@ -1022,7 +1022,7 @@ def sphere_on_flat_contact(radius_mm: float, force_n: float, *, film: FilmLayer 
     solver : HalfSpaceContactSolver, optional
         Reused between calls to keep its FFT cache.
     """
-    radius = check_positive("radius_mm", radius_mm)
+    radius = check_positive("sphere_radius_mm", radius_mm)
     force = check_positive("force_n", force_n)
     spacing = check_positive("spacing_mm", spacing_mm)
     solver = HalfSpaceContactSolver() if solver is None else solver

@@ -87,7 +87,7 @@ from filmcal._validation import as_finite, check_positive, check_range
 from filmcal.wheelrail.edge import EdgeReading, EdgeWindow, patch_ring_areas_mm2, read_fitted_outline
 from filmcal.wheelrail.halfspace import ContactResult, HalfSpaceContactSolver, SurfaceGrid
 from filmcal.wheelrail.hertz import HertzContact, hertz_elliptic
-from filmcal.wheelrail.interface import FilmLayer, InterfaceLaw
+from filmcal.contact.laws import FilmLayer, InterfaceLaw
 from filmcal.wheelrail.placement import ContactPoint, WheelRailPlacement, place_wheel_on_rail
 from filmcal.wheelrail.profiles import Profile, get_profile
 

@@ -228,6 +228,20 @@ class TabularLaw(InterfaceLaw):
     tabulated laws).
     """
 
+    @classmethod
+    def from_csv(cls, path) -> "TabularLaw":
+        """A measured law from a CSV file with columns ``closure_um,pressure_mpa`` (data only)."""
+        import csv
+
+        with open(path, newline="") as fh:
+            rows = list(csv.DictReader(fh))
+        try:
+            closure = [float(r["closure_um"]) * 1e-3 for r in rows]
+            pressure = [float(r["pressure_mpa"]) for r in rows]
+        except (KeyError, TypeError, ValueError):
+            raise ValueError(f"roughness_law {path}: needs numeric columns closure_um,pressure_mpa") from None
+        return cls(closure, pressure)
+
     def __init__(self, closure_mm: np.ndarray, pressure_mpa: np.ndarray) -> None:
         c = np.asarray(closure_mm, dtype=float)
         p = np.asarray(pressure_mpa, dtype=float)

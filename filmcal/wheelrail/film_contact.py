@@ -1,0 +1,212 @@
+"""One wheel-rail solve with a film as a user describes it: a film type or its parameters, what it records,
+its kinematics and the wheel's roughness; the answer as a JSON-ready summary.
+
+This is what ``filmcal wheelrail`` calls: the film and roughness law come from `FilmModel` (the same law
+the corrector and the curves use), the rough surface from `filmcal.contact.roughness`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from filmcal._validation import check_positive, check_range
+from filmcal.contact.names import DEFAULT_IMPRINT_MODEL, DEFAULT_KINEMATICS
+
+__all__ = ["WheelRoughness", "FilmContactCase", "solve_film_contact"]
+
+
+@dataclass(frozen=True)
+class WheelRoughness:
+    """The wheel's roughness: a synthetic surface of Ra, a measured height map, or a measured law.
+
+    Attributes
+    ----------
+    ra_um : float, optional
+        Ra of a synthetic self-affine steel surface (um, 0-30).
+    map_file : str, optional
+        A height map: CSV of heights (times `height_scale` gives um) or a greyscale PNG/TIFF
+        (black to white spans `height_range_um`), pixels `pixel_um` apart.
+    law_file : str, optional
+        A measured film-wheel pressure-closure law (CSV closure_um,pressure_mpa).
+    seed : int
+        Seed of the synthetic surface.
+    hardness_mpa : float, optional
+        Cap on asperity pressures in the film (default: the PET carrier's).
+    """
+
+    ra_um: float | None = None
+    map_file: str | None = None
+    law_file: str | None = None
+    pixel_um: float | None = None
+    height_scale: float = 1.0
+    height_range_um: float | None = None
+    seed: int = 0
+    hardness_mpa: float | None = None
+
+    def __post_init__(self) -> None:
+        given = [x is not None for x in (self.ra_um, self.map_file, self.law_file)]
+        if sum(given) > 1:
+            raise ValueError("give one of a roughness Ra, a roughness map and a roughness law")
+        if self.ra_um is not None:
+            check_range("wheel_roughness_ra_um", self.ra_um, 0.0, 30.0, high_open=False)
+        if self.hardness_mpa is not None:
+            check_positive("hardness_mpa", self.hardness_mpa)
+
+    @property
+    def smooth(self) -> bool:
+        return self.ra_um is None and self.map_file is None and self.law_file is None
+
+    def surface(self):
+        """The rough surface (`RoughSurface`), or None for a measured law or a smooth wheel."""
+        from filmcal.contact.roughness import WHEEL_SURFACE_DEFAULTS, RoughSurface
+
+        if self.map_file is not None:
+            path = Path(self.map_file)
+            if not path.is_file():
+                raise ValueError(f"wheel_roughness_map {path}: not found")
+            if self.pixel_um is None:
+                raise ValueError("--wheel-roughness-map needs --roughness-pixel-um")
+            if path.suffix.lower() in (".png", ".tif", ".tiff"):
+                if self.height_range_um is None:
+                    raise ValueError("an image --wheel-roughness-map needs --roughness-height-range-um")
+                return RoughSurface.from_image(path, self.pixel_um, self.height_range_um)
+            return RoughSurface.from_csv(path, self.pixel_um, self.height_scale)
+        if self.ra_um is None:
+            return None
+        d = WHEEL_SURFACE_DEFAULTS
+        return RoughSurface.synthetic(ra_um=self.ra_um, hurst=d["hurst"],
+                                      rolloff_wavelength_um=d["rolloff_wavelength_um"], size_um=d["size_um"],
+                                      n=d["n"], seed=self.seed)
+
+
+@dataclass(frozen=True)
+class FilmContactCase:
+    """The film of one solve: a film type (or the default film) with optional overrides.
+
+    Attributes
+    ----------
+    film_modulus_mpa : float or None
+        The film's E (None: no film, steel on steel).
+    film : str, optional
+        A film type (MS, HS, HHS or one of `films_file`): its thickness and nu are the defaults, and the
+        imprint it records is reported.
+    """
+
+    film_modulus_mpa: float | None
+    film_poisson: float | None = None
+    film_thickness_mm: float | None = None
+    film: str | None = None
+    films_file: str | None = None
+    imprint_model: str = DEFAULT_IMPRINT_MODEL
+    kinematics: str = DEFAULT_KINEMATICS
+
+    def film_type(self):
+        """The `FilmType` named, or a nameless one of the given (or default) thickness and nu."""
+        from filmcal.films import FILM_POISSON, FILM_THICKNESS_MM, FilmRegistry, FilmType
+
+        if self.film is None:
+            if self.films_file:
+                raise ValueError("--films-file needs --film")
+            return None, FilmType("film", poisson=self.film_poisson if self.film_poisson is not None
+                                  else FILM_POISSON, thickness_mm=self.film_thickness_mm
+                                  if self.film_thickness_mm is not None else FILM_THICKNESS_MM)
+        named = FilmRegistry.from_file(self.films_file).get(self.film)
+        from dataclasses import replace
+
+        overrides = {k: v for k, v in (("poisson", self.film_poisson), ("thickness_mm", self.film_thickness_mm))
+                     if v is not None}
+        return named, replace(named, **overrides) if overrides else named
+
+
+def solve_film_contact(offset_mm: float, force_n: float, case: FilmContactCase,
+                       roughness: WheelRoughness | None = None, *, wheel="S1002", rail="60E2",
+                       rail_inclination: float = 1 / 40, nominal_radius_mm: float = 460.0,
+                       grid_mm: float = 0.1):
+    """Solve a wheel-rail contact with (or without) a film; return ``(result, summary)``.
+
+    The film's law (linear springs t/M or the large-strain law) and the wheel's roughness law in series
+    come from `FilmModel.interface`; without a film a rough wheel uses the Greenwood-Williamson law at the
+    steel-steel interface.
+
+    Returns
+    -------
+    (WheelRailResult, dict)
+        The solve, and its JSON-ready summary (``contact_area_mm2``, ``max_pressure_mpa``, the film, the
+        roughness law, and with a film type its ``imprint_area_mm2`` under ``imprint_model``).
+    """
+    from filmcal.contact.film import FilmModel
+    from filmcal.contact.laws import GreenwoodWilliamsonLaw, TabularLaw, film_law
+    from filmcal.hertz import contact_modulus_mpa
+    from filmcal.wheelrail.wheelrail import solve_wheel_rail
+
+    check_positive("force_n", force_n)
+    roughness = roughness or WheelRoughness()
+    named, film_type = case.film_type()
+    no_film = case.film_modulus_mpa is None
+    if no_film and case.kinematics == "large":
+        raise ValueError("--kinematics large needs a film (--film-modulus-mpa)")
+    # a film type's imprint is read from the solve with or without its film (the latter: what it would colour)
+    model = FilmModel(film_type, case.imprint_model if named is not None else "edge",
+                      "small" if no_film else case.kinematics)
+    surface = roughness.surface()
+    law = None
+    rough_info = None
+    if roughness.law_file is not None:
+        law = TabularLaw.from_csv(roughness.law_file)
+        rough_info = {"model": "measured law", "file": str(roughness.law_file)}
+    if no_film:
+        if roughness.map_file is not None:
+            raise ValueError("--wheel-roughness-map needs a film (the law is computed against the film)")
+        if surface is not None:
+            law = GreenwoodWilliamsonLaw(roughness.ra_um, contact_modulus_mpa())
+            rough_info = {"model": "Greenwood-Williamson (steel on steel)"}
+        solver_film, solver_law = film_law(None, law)
+    else:
+        from filmcal.contact.roughness import PET_HARDNESS_MPA, rough_contact_law
+
+        if surface is not None:
+            layer_e, nu, t = case.film_modulus_mpa, film_type.poisson, film_type.thickness_mm
+            law = rough_contact_law(surface, layer_e, nu, t, hardness_mpa=roughness.hardness_mpa or PET_HARDNESS_MPA)
+            rough_info = {"model": "FFT boundary elements", **law.describe()}
+        solver_film, solver_law, _ = model.interface(case.film_modulus_mpa, law)
+    result = solve_wheel_rail(offset_mm, force_n, wheel=_profile(wheel, "wheel"), rail=_profile(rail, "rail"),
+                              rail_inclination=rail_inclination, nominal_radius_mm=nominal_radius_mm,
+                              film=solver_film, roughness=solver_law, grid_mm=grid_mm)
+    out: dict[str, Any] = result.summary()
+    if not no_film:
+        from filmcal.contact.laws import FilmLayer, LargeStrainFilm
+
+        film = FilmLayer(case.film_modulus_mpa, film_type.poisson, film_type.thickness_mm)
+        strain = (float(LargeStrainFilm.from_film(film).strain(result.max_pressure_mpa)) if case.kinematics == "large"
+                  else float(result.max_pressure_mpa / film.oedometric_modulus_mpa))
+        out["film"] = {"modulus_mpa": film.modulus_mpa, "poisson": film.poisson, "thickness_mm": film.thickness_mm,
+                       "oedometric_modulus_mpa": film.oedometric_modulus_mpa, "kinematics": case.kinematics,
+                       "max_strain": strain}
+    out["roughness"] = rough_info
+    if roughness.ra_um is not None:
+        out["wheel_roughness_ra_um"] = roughness.ra_um
+    if named is not None:
+        out["film_type"] = named.name
+        out["imprint_model"] = model.imprint
+        out["imprint_area_mm2"] = model.recorded_area_mm2(result)
+        if film_type.activation_pressure_mpa is not None:
+            out["activation_pressure_mpa"] = film_type.activation_pressure_mpa
+        if hasattr(law, "expected_stain"):
+            out["stained_area_mm2"] = model.stained_area_mm2(result, law)
+    return result, out
+
+
+def _profile(name, kind: str):
+    """A profile by name (S1002, 60E1, 60E2), from a CSV file, or given as a `Profile`."""
+    from filmcal.wheelrail.profiles import get_profile, load_profile_csv
+
+    if not isinstance(name, (str, Path)):
+        return name
+    name = str(name)
+    if name.lower().endswith(".csv") or Path(name).is_file():
+        return load_profile_csv(name, kind=kind)
+    profile = get_profile(name)
+    if profile.kind != kind:
+        raise ValueError(f"{kind} must be a {kind} profile, got the {profile.kind} profile {name!r}")
+    return profile
