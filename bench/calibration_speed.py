@@ -59,7 +59,7 @@ def build_tables(kinematics: list[str], nodes: int, path: Path) -> dict:
     out = json.loads(path.read_text()) if path.exists() else {}
     for kin in kinematics:
         t0 = time.perf_counter()
-        options = ContactOptions(large_strain=kin == "large")
+        options = ContactOptions(kinematics=kin)
         table = {f"{imp}-{film}": {"node": [], "check": []} for imp in IMPRINTS for film in films}
         solves = 0
         for R, F in cases():

@@ -108,9 +108,9 @@ def main(argv: list[str] | None = None) -> int:
         for eta in offsets:
             for f_kn in loads:
                 t0 = time.perf_counter()
-                f0, l0 = film_law(film, None, large_strain=args.large_strain)
+                f0, l0 = film_law(film, None, kinematics="large" if args.large_strain else "small")
                 smooth = wr.solve(eta, 1e3 * f_kn, film=f0, roughness=l0)
-                f1, l1 = film_law(film, laws[name], large_strain=args.large_strain)
+                f1, l1 = film_law(film, laws[name], kinematics="large" if args.large_strain else "small")
                 rough = wr.solve(eta, 1e3 * f_kn, film=f1, roughness=l1)
                 a0, _ = _areas(smooth.contact, model, ft, None)
                 a1, s1 = _areas(rough.contact, model, ft, laws[name])
@@ -131,9 +131,9 @@ def main(argv: list[str] | None = None) -> int:
         ft = get_film(name)
         film = FilmLayer(e, ft.poisson, ft.thickness_mm)
         for f_kn in loads:
-            f0, l0 = film_law(film, None, large_strain=args.large_strain)
+            f0, l0 = film_law(film, None, kinematics="large" if args.large_strain else "small")
             smooth = sphere_on_flat_contact(450.0, 1e3 * f_kn, film=f0, law=l0)
-            f1, l1 = film_law(film, laws[name], large_strain=args.large_strain)
+            f1, l1 = film_law(film, laws[name], kinematics="large" if args.large_strain else "small")
             rough = sphere_on_flat_contact(450.0, 1e3 * f_kn, film=f1, law=l1)
             a0, _ = _areas(smooth, model, ft, None)
             a1, s1 = _areas(rough, model, ft, laws[name])

@@ -30,10 +30,10 @@ from filmcal.surrogate.radius import FERadiusModel
 
 SETTINGS = {
     "frictionless sphere / tied flat, small strain (default)": ContactOptions(),
-    "frictionless sphere / tied flat, large strain": ContactOptions(large_strain=True),
+    "frictionless sphere / tied flat, large strain": ContactOptions(kinematics="large"),
     "friction 0.4 both, small strain": ContactOptions(sphere_contact="friction", flat_contact="friction"),
     "friction 0.4 both, large strain": ContactOptions(sphere_contact="friction", flat_contact="friction",
-                                                      large_strain=True),
+                                                      kinematics="large"),
 }
 
 

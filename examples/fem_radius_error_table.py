@@ -20,10 +20,10 @@ from filmcal.fem import ContactOptions, Film, get_model
 MODULI_MPA = (1000.0, 2000.0, 2800.0, 4000.0)
 SETTINGS = {
     "frictionless/tied, small strain": ContactOptions(),
-    "frictionless/tied, large strain": ContactOptions(large_strain=True),
+    "frictionless/tied, large strain": ContactOptions(kinematics="large"),
     "friction 0.4 both, small strain": ContactOptions(sphere_contact="friction", flat_contact="friction"),
     "friction 0.4 both, large strain": ContactOptions(sphere_contact="friction", flat_contact="friction",
-                                                      large_strain=True),
+                                                      kinematics="large"),
 }
 
 

@@ -21,7 +21,7 @@ def _run(capsys, *args) -> tuple[int, dict | None, str]:
 def test_film_type_reports_the_activation_imprint(capsys):
     code, out, _ = _run(capsys, "--film-modulus-mpa", "2800", "--film", "HS")
     assert code == 0
-    assert out["imprint_model"] == "activation" and out["film_type"] == "HS"
+    assert out["imprint_model"] == "activation" and out["film"] == "HS"
     assert out["activation_pressure_mpa"] == 50.0
     assert 0 < out["imprint_radius_mm"] < out["contact_radius_mm"]
     assert out["imprint_area_mm2"] == pytest.approx(math.pi * out["imprint_radius_mm"] ** 2)

@@ -86,7 +86,7 @@ def test_large_strain_tends_to_small_strain_for_small_strains(model450):
     """Neo-Hookean reduces to linear elasticity as strains vanish: a stiff film at low load."""
     film = Film(50000.0, 0.33)
     small = model450.solve(film, 20e3)
-    large = model450.solve(film, 20e3, ContactOptions(large_strain=True, load_steps=2))
+    large = model450.solve(film, 20e3, ContactOptions(kinematics="large", load_steps=2))
     assert large.converged, large.reason
     assert small.film_strain_max < 0.02
     assert large.contact_radius_mm == pytest.approx(small.contact_radius_mm, abs=2e-3)
@@ -96,7 +96,7 @@ def test_large_strain_film_is_stiffer_in_compression(model450):
     """A compressible neo-Hookean film stiffens in compression: smaller radius at 20 % strain."""
     film = Film(2800.0, 0.33)
     small = model450.solve(film, 75e3)
-    large = model450.solve(film, 75e3, ContactOptions(large_strain=True))
+    large = model450.solve(film, 75e3, ContactOptions(kinematics="large"))
     assert large.converged, large.reason
     assert large.contact_radius_mm < small.contact_radius_mm
     assert large.film_strain_max < small.film_strain_max

@@ -117,7 +117,7 @@ def test_imprint_lies_inside_the_edge_and_orders_by_activation(model450):
 def test_solve_with_film_type_reports_the_imprint(model450):
     hs = get_film("HS")
     res = model450.solve(Film(2800.0, 0.33), 75e3, film_type=hs, imprint_model="capsule")
-    assert res.imprint_model == "capsule" and res.film_type == "HS"
+    assert res.imprint_model == "capsule" and res.film == "HS"
     assert res.imprint_radius_mm == pytest.approx(res.read_imprint("capsule", hs))
     assert res.imprint_area_mm2 == pytest.approx(math.pi * res.imprint_radius_mm**2)
     legacy = model450.solve(Film(2800.0, 0.33), 75e3, activation_pressure_mpa=50.0)

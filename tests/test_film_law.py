@@ -92,9 +92,9 @@ def test_series_law_adds_closures_and_inverts():
     assert law.closure_mm(p) == pytest.approx(film.closure_mm(p) + rough.closure_mm(p))
     assert law.pressure_mpa(law.closure_mm(p)) == pytest.approx(p, rel=1e-8, abs=1e-8)
     assert law.closure_integral(p) == pytest.approx(film.closure_integral(p) + rough.closure_integral(p))
-    f, l = film_law(FilmLayer(2739.0), rough, large_strain=True)
+    f, l = film_law(FilmLayer(2739.0), rough, kinematics="large")
     assert f is None and isinstance(l, SeriesLaw)
-    f, l = film_law(FilmLayer(2739.0), None, large_strain=False)
+    f, l = film_law(FilmLayer(2739.0), None, kinematics="small")
     assert isinstance(f, FilmLayer) and l is None
     with pytest.raises(ValueError, match="modulus_mpa"):
         LargeStrainFilm(-1.0)
@@ -116,9 +116,9 @@ def test_large_strain_sphere_on_flat_matches_the_fe(modulus, force_kn):
     radius = {}
     for large in (False, True):
         fe = solve_sphere_on_flat(450.0, 1e3 * force_kn, Film(modulus, 0.33),
-                                  ContactOptions(large_strain=large))
+                                  ContactOptions(kinematics="large" if large else "small"))
         assert fe.converged
-        f, law = film_law(film, None, large_strain=large)
+        f, law = film_law(film, None, kinematics="large" if large else "small")
         hs = sphere_on_flat_contact(450.0, 1e3 * force_kn, film=f, law=law, solver=solver)
         radius[large] = (fe.contact_radius_mm, hs.equivalent_radius_mm)
     shift_fe = radius[True][0] - radius[False][0]

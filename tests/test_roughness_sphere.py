@@ -32,8 +32,8 @@ def test_rough_flat_grows_the_sphere_imprint_in_the_papers_order(large_strain):
         film = FilmLayer(modulus, ft.poisson, ft.thickness_mm)
         law = rough_contact_law(surface, modulus, ft.poisson, ft.thickness_mm)
         for force_kn in (50.0, 100.0):
-            f0, l0 = film_law(film, None, large_strain=large_strain)
-            f1, l1 = film_law(film, law, large_strain=large_strain)
+            f0, l0 = film_law(film, None, kinematics="large" if large_strain else "small")
+            f1, l1 = film_law(film, law, kinematics="large" if large_strain else "small")
             smooth = sphere_on_flat_contact(450.0, 1e3 * force_kn, film=f0, law=l0, solver=solver)
             rough = sphere_on_flat_contact(450.0, 1e3 * force_kn, film=f1, law=l1, solver=solver)
             assert smooth.converged and rough.converged

@@ -245,7 +245,7 @@ def add_contact_options(parser, prefix: str = "") -> None:
 def contact_options(args: argparse.Namespace) -> ContactOptions:
     """`ContactOptions` of a command's parsed interface and kinematics options."""
     return ContactOptions(sphere_contact=args.sphere_contact, flat_contact=args.flat_contact,
-                          friction_coefficient=args.friction_coefficient, large_strain=args.kinematics == "large")
+                          friction_coefficient=args.friction_coefficient, kinematics=args.kinematics)
 
 
 def split_model(text: str) -> dict[str, str]:

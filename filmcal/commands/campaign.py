@@ -20,6 +20,7 @@ from typing import Any, Callable
 from filmcal._validation import check_choice, check_poisson, check_positive, check_range
 from filmcal.commands._common import print_json
 from filmcal.commands._options import add, local, renamed
+from filmcal.contact.names import KINEMATICS
 
 DEFAULT_MODEL = "filmcal.fem:evaluate_point"
 REQUIRED_COLUMNS = ("modulus_mpa", "poisson", "sphere_radius_mm", "force_kn")
@@ -53,7 +54,7 @@ COLUMN_CHECKS: dict[str, Callable[[str, Any], Any]] = {
     "sphere_contact": _contact,
     "flat_contact": _contact,
     "friction_coefficient": _friction,
-    "large_strain": _flag,
+    "kinematics": lambda name, value: check_choice(name, str(value), KINEMATICS),
     "element_size_mm": check_positive,
     "no_film": _flag,
     "film_thickness_mm": check_positive,
@@ -121,7 +122,7 @@ def _lock_command(args: argparse.Namespace) -> str:
 
 
 #: Design columns of the FE model renamed in this release (old -> new), read for one release more.
-RENAMED_COLUMNS = {"radius_mm": "sphere_radius_mm"}
+RENAMED_COLUMNS = {"radius_mm": "sphere_radius_mm", "large_strain": "kinematics"}
 
 
 def _renamed_columns(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -130,7 +131,12 @@ def _renamed_columns(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
     for name in sorted(old):
         sys.stderr.write(f"filmcal campaign run: note: design column {name} is renamed {RENAMED_COLUMNS[name]}; "
                          "the old name goes in the next release\n")
-    return [{RENAMED_COLUMNS.get(k, k): v for k, v in point.items()} for point in points]
+    def value(name: str, v: Any) -> Any:
+        if name == "large_strain":  # true/false -> large/small
+            return "large" if _flag(name, v) else "small"
+        return v
+
+    return [{RENAMED_COLUMNS.get(k, k): value(k, v) for k, v in point.items()} for point in points]
 
 
 def _run(args: argparse.Namespace) -> int:

@@ -95,6 +95,6 @@ def run(args: argparse.Namespace) -> int:
             print(f"film strain     {100 * res.film_strain_max:.1f} % (max through-thickness compression)")
         if res.imprint_radius_mm is not None:
             print(f"imprint radius  {res.imprint_radius_mm:.4f} mm ({res.imprint_model} model, film type "
-                  f"{res.film_type}), area {res.imprint_area_mm2:.2f} mm2")
+                  f"{res.film}), area {res.imprint_area_mm2:.2f} mm2")
         print(f"{state} in {res.iterations} iterations, {res.elapsed_s:.3f} s")
     return 0 if res.converged else 1

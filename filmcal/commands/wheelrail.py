@@ -135,7 +135,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(out)
         return 0 if result.converged else 1
-    film = out.get("film")
+    film = out.get("film") if "modulus_mpa" in (out.get("film") or {}) else None
     film_text = "no film" if film is None else (
         f"film E = {film['modulus_mpa']:g} MPa, nu = {film['poisson']:g}"
         + (", large strain" if args.kinematics == "large" else ""))
@@ -151,7 +151,7 @@ def run(args: argparse.Namespace) -> int:
           f"contact angle {math.degrees(result.contact_angle_rad):.2f} deg")
     if "imprint_area_mm2" in out:
         print(f"imprint area     {out['imprint_area_mm2']:.2f} mm2 ({out['imprint_model']} model, "
-              f"film {out['film_type']})")
+              f"film {out['film']['name']})")
         if "stained_area_mm2" in out:
             print(f"stained spots    {out['stained_area_mm2']:.2f} mm2 (asperity pressures)")
     state = "converged" if result.converged else "NOT converged"

@@ -78,7 +78,7 @@ class FilmModel:
         law = roughness
         if isinstance(roughness, RoughSurface):
             law = rough_contact_law(roughness, layer.modulus_mpa, layer.poisson, layer.thickness_mm)
-        solver_film, solver_law = film_law(layer, law, large_strain=self.kinematics == "large")
+        solver_film, solver_law = film_law(layer, law, kinematics=self.kinematics)
         return solver_film, solver_law, law
 
     def recorded_area_mm2(self, result) -> float:

@@ -608,14 +608,16 @@ class SeriesLaw(InterfaceLaw):
 
 
 def film_law(film: FilmLayer | None, roughness: InterfaceLaw | None, *,
-             large_strain: bool = False) -> tuple[FilmLayer | None, InterfaceLaw | None]:
+             kinematics: str = "small") -> tuple[FilmLayer | None, InterfaceLaw | None]:
     """The ``(film, law)`` pair to hand to the contact solvers.
 
     A linear film stays a :class:`FilmLayer` (springs ``t/M``); a
     large-strain film becomes a :class:`LargeStrainFilm` law, in series with
     the roughness law when there is one.
     """
-    if film is None or not large_strain:
+    if kinematics not in ("small", "large"):
+        raise ValueError(f"kinematics must be small or large, got {kinematics!r}")
+    if film is None or kinematics == "small":
         return film, roughness
     large = LargeStrainFilm.from_film(film)
     return None, (large if roughness is None or roughness.is_hard else SeriesLaw(large, roughness))

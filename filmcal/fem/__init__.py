@@ -125,7 +125,7 @@ def evaluate_point(params: dict, films: Sequence = (), imprint_models: Sequence[
     params : dict
         ``sphere_radius_mm``, ``force_kn`` and, unless ``no_film`` is true,
         ``modulus_mpa`` and ``poisson``; optional ``sphere_contact``,
-        ``flat_contact``, ``friction_coefficient``, ``large_strain``,
+        ``flat_contact``, ``friction_coefficient``, ``kinematics``,
         ``element_size_mm``, ``film_thickness_mm``, ``activation_pressure_mpa``.
     films : sequence of filmcal.films.FilmType
         Film types whose imprint radii to read from the same solve.

@@ -526,7 +526,7 @@ class SphereOnFlat:
             n_active=int(active.sum()), imprint_radius_mm=None, imprint_area_mm2=None,
             activation_pressure_mpa=None if film_type is None else film_type.activation_pressure_mpa,
             imprint_model=None if film_type is None else imprint_model,
-            film_type=None if film_type is None else film_type.name, edge_tip_mm=tip,
+            film=None if film_type is None else film_type.name, edge_tip_mm=tip,
             converged=bool(converged), reason=reason, iterations=int(iterations),
             elapsed_s=0.0, n_dofs=self.n_dofs, element_size_mm=self.mesh.element_size_mm,
         )

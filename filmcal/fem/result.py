@@ -21,7 +21,7 @@ class FEResult:
     ``contact_radius_mm`` is the zero-pressure edge read from the nodal
     pressures with sub-element accuracy (:mod:`filmcal.contact.reading`, tip
     length ``edge_tip_mm``). ``imprint_radius_mm`` and ``imprint_area_mm2``
-    are the imprint of film type ``film_type`` under ``imprint_model``
+    are the imprint of film type ``film`` under ``imprint_model``
     (None when no film type was asked for); :meth:`read_imprint` reads any
     other (model, film type) pair from the same solution.
     """
@@ -49,7 +49,7 @@ class FEResult:
     imprint_area_mm2: float | None
     activation_pressure_mpa: float | None
     imprint_model: str | None
-    film_type: str | None
+    film: str | None
     edge_tip_mm: float
     converged: bool
     reason: str

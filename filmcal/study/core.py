@@ -93,7 +93,7 @@ class FESettings:
     def contact_options(self) -> ContactOptions:
         return ContactOptions(sphere_contact=self.sphere_contact, flat_contact=self.flat_contact,
                               friction_coefficient=self.friction_coefficient,
-                              large_strain=self.kinematics == "large")
+                              kinematics=self.kinematics)
 
 
 @dataclass(frozen=True)
@@ -681,7 +681,7 @@ def _match_rows(results, points: list[dict]) -> np.ndarray:
     """Index of each point's row in the campaign results (-1 when missing)."""
     from filmcal.surrogate.radius import INPUTS
 
-    opts = ("sphere_contact", "flat_contact", "large_strain")
+    opts = ("sphere_contact", "flat_contact", "kinematics")
 
     def key_of(get) -> tuple:
         return tuple(round(float(get(n)), 9) for n in INPUTS) + tuple(str(get(o)) for o in opts)

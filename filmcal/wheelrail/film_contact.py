@@ -180,14 +180,15 @@ def solve_film_contact(offset_mm: float, force_n: float, case: FilmContactCase,
         film = FilmLayer(case.film_modulus_mpa, film_type.poisson, film_type.thickness_mm)
         strain = (float(LargeStrainFilm.from_film(film).strain(result.max_pressure_mpa)) if case.kinematics == "large"
                   else float(result.max_pressure_mpa / film.oedometric_modulus_mpa))
-        out["film"] = {"modulus_mpa": film.modulus_mpa, "poisson": film.poisson, "thickness_mm": film.thickness_mm,
+        out["film"] = {"name": None if named is None else named.name, "modulus_mpa": film.modulus_mpa, "poisson": film.poisson, "thickness_mm": film.thickness_mm,
                        "oedometric_modulus_mpa": film.oedometric_modulus_mpa, "kinematics": case.kinematics,
                        "max_strain": strain}
     out["roughness"] = rough_info
     if roughness.ra_um is not None:
         out["wheel_roughness_ra_um"] = roughness.ra_um
     if named is not None:
-        out["film_type"] = named.name
+        if no_film:
+            out["film"] = {"name": named.name}
         out["imprint_model"] = model.imprint
         out["imprint_area_mm2"] = model.recorded_area_mm2(result)
         if film_type.activation_pressure_mpa is not None:
