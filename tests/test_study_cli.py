@@ -41,7 +41,7 @@ def lab(tmp_path_factory):
     study = folder / "study"
     common = ["--film", "LOT7", "--films-file", str(folder / "films.toml"), "--data", str(folder / "lab.csv"),
               "--study-dir", str(study), "--train-runs", "40", "--test-runs", "8", "--max-steps", "3000",
-              "--workers", "2", "--json"]
+              "--workers", "2", "--imprint-model", "edge", "--json"]  # one model: the options select posteriors
     first = cli("calibrate", *common)
     assert first.returncode == 0, first.stderr[-3000:]
     return folder, study, common, json.loads(first.stdout)

@@ -17,19 +17,17 @@ from pathlib import Path
 
 import numpy as np
 
+from filmcal._io import atomic_path, atomic_write_text
 from filmcal._json import json_safe
 
 from filmcal.calibration.checks import CaseIntervals, PredictiveCheck
 from filmcal.calibration.diagnostics import Diagnostics
 from filmcal.calibration.likelihood import Priors
+from filmcal.calibration.result_file import FORMAT, FORMAT_VERSION, read_result_payload
 from filmcal.calibration.sampling import SamplerSettings
 
 __all__ = ["CalibrationResult", "summarize", "save_result", "load_result", "posterior_inference_data",
            "save_posterior_netcdf", "load_posterior_netcdf", "LOG_LIKELIHOOD_ROW", "LOG_LIKELIHOOD_CASE"]
-
-FORMAT = "filmcal-calibration-result"
-FORMAT_VERSION = 1
-
 
 def summarize(values: np.ndarray) -> dict:
     """Median, mean and central 90 % interval of posterior samples.
@@ -221,21 +219,14 @@ def save_result(result: CalibrationResult, path: str | Path) -> Path:
     """
     path = Path(path)
     payload = {"format": FORMAT, "version": FORMAT_VERSION, **result.to_dict(include_samples=True)}
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(payload, allow_nan=False) + "\n", encoding="utf-8")
-    tmp.replace(path)  # whole or not at all: an interrupted save leaves no truncated result
+    # whole or not at all: an interrupted save leaves no truncated result
+    atomic_write_text(path, json.dumps(payload, allow_nan=False) + "\n")
     return path
 
 
 def load_result(path: str | Path) -> CalibrationResult:
     """Read a result written by `save_result` (plain JSON, nothing executed)."""
-    path = Path(path)
-    payload = json.loads(path.read_text(encoding="utf-8"))
-    if payload.get("format") != FORMAT:
-        raise ValueError(f"{str(path)!r} is not a filmcal calibration result")
-    if payload.get("version") != FORMAT_VERSION:
-        raise ValueError(f"unsupported calibration result version {payload.get('version')!r} in {str(path)!r}")
-    return CalibrationResult.from_dict(payload)
+    return CalibrationResult.from_dict(read_result_payload(path))
 
 
 # ------------------------------------------------------------------ InferenceData (NetCDF)
@@ -328,13 +319,8 @@ def save_posterior_netcdf(idata, path: str | Path) -> Path:
         The file written.
     """
     path = Path(path)
-    tmp = path.with_name(path.name + ".tmp.nc")
-    try:
+    with atomic_path(path) as tmp:
         idata.to_netcdf(str(tmp), engine="h5netcdf")
-        tmp.replace(path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
     return path
 
 

@@ -84,11 +84,11 @@ def run(args: argparse.Namespace) -> int:
         check_output_dir(args.plots, "--plots")
     from dataclasses import replace
 
-    from filmcal.study import IMPRINT_MODELS
+    from filmcal.contact.imprint import imprint_models_for
 
     spec = replace(spec, fe=replace(spec.fe, film_thickness_mm=film.thickness_mm))
     mixture = args.imprint_model == MIXTURE
-    imprints = [m for m in IMPRINT_MODELS if m == "edge" or film.has_activation] if mixture else [args.imprint_model]
+    imprints = list(imprint_models_for(film)) if mixture else [args.imprint_model]
     with study.writing("filmcal calibrate"):
         calibrated = {}
         for imprint in imprints:

@@ -75,37 +75,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _check_plausible_radius(radius_mm: float, sphere_radius_mm: float, force_kn: float) -> None:
-    """Refuse a measured radius that no film could print for this sphere and force.
-
-    Steel on steel, a film enlarges the Hertz radius a_H by at most a few
-    millimetres (Table 1: up to 2.8 mm for the softest film) and never shrinks
-    it by half: radii outside [a_H / 2, 1.5 a_H + 5 mm] are taken as a unit or
-    typing error.
-    """
-    from filmcal.hertz import hertz_radius_mm
-
-    a_h = float(hertz_radius_mm(sphere_radius_mm, force_kn * 1e3))
-    if not 0.5 * a_h <= radius_mm <= 1.5 * a_h + 5.0:
-        raise ValueError(f"--measured-radius-mm {radius_mm:g} is implausible for R = {sphere_radius_mm:g} mm and "
-                         f"F = {force_kn:g} kN (Hertz radius {a_h:.2f} mm; a film imprint lies within "
-                         f"{0.5 * a_h:.2f}-{1.5 * a_h + 5:.2f} mm): check the units")
-
-
-def _check_plausible_area(area_mm2: float, area_no_film_mm2: float, offset_mm: float, force_kn: float) -> None:
-    """Refuse a measured wheel-rail area that no film could print at this offset and load.
-
-    A film enlarges the contact without film A_0 by a factor of about 1.3-1.8
-    (MS at most about 1.9); it does not halve it, nor multiply it by four:
-    areas outside [A_0 / 2, 4 A_0] are taken as a unit, offset or load error.
-    """
-    lo, hi = 0.5 * area_no_film_mm2, 4.0 * area_no_film_mm2
-    if not lo <= area_mm2 <= hi:
-        raise ValueError(f"--measured-area-mm2 {area_mm2:g} is implausible at eta = {offset_mm:g} mm and "
-                         f"F = {force_kn:g} kN (contact area without film {area_no_film_mm2:.1f} mm2; a film imprint "
-                         f"lies within {lo:.1f}-{hi:.1f} mm2): check the units, the offset and the load")
-
-
 def _check_imprint_options(args: argparse.Namespace) -> None:
     """--scan replaces the measured area or radius; its options need it."""
     if args.scan is not None and (args.measured_area_mm2 is not None or args.measured_radius_mm is not None):
@@ -160,8 +129,8 @@ def run(args: argparse.Namespace) -> int:
             radius, radius_std = args.measured_radius_mm, args.measurement_std_mm
         if radius is None or args.sphere_radius_mm is None:
             raise ValueError("sphere-on-flat needs --measured-radius-mm (or --scan) and --sphere-radius-mm")
-        _check_plausible_radius(radius, args.sphere_radius_mm, args.force_kn)
         parts = correctors(study, args.film, "sphere", random_state=args.seed, **match)
+        parts[0][1].check_plausible(radius, args.sphere_radius_mm, args.force_kn * 1e3)
         results = [c.correct(radius, args.sphere_radius_mm, args.force_kn * 1e3, radius_std) for _, c, _ in parts]
     else:
         if imprint is not None:
@@ -173,8 +142,7 @@ def run(args: argparse.Namespace) -> int:
         parts = correctors(study, args.film, "wheel-rail", random_state=args.seed,
                            wheel_rail=dict(wheel=args.wheel, rail=args.rail, rail_inclination=args.inclination,
                                            nominal_radius_mm=args.wheel_radius_mm), **match)
-        _check_plausible_area(area, parts[0][1].supports(args.offset_mm, args.force_kn * 1e3)["area_no_film_mm2"],
-                              args.offset_mm, args.force_kn)
+        parts[0][1].check_plausible(area, args.offset_mm, args.force_kn * 1e3)
         results = [c.correct(area, args.offset_mm, args.force_kn * 1e3, area_std) for _, c, _ in parts]
         corrector = max(parts, key=lambda part: part[0])[1]
     if len(parts) == 1:
@@ -209,18 +177,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _corrected_outline(args: argparse.Namespace, imprint, result, corrector):
-    """The imprint's outline shrunk to the corrected area (model shift for wheel-rail)."""
-    import numpy as np
+    """The imprint's outline shrunk to the corrected area (the model's shift for wheel-rail)."""
+    from filmcal.correction import correct_outline
 
-    from filmcal.correction import correct_outline, wheel_rail_outlines
-
-    model = None
-    if corrector is not None:
-        from filmcal.wheelrail import FilmLayer
-
-        # the outline's shape from the linear film at the posterior median (the large-strain law changes the
-        # area, which the correction carries, more than the shape of its rim)
-        ft = corrector.film.film
-        film = FilmLayer(float(np.median(corrector.modulus_mpa_)), ft.poisson, ft.thickness_mm)
-        model = wheel_rail_outlines(args.offset_mm, args.force_kn * 1e3, film, **corrector.settings)
+    model = None if corrector is None else corrector.outline_model(args.offset_mm, args.force_kn * 1e3)
     return correct_outline(imprint.outlines_mm, result, model, field_side=args.field_side)

@@ -4,7 +4,6 @@ from __future__ import annotations
 import argparse
 import math
 from fractions import Fraction
-from pathlib import Path
 
 from filmcal._validation import check_range
 from filmcal.commands._common import print_json
@@ -86,37 +85,6 @@ def parse_inclination(text: str) -> float:
     return check_range("inclination", value, 0.0, 0.2, low_open=False)
 
 
-def plot_pressure_map(result, path: str | Path) -> None:
-    """Pressure map in track coordinates with the fitted and positive-pressure outlines."""
-    import numpy as np
-    from matplotlib.figure import Figure
-
-    grid = result.grid
-    x = grid.x_mm
-    y = result.grid_track_y_mm
-    p = np.ma.masked_less_equal(result.pressure_mpa, 0.0)
-    fig = Figure(figsize=(6.4, 5.2), layout="constrained")
-    ax = fig.add_subplot()
-    mesh = ax.pcolormesh(y, x, p, shading="nearest", cmap="viridis")
-    fig.colorbar(mesh, ax=ax, label="pressure (MPa)")
-    for k, ring in enumerate(result.outline_mm):
-        ax.plot(ring[:, 1], ring[:, 0], "-", color="black", lw=1.0,
-                label="contact outline (FE edge reading)" if k == 0 else None)
-    for k, ring in enumerate(result.support_outline_mm):
-        ax.plot(ring[:, 1], ring[:, 0], ":", color="tab:red", lw=1.0,
-                label="pressure > 0" if k == 0 else None)
-    ax.set_aspect("equal")
-    ax.set_xlabel("y (mm), track frame, field side positive")
-    ax.set_ylabel("x (mm), along the rail")
-    film = "no film" if result.film is None else f"film E = {result.film.modulus_mpa:g} MPa"
-    ax.set_title(f"{result.placement.wheel.name} on {result.placement.rail.name}, "
-                 f"eta = {result.offset_mm:g} mm, F = {result.force_n / 1e3:g} kN, {film}\n"
-                 f"A = {result.area_mm2:.1f} mm2, p_max = {result.max_pressure_mpa:.0f} MPa",
-                 fontsize=9)
-    ax.legend(loc="upper right", fontsize=7, framealpha=0.6)
-    fig.savefig(path, dpi=150)
-
-
 def run(args: argparse.Namespace) -> int:
     """Solve the case and print the result."""
     from filmcal.wheelrail.film_contact import FilmContactCase, WheelRoughness, solve_film_contact
@@ -129,9 +97,8 @@ def run(args: argparse.Namespace) -> int:
                                args.roughness_seed, args.hardness_mpa)
     result, out = solve_film_contact(args.offset_mm, 1e3 * args.force_kn, case, roughness, wheel=args.wheel,
                                      rail=args.rail, rail_inclination=inclination,
-                                     nominal_radius_mm=args.wheel_radius_mm, grid_mm=args.grid_mm)
-    if args.plot:
-        plot_pressure_map(result, args.plot)
+                                     nominal_radius_mm=args.wheel_radius_mm, grid_mm=args.grid_mm,
+                                     plot_path=args.plot)
     if args.json:
         print_json(out)
         return 0 if result.converged else 1

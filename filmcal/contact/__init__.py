@@ -7,11 +7,12 @@ imprint means the same thing everywhere.
 from filmcal.contact.geometry import outline_area_mm2, ring_signed_area_mm2
 from filmcal.contact.imprint import (CAPSULE_RANGE_QUANTILE, DEFAULT_IMPRINT_MODEL, IMPRINT_MODELS,
                                      ActivationImprint, CapsuleImprint, EdgeImprint, ImprintModel,
-                                     get_imprint_model, imprint_key, read_imprints)
+                                     get_imprint_model, imprint_key, imprint_models_for,
+                                     read_imprints)
 from filmcal.contact.reading import (EDGE_WINDOW_MM, GridField, RadialProfile, film_tip_length_mm,
                                      read_radial_profile, tributary_areas_mm2)
 
 __all__ = ["IMPRINT_MODELS", "DEFAULT_IMPRINT_MODEL", "CAPSULE_RANGE_QUANTILE", "ImprintModel", "EdgeImprint",
-           "ActivationImprint", "CapsuleImprint", "get_imprint_model", "imprint_key", "read_imprints",
+           "ActivationImprint", "CapsuleImprint", "get_imprint_model", "imprint_key", "imprint_models_for", "read_imprints",
            "EDGE_WINDOW_MM", "GridField", "RadialProfile", "film_tip_length_mm", "read_radial_profile",
            "tributary_areas_mm2", "outline_area_mm2", "ring_signed_area_mm2"]

@@ -46,7 +46,7 @@ from filmcal.contact.reading import GridField, RadialProfile, read_radial_profil
 if TYPE_CHECKING:  # pragma: no cover
     from filmcal.films import FilmType
 
-__all__ = ["IMPRINT_MODELS", "DEFAULT_IMPRINT_MODEL", "CAPSULE_RANGE_QUANTILE", "ImprintModel",
+__all__ = ["IMPRINT_MODELS", "DEFAULT_IMPRINT_MODEL", "imprint_models_for", "CAPSULE_RANGE_QUANTILE", "ImprintModel",
            "EdgeImprint", "ActivationImprint", "CapsuleImprint", "get_imprint_model", "imprint_key",
            "read_imprints"]
 
@@ -189,7 +189,7 @@ class CapsuleImprint(ImprintModel):
 
     def _lognormal(self, film) -> tuple[float, float]:
         if film is None:
-            raise ValueError("the capsule imprint model needs a film type (--film-type)")
+            raise ValueError("the capsule imprint model needs a film type (--film)")
         if film.range_mpa is None:
             raise ValueError(f"film {film.name} has no range_mpa: the capsule imprint model spreads "
                              "capsule strengths over the measurement range; give the film a range")
@@ -246,3 +246,18 @@ def read_imprints(r_mm: np.ndarray, pressure_mpa: np.ndarray, pairs: Sequence[tu
         m.check_film(film)
         out[imprint_key(model, film)] = m.radius_from_profile(profile, film)
     return out
+
+
+def imprint_models_for(film: "FilmType | None") -> tuple[str, ...]:
+    """The imprint models that can read `film`, in the comparison's order.
+
+    ``edge`` reads any film; ``activation`` needs its activation pressure, ``capsule`` its range.
+    """
+    out = []
+    for name in IMPRINT_MODELS:
+        try:
+            get_imprint_model(name).check_film(film)
+        except ValueError:
+            continue
+        out.append(name)
+    return tuple(out)

@@ -26,9 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
+from filmcal._io import atomic_path
 from filmcal.wheelrail.wheelrail import get_wheel_rail_model
 
-__all__ = ["CorrectionCurves", "correction_curves", "curve_moduli", "CURVE_COLUMNS", "curve_rows", "write_curves_csv",
+__all__ = ["CorrectionCurves", "correction_curves", "curve_moduli", "modulus_grid", "CURVE_COLUMNS", "curve_rows", "write_curves_csv",
            "read_curves_csv", "rough_surface", "wheel_label"]
 
 #: Posterior quantiles whose range the moduli of the solves span (log-spaced between them).
@@ -75,8 +76,12 @@ def _thinned(samples, max_samples: int) -> np.ndarray:
     return e
 
 
-def _moduli_grid(samples) -> tuple[np.ndarray, np.ndarray]:
-    """The fit's nodes and its check modulus over the `SUPPORT_RANGE` of every sample array together."""
+def modulus_grid(samples) -> tuple[np.ndarray, np.ndarray]:
+    """The one grid over E of the curves and the corrector: its nodes and the check modulus.
+
+    `N_NODES` moduli log-spaced over the `SUPPORT_RANGE` quantiles of every sample array together (one when
+    they all coincide); the check lies between the first two nodes, where the quadratic in log E is weakest.
+    """
     lo = min(float(np.quantile(e, SUPPORT_RANGE[0])) for e in samples)
     hi = max(float(np.quantile(e, SUPPORT_RANGE[1])) for e in samples)
     nodes = np.geomspace(lo, hi, N_NODES) if hi > lo * (1 + 1e-9) else np.array([lo])
@@ -103,7 +108,7 @@ def curve_moduli(components, max_samples: int = 4000) -> np.ndarray:
     handed to `correction_curves` as ``roughness={modulus: law}``.
     """
     parts, counts = _pooled(components, max_samples)
-    nodes, checks = _moduli_grid([e for (_, e, _), n in zip(parts, counts) if n > 0])
+    nodes, checks = modulus_grid([e for (_, e, _), n in zip(parts, counts) if n > 0])
     return np.sort(np.concatenate([nodes, checks]))
 
 
@@ -148,7 +153,7 @@ def correction_curves(components, offsets_mm, forces_n, *, roughness=None, max_s
     for k, (model, e, _) in enumerate(parts):
         if counts[k] > 0:
             groups.setdefault((model.film, model.kinematics), []).append(k)
-    nodes, checks = _moduli_grid([parts[k][1] for members in groups.values() for k in members])
+    nodes, checks = modulus_grid([parts[k][1] for members in groups.values() for k in members])
     moduli = np.sort(np.concatenate([nodes, checks]))  # as `curve_moduli` gives them
     wheel_rail_model = get_wheel_rail_model(**wheel_rail, tol=SWEEP_TOL)
     law_at = roughness if isinstance(roughness, Mapping) else {m: roughness for m in moduli}
@@ -246,12 +251,10 @@ def curve_rows(film: str, components, offsets_mm, forces_kn, roughness=None, law
 def write_curves_csv(path: str | Path, rows: list[list]) -> Path:
     """Write curve rows with the `CURVE_COLUMNS` header, whole or not at all."""
     path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "w", newline="") as fh:
+    with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(CURVE_COLUMNS)
         w.writerows(rows)
-    tmp.replace(path)
     return path
 
 

@@ -33,20 +33,16 @@ from filmcal.correction.sphere import CorrectedArea, _summarise
 
 __all__ = ["WheelRailCorrector", "SupportAreas", "SupportCache", "support_moduli", "nominal_modulus_mpa"]
 
-#: The posterior quantiles whose extremes bound the support moduli; one modulus per entry.
-QUANTILES = (0.001, 0.25, 0.5, 0.75, 0.999)
-
-
 def support_moduli(moduli: Sequence[np.ndarray]) -> np.ndarray:
     """The moduli at which the film is solved for models that share their solves.
 
-    Five moduli log-spaced between the smallest 0.1 % quantile and the largest
-    99.9 % quantile of the models' samples of E (one modulus when they all
-    coincide), as `filmcal.correction.correction_curves` places them.
+    `filmcal.correction.curves.modulus_grid`'s nodes (the one grid over E of the corrector and the curves):
+    log-spaced between the smallest 0.1 % and the largest 99.9 % quantile of the models' samples of E (one
+    modulus when they all coincide).
     """
-    lo = min(float(np.quantile(e, QUANTILES[0])) for e in moduli)
-    hi = max(float(np.quantile(e, QUANTILES[-1])) for e in moduli)
-    return np.geomspace(lo, hi, len(QUANTILES)) if hi > lo * (1 + 1e-9) else np.array([lo])
+    from filmcal.correction.curves import modulus_grid
+
+    return modulus_grid(moduli)[0]
 
 
 class SupportCache(Protocol):
@@ -212,6 +208,34 @@ class WheelRailCorrector:
         ratio = np.exp(np.polyval(coef, np.log(self.modulus_mpa_)) if degree > 0 else np.full_like(
             self.modulus_mpa_, log_ratio[0]))
         return ratio, {"area_no_film_mm2": a0, "modulus_grid_mpa": e_grid, "area_film_mm2": a_f}
+
+    def check_plausible(self, measured_area_mm2: float, offset_mm: float, force_n: float) -> None:
+        """Refuse a measured wheel-rail area that no film could print at this offset and load.
+
+        A film enlarges the contact without film A_0 by a factor of about 1.3-1.8
+        (MS at most about 1.9); it does not halve it, nor multiply it by four:
+        areas outside [A_0 / 2, 4 A_0] are taken as a unit, offset or load error. Every caller (a command,
+        a batch row, a served request) meets this rule here.
+        """
+        a0 = self.supports(offset_mm, force_n)["area_no_film_mm2"]
+        lo, hi = 0.5 * a0, 4.0 * a0
+        if not lo <= measured_area_mm2 <= hi:
+            raise ValueError(f"measured_area_mm2 {measured_area_mm2:g} is implausible at eta = {offset_mm:g} mm "
+                             f"and F = {force_n / 1e3:g} kN (contact area without film {a0:.1f} mm2; a film "
+                             f"imprint lies within {lo:.1f}-{hi:.1f} mm2): check the units, the offset and the load")
+
+    def outline_model(self, offset_mm: float, force_n: float):
+        """The contact outlines with and without film at the posterior median (`wheel_rail_outlines`).
+
+        The outline's shape comes from the linear film at the posterior median: the large-strain law changes
+        the area, which the correction carries, more than the shape of its rim.
+        """
+        from filmcal.contact.laws import FilmLayer
+        from filmcal.correction.outline import wheel_rail_outlines
+
+        ft = self.film.film
+        film = FilmLayer(float(np.median(self.modulus_mpa_)), ft.poisson, ft.thickness_mm)
+        return wheel_rail_outlines(offset_mm, force_n, film, **self.settings)
 
     def correct(self, measured_area_mm2, offset_mm, force_n, measurement_std_mm2=0.0) -> CorrectedArea:
         """The contact area without film behind measured imprint areas (vectorised).

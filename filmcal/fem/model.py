@@ -32,9 +32,9 @@ import scipy.linalg as sla
 from skfem import Basis, ElementQuad1, ElementVector, FacetBasis
 from threadpoolctl import threadpool_limits
 
-from filmcal._validation import check_choice, check_poisson, check_positive, check_range
+from filmcal._validation import check_poisson, check_positive, check_range
 from filmcal.contact import DEFAULT_IMPRINT_MODEL, film_tip_length_mm, get_imprint_model
-from filmcal.contact.options import CONTACT_MODES, ContactOptions
+from filmcal.contact.options import ContactOptions
 from filmcal.fem.condense import CondensedBody, condense, nested_dissection
 from filmcal.fem.contact import CLOSED, FREE, OPEN, ContactState, PairSystem, solve_pairs
 from filmcal.fem.forms import axial_traction, lame_parameters, linear_elasticity, oedometric_modulus_mpa

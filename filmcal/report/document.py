@@ -22,6 +22,8 @@ from pathlib import Path
 
 from matplotlib.figure import Figure
 
+from filmcal._io import atomic_path
+
 __all__ = ["Table", "FigureBlock", "Definitions", "Section", "Report", "PdfResult", "render_html", "write_pdf",
            "find_chromium", "CHROMIUM_FLAGS", "TEXT_WIDTH_IN", "TEXT_HEIGHT_IN"]
 
@@ -368,23 +370,22 @@ def write_pdf(report: Report, path: str | Path, timeout_s: float = 300.0) -> Pdf
         ``engine`` is ``"chromium"``, or ``"matplotlib"`` with ``message`` saying why.
     """
     path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
     chromium = find_chromium()
     reason = ("Chromium was not found, so the typeset PDF could not be printed (install Debian's chromium "
               "package, or any Chromium/Chrome on PATH).")
     if chromium is not None:
         try:
-            # when a second print follows, the first only finds the pages: blank figures of the same size
-            # lay the page out alike and print in half the time
-            layout_only = shutil.which("pdftotext") is not None
-            _print_with_chromium(chromium, render_html(report, blank_figures=layout_only), tmp, timeout_s)
-            pages = _section_pages(tmp, report)
-            if pages or layout_only:
-                _print_with_chromium(chromium, render_html(report, page_numbers=pages), tmp, timeout_s)
-            tmp.replace(path)
+            with atomic_path(path) as tmp:
+                # when a second print follows, the first only finds the pages: blank figures of the same size
+                # lay the page out alike and print in half the time
+                layout_only = shutil.which("pdftotext") is not None
+                _print_with_chromium(chromium, render_html(report, blank_figures=layout_only), tmp, timeout_s)
+                pages = _section_pages(tmp, report)
+                if pages or layout_only:
+                    _print_with_chromium(chromium, render_html(report, page_numbers=pages), tmp, timeout_s)
             return PdfResult(path, "chromium")
         except (OSError, RuntimeError, subprocess.SubprocessError) as err:
             reason = f"Chromium ({chromium}) failed to print the report: {err}"
-    _write_matplotlib_pdf(report, tmp, reason)
-    tmp.replace(path)
+    with atomic_path(path) as tmp:
+        _write_matplotlib_pdf(report, tmp, reason)
     return PdfResult(path, "matplotlib", reason)

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from filmcal._io import atomic_write_text
 from filmcal._versions import NUMERIC_PACKAGES, software_versions, version_note
 from filmcal.report import figures as F
 from filmcal.report.document import Definitions, FigureBlock, Report, Section, Table, render_html, write_pdf
@@ -835,9 +836,7 @@ def write_report(study_dir: str | Path, out_dir: str | Path | None = None, worke
     out.mkdir(parents=True, exist_ok=True)
     html_path = out / "report.html"
     with matplotlib.rc_context(F.REPORT_STYLE):
-        tmp = html_path.with_name(html_path.name + ".tmp")
-        tmp.write_text(render_html(report), encoding="utf-8")
-        tmp.replace(html_path)
+        atomic_write_text(html_path, render_html(report))
         pdf = write_pdf(report, out / "report.pdf")
     if pdf.message:
         warnings.warn(f"report PDF: {pdf.message}", RuntimeWarning, stacklevel=2)

@@ -439,14 +439,16 @@ class Study:
             In the order of `specs`.
         """
         from filmcal._parallel import run_tasks
-        from filmcal.calibration import Priors, SamplerSettings, calibrate, load_result, save_result
+        from filmcal.calibration import Priors, SamplerSettings, load_result, save_result
+        from filmcal.contact.imprint import imprint_models_for
 
         results: dict[int, tuple] = {}
         todo = []
         for i, spec in enumerate(specs):
             film = self.film(spec.film)
-            if spec.imprint != "edge" and not film.has_activation:
-                raise InputError(f"film {film.name} has no activation pressure: only the edge imprint model applies")
+            if spec.imprint not in imprint_models_for(film):
+                raise InputError(f"the {spec.imprint} imprint model cannot read film {film.name} (it reads "
+                                 f"{', '.join(imprint_models_for(film))})")
             data, data_meta = self.dataset_rows(film.name, spec.loads, dataset)
             full = self._calibration_spec_dict(spec, data_meta)
             path = self.layout.posterior(spec_key(full))
@@ -770,22 +772,10 @@ def curve_components(study: Study, film: str, *, model: str | None = None, **mat
 
 
 def _posterior_samples(path: Path) -> dict[str, np.ndarray]:
-    """The posterior samples of a recorded calibration result, read from its JSON alone.
+    """The posterior samples of a recorded calibration result (`read_posterior_samples`: the one reader)."""
+    from filmcal.calibration.result_file import read_posterior_samples
 
-    What a corrector needs of `filmcal.calibration.load_result(path).samples`,
-    without building the result's diagnostics and checks (and importing what
-    they need).
-    """
-    from filmcal._io import read_json
-
-    payload = read_json(path)
-    if not isinstance(payload, dict) or payload.get("format") != "filmcal-calibration-result":
-        raise InputError(f"{str(path)!r} is not a filmcal calibration result")
-    if payload.get("version") != 1:
-        raise InputError(f"unsupported calibration result version {payload.get('version')!r} in {str(path)!r}")
-    if not isinstance(payload.get("samples"), dict):
-        raise InputError(f"{str(path)!r} holds no posterior samples")
-    return {k: np.asarray(v, dtype=float) for k, v in payload["samples"].items()}
+    return read_posterior_samples(path)
 
 
 def _profile_spec(profile: str) -> Any:

@@ -105,7 +105,10 @@ class PipelineSettings:
 
 
 def _models_for(study: Study, film: str, settings: PipelineSettings) -> tuple[str, ...]:
-    return tuple(m for m in settings.imprint_models if m == "edge" or study.film(film).has_activation)
+    from filmcal.contact.imprint import imprint_models_for
+
+    allowed = imprint_models_for(study.film(film))
+    return tuple(m for m in settings.imprint_models if m in allowed)
 
 
 def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM_TYPES, seed: int = 0,

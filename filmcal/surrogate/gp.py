@@ -28,7 +28,6 @@ from sklearn.exceptions import ConvergenceWarning
 from sklearn.gaussian_process import GaussianProcessRegressor
 from sklearn.gaussian_process.kernels import Kernel
 from sklearn.utils.validation import check_is_fitted
-from threadpoolctl import threadpool_limits
 
 from filmcal.surrogate.kernels import kernel_parts, make_kernel
 from filmcal.surrogate.transforms import (

@@ -27,6 +27,7 @@ import numpy as np
 import sklearn
 from sklearn.utils.validation import check_is_fitted
 
+from filmcal._io import atomic_write_text
 from filmcal._versions import __version__
 from filmcal.surrogate.gp import GPSurrogate
 from filmcal.surrogate.kernels import kernel_from_dict, kernel_to_dict
@@ -109,9 +110,7 @@ def save_surrogate(surrogate: GPSurrogate, path: str | Path) -> tuple[Path, Path
     np.savez(npz_path, X_train=np.asarray(surrogate.X_train_, dtype=np.float64),
              y_train=np.asarray(surrogate.y_train_, dtype=np.float64))
     # the JSON last and whole: its presence means both files are complete
-    tmp = json_path.with_name(json_path.name + ".tmp")
-    tmp.write_text(json.dumps(meta, indent=2, allow_nan=False) + "\n", encoding="utf-8")
-    tmp.replace(json_path)
+    atomic_write_text(json_path, json.dumps(meta, indent=2, allow_nan=False) + "\n")
     return json_path, npz_path
 
 

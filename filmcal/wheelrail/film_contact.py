@@ -122,12 +122,15 @@ class FilmContactCase:
 def solve_film_contact(offset_mm: float, force_n: float, case: FilmContactCase,
                        roughness: WheelRoughness | None = None, *, wheel="S1002", rail="60E2",
                        rail_inclination: float = 1 / 40, nominal_radius_mm: float = 460.0,
-                       grid_mm: float = 0.1):
+                       grid_mm: float = 0.1, plot_path: str | Path | None = None):
     """Solve a wheel-rail contact with (or without) a film; return ``(result, summary)``.
 
     The film's law (linear springs t/M or the large-strain law) and the wheel's roughness law in series
     come from `FilmModel.interface`; without a film a rough wheel uses the Greenwood-Williamson law at the
     steel-steel interface.
+
+    plot_path : str or Path, optional
+        Also draw the pressure map with the contact outlines into this PNG/PDF/SVG file.
 
     Returns
     -------
@@ -173,6 +176,10 @@ def solve_film_contact(offset_mm: float, force_n: float, case: FilmContactCase,
     result = solve_wheel_rail(offset_mm, force_n, wheel=_profile(wheel, "wheel"), rail=_profile(rail, "rail"),
                               rail_inclination=rail_inclination, nominal_radius_mm=nominal_radius_mm,
                               film=solver_film, roughness=solver_law, grid_mm=grid_mm)
+    if plot_path is not None:
+        from filmcal.wheelrail.plots import plot_pressure_map
+
+        plot_pressure_map(result, plot_path)
     out: dict[str, Any] = result.summary()
     if not no_film:
         from filmcal.contact.laws import FilmLayer, LargeStrainFilm
