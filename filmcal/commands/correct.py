@@ -22,8 +22,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "circle of that area), whose uncertainty adds in quadrature to --measurement-std-mm2 / "
                     "--measurement-std-mm; --outline-out then writes the outline without film. Prints the "
                     "posterior mean area, its standard deviation and 90 %% interval (with --scan, --json adds "
-                    "measured_area_mm2 and measured_area_std_mm2, the image's own uncertainty, and the imprint's "
-                    "details). The wheel-rail form solves the contact without film and with the film at five "
+                    "measured_area_mm2 and measured_area_std_mm2, the image's own uncertainty, and the scan's "
+                    "details). The wheel-rail form solves the contact without film and with the film at three "
                     "moduli spanning the posteriors (one solve serves every imprint model of a film kinematics); "
                     "the study keeps those solved areas when no other process is writing it, so correcting again "
                     "at the same offset and force reads them instead of solving.")

@@ -27,14 +27,12 @@ from pathlib import Path
 import numpy as np
 
 from filmcal._io import atomic_path
+from filmcal.correction.moduli import modulus_grid
 from filmcal.wheelrail.wheelrail import get_wheel_rail_model
 
-__all__ = ["CorrectionCurves", "correction_curves", "curve_moduli", "modulus_grid", "CURVE_COLUMNS", "curve_rows", "write_curves_csv",
+__all__ = ["CorrectionCurves", "correction_curves", "curve_moduli", "CURVE_COLUMNS", "curve_rows", "write_curves_csv",
            "read_curves_csv", "rough_surface", "wheel_label"]
 
-#: Posterior quantiles whose range the moduli of the solves span (log-spaced between them).
-SUPPORT_RANGE = (0.001, 0.999)
-N_NODES = 3
 #: Solver tolerance of the sweeps: areas within 1e-6 (relative) of the default 1e-9, a fifth faster.
 SWEEP_TOL = 1e-6
 
@@ -74,18 +72,6 @@ def _thinned(samples, max_samples: int) -> np.ndarray:
     if not np.all(np.isfinite(e)) or np.any(e <= 0):
         raise ValueError("modulus_samples_mpa must be finite and > 0")
     return e
-
-
-def modulus_grid(samples) -> tuple[np.ndarray, np.ndarray]:
-    """The one grid over E of the curves and the corrector: its nodes and the check modulus.
-
-    `N_NODES` moduli log-spaced over the `SUPPORT_RANGE` quantiles of every sample array together (one when
-    they all coincide); the check lies between the first two nodes, where the quadratic in log E is weakest.
-    """
-    lo = min(float(np.quantile(e, SUPPORT_RANGE[0])) for e in samples)
-    hi = max(float(np.quantile(e, SUPPORT_RANGE[1])) for e in samples)
-    nodes = np.geomspace(lo, hi, N_NODES) if hi > lo * (1 + 1e-9) else np.array([lo])
-    return nodes, np.sqrt(nodes[:1] * nodes[1:2])
 
 
 def _pooled(components, max_samples: int) -> tuple[list, np.ndarray]:

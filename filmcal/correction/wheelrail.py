@@ -36,11 +36,11 @@ __all__ = ["WheelRailCorrector", "SupportAreas", "SupportCache", "support_moduli
 def support_moduli(moduli: Sequence[np.ndarray]) -> np.ndarray:
     """The moduli at which the film is solved for models that share their solves.
 
-    `filmcal.correction.curves.modulus_grid`'s nodes (the one grid over E of the corrector and the curves):
+    `filmcal.correction.moduli.modulus_grid`'s nodes (the one grid over E of the corrector and the curves):
     log-spaced between the smallest 0.1 % and the largest 99.9 % quantile of the models' samples of E (one
     modulus when they all coincide).
     """
-    from filmcal.correction.curves import modulus_grid
+    from filmcal.correction.moduli import modulus_grid
 
     return modulus_grid(moduli)[0]
 

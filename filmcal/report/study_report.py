@@ -587,7 +587,8 @@ def wheel_rail_section(curves: dict, outlines: dict | None) -> Section:
         return _missing(s, "curves-<film>.csv")
     s.add("Each film's posterior of E is propagated through the wheel-rail model (boundary elements on "
           "half-spaces, the film as springs in series, areas read as in the FE calibration model): the film "
-          "area is interpolated in log E from solves at five posterior quantiles and checked by two more; the "
+          "area is interpolated in log E from solves at three moduli spanning the posterior and checked by one "
+          "more; the "
           "largest relative error of that interpolation is printed beside the bands (it includes the area "
           "reading's own numerical jitter of a few tenths of a percent between neighbouring E). Rough wheel: a "
           "Greenwood-Williamson law from Ra at the film-wheel interface. At Ra 1.5 µm it changes the area by "
