@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 from numbers import Real
 from typing import Any, Callable
 
@@ -29,6 +30,10 @@ def as_finite(name: str, value: object) -> float:
     if not math.isfinite(x):
         raise ValueError(f"{name} must be a finite number, got {value!r}")
     return x
+
+
+#: A force (load) range in kN: ``LOW-HIGH`` or ``VALUE``, non-negative numbers.
+FORCE_RANGE = re.compile(r"^\s*(\d+(?:\.\d*)?)\s*(?:-\s*(\d+(?:\.\d*)?)\s*)?$")
 
 
 def as_bool(name: str, value: object) -> bool:

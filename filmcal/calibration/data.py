@@ -17,11 +17,11 @@ range (``loads="50-100"``), as in the paper and the command line.
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass
 
 import numpy as np
 
+from filmcal._validation import FORCE_RANGE
 from filmcal.films import FILM_TYPES
 from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, hertz_radius_mm
 
@@ -33,7 +33,7 @@ __all__ = [
     "parse_load_range",
 ]
 
-_LOAD_RANGE = re.compile(r"^\s*(\d+(?:\.\d*)?)\s*(?:-\s*(\d+(?:\.\d*)?)\s*)?$")
+_LOAD_RANGE = FORCE_RANGE
 
 
 @dataclass(frozen=True)

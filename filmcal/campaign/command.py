@@ -259,7 +259,7 @@ class CommandModel:
             missing = [name for name in self.placeholders if name not in point]
             if missing:
                 raise InputError(f"design row {row} has no value for placeholder(s) "
-                                 f"{', '.join('{' + m + '}' for m in missing)} of --command/--template-file")
+                                 f"{', '.join('{' + m + '}' for m in missing)} of --simulator-command/--template-file")
 
     def __call__(self, params: Mapping[str, DesignValue], point_id: str | None = None) -> dict[str, Any]:
         """Run the command for one point; return its outputs.

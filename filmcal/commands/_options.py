@@ -77,7 +77,7 @@ VOCABULARY: dict[str, Concept] = _concepts(
     Concept("force_kn", "normal force F in kN", float, _POSITIVE),
     Concept("forces_kn", "forces in kN: a list 50,100 or start:stop:step", metavar="LIST"),
     Concept("calibration_forces_kn", "choose the posterior calibrated on this force range in kN, e.g. 50-100",
-            metavar="RANGE"),
+            type=lambda t: force_range(t), metavar="RANGE"),
     Concept("offset_mm", "lateral offset eta in mm (the paper's convention; write --offset-mm=-3 for "
             "negative values)", float, (-60.0, 60.0)),
     Concept("offsets_mm", "lateral offsets eta in mm: a list -5,0 or start:stop:step", metavar="LIST"),
@@ -256,6 +256,17 @@ def split_model(text: str) -> dict[str, str]:
         out["kinematics"] = kinematics
     return out
 
+
+
+def force_range(text: str) -> str:
+    """A force range in kN, ``LOW-HIGH`` or ``VALUE`` (checked here, parsed by the calibration)."""
+    from filmcal._validation import FORCE_RANGE
+
+    match = FORCE_RANGE.match(str(text))
+    if match is None or (match.group(2) is not None and float(match.group(1)) > float(match.group(2))):
+        raise argparse.ArgumentTypeError(f"must be a force range in kN such as 50-100 (low <= high) or 75, "
+                                         f"got {text!r}")
+    return text
 
 
 def progress_mode(text: str) -> str:

@@ -5,7 +5,7 @@ import argparse
 from pathlib import Path
 
 from filmcal.commands._common import print_json
-from filmcal.commands._options import STUDY_IMPRINT_MODELS, add, add_contact_options, local, renamed
+from filmcal.commands._options import STUDY_IMPRINT_MODELS, add, add_contact_options, force_range, local, renamed
 from filmcal.contact.names import DEFAULT_KINEMATICS, MIXTURE
 
 
@@ -27,7 +27,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         extra=f"; or {MIXTURE} (default): every model the film allows, compared by PSIS-LOO and combined by "
               "their weights (imprint_weights)")
     add(p, "forces_kn", help="calibrate on the cases whose force lies in this range in kN, e.g. 50-100 (the "
-                             "paper's choice); all forces by default", metavar="RANGE")
+                             "paper's choice); all forces by default", metavar="RANGE", type=force_range)
     local(p, "--poisson", choices=["fixed", "free"], default="fixed",
           help="nu fixed at the film's nominal value (default, 0.33 as the paper) or uniform over "
                "0.29-0.37 (then only M is identified)")
@@ -46,7 +46,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     local(p, "--plots", metavar="DIR", help="write trace, corner, per-case (Fig. 3) and predictive plots")
     add(p, "json", action="store_true")
     renamed(p, "--imprint", "--imprint-model", type=lambda t: MIXTURE if t == "stacked" else t)
-    renamed(p, "--loads", "--forces-kn")
+    renamed(p, "--loads", "--forces-kn", type=force_range)
     renamed(p, "--large-strain", "--kinematics large", "kinematics", flag_value="large")
     p.set_defaults(func=run)
 

@@ -2,7 +2,7 @@
 
 ``run`` evaluates every design point that has no finished run yet (a second
 ``run`` resumes an interrupted one) with the FE model, a Python model
-(``--model module:function``) or any external command (``--command``);
+(``--simulator-python module:function``) or any external command (``--simulator-command``);
 ``status`` counts the runs, ``export`` writes them to CSV. One ``run`` writes
 to a store at a time: a second one is refused at once (exit 2) with a line
 that says who holds the store.

@@ -6,7 +6,7 @@ import math
 from pathlib import Path
 
 from filmcal.commands._common import print_json
-from filmcal.commands._options import STUDY_IMPRINT_MODELS, add, local, renamed, split_model
+from filmcal.commands._options import STUDY_IMPRINT_MODELS, add, force_range, local, renamed, split_model
 from filmcal.contact.names import MIXTURE
 
 
@@ -71,7 +71,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add(p, "json", action="store_true")
     renamed(p, "--model", "--imprint-model IMPRINT --kinematics KINEMATICS", convert=split_model)
     renamed(p, "--imprint", "--scan")
-    renamed(p, "--loads", "--calibration-forces-kn")
+    renamed(p, "--loads", "--calibration-forces-kn", type=force_range)
     p.set_defaults(func=run)
 
 

@@ -5,7 +5,7 @@ import argparse
 import sys
 
 from filmcal.commands._common import print_json
-from filmcal.commands._options import STUDY_IMPRINT_MODELS, add, local, renamed, split_model
+from filmcal.commands._options import STUDY_IMPRINT_MODELS, add, force_range, local, renamed, split_model
 from filmcal.contact.names import MIXTURE
 
 
@@ -34,7 +34,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     local(p, "--plot", help="write a PNG of the areas with and without film")
     add(p, "json", action="store_true", help="print the rows as one JSON object")
     renamed(p, "--rough-ra-um", "--wheel-roughness-ra-um", type=float)
-    renamed(p, "--loads", "--calibration-forces-kn")
+    renamed(p, "--loads", "--calibration-forces-kn", type=force_range)
     renamed(p, "--model", "--imprint-model IMPRINT --kinematics KINEMATICS", convert=split_model)
     p.set_defaults(func=run)
 

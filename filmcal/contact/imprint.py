@@ -138,7 +138,7 @@ class EdgeImprint(ImprintModel):
 
 def _activation(film: "FilmType | None", model: str) -> float:
     if film is None:
-        raise ValueError(f"the {model} imprint model needs a film type (--film-type)")
+        raise ValueError(f"the {model} imprint model needs a film type (--film)")
     if film.activation_pressure_mpa is None:
         raise ValueError(f"film {film.name} has no activation_pressure_mpa (nor range_mpa): "
                          f"the {model} imprint model cannot read it; use the edge model or give "
