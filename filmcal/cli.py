@@ -68,6 +68,8 @@ SIZE_BOUNDS: dict[str, tuple[float, float]] = {
     "film_layers": (1, 8),
     "grid_mm": (0.02, 1.0),  # the wheel-rail model's own bound is 0.01-1 (WheelRailModel)
     "friction_coefficient": (0.0, 10.0),  # ContactOptions' bound
+    "step_mm": (0.001, 50.0),  # profile sampling
+    "threshold": (0.0, 1.0),  # a scan's stain intensity
     "train_runs": (20, 5000),
     "test_runs": (5, 5000),
     "max_steps": (1, 1_000_000),

@@ -335,5 +335,6 @@ def test_cli_unknown_profile_exits_2(capsys):
     assert main(["profile", "UIC60"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "S1002, 60E1, 60E2" in err[0]
-    assert main(["profile", "60E1", "--step-mm", "-1"]) == 2
-    assert "step_mm" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as refused:  # refused by the parser, with the bound it states in --help
+        main(["profile", "60E1", "--step-mm", "-1"])
+    assert refused.value.code == 2 and "--step-mm" in capsys.readouterr().err

@@ -50,7 +50,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
           help="--scan: scan resolution in dots per inch (default: the file's resolution metadata)")
     local(p, "--mm-per-pixel", type=float, help="--scan: pixel size in mm (instead of --dpi)")
     local(p, "--threshold", type=float,
-          help="--scan: stain intensity 0-1 (1 - green channel) above which a pixel is stained "
+          help="--scan: stain intensity (1 - green channel) above which a pixel is stained "
                "(default: Otsu's threshold)")
     local(p, "--min-region-mm2", type=float,
           help="--scan: smallest stained region kept, smaller specks are dust (mm2, default 1)")

@@ -9,7 +9,7 @@ from typing import TextIO
 import numpy as np
 
 from filmcal._io import atomic_path
-from filmcal._validation import arg_finite, check_range
+from filmcal._validation import check_range
 from filmcal.commands._common import print_json
 from filmcal.commands._options import add, local
 from filmcal.wheelrail.profiles import (
@@ -32,8 +32,8 @@ def add_parser(subparsers) -> None:
     )
     parser.add_argument("name", help=f"profile name ({', '.join(PROFILE_NAMES)}) or a CSV file "
                                      "with columns y_mm,z_mm")
-    local(parser, "--step-mm", type=arg_finite(), default=0.5,
-                        help="spacing of the points along the profile in mm, 0.001-50 (default 0.5)")
+    local(parser, "--step-mm", type=float, default=0.5,
+                        help="spacing of the points along the profile in mm (default 0.5)")
     local(parser, "--kind", choices=PROFILE_KINDS, default="rail",
                         help="for a CSV file: whether it is a wheel or a rail profile (default rail)")
     fmt = parser.add_mutually_exclusive_group()

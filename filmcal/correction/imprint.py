@@ -330,7 +330,7 @@ def measure_imprint(intensity, pixel_size_mm: float, *, threshold: float | None 
     if min_region < 0.0:
         raise ValueError(f"min_region_mm2 must be >= 0, got {min_region:g}")
     min_contrast = check_range("min_contrast", min_contrast, 0.0, 1.0, low_open=False)
-    t = otsu_threshold(intensity) if threshold is None else check_range("threshold", threshold, 0.0, 1.0)
+    t = otsu_threshold(intensity) if threshold is None else check_range("threshold", threshold, 0.0, 1.0, low_open=False, high_open=False)
     paper, stain = _class_means(intensity, t)
     contrast = stain - paper
     if contrast < min_contrast:
