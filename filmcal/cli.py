@@ -66,7 +66,7 @@ SIZE_BOUNDS: dict[str, tuple[float, float]] = {
     "element_size_mm": (0.02, 5.0),
     "sphere_radius_mm": (1.0, 1e5),
     "film_layers": (1, 8),
-    "grid_mm": (0.02, 1.0),  # the wheel-rail model's own bound is 0.01-1 (WheelRailModel)
+    "grid_mm": (0.01, 1.0),  # the wheel-rail model's own (filmcal.wheelrail.settings.GRID_MM_RANGE)
     "friction_coefficient": (0.0, 10.0),  # ContactOptions' bound
     "step_mm": (0.001, 50.0),  # profile sampling
     "threshold": (0.0, 1.0),  # a scan's stain intensity
@@ -259,7 +259,7 @@ def _one_line(text: str) -> str:
 
 
 # Library parameters whose name differs from the option that feeds them.
-PARAMETER_ALIASES = {"force_n": "force_kn", "nominal_radius_mm": "wheel_radius_mm"}
+PARAMETER_ALIASES = {"force_n": "force_kn"}
 
 
 def _name_option(message: str, options: dict[str, str]) -> str:

@@ -35,7 +35,7 @@ def test_json_has_the_contract_keys(capsys):
 def test_options_rail_inclination_radius_roughness_plot(capsys, tmp_path):
     png = tmp_path / "map.png"
     code, out, err = _run(capsys, "--offset-mm=-3", "--force-kn", "50", "--no-film", "--rail", "60E1",
-                          "--inclination", "1/30", "--wheel-radius-mm", "430",
+                          "--rail-inclination", "1/30", "--nominal-radius-mm", "430",
                           "--wheel-roughness-ra-um", "1.5", "--grid-mm", "0.2", "--film", "HS",
                           "--plot", str(png), "--json")
     assert code == 0, err
@@ -79,8 +79,8 @@ def test_text_output(capsys):
     ["--offset-mm=-3", "--force-kn", "100", "--wheel", "60E2", "--no-film"],
     ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--film-poisson", "0.6"],
     ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "-1"],
-    ["--offset-mm=-3", "--force-kn", "100", "--no-film", "--inclination", "1/0"],
-    ["--offset-mm=-3", "--force-kn", "100", "--no-film", "--inclination", "steep"],
+    ["--offset-mm=-3", "--force-kn", "100", "--no-film", "--rail-inclination", "1/0"],
+    ["--offset-mm=-3", "--force-kn", "100", "--no-film", "--rail-inclination", "steep"],
     ["--offset-mm=-3", "--force-kn", "100", "--no-film", "--wheel-roughness-ra-um", "-2"],
     ["--offset-mm=-3", "--force-kn", "100", "--no-film", "--grid-mm", "5"],
     ["--offset-mm=-3", "--force-kn", "100", "--no-film", "--wheel", "/no/such/wheel.csv"],

@@ -248,6 +248,45 @@ def contact_options(args: argparse.Namespace) -> ContactOptions:
                           friction_coefficient=args.friction_coefficient, kinematics=args.kinematics)
 
 
+def rail_inclination(text: str) -> float:
+    """A rail inclination from '1/40', '0.025' or '0' (a fraction or a number, 0 to 0.2)."""
+    from fractions import Fraction
+
+    try:
+        value = float(Fraction(str(text).strip()))
+    except (ValueError, ZeroDivisionError):
+        raise argparse.ArgumentTypeError(f"must be a number or a fraction like 1/40, got {text!r}") from None
+    low, high = rail_inclination.bounds
+    if not low <= value <= high:
+        raise argparse.ArgumentTypeError(f"must lie in [{low:g}, {high:g}], got {text!r}")
+    return value
+
+
+rail_inclination.bounds = (0.0, 0.2)  # type: ignore[attr-defined]
+
+
+def add_wheel_rail_options(parser, *, grid: bool = False) -> None:
+    """The wheel-rail model's settings, with the model's own defaults (`filmcal.wheelrail.settings`)."""
+    from filmcal.wheelrail import settings as d
+
+    local(parser, "--rail", default=d.RAIL,
+          help=f"rail profile: 60E2, 60E1, or a CSV file y_mm,z_mm in the rail's standard coordinates "
+               f"(default {d.RAIL})")
+    local(parser, "--wheel", default=d.WHEEL,
+          help=f"wheel profile: S1002 or a CSV file y_mm,z_mm in the wheel's standard coordinates "
+               f"(default {d.WHEEL})")
+    local(parser, "--rail-inclination", type=rail_inclination, default=d.RAIL_INCLINATION, metavar="SLOPE",
+          help="rail inclination as a fraction or a number, e.g. 1/40 (default), 1/20, 0.025, or 0 for an "
+               "upright rail" + bounds_text(*rail_inclination.bounds, False))
+    local(parser, "--nominal-radius-mm", type=float, default=d.NOMINAL_RADIUS_MM,
+          help=f"the wheel's nominal rolling radius at its tape circle in mm (default {d.NOMINAL_RADIUS_MM:g})")
+    if grid:
+        local(parser, "--grid-mm", type=float, default=d.GRID_MM,
+              help=f"cell size of the contact grid in mm (default {d.GRID_MM:g}, the film's resolution)")
+    renamed(parser, "--inclination", "--rail-inclination", type=rail_inclination)
+    renamed(parser, "--wheel-radius-mm", "--nominal-radius-mm", type=float)
+
+
 def split_model(text: str) -> dict[str, str]:
     """The old ``--model IMPRINT/KINEMATICS`` as ``imprint_model`` and ``kinematics``."""
     imprint, _, kinematics = str(text).partition("/")

@@ -6,7 +6,7 @@ import math
 from pathlib import Path
 
 from filmcal.commands._common import print_json
-from filmcal.commands._options import STUDY_IMPRINT_MODELS, add, force_range, local, renamed, split_model
+from filmcal.commands._options import STUDY_IMPRINT_MODELS, add, add_wheel_rail_options, force_range, local, renamed, split_model
 from filmcal.contact.names import MIXTURE
 
 
@@ -37,10 +37,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add(p, "offset_mm", extra="(wheel-rail)")
     local(p, "--measurement-std-mm2", type=float, default=0.0,
           help="wheel-rail: standard uncertainty of the measured area (mm2, default 0)")
-    local(p, "--rail", default="60E2", help="rail profile: 60E2 (default), 60E1 or a CSV file")
-    local(p, "--wheel", default="S1002", help="wheel profile: S1002 (default) or a CSV file")
-    local(p, "--inclination", type=float, default=1 / 40, help="rail inclination (default 0.025 = 1:40)")
-    local(p, "--wheel-radius-mm", type=float, default=460.0, help="nominal rolling radius (default 460)")
+    add_wheel_rail_options(p)
     local(p, "--measured-radius-mm", type=float, help="sphere-on-flat: imprint radius on the film (mm)")
     add(p, "sphere_radius_mm", extra="(sphere-on-flat)")
     local(p, "--measurement-std-mm", type=float, default=0.0,
@@ -140,8 +137,8 @@ def run(args: argparse.Namespace) -> int:
         if area is None or args.offset_mm is None:
             raise ValueError("wheel-rail needs --measured-area-mm2 (or --scan) and --offset-mm")
         parts = correctors(study, args.film, "wheel-rail", random_state=args.seed,
-                           wheel_rail=dict(wheel=args.wheel, rail=args.rail, rail_inclination=args.inclination,
-                                           nominal_radius_mm=args.wheel_radius_mm), **match)
+                           wheel_rail=dict(wheel=args.wheel, rail=args.rail, rail_inclination=args.rail_inclination,
+                                           nominal_radius_mm=args.nominal_radius_mm), **match)
         parts[0][1].check_plausible(area, args.offset_mm, args.force_kn * 1e3)
         results = [c.correct(area, args.offset_mm, args.force_kn * 1e3, area_std) for _, c, _ in parts]
         corrector = max(parts, key=lambda part: part[0])[1]

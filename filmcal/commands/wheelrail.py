@@ -3,11 +3,9 @@ from __future__ import annotations
 
 import argparse
 import math
-from fractions import Fraction
 
-from filmcal._validation import check_range
 from filmcal.commands._common import print_json
-from filmcal.commands._options import add, local, renamed
+from filmcal.commands._options import add, add_wheel_rail_options, local, rail_inclination, renamed
 from filmcal.contact.names import DEFAULT_IMPRINT_MODEL, DEFAULT_KINEMATICS, IMPRINT_MODELS
 
 
@@ -27,10 +25,6 @@ def add_parser(subparsers) -> None:
                     "is positive (the two coincide for hard contact).")
     add(p, "offset_mm", required=True, extra="(the paper studies -7 to +2)")
     add(p, "force_kn", required=True, extra="(the vertical wheel load; the paper: 50 and 100)")
-    local(p, "--rail", default="60E2",
-          help="rail profile: 60E2 (default), 60E1, or a CSV file y_mm,z_mm in the rail's standard coordinates")
-    local(p, "--wheel", default="S1002",
-          help="wheel profile: S1002 (default) or a CSV file y_mm,z_mm in the wheel's standard coordinates")
     film = p.add_mutually_exclusive_group(required=True)
     add(film, "film_modulus_mpa", extra="(a calibrated value: `filmcal calibrate` or the study's report)")
     local(film, "--no-film", action="store_true", help="steel on steel, no film")
@@ -55,13 +49,7 @@ def add_parser(subparsers) -> None:
           help="image height map: height in um from black to full white")
     local(p, "--roughness-seed", type=int, default=0, help="seed of the synthetic rough surface (default 0)")
     local(p, "--hardness-mpa", type=float, help="cap on asperity pressures in the film (default 300 MPa, PET)")
-    local(p, "--inclination", default="1/40",
-          help="rail inclination as a fraction or a number, e.g. 1/40 (default), 1/20, 0.025, or 0 for an "
-               "upright rail")
-    local(p, "--wheel-radius-mm", type=float, default=460.0,
-          help="wheel rolling radius at the tape circle in mm (default 460)")
-    local(p, "--grid-mm", type=float, default=0.1,
-          help="cell size of the contact grid in mm (default 0.1, the film's resolution)")
+    add_wheel_rail_options(p, grid=True)
     add(p, "film", extra="; also report the area its imprint model colours (imprint_area_mm2); its thickness "
                          "and nu are the defaults of the film")
     add(p, "films_file")
@@ -77,19 +65,18 @@ def add_parser(subparsers) -> None:
 
 
 def parse_inclination(text: str) -> float:
-    """Rail inclination from '1/40', '0.025' or '0' (ValueError naming the option otherwise)."""
+    """Rail inclination from '1/40', '0.025' or '0' (ValueError otherwise; the option's type)."""
     try:
-        value = float(Fraction(str(text).strip()))
-    except (ValueError, ZeroDivisionError):
-        raise ValueError(f"inclination {text!r} is not a number or a fraction like 1/40") from None
-    return check_range("inclination", value, 0.0, 0.2, low_open=False)
+        return rail_inclination(text)
+    except argparse.ArgumentTypeError as exc:
+        raise ValueError(f"rail_inclination {exc}") from None
 
 
 def run(args: argparse.Namespace) -> int:
     """Solve the case and print the result."""
     from filmcal.wheelrail.film_contact import FilmContactCase, WheelRoughness, solve_film_contact
 
-    inclination = parse_inclination(args.inclination)
+    inclination = args.rail_inclination
     case = FilmContactCase(None if args.no_film else args.film_modulus_mpa, args.film_poisson,
                            args.film_thickness_mm, args.film, args.films_file, args.imprint_model, args.kinematics)
     roughness = WheelRoughness(args.wheel_roughness_ra_um, args.wheel_roughness_map, args.roughness_law,
@@ -97,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
                                args.roughness_seed, args.hardness_mpa)
     result, out = solve_film_contact(args.offset_mm, 1e3 * args.force_kn, case, roughness, wheel=args.wheel,
                                      rail=args.rail, rail_inclination=inclination,
-                                     nominal_radius_mm=args.wheel_radius_mm, grid_mm=args.grid_mm,
+                                     nominal_radius_mm=args.nominal_radius_mm, grid_mm=args.grid_mm,
                                      plot_path=args.plot)
     if args.json:
         print_json(out)

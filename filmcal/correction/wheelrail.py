@@ -28,6 +28,7 @@ import numpy as np
 
 from typing import Protocol, Sequence
 
+from filmcal.wheelrail.settings import GRID_MM, NOMINAL_RADIUS_MM, RAIL, RAIL_INCLINATION, WHEEL
 from filmcal.contact.film import FilmModel
 from filmcal.correction.sphere import CorrectedArea, _summarise
 
@@ -156,8 +157,8 @@ class WheelRailCorrector:
         kinematics may be given one shared `SupportAreas` (`share_supports`).
     """
 
-    def __init__(self, posterior: dict, film: FilmModel, wheel: str = "S1002", rail: str = "60E2",
-                 rail_inclination: float = 1 / 40, nominal_radius_mm: float = 460.0, grid_mm: float = 0.1,
+    def __init__(self, posterior: dict, film: FilmModel, wheel: str = WHEEL, rail: str = RAIL,
+                 rail_inclination: float = RAIL_INCLINATION, nominal_radius_mm: float = NOMINAL_RADIUS_MM, grid_mm: float = GRID_MM,
                  model_radius_std_mm: float = 0.01, max_samples: int = 2000, random_state=0) -> None:
         modulus = nominal_modulus_mpa(posterior, film.film.poisson)
         take = np.unique(np.linspace(0, len(modulus) - 1, min(len(modulus), max_samples)).round().astype(int))

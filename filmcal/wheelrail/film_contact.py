@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from filmcal.wheelrail.settings import GRID_MM, NOMINAL_RADIUS_MM, RAIL, RAIL_INCLINATION, WHEEL
 from filmcal._validation import check_positive, check_range
 from filmcal.contact.names import DEFAULT_IMPRINT_MODEL, DEFAULT_KINEMATICS
 
@@ -120,9 +121,9 @@ class FilmContactCase:
 
 
 def solve_film_contact(offset_mm: float, force_n: float, case: FilmContactCase,
-                       roughness: WheelRoughness | None = None, *, wheel="S1002", rail="60E2",
-                       rail_inclination: float = 1 / 40, nominal_radius_mm: float = 460.0,
-                       grid_mm: float = 0.1, plot_path: str | Path | None = None):
+                       roughness: WheelRoughness | None = None, *, wheel=WHEEL, rail=RAIL,
+                       rail_inclination: float = RAIL_INCLINATION, nominal_radius_mm: float = NOMINAL_RADIUS_MM,
+                       grid_mm: float = GRID_MM, plot_path: str | Path | None = None):
     """Solve a wheel-rail contact with (or without) a film; return ``(result, summary)``.
 
     The film's law (linear springs t/M or the large-strain law) and the wheel's roughness law in series

@@ -43,6 +43,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from filmcal.wheelrail.settings import NOMINAL_RADIUS_MM, RAIL, RAIL_INCLINATION, WHEEL
 from filmcal._validation import as_finite, check_positive, check_range
 from filmcal.wheelrail.profiles import Profile, get_profile
 
@@ -85,7 +86,7 @@ class ContactPoint:
     rail_curvature_per_mm: float
 
 
-def offset_range_mm(wheel: Profile, rail: Profile, rail_inclination: float = 1.0 / 40.0) -> tuple[float, float]:
+def offset_range_mm(wheel: Profile, rail: Profile, rail_inclination: float = RAIL_INCLINATION) -> tuple[float, float]:
     """Offsets eta for which the wheel profile spans the whole (inclined) rail profile laterally.
 
     Returns
@@ -240,9 +241,9 @@ def _resolve(profile: Profile | str, kind: str) -> Profile:
     return p
 
 
-def place_wheel_on_rail(wheel: Profile | str = "S1002", rail: Profile | str = "60E2",
-                        offset_mm: float = 0.0, rail_inclination: float = 1.0 / 40.0,
-                        nominal_radius_mm: float = 460.0, tolerance_mm: float = 0.1,
+def place_wheel_on_rail(wheel: Profile | str = WHEEL, rail: Profile | str = RAIL,
+                        offset_mm: float = 0.0, rail_inclination: float = RAIL_INCLINATION,
+                        nominal_radius_mm: float = NOMINAL_RADIUS_MM, tolerance_mm: float = 0.1,
                         resolution_mm: float = 0.01) -> WheelRailPlacement:
     """Place the wheel over the inclined rail at lateral offset eta and find the contact points.
 

@@ -83,6 +83,7 @@ from typing import Iterable, Mapping
 import numpy as np
 from scipy import ndimage
 
+from filmcal.wheelrail.settings import GRID_MM, GRID_MM_RANGE, NOMINAL_RADIUS_MM, RAIL, RAIL_INCLINATION, WHEEL
 from filmcal._validation import as_finite, check_positive, check_range
 from filmcal.wheelrail.edge import EdgeReading, EdgeWindow, patch_ring_areas_mm2, read_fitted_outline
 from filmcal.wheelrail.halfspace import ContactResult, HalfSpaceContactSolver, SurfaceGrid
@@ -627,11 +628,11 @@ class WheelRailModel:
     costs the contact solutions only.
     """
 
-    def __init__(self, wheel: str | Profile = "S1002", rail: str | Profile = "60E2",
-                 rail_inclination: float = 1.0 / 40.0, nominal_radius_mm: float = 460.0, *,
-                 grid_mm: float = 0.1, solver: HalfSpaceContactSolver | None = None,
+    def __init__(self, wheel: str | Profile = WHEEL, rail: str | Profile = RAIL,
+                 rail_inclination: float = RAIL_INCLINATION, nominal_radius_mm: float = NOMINAL_RADIUS_MM, *,
+                 grid_mm: float = GRID_MM, solver: HalfSpaceContactSolver | None = None,
                  window: EdgeWindow = EdgeWindow()) -> None:
-        self.grid_mm = check_range("grid_mm", grid_mm, 0.01, 1.0, low_open=False,
+        self.grid_mm = check_range("grid_mm", grid_mm, *GRID_MM_RANGE, low_open=False,
                                    high_open=False)
         self.rail_inclination = check_range("rail_inclination", rail_inclination, 0.0, 0.2,
                                             low_open=False)
@@ -907,9 +908,9 @@ def _as_case(case) -> WheelRailCase:
 _MODELS: "OrderedDict[tuple, WheelRailModel]" = OrderedDict()
 
 
-def get_wheel_rail_model(wheel: str | Profile = "S1002", rail: str | Profile = "60E2",
-                         rail_inclination: float = 1.0 / 40.0, nominal_radius_mm: float = 460.0,
-                         grid_mm: float = 0.1, tol: float = 1e-9) -> WheelRailModel:
+def get_wheel_rail_model(wheel: str | Profile = WHEEL, rail: str | Profile = RAIL,
+                         rail_inclination: float = RAIL_INCLINATION, nominal_radius_mm: float = NOMINAL_RADIUS_MM,
+                         grid_mm: float = GRID_MM, tol: float = 1e-9) -> WheelRailModel:
     """A :class:`WheelRailModel` for these settings, built once per process (LRU of 4).
 
     `tol` is the solver's tolerance (`HalfSpaceContactSolver`); sweeps use 1e-6,
@@ -928,10 +929,10 @@ def get_wheel_rail_model(wheel: str | Profile = "S1002", rail: str | Profile = "
     return model
 
 
-def solve_wheel_rail(offset_mm: float, force_n: float, *, wheel: str | Profile = "S1002",
-                     rail: str | Profile = "60E2", rail_inclination: float = 1.0 / 40.0,
-                     nominal_radius_mm: float = 460.0, film: FilmLayer | None = None,
-                     roughness: InterfaceLaw | None = None, grid_mm: float = 0.1,
+def solve_wheel_rail(offset_mm: float, force_n: float, *, wheel: str | Profile = WHEEL,
+                     rail: str | Profile = RAIL, rail_inclination: float = RAIL_INCLINATION,
+                     nominal_radius_mm: float = NOMINAL_RADIUS_MM, film: FilmLayer | None = None,
+                     roughness: InterfaceLaw | None = None, grid_mm: float = GRID_MM,
                      region: ContactRegion | None = None,
                      initial: WheelRailResult | None = None) -> WheelRailResult:
     """Wheel-rail normal contact at lateral offset eta under vertical load F.
@@ -977,9 +978,9 @@ def solve_wheel_rail(offset_mm: float, force_n: float, *, wheel: str | Profile =
 
 
 def solve_wheel_rail_many(cases: Iterable[WheelRailCase | Mapping | tuple], *,
-                          wheel: str | Profile = "S1002", rail: str | Profile = "60E2",
-                          rail_inclination: float = 1.0 / 40.0, nominal_radius_mm: float = 460.0,
-                          grid_mm: float = 0.1, warm_start: bool = True) -> list[WheelRailResult]:
+                          wheel: str | Profile = WHEEL, rail: str | Profile = RAIL,
+                          rail_inclination: float = RAIL_INCLINATION, nominal_radius_mm: float = NOMINAL_RADIUS_MM,
+                          grid_mm: float = GRID_MM, warm_start: bool = True) -> list[WheelRailResult]:
     """Solve many (offset_mm, force_n, film, roughness) cases with one cached model.
 
     See :meth:`WheelRailModel.solve_many`.
