@@ -1,8 +1,10 @@
-"""Shared contact readings: what a pressure film records, edges, levels and outline areas.
+"""What a film is and records: film laws, imprint models and their readings, roughness, contact options.
 
 A ground-floor package: the FE model (`filmcal.fem`) and the wheel-rail model
-(`filmcal.wheelrail`) both read their pressure fields through it, so that an
-imprint means the same thing everywhere.
+(`filmcal.wheelrail`) both take their film from it (`film.FilmModel`, the laws of
+`laws`) and read their pressure fields through it (`imprint`, `reading`), so that
+a film and an imprint mean the same thing everywhere; it imports neither model
+(docs/film-law.md).
 """
 from filmcal.contact.geometry import outline_area_mm2, ring_signed_area_mm2
 from filmcal.contact.imprint import (CAPSULE_RANGE_QUANTILE, DEFAULT_IMPRINT_MODEL, IMPRINT_MODELS,
