@@ -536,3 +536,29 @@ def test_command_options_are_checked_before_anything_is_written(tmp_path, monkey
     err = capsys.readouterr().err
     assert status == 2 and message in err and err.count("\n") == 1, err
     assert not (tmp_path / "runs.sqlite").exists() and not (tmp_path / "runs.work").exists()
+
+
+def test_a_linked_point_folder_is_unlinked_not_followed(tmp_path):
+    """--retry-failed empties a point's folder: a symbolic link in its place must go, not its target."""
+    from filmcal.campaign import CommandModel
+
+    keep = tmp_path / "precious"
+    keep.mkdir()
+    (keep / "data.txt").write_text("mine")
+    work = tmp_path / "work"
+    work.mkdir()
+    (work / "p1").symlink_to(keep, target_is_directory=True)
+    model = CommandModel("echo '{\"contact_radius_mm\": 1.5}'", work)
+    out = model({"x": 1.0}, point_id="p1")
+    assert out["contact_radius_mm"] == 1.5
+    assert (keep / "data.txt").read_text() == "mine" and not (work / "p1").is_symlink()
+
+
+def test_a_store_reached_through_a_link_takes_the_same_lock(tmp_path):
+    from filmcal.campaign.lock import lock_path_for
+
+    store = tmp_path / "runs.sqlite"
+    store.touch()
+    link = tmp_path / "alias.sqlite"
+    link.symlink_to(store)
+    assert lock_path_for(link) == lock_path_for(store) == tmp_path / "runs.sqlite.lock"

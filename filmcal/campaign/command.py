@@ -272,8 +272,12 @@ class CommandModel:
         """
         if point_id is None:
             point_id = hashlib.sha256(json.dumps(dict(params), sort_keys=True).encode()).hexdigest()[:16]
-        work_dir = (self.work_root / point_id).resolve()
-        if work_dir.exists():
+        # the point's own folder, never what a link in its place points to: a link (or a file) there is
+        # removed as such, and only a real folder of the work root is emptied
+        work_dir = self.work_root.resolve() / point_id
+        if work_dir.is_symlink() or work_dir.is_file():
+            work_dir.unlink()
+        elif work_dir.exists():
             shutil.rmtree(work_dir)
         work_dir.mkdir(parents=True)
         values: dict[str, DesignValue] = {**params, "point_id": point_id, "work_dir": str(work_dir)}

@@ -56,8 +56,12 @@ class LockHolder:
 
 
 def lock_path_for(store_path: str | os.PathLike) -> Path:
-    """The lock file of a store: ``<store>.lock`` beside it."""
-    path = Path(store_path)
+    """The lock file of a store: ``<store>.lock`` beside the file itself.
+
+    Named after the store's real path, so that two campaigns reaching one store through different paths (a
+    symbolic link, ``..``) take the same lock.
+    """
+    path = Path(os.path.realpath(store_path))
     return path.with_name(path.name + ".lock")
 
 
