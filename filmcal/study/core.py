@@ -739,7 +739,9 @@ def chosen_posteriors(study: Study, film: str, *, model: str | None = None,
     correction is then their mixture. Several posteriors and no comparison is
     an error that names the options that tell them apart.
     """
-    found = study.posteriors(film, model=model, **match)
+    # in the order of the models' names, not of the manifest (which follows the workers' finishing order):
+    # a mixture's draws, and so its answer, must not depend on which calibration finished first
+    found = sorted(study.posteriors(film, model=model, **match), key=lambda ps: (ps[1]["model"], ps[0].name))
     if not found:
         study.posterior(film, model=model, **match)  # raises the message that says what to run
     if len(found) == 1:
