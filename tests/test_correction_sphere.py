@@ -61,3 +61,12 @@ def test_bad_input():
         c.correct(-1.0, 450.0, 75e3)
     with pytest.raises(ValueError, match="measurement_std_mm"):
         c.correct(7.0, 450.0, 75e3, measurement_std_mm=-0.1)
+
+
+def test_an_uncertainty_as_large_as_the_measurement_is_refused():
+    """`correct --measurement-std-mm 1e308` printed 'inf +/- nan'; an uncertainty >= the radius is a unit error."""
+    c = SphereCorrector(ConstantEnlargement(1.0), posterior())
+    for std in (7.0, 1e308):
+        with pytest.raises(ValueError, match="smaller than the measured radius"):
+            c.correct(7.0, 450.0, 75e3, measurement_std_mm=std)
+    assert np.isfinite(c.correct(7.0, 450.0, 75e3, measurement_std_mm=6.9).area_std_mm2)

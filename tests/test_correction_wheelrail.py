@@ -87,3 +87,19 @@ def test_command_uses_the_study_posterior_and_refuses_nonsense(quick_study, tmp_
         assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1, (what, bad.stderr)
         assert "Traceback" not in bad.stderr
     assert not (tmp_path / "typo").exists()  # no study was started
+
+
+def test_an_area_uncertainty_as_large_as_the_area_is_refused_before_any_solve():
+    """`correct --measurement-std-mm2 1e308` printed 'inf +/- nan' with exit 0."""
+    import numpy as np
+
+    from filmcal.contact.film import FilmModel
+    from filmcal.correction.wheelrail import WheelRailCorrector
+    from filmcal.films import get_film
+
+    n = 200
+    c = WheelRailCorrector({"modulus_mpa": np.full(n, 2800.0), "sigma_mm": np.full(n, 0.01)},
+                           FilmModel(get_film("HS"), "edge", "small"))
+    for std in (150.0, 1e308):
+        with pytest.raises(ValueError, match="smaller than the measured area"):
+            c.correct(150.0, -3.0, 100e3, measurement_std_mm2=std)

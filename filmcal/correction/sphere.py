@@ -154,6 +154,9 @@ class SphereCorrector:
                 raise ValueError(f"{name} must be finite and > 0")
         if not np.all(np.isfinite(u)) or np.any(u < 0):
             raise ValueError("measurement_std_mm must be finite and >= 0")
+        if np.any(u >= r_m):
+            raise ValueError("measurement_std_mm must be smaller than the measured radius (an uncertainty as large as "
+                             "the measurement leaves nothing to correct): check the units")
         shape = r_m.shape
         e = self.modulus_mpa_[None, :]
         mean, std = self.model.predict(e, self.poisson_[None, :], R.reshape(-1, 1), F.reshape(-1, 1))

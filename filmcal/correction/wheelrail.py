@@ -258,6 +258,9 @@ class WheelRailCorrector:
             raise ValueError("measured_area_mm2 must be finite and > 0")
         if not np.all(np.isfinite(u)) or np.any(u < 0):
             raise ValueError("measurement_std_mm2 must be finite and >= 0")
+        if np.any(u >= A):
+            raise ValueError("measurement_std_mm2 must be smaller than the measured area (an uncertainty as large as "
+                             "the measurement leaves nothing to correct): check the units")
         rng = np.random.default_rng(self.random_state)
         n = len(self.modulus_mpa_)
         samples = np.empty(A.shape + (n,))
