@@ -170,6 +170,9 @@ CASES = [
     (["calibrate", "--film", "", "--study-dir", "emptystudy"], ["film"]),
     (["calibrate", "--film", "HS", "--forces-kn", "abc", "--study-dir", "emptystudy"], ["--forces-kn"]),
     (["calibrate", "--film", "HS", "--forces-kn", "100-50", "--study-dir", "emptystudy"], ["--forces-kn"]),
+    # no data left in the range: refused before the FE work (was a traceback and exit 70 after it)
+    (["calibrate", "--film", "HS", "--forces-kn", "1000-2000", "--study-dir", "emptystudy"],
+     ["--forces-kn", "at least 2"]),
     (["calibrate", "--film", "LOT7", "--films-file", "films.toml", "--study-dir", "emptystudy"], ["films.toml"]),
     (["calibrate", "--film", "LOT7", "--films-file", "notoml.toml", "--study-dir", "emptystudy"], ["notoml.toml"]),
     (["calibrate", "--film", "HS", "--data", "binary.csv", "--study-dir", "emptystudy"], ["binary.csv"]),

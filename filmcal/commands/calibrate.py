@@ -89,6 +89,7 @@ def run(args: argparse.Namespace) -> int:
     spec = replace(spec, fe=replace(spec.fe, film_thickness_mm=film.thickness_mm))
     mixture = args.imprint_model == MIXTURE
     imprints = list(imprint_models_for(film)) if mixture else [args.imprint_model]
+    study.dataset_rows(film.name, args.forces_kn, args.data)  # enough data? refused before anything is written
     with study.writing("filmcal calibrate"):
         calibrated = {}
         for imprint in imprints:

@@ -529,9 +529,14 @@ class Study:
         if recorded is not None and recorded["sha256"] != meta["sha256"]:
             raise InputError(f"dataset {ds.source} differs from the one this study was made with "
                              f"({recorded['source']}, sha256 {recorded['sha256'][:12]}...); use another --study-dir")
+        rows = ds.select(film, loads)
+        if len(rows) < 2:
+            where = f" with forces in {loads} kN" if loads else ""
+            raise InputError(f"dataset {ds.name} has {len(rows)} row(s) of film {film}{where}; a calibration needs "
+                             "at least 2 (check --film and --forces-kn)")
         if recorded is None and self._lock.held:
             self.manifest.data["dataset"] = meta
-        return ds.select(film, loads), meta
+        return rows, meta
 
     def problem(self, posterior_path: Path):
         """The calibration problem (data, radius model, priors, options) of a recorded posterior."""
