@@ -154,3 +154,19 @@ def test_fe_film_tangent_is_the_derivative_of_its_internal_force():
                     - film_internal_force_and_tangent(basis, Material, u - step)[0]) / (2 * h)
     assert np.abs(K - fd).max() <= 1e-6 * np.abs(K).max()
     assert np.allclose(K, K.T, rtol=0, atol=1e-9 * np.abs(K).max())
+
+
+def test_large_strain_law_stays_finite_far_beyond_the_film_modulus():
+    """p = 10^4 E crushed a 0.1 MPa film's Newton start p/M into sinh overflow (NaN, then an IndexError in the
+    wheel-rail solver); from the bound ln(1 + p/mu) the root is found, and it is the root: p(s(p)) = p."""
+    import warnings
+
+    from filmcal.contact.laws import FilmLayer, LargeStrainFilm
+
+    law = LargeStrainFilm.from_film(FilmLayer(0.1, 0.33, 0.09))
+    p = np.array([1e-3, 0.1, 10.0, 1e3, 1e5])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        s = law.log_compression(p)
+    assert np.all(np.isfinite(s)) and np.all(np.diff(s) > 0)
+    np.testing.assert_allclose(law._pressure_of_log(s), p, rtol=1e-10)

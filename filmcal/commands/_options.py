@@ -63,7 +63,9 @@ VOCABULARY: dict[str, Concept] = _concepts(
     Concept("films", "film types, comma-separated", metavar="NAMES"),
     Concept("films_file", "user film types (TOML: name, activation pressure or range, thickness, nu)",
             metavar="TOML"),
-    Concept("film_modulus_mpa", "film Young's modulus E in MPa", float, _POSITIVE),
+    # a Prescale film's E lies in the hundreds to thousands of MPa; 1 MPa to 1 TPa covers every film and
+    # keeps a unit error (Pa, GPa) from a confident answer
+    Concept("film_modulus_mpa", "film Young's modulus E in MPa", float, (1.0, 1e6)),
     Concept("film_poisson", "film Poisson's ratio nu", float, (-0.999, 0.499)),
     Concept("film_thickness_mm", "film thickness in mm", float, (0.001, 5.0)),
     Concept("imprint_model", "what the film records: edge (the whole contact), activation (where the pressure "

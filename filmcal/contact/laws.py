@@ -515,9 +515,14 @@ class LargeStrainFilm(InterfaceLaw):
         return 2.0 * self._mu * np.cosh(s) + self._lam * (1.0 + s) * np.exp(s)
 
     def log_compression(self, pressure_mpa: np.ndarray) -> np.ndarray:
-        """``s = -ln(lambda)`` at pressures ``p >= 0`` (Newton from ``p/M``, an upper bound)."""
+        """``s = -ln(lambda)`` at pressures ``p >= 0`` (Newton from an upper bound).
+
+        Two upper bounds of the root: ``p / M`` (``p(s) >= M s``, convex) and ``ln(1 + p / mu)``
+        (``p(s) >= mu (e^s - 1)``); Newton from the smaller falls monotonically onto the root, and the second
+        keeps ``sinh`` and ``exp`` finite for pressures far beyond the film's modulus.
+        """
         p = np.clip(np.asarray(pressure_mpa, dtype=float), 0.0, None)
-        s = p / self.oedometric_modulus_mpa  # p(s) >= M s (convex): Newton falls monotonically
+        s = np.minimum(p / self.oedometric_modulus_mpa, np.log1p(p / self._mu))
         for _ in range(100):
             step = (self._pressure_of_log(s) - p) / self._slope_of_log(s)
             s = np.maximum(s - step, 0.0)

@@ -734,6 +734,9 @@ class WheelRailModel:
         placement = geo.placement
         e_star = self.solver.contact_modulus_mpa
         delta_box = 1.1 * _approach_estimate(placement.contact, force, e_star, film, roughness)
+        if not (math.isfinite(delta_box) and delta_box > 0):
+            raise ValueError("film_modulus_mpa: the film is too soft for this load: its compression has no finite "
+                             "estimate (a Prescale film's E is of the order of 10^2-10^4 MPa); check the units")
         previous = None if initial is None else initial.contact
         spacing_x = spacing_s = self.grid_mm
         enclosed = resolved = False
