@@ -444,17 +444,17 @@ def main(argv: list[str] | None = None) -> int:
             sys.stderr.write("filmcal: internal error while building the command line; this is a bug in "
                              "filmcal, please report it with the traceback above\n")
             return EXIT_INTERNAL
-        if not argv:
-            parser.print_usage(sys.stderr)
-            sys.stderr.write("filmcal: error: a command is required (filmcal --help lists them)\n")
+        if not argv:  # one line, as every refusal: the commands are in --help
+            sys.stderr.write(f"filmcal: error: a command is required ({', '.join(command_modules())}; "
+                             "filmcal --help says what each does)\n")
             return EXIT_USER
         args = parser.parse_args(argv)
     except KeyboardInterrupt:
         sys.stderr.write("filmcal: interrupted\n")
         return EXIT_INTERRUPTED
     if not getattr(args, "func", None):
-        parser.print_usage(sys.stderr)
-        sys.stderr.write("filmcal: error: a command is required (filmcal --help lists them)\n")
+        sys.stderr.write(f"filmcal: error: a command is required ({', '.join(command_modules())}; "
+                         "filmcal --help says what each does)\n")
         return EXIT_USER
     path = [args.command] + ([args.action] if isinstance(getattr(args, "action", None), str) else [])
     prog = "filmcal " + " ".join(path)

@@ -76,3 +76,11 @@ def test_every_checked_path_option_exists():
     walk(parser)
     for name in (*cli.OUTPUT_FILE_DESTS, *cli.OUTPUT_DIR_DESTS, *cli.INPUT_FILE_DESTS, *cli.GRID_BOUNDS):
         assert name in dests, name
+
+
+def test_no_command_is_one_line_naming_the_commands(capsys):
+    from filmcal import cli
+
+    assert cli.main([]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "pipeline" in err[0] and "correct" in err[0]
