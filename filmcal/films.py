@@ -36,6 +36,11 @@ FILM_THICKNESS_MM = 0.09
 FILM_POISSON = 0.33
 
 
+#: The highest pressure a film type may name (MPa): a margin over the Prescale range (HHS: 130-300 MPa), so
+#: that a unit error (kPa, Pa) is refused rather than read as a film that never colours.
+MAX_FILM_PRESSURE_MPA = 1000.0
+
+
 @dataclass(frozen=True)
 class FilmType:
     """One film type.
@@ -72,16 +77,21 @@ class FilmType:
                              f"slashes, got {self.name!r}")
         if self.range_mpa is not None:
             lo, hi = (float(v) for v in self.range_mpa)
-            if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):
-                raise ValueError(f"film {self.name}: range_mpa must be two finite pressures 0 < lo < hi, "
+            if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi <= MAX_FILM_PRESSURE_MPA):
+                raise ValueError(f"film {self.name}: range_mpa must be two finite pressures 0 < lo < hi <= "
+                                 f"{MAX_FILM_PRESSURE_MPA:g}, "
                                  f"got {list(self.range_mpa)}")
             object.__setattr__(self, "range_mpa", (lo, hi))
             if self.activation_pressure_mpa is None:
                 object.__setattr__(self, "activation_pressure_mpa", lo)
         if self.activation_pressure_mpa is not None:
             act = float(self.activation_pressure_mpa)
-            if not (math.isfinite(act) and act > 0):
-                raise ValueError(f"film {self.name}: activation_pressure_mpa must be finite and > 0, got {act}")
+            if not (math.isfinite(act) and 0 < act <= MAX_FILM_PRESSURE_MPA):
+                raise ValueError(f"film {self.name}: activation_pressure_mpa must be in (0, {MAX_FILM_PRESSURE_MPA:g}] "
+                                 f"MPa (Prescale films colour between a few kPa and 300 MPa), got {act:g}")
+            if self.range_mpa is not None and not self.range_mpa[0] <= act <= self.range_mpa[1]:
+                raise ValueError(f"film {self.name}: activation_pressure_mpa {act:g} lies outside its range_mpa "
+                                 f"{list(self.range_mpa)}: a film starts colouring within its range")
             object.__setattr__(self, "activation_pressure_mpa", act)
         t = float(self.thickness_mm)
         if not (math.isfinite(t) and 0 < t <= 5):

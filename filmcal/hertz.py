@@ -151,3 +151,14 @@ def hertz_pressure_mpa(r_mm, sphere_radius_mm: float, force_n: float, modulus_mp
     p0 = hertz_max_pressure_mpa(sphere_radius_mm, force_n, modulus_mpa, poisson, modulus2_mpa, poisson2)
     r = np.asarray(r_mm, dtype=float)
     return p0 * np.sqrt(np.clip(1.0 - (r / a) ** 2, 0.0, None))
+
+
+def plausible_imprint_radius_mm(hertz_radius: float | np.ndarray) -> tuple:
+    """The range of imprint radii a film can print around a Hertz radius a_H: ``[a_H / 2, 1.5 a_H + 5 mm]``.
+
+    Steel on steel, a film enlarges the Hertz radius by at most a few millimetres (Table 1 of the reference
+    paper: up to 2.8 mm for the softest film) and never shrinks it by half; outside this range a radius is a
+    unit or typing error. The one rule of datasets and correctors alike.
+    """
+    a = np.asarray(hertz_radius, dtype=float)
+    return 0.5 * a, 1.5 * a + 5.0

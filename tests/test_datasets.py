@@ -147,3 +147,26 @@ def test_hash_follows_the_bytes(tmp_path):
     assert one.sha256 == hashlib.sha256(text.encode()).hexdigest()
     assert one.sha256 != two.sha256
     assert one.name == "a" and one.source.endswith("a.csv")
+
+
+@pytest.mark.parametrize("fields, words", [
+    ({"activation_pressure_mpa": 500.0, "range_mpa": (45.0, 120.0)}, "outside its range_mpa"),
+    ({"activation_pressure_mpa": 1e9}, "activation_pressure_mpa must be in"),
+    ({"range_mpa": (45.0, 5e4)}, "range_mpa must be"),
+])
+def test_a_film_type_outside_the_physics_is_refused(fields, words):
+    """Accepted before: activation 500 MPa beside a 45-120 MPa range, and 1e9 MPa (an imprint of 0.0, exit 0)."""
+    with pytest.raises(ValueError, match=words):
+        FilmType("LOT7", **fields)
+    # the packaged films themselves are within the rules (Prescale's own data sheet ranges)
+    assert FilmType("OK", activation_pressure_mpa=45.0, range_mpa=(45.0, 120.0)).activation_pressure_mpa == 45.0
+
+
+def test_a_dataset_radius_no_film_could_print_is_refused(tmp_path):
+    """`HS,450,75,1000` (a radius error of 1000 mm) was accepted and gave sigma = 627 mm."""
+    path = tmp_path / "lab.csv"
+    path.write_text("film,sphere_radius_mm,force_kn,radius_error_mm\nHS,450,75,1.1\nHS,450,75,1000\n")
+    with pytest.raises(ValueError, match="check the units"):
+        load_dataset(path)
+    path.write_text("film,sphere_radius_mm,force_kn,radius_error_mm\nHS,450,75,1.1\nHS,450,75,1.2\n")
+    assert len(load_dataset(path)) == 2

@@ -50,7 +50,7 @@ import numpy as np
 
 from filmcal.calibration.data import _FIELDS, RadiusErrorData, parse_load_range
 from filmcal.films import FILM_TYPES, FilmType
-from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, hertz_radius_mm
+from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, hertz_radius_mm, plausible_imprint_radius_mm
 
 __all__ = ["Dataset", "load_dataset", "load_table1", "PACKAGED_DATASETS", "REQUIRED_COLUMNS", "MEASURED_COLUMNS",
            "OPTIONAL_COLUMNS"]
@@ -297,6 +297,13 @@ def _parse(raw: bytes, name: str, source: str) -> Dataset:
         if bad.size:
             raise where.error(f"gives a measured radius {radius[bad[0]]:g} mm <= 0 (Hertz radius "
                               f"{hertz[bad[0]]:.4g} mm)", lines[bad[0]], measured_column)
+    lo, hi = plausible_imprint_radius_mm(hertz)
+    bad = np.flatnonzero((radius < lo) | (radius > hi))
+    if bad.size:
+        i = bad[0]
+        raise where.error(f"gives a measured radius {radius[i]:g} mm where a film imprint lies within "
+                          f"{lo[i]:.2f}-{hi[i]:.2f} mm (Hertz radius {hertz[i]:.3f} mm): check the units",
+                          lines[i], measured_column)
     data = RadiusErrorData(
         film=np.asarray(cols["film"]), sphere_radius_mm=arrays["sphere_radius_mm"], force_n=arrays["force_n"],
         radius_error_mm=arrays["measured"] if measured_column == "radius_error_mm" else radius - hertz,

@@ -122,18 +122,17 @@ class SphereCorrector:
     def check_plausible(measured_radius_mm: float, sphere_radius_mm: float, force_n: float) -> None:
         """Refuse a measured radius that no film could print for this sphere and force.
 
-        Steel on steel, a film enlarges the Hertz radius a_H by at most a few
-        millimetres (Table 1: up to 2.8 mm for the softest film) and never shrinks
-        it by half: radii outside [a_H / 2, 1.5 a_H + 5 mm] are taken as a unit or
-        typing error. Every caller (a command, a batch row, a served request) meets this rule here.
+        The rule is `filmcal.hertz.plausible_imprint_radius_mm` (datasets meet the same). Every caller (a
+        command, a batch row, a served request) meets it here.
         """
-        from filmcal.hertz import hertz_radius_mm
+        from filmcal.hertz import hertz_radius_mm, plausible_imprint_radius_mm
 
         a_h = float(hertz_radius_mm(sphere_radius_mm, force_n))
-        if not 0.5 * a_h <= measured_radius_mm <= 1.5 * a_h + 5.0:
+        lo, hi = (float(v) for v in plausible_imprint_radius_mm(a_h))
+        if not lo <= measured_radius_mm <= hi:
             raise ValueError(f"measured_radius_mm {measured_radius_mm:g} is implausible for R = "
                              f"{sphere_radius_mm:g} mm and F = {force_n / 1e3:g} kN (Hertz radius {a_h:.2f} mm; a "
-                             f"film imprint lies within {0.5 * a_h:.2f}-{1.5 * a_h + 5:.2f} mm): check the units")
+                             f"film imprint lies within {lo:.2f}-{hi:.2f} mm): check the units")
 
     def correct(self, measured_radius_mm, sphere_radius_mm, force_n, measurement_std_mm=0.0) -> CorrectedArea:
         """The contact area without film behind measured imprint radii (vectorised).
