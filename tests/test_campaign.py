@@ -442,3 +442,19 @@ def test_cli_model_option_imports_by_name_only(tmp_path, capsys):
         assert run_cli(["campaign", "run", "--design", str(design), "--store", str(tmp_path / "s.sqlite"),
                         "--simulator-python", spec]) == 2
         assert message in capsys.readouterr().err
+
+
+def test_a_design_with_a_byte_order_mark_reads_its_first_column(tmp_path):
+    """A spreadsheet's UTF-8 BOM made the first column '\\ufeffmodulus_mpa' (misread as unknown)."""
+    path = tmp_path / "d.csv"
+    path.write_bytes("modulus_mpa,poisson,sphere_radius_mm,force_kn\n2800,0.33,450,75\n".encode("utf-8-sig"))
+    assert read_design_csv(path) == [{"modulus_mpa": 2800.0, "poisson": 0.33, "sphere_radius_mm": 450.0,
+                                      "force_kn": 75.0}]
+
+
+def test_export_escapes_text_a_spreadsheet_would_run(tmp_path):
+    """A reason or label starting with '=' or '@' was exported as it was: a formula in a spreadsheet."""
+    from filmcal.campaign.store import _cell
+
+    assert _cell("=HYPERLINK(1)") == "'=HYPERLINK(1)" and _cell("@SUM(A1)") == "'@SUM(A1)"
+    assert _cell(-3.5) == "-3.5" and _cell(-3) == "-3" and _cell("timeout after 2 s") == "timeout after 2 s"

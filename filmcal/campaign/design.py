@@ -172,7 +172,8 @@ def read_design_csv(path: str | os.PathLike) -> list[dict[str, DesignValue]]:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"design file not found: {path}")
-    with path.open(newline="") as stream:
+    # utf-8-sig: a spreadsheet's byte-order mark is not part of the first column's name
+    with path.open(newline="", encoding="utf-8-sig") as stream:
         reader = csv.DictReader(stream)
         if not reader.fieldnames:
             raise ValueError(f"design file {path} has no header row")

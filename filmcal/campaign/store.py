@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import csv
 import json
+import numbers
 import math
 import os
 import sqlite3
@@ -497,11 +498,16 @@ def _union(mappings: Iterable[Mapping[str, Any]]) -> list[str]:
 
 
 def _cell(value: Any) -> str:
-    """A CSV cell: empty for missing, true/false for booleans, repr for floats."""
+    """A CSV cell: empty for missing, true/false for booleans, repr for floats.
+
+    Text that a spreadsheet would run as a formula (starting with =, +, -, @, a tab or a carriage return)
+    is written with a leading apostrophe; numbers are numbers and never escaped.
+    """
     if value is None:
         return ""
     if isinstance(value, bool):
         return "true" if value else "false"
-    if isinstance(value, float):
-        return repr(value)
-    return str(value)
+    if isinstance(value, numbers.Real):
+        return repr(float(value)) if isinstance(value, float) else str(value)
+    text = str(value)
+    return "'" + text if text[:1] in ("=", "+", "-", "@", "\t", "\r") else text
