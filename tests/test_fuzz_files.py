@@ -278,7 +278,8 @@ def _process(*args: str, **kw) -> subprocess.CompletedProcess:
 
 def test_as_processes(tmp_path):
     p = _process()
-    assert p.returncode == 2 and p.stdout == "" and p.stderr.startswith("usage: filmcal")
+    assert p.returncode == 2 and p.stdout == "" and len(p.stderr.splitlines()) == 1
+    assert p.stderr.startswith("filmcal: error: a command is required")
     p = _process("doe", "--samples", "100000", "--param", "a=0:1", "--out", str(tmp_path / "d.csv"))
     assert p.returncode == 2 and len(p.stderr.splitlines()) == 1 and "--samples" in p.stderr
     p = _process("campaign", "status", "--store", str(tmp_path))

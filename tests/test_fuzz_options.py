@@ -317,10 +317,10 @@ def test_unwritable_or_odd_outputs(capsys, no_work, inputs, argv):
 
 # --- the command line as a whole ------------------------------------------------------
 
-def test_bare_filmcal_prints_usage_on_stderr_and_exits_2(capsys):
+def test_bare_filmcal_prints_one_line_on_stderr_and_exits_2(capsys):
     code, out, err = run(capsys, [])
     assert code == 2 and out == ""
-    assert err.startswith("usage: filmcal") and "Traceback" not in err
+    assert len(err.splitlines()) == 1 and err.startswith("filmcal: error: a command is required")
 
 
 def test_unknown_command_and_option(capsys, no_work):

@@ -2,8 +2,6 @@
 from __future__ import annotations
 
 import argparse
-import math
-from pathlib import Path
 
 from filmcal.commands._common import print_json
 from filmcal.commands._options import STUDY_IMPRINT_MODELS, add, add_wheel_rail_options, force_range, local, renamed, split_model
@@ -72,7 +70,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _check_imprint_options(args: argparse.Namespace) -> None:
+def _check_scan_options(args: argparse.Namespace) -> None:
     """--scan replaces the measured area or radius; its options need it."""
     if args.scan is not None and (args.measured_area_mm2 is not None or args.measured_radius_mm is not None):
         raise ValueError("give either --scan or --measured-area-mm2 / --measured-radius-mm, not both")
@@ -80,102 +78,44 @@ def _check_imprint_options(args: argparse.Namespace) -> None:
         for name in ("dpi", "mm_per_pixel", "threshold", "min_region_mm2", "outline_out"):
             if getattr(args, name) is not None:
                 raise ValueError(f"--{name.replace('_', '-')} needs --scan")
-    elif args.outline_out is not None and not Path(args.outline_out).resolve().parent.is_dir():
-        raise FileNotFoundError(f"folder of --outline-out not found: {Path(args.outline_out).parent}")
-
-
-def _read_imprint(args: argparse.Namespace):
-    from filmcal.correction import read_imprint
-
-    min_region = 1.0 if args.min_region_mm2 is None else args.min_region_mm2
-    return read_imprint(args.scan, dpi=args.dpi, mm_per_pixel=args.mm_per_pixel, threshold=args.threshold,
-                        min_region_mm2=min_region)
 
 
 def run(args: argparse.Namespace) -> int:
-    from filmcal.study import Study, correctors
+    from filmcal.study import Study
+    from filmcal.study.correct import ScanReading, SphereMeasurement, WheelRailMeasurement, correct_measurement
 
     sphere = args.measured_radius_mm is not None or args.sphere_radius_mm is not None
     wheel_rail = args.measured_area_mm2 is not None or args.offset_mm is not None
     if sphere == wheel_rail:
         raise ValueError("give either --measured-area-mm2 (or --scan) with --offset-mm (wheel-rail) or "
                          "--measured-radius-mm (or --scan) with --sphere-radius-mm (sphere on flat)")
-    _check_imprint_options(args)
+    _check_scan_options(args)
     if sphere and (args.sphere_radius_mm is None or (args.measured_radius_mm is None and args.scan is None)):
         raise ValueError("sphere-on-flat needs --measured-radius-mm (or --scan) and --sphere-radius-mm")
     if wheel_rail and (args.offset_mm is None or (args.measured_area_mm2 is None and args.scan is None)):
         raise ValueError("wheel-rail needs --measured-area-mm2 (or --scan) and --offset-mm")
-    for name in ("measured_area_mm2", "measured_radius_mm"):
-        value = getattr(args, name)
-        if value is not None and not (value > 0 and value < float("inf")):
-            raise ValueError(f"{name} must be finite and > 0, got {value}")
-    for name in ("measurement_std_mm2", "measurement_std_mm"):
-        if not getattr(args, name) >= 0:
-            raise ValueError(f"{name} must be >= 0, got {getattr(args, name)}")
-    study = Study(args.study_dir)  # an existing study: a mistyped folder is an error, not a new study
-    study.film(args.film)
-    imprint = None if args.scan is None else _read_imprint(args)
-    match = {"imprint": None if args.imprint_model == MIXTURE else args.imprint_model,
-             "kinematics": args.kinematics, "poisson": args.poisson, "loads": args.calibration_forces_kn}
-    corrector = None
     if sphere:
-        if imprint is not None:
-            radius = imprint.equivalent_radius_mm
-            radius_std = math.hypot(args.measurement_std_mm, imprint.area_std_mm2 / (2.0 * math.pi * radius))
-        else:
-            radius, radius_std = args.measured_radius_mm, args.measurement_std_mm
-        if radius is None or args.sphere_radius_mm is None:
-            raise ValueError("sphere-on-flat needs --measured-radius-mm (or --scan) and --sphere-radius-mm")
-        parts = correctors(study, args.film, "sphere", random_state=args.seed, **match)
-        parts[0][1].check_plausible(radius, args.sphere_radius_mm, args.force_kn * 1e3)
-        results = [c.correct(radius, args.sphere_radius_mm, args.force_kn * 1e3, radius_std) for _, c, _ in parts]
+        measurement = SphereMeasurement(args.measured_radius_mm, args.sphere_radius_mm, args.force_kn,
+                                        args.measurement_std_mm)
     else:
-        if imprint is not None:
-            area, area_std = imprint.area_mm2, math.hypot(args.measurement_std_mm2, imprint.area_std_mm2)
-        else:
-            area, area_std = args.measured_area_mm2, args.measurement_std_mm2
-        if area is None or args.offset_mm is None:
-            raise ValueError("wheel-rail needs --measured-area-mm2 (or --scan) and --offset-mm")
-        parts = correctors(study, args.film, "wheel-rail", random_state=args.seed,
-                           wheel_rail=dict(wheel=args.wheel, rail=args.rail, rail_inclination=args.rail_inclination,
-                                           nominal_radius_mm=args.nominal_radius_mm), **match)
-        parts[0][1].check_plausible(area, args.offset_mm, args.force_kn * 1e3)
-        results = [c.correct(area, args.offset_mm, args.force_kn * 1e3, area_std) for _, c, _ in parts]
-        corrector = max(parts, key=lambda part: part[0])[1]
-    if len(parts) == 1:
-        result = results[0]
-    else:
-        from filmcal.correction.sphere import pool_corrected
-
-        result = pool_corrected(results, [w for w, _, _ in parts], random_state=args.seed)
-    out = result.to_dict()
-    out.update(film=args.film, form="sphere-on-flat" if sphere else "wheel-rail",
-               models={s["model"]: {"weight": w, "area_mm2": float(r.area_mm2), "area_ci90_mm2": r.area_ci90_mm2}
-                       for (w, _, s), r in zip(parts, results)})
-    if imprint is not None:
-        details = {k: v for k, v in imprint.to_dict().items() if k not in ("area_mm2", "area_std_mm2")}
-        out.update(measured_area_mm2=imprint.area_mm2, measured_area_std_mm2=imprint.area_std_mm2,
-                   scan={"file": str(args.scan), **details})
-    if args.outline_out is not None:
-        outline = _corrected_outline(args, imprint, result, corrector)
-        outline.write_csv(args.outline_out)
-        out.update(outline_file=str(args.outline_out), outline_rule=outline.rule)
+        measurement = WheelRailMeasurement(args.measured_area_mm2, args.offset_mm, args.force_kn,
+                                           args.measurement_std_mm2, args.wheel, args.rail, args.rail_inclination,
+                                           args.nominal_radius_mm)
+    scan = None if args.scan is None else ScanReading(
+        args.scan, args.dpi, args.mm_per_pixel, args.threshold,
+        1.0 if args.min_region_mm2 is None else args.min_region_mm2, args.outline_out, args.field_side)
+    study = Study(args.study_dir)  # an existing study: a mistyped folder is an error, not a new study
+    out, reading = correct_measurement(study, args.film, measurement, imprint_model=args.imprint_model,
+                                       kinematics=args.kinematics, poisson=args.poisson,
+                                       calibration_forces_kn=args.calibration_forces_kn, scan=scan, seed=args.seed)
     if args.json:
         print_json(out)
     else:
         lo, hi = out["area_ci90_mm2"]
-        if imprint is not None:
-            print(f"imprint area {imprint.area_mm2:.2f} mm2 +/- {imprint.area_std_mm2:.2f} "
-                  f"({imprint.n_regions} region(s), pixel {imprint.pixel_size_mm:.4f} mm)")
+        if reading is not None:
+            print(f"imprint area {reading.area_mm2:.2f} mm2 +/- {reading.area_std_mm2:.2f} "
+                  f"({reading.n_regions} region(s), pixel {reading.pixel_size_mm:.4f} mm)")
         print(f"corrected area {out['area_mm2']:.2f} mm2 +/- {out['area_std_mm2']:.2f} (90 % {lo:.2f} - {hi:.2f})")
         if args.outline_out is not None:
             print(f"outline without film ({out['outline_rule']}): {args.outline_out}")
     return 0
-
-
-def _corrected_outline(args: argparse.Namespace, imprint, result, corrector):
-    """The imprint's outline shrunk to the corrected area (the model's shift for wheel-rail)."""
-    from filmcal.correction import correct_outline
-
-    model = None if corrector is None else corrector.outline_model(args.offset_mm, args.force_kn * 1e3)
-    return correct_outline(imprint.outlines_mm, result, model, field_side=args.field_side)

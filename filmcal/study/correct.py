@@ -1,0 +1,160 @@
+"""One correction of a measured imprint against a study's calibrated film: what ``filmcal correct`` calls.
+
+A measurement is a sphere-on-flat imprint (`SphereMeasurement`) or a wheel-rail imprint
+(`WheelRailMeasurement`); its measured value may come from a scanned sheet instead (`ScanReading`). The
+answer pools the study's correctors of the film (its mixture of calibrated models, or the one the options
+pin), after the correctors' plausibility rules, and is returned as a JSON-ready dict.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from filmcal.contact.names import MIXTURE
+from filmcal.wheelrail.settings import NOMINAL_RADIUS_MM, RAIL, RAIL_INCLINATION, WHEEL
+
+__all__ = ["SphereMeasurement", "WheelRailMeasurement", "ScanReading", "correct_measurement"]
+
+
+@dataclass(frozen=True)
+class SphereMeasurement:
+    """A sphere-on-flat imprint: its radius (None: read from a scan), the sphere and the force."""
+
+    measured_radius_mm: float | None
+    sphere_radius_mm: float
+    force_kn: float
+    measurement_std_mm: float = 0.0
+
+    def __post_init__(self) -> None:
+        _check_value("measured_radius_mm", self.measured_radius_mm, "measurement_std_mm", self.measurement_std_mm)
+
+
+@dataclass(frozen=True)
+class WheelRailMeasurement:
+    """A wheel-rail imprint: its area (None: read from a scan), the lateral offset, the load and the track."""
+
+    measured_area_mm2: float | None
+    offset_mm: float
+    force_kn: float
+    measurement_std_mm2: float = 0.0
+    wheel: str = WHEEL
+    rail: str = RAIL
+    rail_inclination: float = RAIL_INCLINATION
+    nominal_radius_mm: float = NOMINAL_RADIUS_MM
+
+    def __post_init__(self) -> None:
+        _check_value("measured_area_mm2", self.measured_area_mm2, "measurement_std_mm2", self.measurement_std_mm2)
+
+
+@dataclass(frozen=True)
+class ScanReading:
+    """A scanned imprint and how to read it (`filmcal.correction.read_imprint`); optionally where to write the
+    outline without film (CSV) and which way the rail's field side points in the scan."""
+
+    path: str
+    dpi: float | None = None
+    mm_per_pixel: float | None = None
+    threshold: float | None = None
+    min_region_mm2: float = 1.0
+    outline_out: str | None = None
+    field_side: str = "right"
+
+
+def _check_value(name: str, value: float | None, std_name: str, std: float) -> None:
+    if value is not None and not (value > 0 and math.isfinite(value)):
+        raise ValueError(f"{name} must be finite and > 0, got {value}")
+    if not std >= 0:
+        raise ValueError(f"{std_name} must be >= 0, got {std}")
+
+
+def correct_measurement(study, film: str, measurement: SphereMeasurement | WheelRailMeasurement, *,
+                        imprint_model: str = MIXTURE, kinematics: str | None = None, poisson: str | None = None,
+                        calibration_forces_kn: str | None = None, scan: ScanReading | None = None,
+                        seed: int = 0) -> tuple[dict[str, Any], Any]:
+    """Correct one measured imprint with a study's calibrated film; return ``(answer, scan reading)``.
+
+    Parameters
+    ----------
+    study : filmcal.study.Study
+        An existing study (never calibrated again: its recorded posteriors are read).
+    film : str
+        The film type.
+    measurement : SphereMeasurement or WheelRailMeasurement
+    imprint_model, kinematics, poisson, calibration_forces_kn : optional
+        Which posteriors: ``mixture`` (default) pools the models the study compared by their weights.
+    scan : ScanReading, optional
+        Read the measured value from a scanned imprint (its uncertainty adds in quadrature).
+    seed : int
+        Seed of the scatter draws.
+
+    Returns
+    -------
+    (dict, ImprintReading or None)
+        ``area_mm2``, ``area_std_mm2``, ``area_ci90_mm2`` and the rest of `CorrectedArea.to_dict`, with
+        ``film``, ``form`` and ``models`` (each pooled model's weight and answer); with a scan also
+        ``measured_area_mm2``, ``measured_area_std_mm2``, ``scan`` and, when asked, ``outline_file``.
+    """
+    from filmcal.study.core import correctors
+
+    sphere = isinstance(measurement, SphereMeasurement)
+    m = measurement
+    value = m.measured_radius_mm if sphere else m.measured_area_mm2
+    if (value is None) == (scan is None):
+        raise ValueError("give either a measured " + ("radius" if sphere else "area") + " or a scan, not both "
+                         "and not neither")
+    study.film(film)
+    reading = None
+    if scan is not None:
+        from filmcal.correction import read_imprint
+
+        reading = read_imprint(scan.path, dpi=scan.dpi, mm_per_pixel=scan.mm_per_pixel, threshold=scan.threshold,
+                               min_region_mm2=scan.min_region_mm2)
+    match = {"imprint": None if imprint_model == MIXTURE else imprint_model, "kinematics": kinematics,
+             "poisson": poisson, "loads": calibration_forces_kn}
+    force_n = m.force_kn * 1e3
+    if sphere:
+        if reading is not None:
+            radius = reading.equivalent_radius_mm
+            radius_std = math.hypot(m.measurement_std_mm, reading.area_std_mm2 / (2.0 * math.pi * radius))
+        else:
+            radius, radius_std = m.measured_radius_mm, m.measurement_std_mm
+        parts = correctors(study, film, "sphere", random_state=seed, **match)
+        parts[0][1].check_plausible(radius, m.sphere_radius_mm, force_n)
+        results = [c.correct(radius, m.sphere_radius_mm, force_n, radius_std) for _, c, _ in parts]
+    else:
+        if reading is not None:
+            area, area_std = reading.area_mm2, math.hypot(m.measurement_std_mm2, reading.area_std_mm2)
+        else:
+            area, area_std = m.measured_area_mm2, m.measurement_std_mm2
+        parts = correctors(study, film, "wheel-rail", random_state=seed,
+                           wheel_rail=dict(wheel=m.wheel, rail=m.rail, rail_inclination=m.rail_inclination,
+                                           nominal_radius_mm=m.nominal_radius_mm), **match)
+        parts[0][1].check_plausible(area, m.offset_mm, force_n)
+        results = [c.correct(area, m.offset_mm, force_n, area_std) for _, c, _ in parts]
+    if len(parts) == 1:
+        result = results[0]
+    else:
+        from filmcal.correction.sphere import pool_corrected
+
+        result = pool_corrected(results, [w for w, _, _ in parts], random_state=seed)
+    out = result.to_dict()
+    out.update(film=film, form="sphere-on-flat" if sphere else "wheel-rail",
+               models={s["model"]: {"weight": w, "area_mm2": float(r.area_mm2), "area_ci90_mm2": r.area_ci90_mm2}
+                       for (w, _, s), r in zip(parts, results)})
+    if reading is not None:
+        details = {k: v for k, v in reading.to_dict().items() if k not in ("area_mm2", "area_std_mm2")}
+        out.update(measured_area_mm2=reading.area_mm2, measured_area_std_mm2=reading.area_std_mm2,
+                   scan={"file": str(scan.path), **details})
+        if scan.outline_out is not None:
+            from filmcal.correction import correct_outline
+
+            model = None
+            if not sphere:  # the outline's shift round the patch comes from the weightiest model
+                corrector = max(parts, key=lambda part: part[0])[1]
+                model = corrector.outline_model(m.offset_mm, force_n)
+            outline = correct_outline(reading.outlines_mm, result, model, field_side=scan.field_side)
+            outline.write_csv(Path(scan.outline_out))
+            out.update(outline_file=str(scan.outline_out), outline_rule=outline.rule)
+    return out, reading
