@@ -83,9 +83,11 @@ def run(args: argparse.Namespace) -> int:
                            films_file=args.films_file, dataset=args.data)
     for film, s in summary["films"].items():
         if not s["diagnostics_ok"]:
-            progress.warnings.append(f"{film}: the sampler's diagnostics failed (R-hat {s['rhat']:.4f} above 1.01 "
-                                     f"or ESS {s['ess']:.0f} below its target): treat this posterior as "
-                                     "provisional, or run without --quick")
+            why = "; ".join(s.get("diagnostics_messages") or []) or "see the report's diagnostics"
+            progress.warnings.append(f"{film} ({s['model']}): the sampler's checks did not all pass ({why}; "
+                                     f"R-hat {s['rhat']:.4f}, ESS {s['ess']:.0f}): treat this posterior as "
+                                     "provisional" + (", or run without --quick/--smoke"
+                                                      if size else ""))
     if args.json:
         print_json(summary)
     else:

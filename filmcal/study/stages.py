@@ -190,6 +190,7 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
             d = result.to_dict()
             s = {k: d[k] for k in ("modulus_mpa", "oedometric_modulus_mpa", "sigma_mm", "rhat", "ess", "n_data")}
             s.update(model=spec["model"], diagnostics_ok=bool(result.diagnostics_ok),
+                     diagnostics_messages=list(result.diagnostics.messages),
                      posterior_file=str(path), predictive_hits=int(np.sum(~result.predictive.outside)),
                      n_cases=int(len(result.predictive.outside)))
             if film in comparisons:
