@@ -26,6 +26,7 @@ This module is the command line's one error boundary:
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
 import os
 import pkgutil
@@ -378,9 +379,26 @@ def _os_message(exc: OSError, args: argparse.Namespace, options: dict[str, str])
     return f"{label}: {what}; {advice}"
 
 
+def _full_disk(exc: BaseException) -> str | None:
+    """The one line for a write that found no space (ENOSPC, or a disk quota) anywhere in the error's chain."""
+    seen: list[BaseException] = []
+    current: BaseException | None = exc
+    while current is not None and current not in seen:
+        seen.append(current)
+        if isinstance(current, OSError) and current.errno in (errno.ENOSPC, errno.EDQUOT):
+            where = f" writing {current.filename}" if current.filename else ""
+            return (f"no space left on the device{where}: free some space and run again (no file was damaged, "
+                    "and a study resumes where it stopped)")
+        current = current.__cause__ or current.__context__
+    return None
+
+
 def user_error_message(exc: BaseException, args: argparse.Namespace, options: dict[str, str]) -> str | None:
     """One line for a failure that is the user's input or files; None for an internal error."""
     name = type(exc).__name__
+    full = _full_disk(exc)
+    if full is not None:  # before any "damaged" reading: a full disk damages nothing, and nothing is to delete
+        return full
     if isinstance(exc, DamagedFileError):
         return _one_line(str(exc))
     if isinstance(exc, OSError) and "unable to lock file" in str(exc).lower():  # h5py's lock

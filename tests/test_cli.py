@@ -84,3 +84,27 @@ def test_no_command_is_one_line_naming_the_commands(capsys):
     assert cli.main([]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "pipeline" in err[0] and "correct" in err[0]
+
+
+@pytest.mark.parametrize("wrapped", [False, True])
+def test_a_full_disk_is_named_and_never_called_damage(wrapped):
+    """A full disk was reported as "study.json is damaged (No space left on device); delete it and rerun"."""
+    import argparse
+    import errno
+
+    from filmcal import cli
+    from filmcal._errors import DamagedFileError
+
+    full = OSError(errno.ENOSPC, "No space left on device", "study/study.json")
+    exc = full
+    if wrapped:  # as a reader that wraps what it met
+        try:
+            try:
+                raise full
+            except OSError as inner:
+                raise DamagedFileError("study/study.json", "No space left on device") from inner
+        except DamagedFileError as outer:
+            exc = outer
+    message = cli.user_error_message(exc, argparse.Namespace(), {})
+    assert "no space left" in message and "damaged" in message and "delete" not in message
+    assert "no file was damaged" in message
