@@ -108,3 +108,17 @@ def test_a_full_disk_is_named_and_never_called_damage(wrapped):
     message = cli.user_error_message(exc, argparse.Namespace(), {})
     assert "no space left" in message and "damaged" in message and "delete" not in message
     assert "no file was damaged" in message
+
+
+def test_a_read_only_study_can_be_read(tmp_path, monkeypatch):
+    """`correct`, `curves` and `report` refused a colleague's read-only study as 'not writable'."""
+    import filmcal._io
+    from filmcal._errors import InputError
+    from filmcal.study import Study
+
+    with Study(tmp_path / "s", create=True).writing("test"):
+        pass
+    monkeypatch.setattr(filmcal._io, "_can_create_in", lambda path: False)  # as a read-only folder answers
+    assert Study(tmp_path / "s").manifest.data["format"] == "filmcal-study/1"  # opened for reading
+    with pytest.raises(InputError, match="not writable"):
+        Study(tmp_path / "s", create=True)  # a writer is still refused before any work

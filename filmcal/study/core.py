@@ -163,7 +163,8 @@ class Study:
     def __init__(self, root: str | Path, *, create: bool = False, films_file: str | Path | None = None) -> None:
         self.layout = StudyLayout(root)
         self.root = self.layout.root
-        check_output_dir(self.root, "--study-dir", must_exist=not create)
+        # a study that is only read (correct, curves, report) may be read-only: a colleague's, an archive
+        check_output_dir(self.root, "--study-dir", must_exist=not create, writable=create)
         if self.layout.manifest.exists():
             self.manifest = Manifest.read(self.layout.manifest)
         elif create:
