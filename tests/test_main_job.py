@@ -26,6 +26,8 @@ def test_first_command_runs_every_stage_at_smoke_size(tmp_path, capsys):
     assert 1400 < hs["modulus_mpa"]["median"] < 5600
     assert hs["modulus_mpa"]["ci90"][0] < hs["modulus_mpa"]["median"] < hs["modulus_mpa"]["ci90"][1]
     assert set(hs["imprint_weights"]) == {"edge/small", "activation/small"}
+    # the answer to cite is the weighted mixture (as `filmcal calibrate` gives it), the preferred model beside it
+    assert hs["model"] == "mixture" and hs["preferred_model"]["model"] in hs["imprint_weights"]
     assert abs(sum(hs["imprint_weights"].values()) - 1) < 1e-9
     assert (study / "curves" / "curves-HS.csv").is_file()
     assert (study / "report" / "report.html").stat().st_size > 10_000

@@ -92,7 +92,8 @@ def test_correctors_from_the_study(quick_study, tmp_path):
     study, summary, _ = quick_study
     data = load_table1("HS")
     s = Study(study)
-    pinned = summary["films"]["HS"]["model"]
+    assert summary["films"]["HS"]["model"] == "mixture"  # the answer to cite pools the compared models
+    pinned = summary["films"]["HS"]["preferred_model"]["model"]
     [(weight, sphere_corrector, spec)] = correctors(s, "HS", "sphere", model=pinned)
     assert weight == 1.0 and spec["model"] == pinned
     sphere = sphere_corrector.correct(data.measured_radius_mm, data.sphere_radius_mm, data.force_n)

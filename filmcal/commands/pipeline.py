@@ -84,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
     for film, s in summary["films"].items():
         if not s["diagnostics_ok"]:
             why = "; ".join(s.get("diagnostics_messages") or []) or "see the report's diagnostics"
-            progress.warnings.append(f"{film} ({s['model']}): the sampler's checks did not all pass ({why}; "
+            progress.warnings.append(f"{film} ({s.get('preferred_model', {}).get('model', s['model'])}): the sampler's checks did not all pass ({why}; "
                                      f"R-hat {s['rhat']:.4f}, ESS {s['ess']:.0f}): treat this posterior as "
                                      "provisional" + (", or run without --quick/--smoke"
                                                       if size else ""))
@@ -94,7 +94,8 @@ def run(args: argparse.Namespace) -> int:
         for film, s in summary["films"].items():
             m, ci = s["modulus_mpa"]["median"], s["modulus_mpa"]["ci90"]
             weights = s.get("imprint_weights") or {}
-            print(f"{film} ({s['model']}): E = {m:.0f} MPa [{ci[0]:.0f}, {ci[1]:.0f}], R-hat {s['rhat']:.4f}, "
+            print(f"{film} ({s['model']}): E = {m:.0f} MPa [{ci[0]:.0f}, {ci[1]:.0f}], R-hat {s['rhat']:.4f} "
+                  f"({s.get('preferred_model', {}).get('model', s['model'])}), "
                   f"ESS {s['ess']:.0f}, cases in their 90 % predictive interval {s['predictive_hits']}/{s['n_cases']}"
                   + (", model weights " + ", ".join(f"{k} {v:.2f}" for k, v in weights.items()) if weights else ""))
         if "report" in summary:

@@ -193,8 +193,21 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
                      diagnostics_messages=list(result.diagnostics.messages),
                      posterior_file=str(path), predictive_hits=int(np.sum(~result.predictive.outside)),
                      n_cases=int(len(result.predictive.outside)))
-            if film in comparisons:
-                s["imprint_weights"] = comparisons[film].get("weights")
+            weights = (comparisons.get(film) or {}).get("weights")
+            if weights:
+                # the answer to cite is the weighted mixture of the compared models, as `filmcal calibrate` gives
+                # it; the preferred model's own summary stays under preferred_model
+                from filmcal.calibration import combine_posteriors
+                from filmcal.calibration.posterior import summarize
+
+                models = results[film]
+                s["preferred_model"] = {"model": spec["model"], "modulus_mpa": d["modulus_mpa"]}
+                mixture = combine_posteriors({k: r.samples for k, (r, _, _) in models.items() if k in weights},
+                                             {k: w for k, w in weights.items() if k in models},
+                                             random_state=seed_for(seed, f"mixture-{film}"))
+                s.update(model="mixture", imprint_weights=weights,
+                         modulus_mpa=summarize(mixture.samples["modulus_mpa"]),
+                         oedometric_modulus_mpa=summarize(mixture.samples["oedometric_modulus_mpa"]))
             summary["films"][film] = s
         summary["stage_timings_of_computing_runs"] = study.manifest.data["stages"]
         summary["elapsed_s"] = time.perf_counter() - t0
