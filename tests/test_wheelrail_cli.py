@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from filmcal.cli import main
-from filmcal.commands.wheelrail import parse_inclination
+from filmcal.commands._options import rail_inclination as parse_inclination
 from filmcal.wheelrail.profiles import get_profile
 
 

@@ -159,8 +159,6 @@ def add(parser, dest: str, help: str | None = None, *, extra: str = "", **kwargs
             options["choices"] = concept.choices
         if concept.metavar is not None:
             options["metavar"] = concept.metavar
-    elif dest == "json":
-        pass
     options.update(kwargs)
     required = bool(options.pop("required", False))  # checked after parsing: an old alias may give it
     sep = "" if extra[:1] in (";", ",", ":") else " "

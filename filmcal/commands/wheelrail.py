@@ -5,7 +5,7 @@ import argparse
 import math
 
 from filmcal.commands._common import print_json
-from filmcal.commands._options import add, add_wheel_rail_options, local, rail_inclination, renamed
+from filmcal.commands._options import add, add_wheel_rail_options, local, renamed
 from filmcal.contact.names import DEFAULT_IMPRINT_MODEL, DEFAULT_KINEMATICS, IMPRINT_MODELS
 
 
@@ -62,14 +62,6 @@ def add_parser(subparsers) -> None:
     renamed(p, "--roughness-ra-um", "--wheel-roughness-ra-um", type=float)
     renamed(p, "--roughness-map", "--wheel-roughness-map")
     p.set_defaults(func=run)
-
-
-def parse_inclination(text: str) -> float:
-    """Rail inclination from '1/40', '0.025' or '0' (ValueError otherwise; the option's type)."""
-    try:
-        return rail_inclination(text)
-    except argparse.ArgumentTypeError as exc:
-        raise ValueError(f"rail_inclination {exc}") from None
 
 
 def run(args: argparse.Namespace) -> int:
