@@ -1,19 +1,27 @@
 """Each contact model against its independent reference, in one table of differences.
 
-    python bench/verification.py [--json out.json]
+    python bench/verification.py [--points N] [--grid] [--study-dir D] [--json out.json]
 
 Rows:
 
 * ``FE / Hertz``: the axisymmetric FE without film against Hertz's radius (Table 1's cases and a small
   patch, R 250 mm / 15 kN);
 * ``half-space / Hertz``: the wheel-rail model's half-space solver on a sphere without film (area-equivalent
-  radius);
+  radius of its zero-pressure outline);
 * ``half-space / thin-layer BEM``: the half-space with film springs against the axisymmetric ring BEM of the
   same spring film (a second formulation of the same model);
-* ``half-space / FE`` per imprint model: the film as the wheel-rail corrector applies it (springs in series,
-  read by `FilmModel.recorded_area_mm2`) against the film the calibration runs (the continuum FE, read by
-  the same imprint model), sphere-on-flat at points off Table 1's grid: the transfer error that a wheel-rail
-  answer inherits from calibration to application (sign: application minus calibration).
+* ``transfer`` per imprint model and kinematics: the film as a wheel-rail answer applies it (springs in
+  series, read by `FilmModel.recorded_area_mm2`, plus the shipped transfer term of
+  `filmcal.contact.transfer`) against the film the calibration runs (the continuum FE, read by the same
+  imprint model), sphere-on-flat for MS, HS and HHS at N points of a Latin hypercube over the transfer
+  domain that neither of the shipped fit's designs contains (seed 3): without the term (``raw``) and with it.
+
+``--grid``: each reading of the half-space solution with a film on S1002/60E2 (50/100 kN, eta -5..+2 mm,
+E 800-6300 MPa) at grids 0.2 / 0.1 / 0.05 mm against its Richardson extrapolation, and the observed order.
+``--study-dir D``: Table 1 through the application model at each film's calibrated median E and preferred
+model (residuals against the calibration's own FE at the same E), and the wheel-rail correction factor
+A_0 / A_f at S1002/60E2, 100 kN, eta 0 per film before (the reading of filmcal <= 0.x: the ``p**2`` edge,
+no transfer term) and after.
 
 Figures are differences of radii in mm (and relative), measured in this run.
 """
@@ -75,40 +83,113 @@ def halfspace_against_thin_layer() -> list[dict]:
     return rows
 
 
-def halfspace_against_fe() -> list[dict]:
+def transfer_check(n_points: int) -> list[dict]:
+    """The applied film with and without the transfer term against the calibrated FE film (see the docstring)."""
+    from filmcal.contact.transfer import load_transfer_fit
+    from filmcal.correction.transfer import (
+        check_transfer,
+        measure_transfer,
+        transfer_design,
+    )
+    from filmcal.films import get_film
+
+    rows = measure_transfer(transfer_design(n_points, 3), [get_film(n) for n in ("MS", "HS", "HHS")])
+    out = []
+    for key, r in sorted(check_transfer(load_transfer_fit(), rows).items()):
+        out.append({"check": f"transfer {key}", "n": r["n"], "raw_mean_mm": r["raw_mean_mm"],
+                    "raw_max_mm": r["raw_max_mm"], "mean_mm": r["mean_mm"], "rms_mm": r["rms_mm"],
+                    "max_mm": r["max_mm"], "std_mm": load_transfer_fit().std_mm[key]})
+    return out
+
+
+GRID_CASES = [(f, eta, e) for f in (50e3, 100e3) for eta in (-5.0, -1.5, 2.0) for e in (800.0, 2800.0, 6300.0)]
+
+
+def grid_convergence() -> list[dict]:
+    """Readings at 0.2 / 0.1 / 0.05 mm, their Richardson extrapolation (observed order) and the 0.1 mm error."""
     from filmcal.contact.film import FilmModel
+    from filmcal.films import get_film
+    from filmcal.wheelrail import solve_wheel_rail
+
+    out = []
+    hs = get_film("HS")
+    models = [FilmModel(hs, imprint, "small") for imprint in ("edge", "activation", "capsule")]
+    for force, eta, e in GRID_CASES:
+        solver_film, _, _ = models[0].interface(e)
+        areas = {m.imprint: [] for m in models}
+        for h in (0.2, 0.1, 0.05):
+            res = solve_wheel_rail(eta, force, film=solver_film, grid_mm=h)
+            for m in models:
+                areas[m.imprint].append(m.recorded_area_mm2(res))
+        for imprint, (a2, a1, a05) in areas.items():
+            d1, d2 = a2 - a1, a1 - a05
+            order = math.log2(abs(d1 / d2)) if d2 != 0 and d1 / d2 > 0 else float("nan")
+            p = order if 1.0 <= order <= 3.0 else 2.0
+            limit = a05 - d2 / (2**p - 1)
+            out.append({"check": f"grid {imprint}", "case": f"{force / 1e3:g} kN eta {eta:+g} E{e:g}",
+                        "areas_mm2": [a2, a1, a05], "order": order, "extrapolated_mm2": limit,
+                        "error_at_0.1_rel": a1 / limit - 1.0})
+    return out
+
+
+def study_checks(study_dir: str) -> list[dict]:
+    """Table 1 through the application model, and the correction factor before and after (docstring)."""
+    from filmcal.calibration.datasets import load_table1
+    from filmcal.contact.film import FilmModel
+    from filmcal.contact.imprint import get_imprint_model
+    from filmcal.contact.options import ContactOptions
     from filmcal.fem import Film, get_model
-    from filmcal.films import FilmType
-    from filmcal.wheelrail.edge import read_contact_edge
+    from filmcal.films import get_film
+    from filmcal.wheelrail import solve_wheel_rail
     from filmcal.wheelrail.halfspace import sphere_on_flat_contact
 
-    rows = []
-    for r, f, e, nu in TRANSFER_POINTS:
-        film = FilmType("HS-like", activation_pressure_mpa=50.0, range_mpa=(50.0, 130.0), poisson=nu)
-        fe = get_model(r).solve(Film(e, nu), f * 1e3)
-        for imprint in ("edge", "activation", "capsule"):
-            model = FilmModel(film, imprint, "small")
-            solver_film, solver_law, _ = model.interface(e)
-            hs = sphere_on_flat_contact(r, f * 1e3, film=solver_film, law=solver_law)
-            # the wheel-rail answer's readings: the edge as `WheelRailResult.area_mm2` reads it (the fitted
-            # edge of wheelrail/edge.py), the other models through FilmModel on the pressure field
-            area = read_contact_edge(hs).area_mm2 if imprint == "edge" else model.recorded_area_mm2(hs)
-            hs_radius = math.sqrt(area / math.pi)
+    with open(f"{study_dir}/summary.json", encoding="utf-8") as fh:
+        summary = json.load(fh)
+    out = []
+    for film_name, s in summary["films"].items():
+        preferred = s.get("preferred_model") or {"model": s["model"], "modulus_mpa": s["modulus_mpa"]}
+        imprint, kinematics = preferred["model"].split("/")
+        e = float(preferred["modulus_mpa"]["median"])
+        film = get_film(film_name)
+        model = FilmModel(film, imprint, kinematics)
+        data = load_table1(film_name)
+        applied, calibrated = [], []
+        solver_film, solver_law, _ = model.interface(e)
+        for r, f, measured in zip(data.sphere_radius_mm, data.force_n, data.measured_radius_mm):
+            hs = sphere_on_flat_contact(float(r), float(f), film=solver_film, law=solver_law)
+            area = model.recorded_area_mm2(hs) + model.transfer_term(e, hs).shift_mm2
+            applied.append(measured - math.sqrt(area / math.pi))
+            fe = get_model(float(r)).solve(Film(e, film.poisson), float(f), ContactOptions(kinematics=kinematics))
             fe_radius = fe.contact_radius_mm if imprint == "edge" else fe.read_imprint(imprint, film)
-            rows.append(_row(f"half-space / FE, {imprint}", f"R{r:g} {f:g} kN E{e:g} nu{nu:g}", hs_radius,
-                             fe_radius))
-            if imprint == "edge":  # where the pressure is positive, against the FE's edge
-                rows.append(_row("half-space support / FE edge", f"R{r:g} {f:g} kN E{e:g} nu{nu:g}",
-                                 math.sqrt(hs.area_cells_mm2 / math.pi), fe_radius))
-    return rows
+            calibrated.append(measured - fe_radius)
+        applied, calibrated = np.array(applied), np.array(calibrated)
+        out.append({"check": "Table 1 through the application", "case": f"{film_name} {preferred['model']} E{e:.0f}",
+                    "mean_residual_mm": float(applied.mean()), "rms_mm": float(np.sqrt(np.mean(applied**2))),
+                    "calibration_mean_residual_mm": float(calibrated.mean()),
+                    "calibration_rms_mm": float(np.sqrt(np.mean(calibrated**2)))})
+        a0 = solve_wheel_rail(0.0, 100e3).area_mm2
+        res = solve_wheel_rail(0.0, 100e3, film=solver_film, roughness=solver_law)
+        after = model.recorded_area_mm2(res)
+        term = model.transfer_term(e, res)
+        grid = res.contact.grid
+        before = (get_imprint_model("edge").area_mm2(grid.x_mm, grid.y_mm, res.contact.pressure_mpa, film)
+                  if imprint == "edge" else after)
+        out.append({"check": "correction factor S1002/60E2 100 kN eta 0", "case": f"{film_name} {preferred['model']}",
+                    "before": a0 / before, "after": a0 / (after + term.shift_mm2),
+                    "transfer_shift_mm2": term.shift_mm2, "transfer_std_mm2": term.std_mm2,
+                    "reading_change_mm2": after - before})
+    return out
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--points", type=int, default=32, help="points of the transfer check (default 32)")
+    ap.add_argument("--grid", action="store_true", help="also the grid convergence of the wheel-rail readings")
+    ap.add_argument("--study-dir", metavar="D", help="also Table 1 and the correction factor with D's posteriors")
     ap.add_argument("--json", metavar="FILE", help="also write the rows as JSON")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
-    rows = fe_against_hertz() + halfspace_against_hertz() + halfspace_against_thin_layer() + halfspace_against_fe()
+    rows = fe_against_hertz() + halfspace_against_hertz() + halfspace_against_thin_layer()
     print(f"{'check':34} {'case':30} {'value mm':>10} {'ref mm':>10} {'diff mm':>9} {'rel %':>8}")
     for row in rows:
         print(f"{row['check']:34} {row['case']:30} {row['value_mm']:10.4f} {row['reference_mm']:10.4f} "
@@ -116,6 +197,39 @@ def main(argv=None) -> int:
     for kind in sorted({r["check"] for r in rows}):
         d = np.array([r["difference_mm"] for r in rows if r["check"] == kind])
         print(f"summary {kind:34} mean {d.mean():+.4f} mm, range {d.min():+.4f} .. {d.max():+.4f} mm")
+    transfer = transfer_check(args.points)
+    print(f"\ntransfer: calibrated FE film minus applied springs, sphere-on-flat, MS/HS/HHS at {args.points} points "
+          "(seed 3), radius in mm")
+    print(f"{'model':26} {'n':>4} {'raw mean':>9} {'raw max':>8} | {'mean':>8} {'rms':>7} {'max':>7} | {'term std':>8}")
+    for r in transfer:
+        print(f"{r['check']:26} {r['n']:4d} {r['raw_mean_mm']:+9.4f} {r['raw_max_mm']:8.4f} | {r['mean_mm']:+8.4f} "
+              f"{r['rms_mm']:7.4f} {r['max_mm']:7.4f} | {r['std_mm']:8.4f}")
+    rows += transfer
+    if args.grid:
+        grid = grid_convergence()
+        print("\nreadings with the HS film on S1002/60E2: areas at 0.2 / 0.1 / 0.05 mm (mm2), observed order, "
+              "error at 0.1 mm against the extrapolation")
+        for r in grid:
+            a = r["areas_mm2"]
+            print(f"{r['check']:18} {r['case']:24} {a[0]:9.3f} {a[1]:9.3f} {a[2]:9.3f}  p {r['order']:5.2f}  "
+                  f"{100 * r['error_at_0.1_rel']:+7.3f} %")
+        for kind in sorted({r["check"] for r in grid}):
+            worst = max(abs(r["error_at_0.1_rel"]) for r in grid if r["check"] == kind)
+            print(f"summary {kind:18} largest |error at 0.1 mm| {100 * worst:.3f} %")
+        rows += grid
+    if args.study_dir:
+        checks = study_checks(args.study_dir)
+        print(f"\nwith the posteriors of {args.study_dir}")
+        for r in checks:
+            if "rms_mm" in r:
+                print(f"Table 1 {r['case']:28} application: mean {r['mean_residual_mm']:+.4f} rms {r['rms_mm']:.4f} mm"
+                      f" | calibration's FE: mean {r['calibration_mean_residual_mm']:+.4f} "
+                      f"rms {r['calibration_rms_mm']:.4f} mm")
+            else:
+                print(f"A0/Af 100 kN eta 0 {r['case']:22} before {r['before']:.4f} after {r['after']:.4f} "
+                      f"({100 * (r['after'] / r['before'] - 1):+.2f} %; reading {r['reading_change_mm2']:+.2f} mm2, "
+                      f"transfer {r['transfer_shift_mm2']:+.2f} +/- {r['transfer_std_mm2']:.2f} mm2)")
+        rows += checks
     print(f"({time.perf_counter() - t0:.0f} s)", file=sys.stderr)
     if args.json:
         with open(args.json, "w") as fh:

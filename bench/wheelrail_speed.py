@@ -29,13 +29,14 @@ shared machine wall times are noisy, so compare counts and process times.
 
 Options: ``--synthetic`` (quadratic-gap cases with and without film and a
 rough wheel), ``--paper-table`` (the 20 cases of the paper),
-``--accuracy`` (Hertz grid convergence, film sphere table), ``--fe-table``
-(film springs against the axisymmetric FE model), ``--hertz-table``
+``--accuracy`` (Hertz grid convergence, film sphere table), ``--hertz-table``
 (wheel-rail areas against local Hertz over eta), ``--dump-areas PATH`` (areas
 of 56 wheel-rail cases as JSON, to compare two versions case by case).
 
 Run: ``OMP_NUM_THREADS=1 python bench/wheelrail_speed.py [--repeats 5] [--workers N]
-[--skip-sweeps] [--synthetic] [--paper-table] [--accuracy] [--fe-table] [--hertz-table]``
+[--skip-sweeps] [--synthetic] [--paper-table] [--accuracy] [--hertz-table]``
+
+The film springs against the axisymmetric FE model (the transfer term) are in ``bench/verification.py``.
 """
 from __future__ import annotations
 
@@ -50,10 +51,8 @@ import scipy.fft as _scipy_fft
 from scipy.optimize import brentq
 
 import filmcal.wheelrail.halfspace as _halfspace
-import filmcal.wheelrail.wheelrail as _wheelrail
 from filmcal.films import get_film
 from filmcal.hertz import contact_modulus_mpa
-from filmcal.wheelrail.edge import read_contact_edge, read_radial_edge_mm
 from filmcal.wheelrail.halfspace import (HalfSpaceContactSolver, SurfaceGrid,
                                          sphere_on_flat_contact)
 from filmcal.wheelrail.hertz import hertz_elliptic
@@ -90,19 +89,6 @@ class _CountingFFT:
 
 FFT = _CountingFFT()
 _halfspace.sfft = FFT
-_EDGE_S = [0.0]
-_read_fitted_outline = _wheelrail.read_fitted_outline
-
-
-def _timed_edge_reading(*args, **kwargs):
-    cpu = time.process_time()
-    try:
-        return _read_fitted_outline(*args, **kwargs)
-    finally:
-        _EDGE_S[0] += time.process_time() - cpu
-
-
-_wheelrail.read_fitted_outline = _timed_edge_reading
 
 
 def _load() -> str:
@@ -116,12 +102,11 @@ def _timed_solves(model: WheelRailModel, offset_mm: float, force_n: float, film,
     rows = []
     for _ in range(repeats):
         FFT.count = 0
-        _EDGE_S[0] = 0.0
         cpu = time.process_time()
         res = model.solve(offset_mm, force_n, film=film)
         rows.append({"elapsed_s": res.elapsed_s, "process_s": time.process_time() - cpu,
                      "contact_s": res.contact.elapsed_s, "iterations": res.contact.iterations,
-                     "ffts": FFT.count, "edge_s": _EDGE_S[0]})
+                     "ffts": FFT.count})
     return rows, res
 
 
@@ -134,19 +119,18 @@ def acceptance(repeats: int, workers: int | None) -> None:
     print("\nS1002/60E2, eta = -3 mm, 50 kN, grid 0.1 mm (median of "
           f"{repeats} solves after a warm-up; {_load()})")
     print("  elapsed s: WheelRailResult.elapsed_s; process s: CPU time of the whole solve; "
-          "contact s: the half-space solve's elapsed_s; edge s: CPU time of the edge reading")
+          "contact s: the half-space solve's elapsed_s")
     print(f"{'film':<5} {'elapsed s':>9} {'target':>6} {'process s':>9} {'contact s':>9} "
-          f"{'edge s':>6} {'its':>4} {'FFTs':>5} {'cells':>6} {'grid':>9} {'area mm2':>9} "
-          f"{'A>0 mm2':>9}")
+          f"{'its':>4} {'FFTs':>5} {'cells':>6} {'grid':>9} {'area mm2':>9}")
     for film, target in ((HS_FILM, FILM_TARGET_S), (None, BARE_TARGET_S)):
         model = WheelRailModel(solver=HalfSpaceContactSolver(workers=workers))
         rows, res = _timed_solves(model, -3.0, 50e3, film, repeats)
         elapsed = _median(rows, "elapsed_s")
         print(f"{'HS' if film else 'none':<5} {elapsed:>9.3f} {target:>6.2f} "
               f"{_median(rows, 'process_s'):>9.3f} {_median(rows, 'contact_s'):>9.3f} "
-              f"{_median(rows, 'edge_s'):>6.3f} {rows[0]['iterations']:>4d} {rows[0]['ffts']:>5d} "
+              f"{rows[0]['iterations']:>4d} {rows[0]['ffts']:>5d} "
               f"{int(res.contact.contact_mask.sum()):>6d} {res.grid.nx:>4d}x{res.grid.ny:<4d} "
-              f"{res.area_mm2:>9.3f} {res.support_area_mm2:>9.3f}   "
+              f"{res.area_mm2:>9.3f}   "
               f"{'met' if elapsed <= target else 'NOT met'}")
 
 
@@ -280,8 +264,7 @@ def dump_areas(path: str, workers: int | None) -> None:
                 for film in (None, HS_FILM):
                     res = model.solve(float(eta), force, film=film)
                     rows.append({"rail": rail, "offset_mm": float(eta), "force_n": force,
-                                 "film": film is not None, "support_area_mm2": res.support_area_mm2,
-                                 "area_mm2": res.area_mm2, "max_pressure_mpa": res.max_pressure_mpa,
+                                 "film": film is not None, "area_mm2": res.area_mm2, "max_pressure_mpa": res.max_pressure_mpa,
                                  "iterations": res.contact.iterations})
     with open(path, "w", encoding="utf-8") as handle:
         json.dump(rows, handle, indent=1)
@@ -414,9 +397,9 @@ def paper_table(workers: int | None) -> float:
     """The 20 cases of the paper without and with the HS film, from a new model; returns the total time."""
     model = WheelRailModel(solver=HalfSpaceContactSolver(workers=workers))
     print("\n20-case table (S1002/60E2, inclination 1/40, R0 460 mm, grid 0.1 mm); areas in mm2: "
-          "A = contact area (FE edge reading with film), A>0 = pressure > 0")
-    print(f"{'eta':>5} {'F kN':>5} | {'A':>7} {'A>0':>7} {'Hertz':>7} {'patch':>5} {'s':>5} | "
-          f"{'A film':>7} {'A>0':>7} {'s':>5} | {'ratio':>6}")
+          "A = contact area (pressure > 0)")
+    print(f"{'eta':>5} {'F kN':>5} | {'A':>7} {'Hertz':>7} {'patch':>5} {'s':>5} | "
+          f"{'A film':>7} {'s':>5} | {'ratio':>6}")
     totals = {"none": 0.0, "film": 0.0}
     start_all = time.perf_counter()
     for force in PAPER_FORCES_N:
@@ -426,50 +409,15 @@ def paper_table(workers: int | None) -> float:
             totals["none"] += bare.elapsed_s
             totals["film"] += film.elapsed_s
             hertz = bare.hertz.area_mm2 if bare.hertz is not None else float("nan")
-            print(f"{eta:>5.1f} {force / 1e3:>5.0f} | {bare.area_mm2:>7.2f} {bare.support_area_mm2:>7.2f} "
+            print(f"{eta:>5.1f} {force / 1e3:>5.0f} | {bare.area_mm2:>7.2f} "
                   f"{hertz:>7.2f} {bare.n_patches:>5d} {bare.elapsed_s:>5.2f} | {film.area_mm2:>7.2f} "
-                  f"{film.support_area_mm2:>7.2f} {film.elapsed_s:>5.2f} | "
+                  f"{film.elapsed_s:>5.2f} | "
                   f"{film.area_mm2 / bare.area_mm2:>6.3f}")
     total = time.perf_counter() - start_all
     print(f"total {total:.1f} s (without film {totals['none']:.1f} s, with film {totals['film']:.1f} s); "
           f"target {TABLE_TARGET_S:.0f} s -> {'met' if total <= TABLE_TARGET_S else 'NOT met'} "
           f"(ratio {TABLE_TARGET_S / total:.1f}x)")
     return total
-
-
-def fe_film_table(workers: int | None) -> None:
-    """Film springs of the half-space model against the axisymmetric FE model (30 cases)."""
-    from filmcal.fem import Film, get_model
-
-    solver = HalfSpaceContactSolver(workers=workers)
-    print("\nFilm representation against the axisymmetric FE model (t = 0.09 mm, nu = 0.33, "
-          "grid/elements 0.1 mm); radii in mm")
-    print("  FE: edge-profile fit of the FE pressures; BEM: sqrt(A/pi) of p > 0 | FE reading on "
-          "the radial line of cells | sqrt(A/pi) of the fitted outline (wheel-rail definition)")
-    print(f"{'R':>4} {'F kN':>5} {'E MPa':>6} {'FE':>8} | {'p>0':>8} {'diff':>7} | {'line':>8} "
-          f"{'diff':>7} | {'outline':>8} {'diff':>7}")
-    worst = {"support": 0.0, "line": 0.0, "outline": 0.0}
-    for radius, force_kn in TABLE1_CASES:
-        model = get_model(float(radius))
-        for modulus in (1000.0, 2800.0, 5000.0, None):
-            fe = model.solve(None if modulus is None else Film(modulus, 0.33), force_kn * 1e3)
-            film = None if modulus is None else FilmLayer(modulus, 0.33, 0.09)
-            bem = sphere_on_flat_contact(radius, force_kn * 1e3, film=film, solver=solver)
-            grid = bem.grid
-            row = bem.pressure_mpa[grid.nx // 2]
-            half = grid.y_mm >= 0.0
-            radii = {"support": bem.equivalent_radius_mm,
-                     "line": read_radial_edge_mm(grid.y_mm[half], row[half]),
-                     "outline": math.sqrt(read_contact_edge(bem).area_mm2 / math.pi)}
-            diff = {k: v - fe.contact_radius_mm for k, v in radii.items()}
-            for k, v in diff.items():
-                worst[k] = max(worst[k], abs(v))
-            label = "none" if modulus is None else f"{modulus:.0f}"
-            print(f"{radius:>4d} {force_kn:>5d} {label:>6} {fe.contact_radius_mm:>8.4f} | "
-                  f"{radii['support']:>8.4f} {diff['support']:>+7.4f} | {radii['line']:>8.4f} "
-                  f"{diff['line']:>+7.4f} | {radii['outline']:>8.4f} {diff['outline']:>+7.4f}")
-    print("largest |difference| (target 0.02 mm): " + ", ".join(
-        f"{k} {v:.4f} mm ({'met' if v <= 0.02 else 'NOT met'})" for k, v in worst.items()))
 
 
 def hertz_table(workers: int | None) -> None:
@@ -511,9 +459,6 @@ def main() -> int:
                         help="also solve the 20 cases of the paper with and without film")
     parser.add_argument("--accuracy", action="store_true",
                         help="also print the Hertz grid-convergence and film sphere tables")
-    parser.add_argument("--fe-table", action="store_true",
-                        help="also print the film representation against the axisymmetric FE "
-                             "model (30 cases)")
     parser.add_argument("--hertz-table", action="store_true",
                         help="also print the wheel-rail areas against local Hertz over eta")
     parser.add_argument("--dump-areas", metavar="PATH",
@@ -535,8 +480,6 @@ def main() -> int:
         solver = HalfSpaceContactSolver(workers=args.workers)
         hertz_convergence_table(solver)
         film_sphere_table(solver)
-    if args.fe_table:
-        fe_film_table(args.workers)
     if args.hertz_table:
         hertz_table(args.workers)
     if args.dump_areas:

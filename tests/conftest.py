@@ -57,6 +57,7 @@ SLOW_TESTS: dict[str, str] = {
     "test_calibration_model.py::test_case_intervals_on_the_fe_model_bracket_its_crossings": "12 s: FE solves",
     "test_calibration_options.py::": "21 s shared calibration with a load discrepancy, 9 s free Poisson ratio",
     "test_campaign.py::test_failures_are_recorded_with_reasons_and_retried_on_request": "6 s",
+    "test_transfer.py::test_the_transfer_term_brings_the_applied_film_to_the_calibrated_one": "3-4 s: FE and half-space at three points",
     "test_campaign.py::test_dask_cluster_gives_the_same_results_as_the_local_pool": "5 s: a Dask cluster",
     "test_campaign.py::test_killed_campaign_resumes_without_recomputing_finished_points": "4 s: kills a process",
     "test_correction_curves.py::test_bands_match_direct_solves_at_their_quantiles": "4 s",

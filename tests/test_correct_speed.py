@@ -183,7 +183,7 @@ def test_models_of_one_kinematics_share_their_solves_and_a_cache_replaces_them()
     first = [c.correct(150.0, -3.0, 100e3) for c in shared]
     assert shared[0].supports.n_solves == 1 + len(nodes)  # one solve without film, one per modulus for both models
     # each model reads its own area of the shared solves: as its own solves at the same moduli
-    ratio, support = shared[1].area_ratio(-3.0, 100e3)
+    ratio, _, support = shared[1].area_ratio(-3.0, 100e3)
     own = [shared[1].film_area_mm2(e, -3.0, 100e3) for e in nodes[[0, -1]]]
     np.testing.assert_allclose(support["area_film_mm2"][[0, -1]], own, rtol=1e-12)
     # a second set of correctors reads the cache: no solve, the same answers

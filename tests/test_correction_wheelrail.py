@@ -20,12 +20,18 @@ def point_posterior(e_mpa=2800.0, sigma=0.0, n=500):
     return {"modulus_mpa": np.full(n, e_mpa), "sigma_mm": np.full(n, sigma)}
 
 
-def test_single_modulus_without_scatter_scales_by_the_solved_area_ratio():
+def test_single_modulus_without_scatter_scales_by_the_solved_area_ratio_and_carries_the_transfer():
+    """One modulus, no imprint scatter: the answer is the measured area times A_0 / A_f, A_f the film's own
+    solve plus the transfer term's shift (the calibrated continuum film lies inside the springs' edge); its
+    spread is the transfer term's standard deviation alone."""
     a0 = solve_wheel_rail(-3.0, 100e3).area_mm2
-    af = solve_wheel_rail(-3.0, 100e3, film=FilmLayer(2800.0, 0.33, 0.09)).area_mm2
-    out = WheelRailCorrector(point_posterior(), HS_EDGE, model_radius_std_mm=0.0).correct(150.0, -3.0, 100e3)
-    assert out.area_mm2 == pytest.approx(150.0 * a0 / af, rel=1e-9)
-    assert out.area_std_mm2 == pytest.approx(0.0, abs=1e-9)
+    result = solve_wheel_rail(-3.0, 100e3, film=FilmLayer(2800.0, 0.33, 0.09))
+    term = HS_EDGE.transfer_term(2800.0, result)
+    af = result.area_mm2 + term.shift_mm2
+    assert term.shift_mm2 < 0 < term.std_mm2  # the continuum film's edge lies inside the springs'
+    out = WheelRailCorrector(point_posterior(n=4000), HS_EDGE).correct(150.0, -3.0, 100e3)
+    assert np.median(out.samples_mm2) == pytest.approx(150.0 * a0 / af, rel=1e-3)
+    assert out.area_std_mm2 == pytest.approx(150.0 * a0 / af * term.std_mm2 / af, rel=0.1)
     assert af > a0  # the film enlarges the patch
 
 
@@ -33,9 +39,9 @@ def test_ratio_interpolates_the_film_effect_across_the_posterior():
     rng = np.random.default_rng(0)
     post = {"modulus_mpa": np.exp(rng.normal(np.log(2800.0), 0.05, 800)), "sigma_mm": np.full(800, 0.05)}
     corr = WheelRailCorrector(post, HS_EDGE)
-    ratio, support = corr.area_ratio(-5.0, 50e3)
+    ratio, _, support = corr.area_ratio(-5.0, 50e3)
     e_check = float(np.quantile(corr.modulus_mpa_, 0.9))
-    direct = support["area_no_film_mm2"] / solve_wheel_rail(-5.0, 50e3, film=FilmLayer(e_check, 0.33, 0.09)).area_mm2
+    direct = support["area_no_film_mm2"] / corr.film_area_mm2(e_check, -5.0, 50e3)
     k = np.argmin(np.abs(corr.modulus_mpa_ - e_check))
     assert ratio[k] == pytest.approx(direct, rel=2e-3)
     out = corr.correct(120.0, -5.0, 50e3, measurement_std_mm2=2.0)
@@ -55,11 +61,12 @@ def test_free_poisson_posterior_is_carried_over_at_equal_oedometric_modulus():
     from filmcal.elastic import oedometric_modulus_mpa
 
     post = {"modulus_mpa": np.full(50, 2500.0), "poisson": np.full(50, 0.36), "sigma_mm": np.zeros(50)}
-    corr = WheelRailCorrector(post, HS_EDGE, model_radius_std_mm=0.0)
+    corr = WheelRailCorrector(post, HS_EDGE)
     assert oedometric_modulus_mpa(corr.modulus_mpa_[0], 0.33) == pytest.approx(oedometric_modulus_mpa(2500.0, 0.36))
-    ratio, support = corr.area_ratio(-3.0, 50e3)
-    direct = support["area_no_film_mm2"] / solve_wheel_rail(-3.0, 50e3, film=FilmLayer(2500.0, 0.36, 0.09)).area_mm2
-    assert ratio[0] == pytest.approx(direct, rel=1e-6)
+    ratio, _, support = corr.area_ratio(-3.0, 50e3)
+    result = solve_wheel_rail(-3.0, 50e3, film=FilmLayer(2500.0, 0.36, 0.09))
+    direct = support["area_no_film_mm2"] / (result.area_mm2 + HS_EDGE.transfer_term(corr.modulus_mpa_[0], result).shift_mm2)
+    assert ratio[0] == pytest.approx(direct, rel=1e-4)
 
 
 def test_command_uses_the_study_posterior_and_refuses_nonsense(quick_study, tmp_path):

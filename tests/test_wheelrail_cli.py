@@ -22,7 +22,7 @@ def test_json_has_the_contract_keys(capsys):
                           "2800", "--film-poisson", "0.33", "--json")
     assert code == 0, err
     data = json.loads(out)
-    for key in ("contact_area_mm2", "max_pressure_mpa", "elapsed_s", "support_area_mm2",
+    for key in ("contact_area_mm2", "max_pressure_mpa", "elapsed_s",
                 "centroid_y_mm", "centroid_rail_y_mm", "centroid_wheel_y_mm", "n_patches",
                 "approach_mm", "hertz_area_mm2", "hertz_like", "converged"):
         assert key in data, key
@@ -45,7 +45,7 @@ def test_options_rail_inclination_radius_roughness_plot(capsys, tmp_path):
     assert data["nominal_radius_mm"] == 430.0
     assert data["wheel_roughness_ra_um"] == 1.5
     assert data["grid_mm"] == 0.2
-    assert 0.0 < data["imprint_area_mm2"] < data["support_area_mm2"]
+    assert 0.0 < data["imprint_area_mm2"] < data["contact_area_mm2"]
     assert png.stat().st_size > 10_000
 
 
@@ -148,7 +148,7 @@ def test_rough_wheel_grows_the_imprint_in_the_papers_order(capsys):
             assert rough["imprint_model"] == "activation"
             growth[film, force] = rough["imprint_area_mm2"] / smooth["imprint_area_mm2"] - 1.0
             # the coloured spots lie within the rough contact
-            assert 0.0 < rough["stained_area_mm2"] < rough["support_area_mm2"]
+            assert 0.0 < rough["stained_area_mm2"] < rough["contact_area_mm2"]
     for force in ("50", "100"):
         assert growth["MS", force] >= 0.02
         assert growth["HS", force] >= 0.02
@@ -206,3 +206,15 @@ def test_measured_height_map_and_law(capsys, tmp_path):
     assert measured["imprint_area_mm2"] > smooth["imprint_area_mm2"]
     code, out, err = _run(capsys, *base, "--wheel-roughness-map", str(path), "--json")
     assert code == 2 and "roughness-pixel-um" in err
+
+
+def test_a_named_film_reports_its_transfer_term(capsys):
+    """With a film type, the imprint the calibrated (continuum FE) film would record is printed beside the
+    springs' own reading: the term moves it inwards and carries a standard deviation."""
+    data = _json(capsys, "--offset-mm=-3", "--force-kn", "100", "--film", "HS", "--film-modulus-mpa", "2800",
+                 "--imprint-model", "edge")
+    assert data["transfer_shift_mm2"] < 0.0 < data["transfer_std_mm2"] < -data["transfer_shift_mm2"]
+    assert data["calibrated_imprint_area_mm2"] == pytest.approx(data["imprint_area_mm2"] + data["transfer_shift_mm2"])
+    code, out, err = _run(capsys, "--offset-mm=-3", "--force-kn", "100", "--film", "HS", "--film-modulus-mpa", "2800")
+    assert code == 0, err
+    assert "as calibrated" in out and "transfer term" in out

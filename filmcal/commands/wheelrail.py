@@ -19,10 +19,10 @@ def add_parser(subparsers) -> None:
                     "lateral offset eta (eta = 0: tape circle over the rail's inclined symmetry "
                     "plane; eta > 0 moves the flange towards the gauge corner) under a vertical "
                     "load F, solved as two elastic half-spaces (boundary elements) in the plane "
-                    "tangent to the contact, with a Prescale film as springs in series. With a film "
-                    "the area is read as the axisymmetric FE model reads its edge (the edge "
-                    "imprint model's zero-pressure outline, contact_area_mm2); support_area_mm2 is where the pressure "
-                    "is positive (the two coincide for hard contact).")
+                    "tangent to the contact, with a Prescale film as springs in series. contact_area_mm2 is "
+                    "where the pressure is positive; with a film, imprint_area_mm2 is what the film's imprint "
+                    "model records, with the transfer term (the calibrated continuum film's imprint minus the "
+                    "springs', and its standard deviation) beside it.")
     add(p, "offset_mm", required=True, extra="(the paper studies -7 to +2)")
     add(p, "force_kn", required=True, extra="(the vertical wheel load; the paper: 50 and 100)")
     film = p.add_mutually_exclusive_group(required=True)
@@ -87,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
         + (", large strain" if args.kinematics == "large" else ""))
     print(f"{out['wheel']} on {out['rail']} (inclination {inclination:g}), eta = {result.offset_mm:g} mm, "
           f"F = {args.force_kn:g} kN, {film_text}")
-    print(f"contact area     {result.area_mm2:.2f} mm2   (pressure > 0: {result.support_area_mm2:.2f} mm2)")
+    print(f"contact area     {result.area_mm2:.2f} mm2   (pressure > 0)")
     if result.hertz is not None:
         note = "applies" if result.hertz_like else "does not apply here"
         print(f"local Hertz      {result.hertz.area_mm2:.2f} mm2 ({note})")
@@ -100,6 +100,9 @@ def run(args: argparse.Namespace) -> int:
               f"film {out['film']['name']})")
         if "stained_area_mm2" in out:
             print(f"stained spots    {out['stained_area_mm2']:.2f} mm2 (asperity pressures)")
+    if "transfer_shift_mm2" in out:
+        print(f"as calibrated    {out['calibrated_imprint_area_mm2']:.2f} +/- {out['transfer_std_mm2']:.2f} mm2 "
+              f"(transfer term {out['transfer_shift_mm2']:+.2f} mm2: the calibrated FE film against these springs)")
     state = "converged" if result.converged else "NOT converged"
     print(f"{state}, {result.elapsed_s:.3f} s")
     return 0 if result.converged else 1

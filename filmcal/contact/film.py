@@ -98,6 +98,37 @@ class FilmModel:
         model = get_imprint_model(self.imprint)
         return float(model.area_mm2(contact.grid.x_mm, contact.grid.y_mm, contact.pressure_mpa, self.film))
 
+    def transfer_term(self, modulus_mpa: float, result):
+        """The calibrated film's imprint minus this application's reading of it (`filmcal.contact.transfer`).
+
+        The shipped fit of the edge offset between the continuum FE film (the
+        calibration's model) and the film law solved here, evaluated for this
+        solved contact and applied along its outline: add ``shift_mm2`` to
+        `recorded_area_mm2` for the area the calibrated film would record, and
+        carry ``std_mm2`` in the band.
+
+        Parameters
+        ----------
+        modulus_mpa : float
+            The film's Young's modulus (MPa) the contact was solved with.
+        result : WheelRailResult or ContactResult
+
+        Returns
+        -------
+        filmcal.contact.transfer.TransferTerm
+        """
+        import math
+
+        from filmcal.contact.transfer import load_transfer_fit, outline_perimeter_mm, transfer_term
+
+        area = self.recorded_area_mm2(result)
+        support = float(result.area_mm2)
+        perimeter = outline_perimeter_mm(result.outline_mm)
+        # the recorded outline's length: the support outline's shape at the recorded area
+        shape = perimeter / (2.0 * math.sqrt(math.pi * support)) if support > 0 and perimeter > 0 else 1.0
+        return transfer_term(load_transfer_fit(), self.imprint, self.kinematics, self.film, modulus_mpa, area,
+                             result.max_pressure_mpa, shape * 2.0 * math.sqrt(math.pi * area))
+
     def stained_area_mm2(self, result, rough_law) -> float:
         """The area (mm^2) of the coloured asperity spots under a rough surface.
 

@@ -10,7 +10,10 @@ pressure (the previous modulus, the bare contact first). For each calibrated
 model log(A_film / A_0) is fitted quadratically in log E through the three
 moduli, A_film being the area that model records, and evaluated at every
 posterior sample; the models' samples are pooled by their weights, giving the
-posterior of Delta A = A_film - A_0 and of the ratio A_0 / A_film. The fit's
+posterior of Delta A = A_film - A_0 and of the ratio A_0 / A_film. A_film is
+the area the calibrated film records: the application's reading plus the
+transfer term (`FilmModel.transfer_term`), whose standard deviation widens
+each sample (relative, interpolated in log E; drawn with a fixed seed). The fit's
 error is measured by one more solve, between the first two moduli, and
 reported beside the bands: the error of a quadratic through three points is
 odd about the middle one to leading order, so one check measures both halves.
@@ -146,17 +149,21 @@ def correction_curves(components, offsets_mm, forces_n, *, roughness=None, max_s
     interfaces = {(key, m): parts[members[0]][0].interface(float(m), law_at[m])[:2]
                   for key, members in groups.items() for m in moduli}
 
+    rng = np.random.default_rng(0)
     for i, force in enumerate(forces):
         for j, eta in enumerate(offsets):
             bare = wheel_rail_model.solve(eta, force)
             a0[i, j] = bare.area_mm2
             pooled = []
             for key, members in groups.items():
-                recorded, previous = {}, bare
+                recorded, spread, previous = {}, {}, bare
                 for m in moduli:  # each solve starts from its neighbour's pressure
                     film, law = interfaces[key, m]
                     previous = wheel_rail_model.solve(eta, force, film=film, roughness=law, initial=previous)
-                    recorded[m] = [parts[k][0].recorded_area_mm2(previous) for k in members]
+                    terms = [parts[k][0].transfer_term(float(m), previous) for k in members]
+                    recorded[m] = [parts[k][0].recorded_area_mm2(previous) + t.shift_mm2
+                                   for k, t in zip(members, terms)]
+                    spread[m] = [t.std_mm2 / r for t, r in zip(terms, recorded[m])]
                 at_nodes = np.log(np.array([recorded[m] for m in nodes]) / a0[i, j])
                 at_checks = np.log(np.array([recorded[m] for m in checks]) / a0[i, j]) if len(checks) else None
                 degree = min(2, len(nodes) - 1)
@@ -164,6 +171,8 @@ def correction_curves(components, offsets_mm, forces_n, *, roughness=None, max_s
                     e = parts[k][1]
                     coef = np.polyfit(np.log(nodes), at_nodes[:, col], degree) if degree else at_nodes[:1, col]
                     area = a0[i, j] * np.exp(np.polyval(coef, np.log(e)))
+                    rel_std = np.interp(np.log(e), np.log(moduli), [spread[m][col] for m in moduli])
+                    area = area * (1.0 + rel_std * rng.standard_normal(len(area)))
                     if len(nodes) > 1:
                         err[i, j] = max(err[i, j], float(np.max(np.abs(
                             np.exp(np.polyval(coef, np.log(checks)) - at_checks[:, col]) - 1.0))))

@@ -10,17 +10,20 @@ corrector and the curves interpolate the same solves. Models of one film type
 and kinematics differ only in what they read of a solve (edge, activation
 contour, capsule): correctors that share a `SupportAreas` solve once per
 modulus for all of them, over the moduli spanning all their posteriors, and a
-study can keep those solved areas (`SupportAreas` takes a cache). The
-corrected area of a sample is
+study can keep those solved areas (`SupportAreas` takes a cache).
 
-    A = (A_m + u eps_1) * (A_0 / A_f(E)) * (1 + 2 s / r_m * eps_2),
+A_f is the area the calibrated film records: the application's reading plus
+the transfer term of `filmcal.contact.transfer` (`FilmModel.transfer_term`: the
+continuum FE film that was calibrated against the film law solved here, a
+shift with its sign and a standard deviation s_T). The corrected area of a
+sample is
+
+    A = (A_m + u eps_1) * (A_0 / A_f(E)) * (1 + 2 sigma / r_m * eps_2) / (1 + s_T / A_f * eps_3),
 
 A_m the measured area, u the user's area uncertainty, r_m = sqrt(A_m / pi)
-its equivalent radius and s = sqrt(sigma^2 + m^2): the scatter of one imprint's
-radius about the model (sigma, inferred on the sphere-on-flat tests) and the
-film representation's radius error m (0.01 mm typical against the FE, see
-`bench/wheelrail_speed.py --fe-table`), carried over as a relative area
-scatter; eps_1, eps_2 standard normal.
+its equivalent radius and sigma the scatter of one imprint's radius about the
+model (inferred on the sphere-on-flat tests), carried over as a relative area
+scatter; eps_1..3 standard normal.
 """
 from __future__ import annotations
 
@@ -88,11 +91,13 @@ class SupportAreas:
         self._solved: dict[tuple[float, float], dict] = {}
 
     def __call__(self, offset_mm: float, force_n: float) -> dict:
-        """``area_no_film_mm2``, ``modulus_grid_mpa`` and ``area_film_mm2`` (model label -> areas at the moduli)."""
+        """``area_no_film_mm2``, ``modulus_grid_mpa``, and per model label: ``area_film_mm2`` (the area the
+        calibrated film records at each modulus: the application's reading plus the transfer term's shift) and
+        ``transfer_std_mm2`` (the term's standard deviation there)."""
         key = (float(offset_mm), float(force_n))
         if key not in self._solved:
             areas = self.cache.get(*key, self) if self.cache is not None else None
-            if areas is None:
+            if areas is None or "transfer_std_mm2" not in areas:
                 areas = self._solve(*key)
                 if self.cache is not None:
                     self.cache.put(*key, self, areas)
@@ -104,14 +109,17 @@ class SupportAreas:
 
         a0 = float(solve_wheel_rail(offset_mm, force_n, film=None, **self.settings).area_mm2)
         recorded = {m.label: [] for m in self.models}
+        spread = {m.label: [] for m in self.models}
         for e in self.moduli_mpa:
             film, law, _ = self.models[0].interface(float(e))
             result = solve_wheel_rail(offset_mm, force_n, film=film, roughness=law, **self.settings)
             for m in self.models:
-                recorded[m.label].append(m.recorded_area_mm2(result))
+                term = m.transfer_term(float(e), result)
+                recorded[m.label].append(m.recorded_area_mm2(result) + term.shift_mm2)
+                spread[m.label].append(term.std_mm2)
         self.n_solves += 1 + len(self.moduli_mpa)
         return {"area_no_film_mm2": a0, "modulus_grid_mpa": [float(e) for e in self.moduli_mpa],
-                "area_film_mm2": recorded}
+                "area_film_mm2": recorded, "transfer_std_mm2": spread}
 
 
 def nominal_modulus_mpa(posterior: dict, nominal_poisson: float) -> np.ndarray:
@@ -145,8 +153,6 @@ class WheelRailCorrector:
         Profile names (or CSV paths) as `filmcal.wheelrail.solve_wheel_rail` takes them.
     rail_inclination, nominal_radius_mm, grid_mm : float
         Wheel-rail model settings.
-    model_radius_std_mm : float
-        Radius error of the film representation (see the module docstring).
     max_samples : int
     random_state : int or numpy.random.Generator
 
@@ -159,7 +165,7 @@ class WheelRailCorrector:
 
     def __init__(self, posterior: dict, film: FilmModel, wheel: str = WHEEL, rail: str = RAIL,
                  rail_inclination: float = RAIL_INCLINATION, nominal_radius_mm: float = NOMINAL_RADIUS_MM, grid_mm: float = GRID_MM,
-                 model_radius_std_mm: float = 0.01, max_samples: int = 2000, random_state=0) -> None:
+                 max_samples: int = 2000, random_state=0) -> None:
         modulus = nominal_modulus_mpa(posterior, film.film.poisson)
         take = np.unique(np.linspace(0, len(modulus) - 1, min(len(modulus), max_samples)).round().astype(int))
         self.modulus_mpa_ = modulus[take]
@@ -167,7 +173,6 @@ class WheelRailCorrector:
         self.film = film
         self.settings = dict(wheel=wheel, rail=rail, rail_inclination=rail_inclination,
                              nominal_radius_mm=nominal_radius_mm, grid_mm=grid_mm)
-        self.model_radius_std_mm = model_radius_std_mm
         self.random_state = random_state
         self.supports = SupportAreas([film], [self.modulus_mpa_], self.settings)
 
@@ -190,25 +195,31 @@ class WheelRailCorrector:
                 c.supports = shared
 
     def film_area_mm2(self, modulus_mpa: float, offset_mm: float, force_n: float) -> float:
-        """The area the film records at modulus E (the film model's kinematics and imprint reading)."""
+        """The area the calibrated film records at modulus E: the film model's reading of its own solve plus
+        the transfer term's shift (`FilmModel.transfer_term`)."""
         from filmcal.wheelrail import solve_wheel_rail
 
         film, law, _ = self.film.interface(float(modulus_mpa))
         result = solve_wheel_rail(offset_mm, force_n, film=film, roughness=law, **self.settings)
-        return self.film.recorded_area_mm2(result)
+        return self.film.recorded_area_mm2(result) + self.film.transfer_term(float(modulus_mpa), result).shift_mm2
 
-    def area_ratio(self, offset_mm: float, force_n: float) -> tuple[np.ndarray, dict]:
-        """A_0 / A_f(E) for every posterior sample, and the solved support points."""
+    def area_ratio(self, offset_mm: float, force_n: float) -> tuple[np.ndarray, np.ndarray, dict]:
+        """A_0 / A_f(E) for every posterior sample, the transfer term's relative standard deviation of A_f
+        there, and the solved support points."""
         solved = self.supports(offset_mm, force_n)
         a0 = solved["area_no_film_mm2"]
         e_grid = np.asarray(solved["modulus_grid_mpa"], dtype=float)
         a_f = np.asarray(solved["area_film_mm2"][self.film.label], dtype=float)
-        log_ratio = np.log(a0 / a_f)
+        rel_std = np.asarray(solved["transfer_std_mm2"][self.film.label], dtype=float) / a_f
+        log_e = np.log(self.modulus_mpa_)
         degree = min(2, len(e_grid) - 1)
-        coef = np.polyfit(np.log(e_grid), log_ratio, degree) if degree > 0 else log_ratio
-        ratio = np.exp(np.polyval(coef, np.log(self.modulus_mpa_)) if degree > 0 else np.full_like(
-            self.modulus_mpa_, log_ratio[0]))
-        return ratio, {"area_no_film_mm2": a0, "modulus_grid_mpa": e_grid, "area_film_mm2": a_f}
+        if degree > 0:
+            ratio = np.exp(np.polyval(np.polyfit(np.log(e_grid), np.log(a0 / a_f), degree), log_e))
+            transfer = np.interp(log_e, np.log(e_grid), rel_std)
+        else:
+            ratio = np.full_like(self.modulus_mpa_, a0 / a_f[0])
+            transfer = np.full_like(self.modulus_mpa_, rel_std[0])
+        return ratio, transfer, {"area_no_film_mm2": a0, "modulus_grid_mpa": e_grid, "area_film_mm2": a_f}
 
     def check_plausible(self, measured_area_mm2: float, offset_mm: float, force_n: float) -> None:
         """Refuse a measured wheel-rail area that no film could print at this offset and load.
@@ -264,14 +275,15 @@ class WheelRailCorrector:
         rng = np.random.default_rng(self.random_state)
         n = len(self.modulus_mpa_)
         samples = np.empty(A.shape + (n,))
-        cache: dict[tuple[float, float], np.ndarray] = {}
-        scatter_mm = np.sqrt(self.sigma_mm_**2 + self.model_radius_std_mm**2)
+        cache: dict[tuple[float, float], tuple[np.ndarray, np.ndarray]] = {}
         for idx in np.ndindex(A.shape):
             key = (float(eta[idx]), float(F[idx]))
             if key not in cache:
-                cache[key] = self.area_ratio(*key)[0]
+                cache[key] = self.area_ratio(*key)[:2]
+            ratio, transfer = cache[key]
             r_m = np.sqrt(A[idx] / np.pi)
             measured = A[idx] + u[idx] * rng.standard_normal(n)
-            samples[idx] = measured * cache[key] * (1.0 + 2.0 * scatter_mm / r_m * rng.standard_normal(n))
+            scatter = 1.0 + 2.0 * self.sigma_mm_ / r_m * rng.standard_normal(n)
+            samples[idx] = measured * ratio * scatter / (1.0 + transfer * rng.standard_normal(n))
         samples = np.clip(samples, 0.0, None)
         return _summarise(samples, np.sqrt(samples / np.pi))

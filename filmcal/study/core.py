@@ -799,7 +799,7 @@ class _StudySupports:
 
     ``posteriors/<key>-supports.json`` beside the posteriors, ``<key>`` the
     hash of its spec: the posteriors (their SHA-256), the film and
-    kinematics, the wheel-rail settings (a profile file by its SHA-256), the
+    kinematics, the transfer fit, the wheel-rail settings (a profile file by its SHA-256), the
     support moduli, the offset and the force. The manifest records each file
     with its spec and SHA-256 under ``caches``, not among the artefacts: a
     cache is no result of the study (the report and its inputs, and a
@@ -816,8 +816,12 @@ class _StudySupports:
         self.posteriors = posteriors  # model label -> SHA-256 of its posterior file
 
     def _spec(self, offset_mm: float, force_n: float, support) -> dict:
+        from filmcal.contact.transfer import load_transfer_fit
+
         settings = {k: (_profile_spec(v) if k in ("wheel", "rail") else v) for k, v in support.settings.items()}
+        transfer = load_transfer_fit()
         return _json_roundtrip({"kind": self.KIND, "film": support.models[0].film.to_dict(),
+                                "transfer": {m.label: transfer.coefficients[m.label] for m in support.models},
                                 "kinematics": support.models[0].kinematics,
                                 "posteriors": {m.label: self.posteriors[m.label] for m in support.models},
                                 "wheel_rail": settings, "moduli_mpa": [float(e) for e in support.moduli_mpa],

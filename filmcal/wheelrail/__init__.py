@@ -1,14 +1,14 @@
 """Wheel-rail contact: S1002 / 60E1 / 60E2 profiles, wheel placement with lateral
 offset, a half-space boundary-element normal-contact solver with the film as a
 compliant layer in series (plus roughness laws), and the wheel-rail problem
-(`solve_wheel_rail`) with the FE's edge reading for areas."""
+(`solve_wheel_rail`); areas are where the pressure is positive."""
 from __future__ import annotations
 
 from filmcal._lazy import lazy_exports
 
 # imported on first use, so that the command line starts fast
 __all__, __getattr__, __dir__ = lazy_exports(__name__, {
-    'filmcal.wheelrail.edge': ['EdgeReading', 'EdgeWindow', 'patch_ring_areas_mm2', 'read_contact_edge', 'read_fitted_outline', 'read_radial_edge_mm'],
+    'filmcal.wheelrail.patches': ['patch_ring_areas_mm2'],
     'filmcal.wheelrail.halfspace': ['ContactResult', 'HalfSpaceContactSolver', 'SurfaceGrid', 'rectangle_influence_mm', 'sphere_on_flat_contact'],
     'filmcal.wheelrail.hertz': ['HertzContact', 'hertz_elliptic'],
     'filmcal.contact.laws': ['ExponentialLaw', 'FilmLayer', 'GreenwoodWilliamsonLaw', 'HardLaw', 'InterfaceLaw', 'TabularLaw'],

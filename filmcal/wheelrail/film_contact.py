@@ -199,6 +199,10 @@ def solve_film_contact(offset_mm: float, force_n: float, case: FilmContactCase,
             out["film"] = {"name": named.name}
         out["imprint_model"] = model.imprint
         out["imprint_area_mm2"] = model.recorded_area_mm2(result)
+        if not no_film:
+            term = model.transfer_term(case.film_modulus_mpa, result)
+            out["transfer_shift_mm2"], out["transfer_std_mm2"] = term.shift_mm2, term.std_mm2
+            out["calibrated_imprint_area_mm2"] = out["imprint_area_mm2"] + term.shift_mm2
         if film_type.activation_pressure_mpa is not None:
             out["activation_pressure_mpa"] = film_type.activation_pressure_mpa
         if hasattr(law, "expected_stain"):

@@ -21,10 +21,7 @@ def plot_pressure_map(result, path: str | Path) -> None:
     fig.colorbar(mesh, ax=ax, label="pressure (MPa)")
     for k, ring in enumerate(result.outline_mm):
         ax.plot(ring[:, 1], ring[:, 0], "-", color="black", lw=1.0,
-                label="contact outline (FE edge reading)" if k == 0 else None)
-    for k, ring in enumerate(result.support_outline_mm):
-        ax.plot(ring[:, 1], ring[:, 0], ":", color="tab:red", lw=1.0,
-                label="pressure > 0" if k == 0 else None)
+                label="contact outline (pressure > 0)" if k == 0 else None)
     ax.set_aspect("equal")
     ax.set_xlabel("y (mm), track frame, field side positive")
     ax.set_ylabel("x (mm), along the rail")

@@ -59,18 +59,13 @@ sweep saves about a fifth of the iterations.
 
 Area
 ----
-``support_area_mm2`` is the area where the pressure is positive (the
-solver's sub-cell outline). With a compliant interface (film, roughness)
-``area_mm2`` is read with the edge-profile fit of the axisymmetric FE model
-(:mod:`filmcal.wheelrail.edge`): the definition the calibrated film model
-is defined with. It removes the linear pressure tail of the Winkler film
-(about 0.04 mm wide around the outline for the HS film), which the
-continuum film of the FE model does not have; on the ten sphere-on-flat
-cases of Table 1 the two models then agree within 0.02 mm in radius for
-E = 1000-5000 MPa. With hard contact the fit recovers the zero-pressure edge
-of a Hertzian contact (within 0.002 mm in radius on the same cases), so
-``area_mm2`` is the support area there: single-line fits scatter at
-non-Hertzian edges (profile joints) where there is no film tail to remove.
+``area_mm2`` is the area where the pressure is positive: the solver's sub-
+cell outline (`filmcal.wheelrail.halfspace`, "Contact area"), with or without
+a film. With a film this is the zero-pressure edge of the film springs, which
+lies 0.01-0.04 mm outside the continuum film's edge that the calibration ran
+(the springs have no lateral coupling); that difference is not hidden in the
+reading but carried as the transfer term of `filmcal.contact.transfer`
+(`FilmModel.transfer_term`), with its spread, in every correction.
 """
 from __future__ import annotations
 
@@ -85,7 +80,7 @@ from scipy import ndimage
 
 from filmcal.wheelrail.settings import GRID_MM, GRID_MM_RANGE, NOMINAL_RADIUS_MM, RAIL, RAIL_INCLINATION, WHEEL
 from filmcal._validation import as_finite, check_positive, check_range
-from filmcal.wheelrail.edge import EdgeReading, EdgeWindow, patch_ring_areas_mm2, read_fitted_outline
+from filmcal.wheelrail.patches import patch_ring_areas_mm2
 from filmcal.wheelrail.halfspace import ContactResult, HalfSpaceContactSolver, SurfaceGrid
 from filmcal.wheelrail.hertz import HertzContact, hertz_elliptic
 from filmcal.contact.laws import FilmLayer, InterfaceLaw
@@ -154,8 +149,8 @@ class ContactPatch:
 
     Attributes
     ----------
-    area_mm2, support_area_mm2 : float
-        Fitted-edge and positive-pressure areas.
+    area_mm2 : float
+        Area where the pressure is positive.
     force_fraction : float
         Share of the normal force carried by the patch.
     max_pressure_mpa : float
@@ -167,7 +162,6 @@ class ContactPatch:
     """
 
     area_mm2: float
-    support_area_mm2: float
     force_fraction: float
     max_pressure_mpa: float
     centroid_x_mm: float
@@ -216,10 +210,7 @@ class WheelRailResult:
         Force normal to the contact plane, ``F / cos(theta)``.
     film, roughness : FilmLayer or None, InterfaceLaw or None
     area_mm2 : float
-        Contact area: with a film or roughness, the edge read as in the FE
-        model; with hard contact, the positive-pressure area (module notes).
-    support_area_mm2 : float
-        Area where the pressure is positive.
+        Contact area: where the pressure is positive (module notes).
     max_pressure_mpa : float
     approach_mm : float
         Vertical approach of wheel and rail from first touch.
@@ -232,8 +223,8 @@ class WheelRailResult:
         profile coordinates).
     patches : tuple of ContactPatch
         Connected patches, largest force first.
-    outline_mm, support_outline_mm : list of ndarray
-        Outline rings of ``area_mm2`` and of the positive pressure, ``(n, 2)``
+    outline_mm : list of ndarray
+        Outline rings of ``area_mm2``, ``(n, 2)``
         arrays of (x along the rail, y lateral in the track frame).
     hertz : HertzContact or None
         Local Hertz solution at the first contact point (relative curvatures:
@@ -250,8 +241,6 @@ class WheelRailResult:
         Track lateral position of every grid row ``s`` (cell centres).
     contact : ContactResult
         The half-space solution in plane coordinates (grid, pressure map).
-    edge : EdgeReading or None
-        The fitted edge (plane coordinates); None for hard contact.
     placement : WheelRailPlacement
     converged : bool
     elapsed_s : float
@@ -263,7 +252,6 @@ class WheelRailResult:
     film: FilmLayer | None
     roughness: InterfaceLaw | None
     area_mm2: float
-    support_area_mm2: float
     max_pressure_mpa: float
     approach_mm: float
     normal_approach_mm: float
@@ -274,13 +262,11 @@ class WheelRailResult:
     centroid_wheel_y_mm: float
     patches: tuple[ContactPatch, ...]
     outline_mm: list[np.ndarray] = field(repr=False)
-    support_outline_mm: list[np.ndarray] = field(repr=False)
     hertz: HertzContact | None
     hertz_like: bool
     plane: ContactPlane = field(repr=False)
     grid_track_y_mm: np.ndarray = field(repr=False)
     contact: ContactResult = field(repr=False)
-    edge: EdgeReading | None = field(repr=False)
     placement: WheelRailPlacement = field(repr=False)
     converged: bool
     elapsed_s: float
@@ -316,7 +302,6 @@ class WheelRailResult:
                 | {"kinematics": getattr(self.film, "kinematics", "small")},
             "roughness": None if self.roughness is None else repr(self.roughness),
             "contact_area_mm2": self.area_mm2,
-            "support_area_mm2": self.support_area_mm2,
             "max_pressure_mpa": self.max_pressure_mpa,
             "approach_mm": self.approach_mm,
             "normal_approach_mm": self.normal_approach_mm,
@@ -618,8 +603,6 @@ class WheelRailModel:
     solver : HalfSpaceContactSolver, optional
         Steel on steel by default; it caches the influence-coefficient
         spectra of up to eight grid shapes.
-    window : EdgeWindow
-        Edge reading (the FE model's settings by default).
 
     Notes
     -----
@@ -630,8 +613,7 @@ class WheelRailModel:
 
     def __init__(self, wheel: str | Profile = WHEEL, rail: str | Profile = RAIL,
                  rail_inclination: float = RAIL_INCLINATION, nominal_radius_mm: float = NOMINAL_RADIUS_MM, *,
-                 grid_mm: float = GRID_MM, solver: HalfSpaceContactSolver | None = None,
-                 window: EdgeWindow = EdgeWindow()) -> None:
+                 grid_mm: float = GRID_MM, solver: HalfSpaceContactSolver | None = None) -> None:
         self.grid_mm = check_range("grid_mm", grid_mm, *GRID_MM_RANGE, low_open=False,
                                    high_open=False)
         self.rail_inclination = check_range("rail_inclination", rail_inclination, 0.0, 0.2,
@@ -640,7 +622,6 @@ class WheelRailModel:
         self.wheel = _resolve(wheel, "wheel")
         self.rail = _resolve(rail, "rail")
         self.solver = HalfSpaceContactSolver() if solver is None else solver
-        self.window = window
         self._geometries: "OrderedDict[float, WheelRailGeometry]" = OrderedDict()
 
     def geometry(self, offset_mm: float) -> WheelRailGeometry:
@@ -816,13 +797,6 @@ class WheelRailModel:
         p = result.pressure_mpa
         labels, n_labels = ndimage.label(p > 0.0, structure=np.ones((3, 3), dtype=int))
         support = patch_ring_areas_mm2(grid.x_mm, grid.y_mm, result.outline_mm, labels, n_labels)
-        compliant = film is not None or (roughness is not None and not roughness.is_hard)
-        if compliant:
-            edge = read_fitted_outline(grid.x_mm, grid.y_mm, p, result.outline_mm, labels,
-                                       self.window)
-            area, rings, fitted = edge.area_mm2, edge.rings_mm, edge.patch_areas_mm2(n_labels)
-        else:
-            edge, area, rings, fitted = None, result.area_mm2, result.outline_mm, support
         x, s = grid.mesh()
         patches = []
         for k in range(1, n_labels + 1):
@@ -830,7 +804,7 @@ class WheelRailModel:
             cx, cs = float(x[cells].mean()), float(s[cells].mean())
             cy = float(curves.track_y(cs))
             patches.append(ContactPatch(
-                area_mm2=float(fitted[k - 1]), support_area_mm2=float(support[k - 1]),
+                area_mm2=float(support[k - 1]),
                 force_fraction=float(p[cells].sum() / p.sum()),
                 max_pressure_mpa=float(p[cells].max()), centroid_x_mm=cx, centroid_y_mm=cy,
                 rail_y_mm=float(placement.rail_y(cy)), wheel_y_mm=cy - placement.offset_mm))
@@ -841,16 +815,15 @@ class WheelRailModel:
         cos = math.cos(plane.angle_rad)
         return WheelRailResult(
             offset_mm=placement.offset_mm, force_n=force, normal_force_n=normal_force,
-            film=film, roughness=roughness, area_mm2=area,
-            support_area_mm2=result.area_mm2, max_pressure_mpa=result.max_pressure_mpa,
+            film=film, roughness=roughness, area_mm2=result.area_mm2,
+            max_pressure_mpa=result.max_pressure_mpa,
             approach_mm=delta / cos, normal_approach_mm=delta, contact_angle_rad=plane.angle_rad,
             centroid_x_mm=float(x[loaded].mean()), centroid_y_mm=cy,
             centroid_rail_y_mm=float(placement.rail_y(cy)),
             centroid_wheel_y_mm=cy - placement.offset_mm, patches=tuple(patches),
-            outline_mm=[_to_track(curves, r) for r in rings],
-            support_outline_mm=[_to_track(curves, r) for r in result.outline_mm],
+            outline_mm=[_to_track(curves, r) for r in result.outline_mm],
             hertz=hertz, hertz_like=_hertz_like(placement, curves, result, hertz, n_labels),
-            plane=plane, grid_track_y_mm=curves.track_y(grid.y_mm), contact=result, edge=edge,
+            plane=plane, grid_track_y_mm=curves.track_y(grid.y_mm), contact=result,
             placement=placement,
             converged=result.converged, elapsed_s=time.perf_counter() - start)
 
