@@ -79,6 +79,8 @@ def test_command_uses_the_study_posterior_and_refuses_nonsense(quick_study, tmp_
     assert {"area_mm2", "area_std_mm2", "area_ci90_mm2", "models"} <= set(out)
     assert out["area_ci90_mm2"][0] < out["area_mm2"] < out["area_ci90_mm2"][1] < 150.0
     assert abs(sum(m["weight"] for m in out["models"].values()) - 1) < 1e-9
+    for m in out["models"].values():  # every model's answer carries the calibrated-against-applied film term
+        assert -0.05 < m["transfer"]["shift_rel"] < 0.0 < m["transfer"]["std_rel"] < 0.02
     cases = {"a negative area": ["--film", "HS", "--study-dir", str(study), "--measured-area-mm2", "-1"],
              "a stray space": ["--film", " HS", "--study-dir", str(study)],
              "an absurd area": ["--film", "HS", "--study-dir", str(study), "--measured-area-mm2", "1e9"],

@@ -116,6 +116,13 @@ def run(args: argparse.Namespace) -> int:
             print(f"imprint area {reading.area_mm2:.2f} mm2 +/- {reading.area_std_mm2:.2f} "
                   f"({reading.n_regions} region(s), pixel {reading.pixel_size_mm:.4f} mm)")
         print(f"corrected area {out['area_mm2']:.2f} mm2 +/- {out['area_std_mm2']:.2f} (90 % {lo:.2f} - {hi:.2f})")
+        terms = [(m["weight"], m["transfer"]) for m in out["models"].values() if "transfer" in m]
+        if terms:
+            total = sum(w for w, _ in terms)
+            shift = sum(w * t["shift_rel"] for w, t in terms) / total
+            std = sum(w * t["std_rel"] for w, t in terms) / total
+            print(f"includes the transfer term (the calibrated FE film against the wheel-rail model's): film area "
+                  f"{100 * shift:+.2f} % +/- {100 * std:.2f} %")
         if args.outline_out is not None:
             print(f"outline without film ({out['outline_rule']}): {args.outline_out}")
     return 0

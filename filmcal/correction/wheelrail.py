@@ -93,11 +93,12 @@ class SupportAreas:
     def __call__(self, offset_mm: float, force_n: float) -> dict:
         """``area_no_film_mm2``, ``modulus_grid_mpa``, and per model label: ``area_film_mm2`` (the area the
         calibrated film records at each modulus: the application's reading plus the transfer term's shift) and
-        ``transfer_std_mm2`` (the term's standard deviation there)."""
+        ``transfer_shift_mm2`` and ``transfer_std_mm2`` (the term's shift, included in ``area_film_mm2``, and
+        its standard deviation there)."""
         key = (float(offset_mm), float(force_n))
         if key not in self._solved:
             areas = self.cache.get(*key, self) if self.cache is not None else None
-            if areas is None or "transfer_std_mm2" not in areas:
+            if areas is None or "transfer_shift_mm2" not in areas:
                 areas = self._solve(*key)
                 if self.cache is not None:
                     self.cache.put(*key, self, areas)
@@ -109,6 +110,7 @@ class SupportAreas:
 
         a0 = float(solve_wheel_rail(offset_mm, force_n, film=None, **self.settings).area_mm2)
         recorded = {m.label: [] for m in self.models}
+        shift = {m.label: [] for m in self.models}
         spread = {m.label: [] for m in self.models}
         for e in self.moduli_mpa:
             film, law, _ = self.models[0].interface(float(e))
@@ -116,10 +118,11 @@ class SupportAreas:
             for m in self.models:
                 term = m.transfer_term(float(e), result)
                 recorded[m.label].append(m.recorded_area_mm2(result) + term.shift_mm2)
+                shift[m.label].append(term.shift_mm2)
                 spread[m.label].append(term.std_mm2)
         self.n_solves += 1 + len(self.moduli_mpa)
         return {"area_no_film_mm2": a0, "modulus_grid_mpa": [float(e) for e in self.moduli_mpa],
-                "area_film_mm2": recorded, "transfer_std_mm2": spread}
+                "area_film_mm2": recorded, "transfer_shift_mm2": shift, "transfer_std_mm2": spread}
 
 
 def nominal_modulus_mpa(posterior: dict, nominal_poisson: float) -> np.ndarray:
@@ -220,6 +223,20 @@ class WheelRailCorrector:
             ratio = np.full_like(self.modulus_mpa_, a0 / a_f[0])
             transfer = np.full_like(self.modulus_mpa_, rel_std[0])
         return ratio, transfer, {"area_no_film_mm2": a0, "modulus_grid_mpa": e_grid, "area_film_mm2": a_f}
+
+    def transfer(self, offset_mm: float, force_n: float) -> dict:
+        """The transfer term at the posterior median modulus, relative to the calibrated film's area.
+
+        ``shift_rel``: the shift's share of A_f (negative: the calibrated film records less than the springs
+        read, so the correction factor grows by about ``-shift_rel``); ``std_rel``: its standard deviation's.
+        """
+        solved = self.supports(offset_mm, force_n)
+        log_e = np.log(solved["modulus_grid_mpa"])
+        a_f = np.asarray(solved["area_film_mm2"][self.film.label], dtype=float)
+        at = float(np.log(np.median(self.modulus_mpa_)))
+        rel = {key: float(np.interp(at, log_e, np.asarray(solved[f"transfer_{key}_mm2"][self.film.label]) / a_f))
+               for key in ("shift", "std")}
+        return {"shift_rel": rel["shift"], "std_rel": rel["std"]}
 
     def check_plausible(self, measured_area_mm2: float, offset_mm: float, force_n: float) -> None:
         """Refuse a measured wheel-rail area that no film could print at this offset and load.

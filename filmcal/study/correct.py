@@ -143,6 +143,9 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
     out.update(film=film, form="sphere-on-flat" if sphere else "wheel-rail",
                models={s["model"]: {"weight": w, "area_mm2": float(r.area_mm2), "area_ci90_mm2": r.area_ci90_mm2}
                        for (w, _, s), r in zip(parts, results)})
+    if not sphere:  # the calibrated film against the applied one: included in every model's answer and band
+        for w, c, s in parts:
+            out["models"][s["model"]]["transfer"] = c.transfer(m.offset_mm, force_n)
     if reading is not None:
         details = {k: v for k, v in reading.to_dict().items() if k not in ("area_mm2", "area_std_mm2")}
         out.update(measured_area_mm2=reading.area_mm2, measured_area_std_mm2=reading.area_std_mm2,
