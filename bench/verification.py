@@ -20,7 +20,7 @@ Rows:
 E 800-6300 MPa) at grids 0.2 / 0.1 / 0.05 mm against its Richardson extrapolation, and the observed order.
 ``--study-dir D``: Table 1 through the application model at each film's calibrated median E and preferred
 model (residuals against the calibration's own FE at the same E), and the wheel-rail correction factor
-A_0 / A_f at S1002/60E2, 100 kN, eta 0 per film before (the reading of filmcal <= 0.x: the ``p**2`` edge,
+A_0 / A_f at S1002/60E2, 100 kN, eta 0 per film before (the reading before the transfer term: the ``p**2`` edge,
 no transfer term) and after.
 
 Figures are differences of radii in mm (and relative), measured in this run.
