@@ -17,23 +17,28 @@ Per model, `assess_model` reports
   is the case (the joint of its repeats); with one imprint per case, as in
   Table 1, that is the row.
 
-Across models, `compare_models` gives ArviZ's ``compare`` table and the
-stacking weights (Yao, Vehtari, Simpson & Gelman, Bayesian Analysis 13,
-2018): the weights of the mixture of predictive distributions that
-maximises the leave-one-out log score.
+Across models, `compare_models` corrects the leave-one-out terms that PSIS
+cannot be trusted with: a case whose Pareto k exceeds 0.7 is left out and
+the model calibrated again without it (the caller's ``refit``), and its term
+becomes the exact ``log mean_s p(r_case | theta_s)`` over the refit's draws.
+From the corrected pointwise terms it gives three sets of weights:
 
-Stacking alone does not keep a band as wide as the models the data cannot
-tell apart: for two models with the same predictive densities its objective
-is flat and the optimiser returns a corner (weight 1 and 0, measured on two
-such toy models), so the combination would inherit one model's band only.
-The combination weights (``ModelComparison.weights``) therefore pool the
-stacking weight of the best model (largest ELPD-LOO) and of every model whose
-leave-one-out difference from it is small, ``elpd difference < max(4, 2 se of
-the difference)`` (the scale below which differences are not reliable,
-Sivula, Magnusson, Matamoros & Vehtari, "Uncertainty in Bayesian
-leave-one-out cross-validation based model comparison", 2022), and share it
-evenly within that group; other models keep their stacking weight. The raw
-stacking weights and pseudo-BMA+ weights are reported beside them.
+- **pseudo-BMA+** (Yao, Vehtari, Simpson & Gelman, Bayesian Analysis 13,
+  2018): ``w_k`` proportional to ``exp(n sum_i alpha_i elpd_k,i)``, averaged
+  over Bayesian-bootstrap draws ``alpha ~ Dirichlet(1, ..., 1)`` of the cases.
+  It is smooth in the ELPD differences and carries their uncertainty: models
+  the data cannot separate share the weight (their bootstrap draws swap the
+  lead), a clearly worse model keeps a small weight rather than none;
+- **stacking** (the same paper): the weights of the mixture of predictive
+  densities that maximises the leave-one-out log score. For models with the
+  same predictive densities its objective is flat and the optimum a corner
+  (weight 1 and 0), so it is reported, not used;
+- the **weights used** (``ModelComparison.weights``) are the pseudo-BMA+
+  weights: no cut-off, a step in no ELPD difference (moving one model's ELPD
+  by 0.1 moves a weight by at most 0.025, since ``dw_k / d elpd_k =
+  w_k (1 - w_k)``), and a mixture's 90 % band contains the median of every
+  model of weight >= 0.1 (half of such a model's mass, >= 5 % of the mixture,
+  lies on either side of its median).
 
 `combine_posteriors` then draws the mixture: each sample carries the label
 of its model, so that a corrector evaluates every sample with its own radius
@@ -44,8 +49,8 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Mapping
 
 import numpy as np
 
@@ -53,8 +58,16 @@ from filmcal.calibration.checks import predictive_check
 from filmcal.calibration.likelihood import CalibrationProblem
 from filmcal.calibration.posterior import LOG_LIKELIHOOD_CASE
 
-__all__ = ["ModelAssessment", "ModelComparison", "MixturePosterior", "assess_model", "compare_models",
-           "combine_posteriors"]
+__all__ = [
+    "MixturePosterior",
+    "ModelAssessment",
+    "ModelComparison",
+    "assess_model",
+    "combine_posteriors",
+    "compare_models",
+    "pseudo_bma_plus_weights",
+    "stacking_weights",
+]
 
 #: Pareto k above which an importance-sampling leave-one-out estimate is unreliable.
 PARETO_K_THRESHOLD = 0.7
@@ -168,57 +181,110 @@ class ModelComparison:
     ----------
     assessments : dict of str -> ModelAssessment
     weights : dict of str -> float
-        Combination weights (sum 1): the stacking weights, pooled and shared
-        evenly within each group of indistinguishable models.
+        The weights used (sum 1): the pseudo-BMA+ weights.
     stacking_weights : dict of str -> float
-        ArviZ's stacking weights.
+        Stacking weights of the corrected leave-one-out terms, reported.
     pseudo_bma_weights : dict of str -> float
-        Pseudo-BMA+ weights (Bayesian bootstrap), for comparison.
-    groups : list of list of str
-        The best model with those the data cannot tell from it (sharing
-        their weight), then every other model alone.
+        Pseudo-BMA+ weights (Bayesian bootstrap).
     table : list of dict
-        ArviZ's ``compare`` rows, best first: ``name``, ``rank``,
-        ``elpd_loo``, ``p_loo``, ``elpd_diff``, ``weight``, ``se``, ``dse``.
+        Best first: ``name``, ``rank``, ``elpd_loo`` (with exact refits), ``se``, ``elpd_diff``, ``dse``,
+        ``p_loo``, ``n_refit``, ``n_pareto_k_high``, ``stacking_weight``, ``pseudo_bma_weight``, ``weight``.
     preferred : str
-        The model of largest weight (ties: largest stacking weight, then ELPD).
+        The model of largest weight (ties: largest ELPD).
+    elpd_loo : dict of str -> float
+        Each model's ELPD-LOO after the exact refits.
+    n_refit : int
+        Cases refitted exactly (over all models).
     """
 
     assessments: dict
     weights: dict
     stacking_weights: dict
     pseudo_bma_weights: dict
-    groups: list
     table: list
     preferred: str
+    elpd_loo: dict
+    n_refit: int
 
     def to_dict(self) -> dict:
         """Plain JSON values."""
         return {"models": {k: a.to_dict() for k, a in self.assessments.items()}, "weights": dict(self.weights),
                 "stacking_weights": dict(self.stacking_weights), "pseudo_bma_weights": dict(self.pseudo_bma_weights),
-                "groups": [list(g) for g in self.groups], "table": list(self.table), "preferred": self.preferred}
+                "table": list(self.table), "preferred": self.preferred, "elpd_loo": dict(self.elpd_loo),
+                "n_refit": self.n_refit, "weights_rule": "pseudo-BMA+"}
 
 
-def _indistinguishable_groups(names: list[str], pointwise: dict[str, np.ndarray], elpd: dict[str, float],
-                              min_elpd: float) -> list[list[str]]:
-    """The best model (largest ELPD) with every model within max(min_elpd, 2 se of the difference) of it;
-    every other model on its own."""
-    best = max(names, key=lambda n: elpd[n])
-    top = [best]
-    for n in names:
-        if n == best:
-            continue
-        diff = pointwise[best] - pointwise[n]
-        se = math.sqrt(diff.size * float(np.var(diff)))
-        if elpd[best] - elpd[n] < max(min_elpd, 2.0 * se):
-            top.append(n)
-    top = [n for n in names if n in top]
-    return [top] + [[n] for n in names if n not in top]
+def _log_mean_exp(x: np.ndarray, axis: int = 0) -> np.ndarray:
+    top = np.max(x, axis=axis, keepdims=True)
+    return np.squeeze(top, axis=axis) + np.log(np.mean(np.exp(x - top), axis=axis))
+
+
+def _refit_theta(problem: CalibrationProblem, samples) -> np.ndarray:
+    """Sampled coordinates (k, ndim) of a refit's named samples (nu dropped when the problem fixes it)."""
+    named = {k: np.asarray(v, dtype=float) for k, v in samples.items()}
+    if problem.poisson_mode == "fixed":
+        named.pop("poisson", None)
+    return problem.theta_from_named(named).reshape(-1, problem.ndim)
+
+
+def _exact_terms(problems: Mapping[str, CalibrationProblem], high: list[tuple[str, int]], refit, workers) -> dict:
+    """``{(model, case): exact leave-one-case-out term}`` from refits without the case."""
+    if not high:
+        return {}
+    ref = next(iter(problems.values()))
+    tasks = {(name, case): (refit, (name, ref.data.select(ref.case_index != case))) for name, case in high}
+    fits: dict = {}
+    if workers is None:
+        fits = {key: fn(*args) for key, (fn, args) in tasks.items()}
+    else:
+        from filmcal._parallel import run_tasks
+
+        run_tasks(tasks, workers, lambda key, value, k: fits.__setitem__(key, value))
+    out = {}
+    for (name, case), samples in fits.items():
+        theta = _refit_theta(problems[name], samples)
+        out[name, case] = float(_log_mean_exp(problems[name].case_log_likelihood(theta)[:, case]))
+    return out
+
+
+def pseudo_bma_plus_weights(pointwise: np.ndarray, n_bootstrap: int = 1000, random_state: int = 0) -> np.ndarray:
+    """Pseudo-BMA+ weights of models from their pointwise leave-one-out terms (Yao et al. 2018, eq. 10).
+
+    Parameters
+    ----------
+    pointwise : ndarray, shape (n_models, n_cases)
+    n_bootstrap : int
+        Bayesian-bootstrap draws.
+    random_state : int
+    """
+    elpd_i = np.asarray(pointwise, dtype=float)
+    n = elpd_i.shape[1]
+    alpha = np.random.default_rng(random_state).dirichlet(np.ones(n), size=n_bootstrap)  # (B, n)
+    z = n * alpha @ elpd_i.T  # (B, n_models)
+    z -= z.max(axis=1, keepdims=True)
+    w = np.exp(z)
+    w /= w.sum(axis=1, keepdims=True)
+    return w.mean(axis=0)
+
+
+def stacking_weights(pointwise: np.ndarray) -> np.ndarray:
+    """Stacking weights: maximise ``sum_i log sum_k w_k exp(elpd_k,i)`` over the simplex (Yao et al. 2018)."""
+    from scipy.optimize import minimize
+    from scipy.special import logsumexp, softmax
+
+    elpd_i = np.asarray(pointwise, dtype=float)
+    k = elpd_i.shape[0]
+
+    def loss(z: np.ndarray) -> float:
+        return -float(np.sum(logsumexp(elpd_i.T + np.log(softmax(np.append(z, 0.0))), axis=1)))
+
+    best = minimize(loss, np.zeros(k - 1), method="L-BFGS-B")
+    return softmax(np.append(best.x, 0.0))
 
 
 def compare_models(models: Mapping[str, tuple[CalibrationProblem, object]], max_samples: int = 2000,
-                   indistinguishable_elpd: float = 4.0, random_state: int = 0) -> ModelComparison:
-    """Assess every model and weigh them by stacking of their leave-one-case-out predictive densities.
+                   random_state: int = 0, refit=None, workers=None, n_bootstrap: int = 1000) -> ModelComparison:
+    """Assess every model and weigh them by their leave-one-case-out predictive accuracy (module docstring).
 
     Parameters
     ----------
@@ -226,12 +292,15 @@ def compare_models(models: Mapping[str, tuple[CalibrationProblem, object]], max_
         At least two models calibrated on the same measured radii.
     max_samples : int
         As in `assess_model`.
-    indistinguishable_elpd : float, default 4
-        Models closer than this in ELPD-LOO to the best one (or than twice
-        the standard error of their difference) share its weight (module
-        docstring); 0 keeps the stacking weights as they are.
     random_state : int
         Seed of the Bayesian bootstrap of the pseudo-BMA+ weights.
+    refit : callable, optional
+        ``refit(name, data) -> named samples``: model ``name`` calibrated on ``data`` (the data without one
+        case); called for every case whose Pareto k exceeds 0.7. Without it those terms stay PSIS's.
+    workers : int or Executor, optional
+        Where the refits run (`filmcal._parallel.run_tasks`); None: in this process.
+    n_bootstrap : int
+        Bayesian-bootstrap draws of the pseudo-BMA+ weights.
 
     Raises
     ------
@@ -253,40 +322,38 @@ def compare_models(models: Mapping[str, tuple[CalibrationProblem, object]], max_
                              "models are compared on the same measured radii only")
     assessments = {name: assess_model(problem, idata, name, max_samples) for name, (problem, idata) in
                    models.items()}
-    if not (math.isfinite(indistinguishable_elpd) and indistinguishable_elpd >= 0):
-        raise ValueError(f"indistinguishable_elpd must be finite and >= 0, got {indistinguishable_elpd!r}")
-    idatas = {name: idata for name, (_, idata) in models.items()}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        frame = az.compare(idatas, ic="loo", method="stacking", var_name=LOG_LIKELIHOOD_CASE)
-        bma = az.compare(idatas, ic="loo", method="BB-pseudo-BMA", var_name=LOG_LIKELIHOOD_CASE,
-                         seed=random_state)
-        pointwise = {name: np.asarray(az.loo(idata, pointwise=True, var_name=LOG_LIKELIHOOD_CASE).loo_i.values)
-                     for name, idata in idatas.items()}
-
-    def normalised(column) -> dict[str, float]:
-        w = {name: max(float(column.loc[name]), 0.0) for name in names}
-        total = sum(w.values())
-        return {k: v / total for k, v in w.items()}
-
-    stacking = normalised(frame["weight"])
-    pseudo_bma = normalised(bma["weight"])
-    elpd = {name: float(frame.loc[name, "elpd_loo"]) for name in names}
-    groups = (_indistinguishable_groups(names, pointwise, elpd, indistinguishable_elpd)
-              if indistinguishable_elpd > 0 else [[n] for n in names])
-    weights = {}
-    for group in groups:
-        share = sum(stacking[n] for n in group) / len(group)
-        weights.update({n: share for n in group})
-    weights = {n: weights[n] for n in names}
+        pointwise = {name: np.asarray(az.loo(idata, pointwise=True, var_name=LOG_LIKELIHOOD_CASE).loo_i.values,
+                                      dtype=float) for name, (_, idata) in models.items()}
+    high = [(name, int(case)) for name in names
+            for case in np.flatnonzero(assessments[name].pareto_k > PARETO_K_THRESHOLD)]
+    exact = _exact_terms({n: models[n][0] for n in names}, high, refit, workers) if refit is not None else {}
+    for (name, case), term in exact.items():
+        pointwise[name][case] = term
+    matrix = np.array([pointwise[n] for n in names])
+    n_cases = matrix.shape[1]
+    elpd = matrix.sum(axis=1)
+    pseudo_bma = pseudo_bma_plus_weights(matrix, n_bootstrap, random_state)
+    stacking = stacking_weights(matrix)
+    best = int(np.argmax(elpd))
     table = []
-    for name, row in frame.iterrows():
-        table.append({"name": str(name), "rank": int(row["rank"]), "elpd_loo": float(row["elpd_loo"]),
-                      "p_loo": float(row["p_loo"]), "elpd_diff": float(row["elpd_diff"]),
-                      "weight": weights[str(name)], "se": float(row["se"]), "dse": float(row["dse"])})
-    preferred = max(names, key=lambda n: (weights[n], stacking[n], elpd[n]))
-    return ModelComparison(assessments=assessments, weights=weights, stacking_weights=stacking,
-                           pseudo_bma_weights=pseudo_bma, groups=groups, table=table, preferred=preferred)
+    for k in np.argsort(-elpd, kind="stable"):
+        diff = matrix[best] - matrix[k]
+        table.append({"name": names[k], "rank": len(table), "elpd_loo": float(elpd[k]),
+                      "se": float(math.sqrt(n_cases * np.var(matrix[k]))), "elpd_diff": float(diff.sum()),
+                      "dse": float(math.sqrt(n_cases * np.var(diff))), "p_loo": assessments[names[k]].p_loo,
+                      "n_refit": sum(1 for (n, _) in exact if n == names[k]),
+                      "n_pareto_k_high": assessments[names[k]].n_pareto_k_high,
+                      "stacking_weight": float(stacking[k]), "pseudo_bma_weight": float(pseudo_bma[k]),
+                      "weight": float(pseudo_bma[k])})
+    weights = {n: float(w) for n, w in zip(names, pseudo_bma)}
+    preferred = max(names, key=lambda n: (weights[n], elpd[names.index(n)]))
+    return ModelComparison(assessments=assessments, weights=weights,
+                           stacking_weights={n: float(w) for n, w in zip(names, stacking)},
+                           pseudo_bma_weights=dict(weights), table=table, preferred=preferred,
+                           elpd_loo={n: float(e) for n, e in zip(names, elpd)},
+                           n_refit=len(exact))
 
 
 @dataclass(frozen=True)

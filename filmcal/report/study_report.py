@@ -491,6 +491,8 @@ def film_records_section(comparison: dict | None, curves: dict | None = None) ->
             continue
         weights = d.get("weights") or {}
         stacking = d.get("stacking_weights") or {}
+        elpd = d.get("elpd_loo") or {}
+        refits = {row.get("name"): row.get("n_refit", 0) for row in d.get("table") or [] if isinstance(row, dict)}
         for model, v in (d.get("models") or {}).items():
             if not isinstance(v, dict):
                 continue
@@ -498,31 +500,33 @@ def film_records_section(comparison: dict | None, curves: dict | None = None) ->
             rows.append([film, model, _ci(e) if isinstance(e, dict) and "ci90" in e else "",
                          _fmt(v.get("rms_residual_mm"), "{:.3f}"),
                          f"{v.get('ppc_inside_90', '')}/{v.get('n_data', '')}",
-                         _fmt(v.get("elpd_loo"), "{:.1f}") + (f" ± {v['elpd_loo_se']:.1f}"
-                                                           if isinstance(v.get("elpd_loo_se"), (int, float)) else ""),
-                         _fmt(v.get("pareto_k_max"), "{:.2f}"),
+                         _fmt(elpd.get(model, v.get("elpd_loo")), "{:.1f}")
+                         + (f" ± {v['elpd_loo_se']:.1f}" if isinstance(v.get("elpd_loo_se"), (int, float)) else ""),
+                         _fmt(v.get("pareto_k_max"), "{:.2f}") + (f" ({refits[model]} refit)" if refits.get(model)
+                                                                   else ""),
                          f"{_fmt(stacking.get(model), '{:.2f}')} / {_fmt(weights.get(model), '{:.2f}')}",
                          _case_verdict(v)])
         preferred = d.get("preferred", "")
-        shared = [g for g in d.get("groups", []) if preferred in g]
-        group = shared[0] if shared else [preferred]
+        sharing = sorted((m for m, w in weights.items() if m != preferred and w >= 0.1), key=lambda m: -weights[m])
         p = (d.get("models") or {}).get(preferred, {})
         verdicts.append(
-            f"{film}: the data prefer {preferred} (largest ELPD-LOO)"
-            + (f"; {', '.join(m for m in group if m != preferred)} cannot be told apart from it (ELPD within "
-               f"max(4, 2 se)) and share its weight" if len(group) > 1 else "")
+            f"{film}: the data prefer {preferred} (weight {weights.get(preferred, 0):.2f})"
+            + (f"; {', '.join(f'{m} ({weights[m]:.2f})' for m in sharing)} keep a share the data cannot take "
+               "from them" if sharing else "")
+            + (f"; {d['n_refit']} leave-one-out term(s) refitted exactly" if d.get("n_refit") else "")
             + f". R600/25 kN under {preferred}: standardised residual {_case_verdict(p) or 'n/a'}.")
     if rows:
         s.add(Table(["film", "model", "E (MPa) [90 %]", "RMS (mm)", "in 90 % PPI", "ELPD-LOO ± se",
-                     "max Pareto k", "weight: stacking / used", "R600/25 kN z"], rows,
+                     "max Pareto k", "weight: stacking / used (pseudo-BMA+)", "R600/25 kN z"], rows,
                     "Each film under each model (imprint model / film kinematics): fit (RMS residual, cases "
-                    "inside their 90 % posterior predictive interval), leave-one-out predictive accuracy, the "
-                    "stacking weight and the weight the correction uses, and the standardised residual of "
-                    "R600/25 kN"))
-        s.add(" ".join(verdicts) + " The combination weight pools the stacking weight of models the data cannot "
-              "tell apart (stacking alone gives such models weights of 1 and 0): the correction then uses their "
-              "mixture, so its band is as wide as their spread. A Pareto k above 0.7 marks a case whose "
-              "leave-one-out term is rough; the cross-validation refits those folds exactly.")
+                    "inside their 90 % posterior predictive interval), leave-one-out predictive accuracy (cases "
+                    "of Pareto k above 0.7 refitted exactly), the stacking weight and the weight the correction "
+                    "uses, and the standardised residual of R600/25 kN"))
+        s.add(" ".join(verdicts) + " The weights the correction uses are pseudo-BMA+ (Bayesian-bootstrap "
+              "averaged exp(ELPD)): smooth in the ELPD differences, so models the data cannot tell apart share "
+              "the weight and a model a little behind keeps a little, without a cut-off; stacking, whose "
+              "optimum for indistinguishable models is a corner, is shown beside them. The correction uses "
+              "the mixture, and its 90 % band contains the median of every model of weight 0.1 or more.")
     if curves:
         growth = []
         for film, rows_ in curves.items():

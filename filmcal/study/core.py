@@ -566,8 +566,14 @@ class Study:
         return assess_model(problem, posterior_inference_data(problem, result.samples, model_name=label,
                                                               max_draws=500), label)
 
-    def compare(self, film: str, models: dict) -> tuple[dict, bool]:
-        """Compare a film's calibrated models by PSIS-LOO and stacking; reuse the recorded comparison.
+    def compare(self, film: str, models: dict, *, workers=None, max_steps: int | None = None,
+                seed: int = 0) -> tuple[dict, bool]:
+        """Compare a film's calibrated models by leave-one-case-out accuracy; reuse the recorded comparison.
+
+        Cases whose PSIS estimate is unreliable (Pareto k > 0.7) are refitted
+        exactly (`refit_without_case`, with `max_steps` and a seed from `seed`,
+        on `workers`); the weights are pseudo-BMA+
+        (`filmcal.calibration.compare_models`).
 
         Parameters
         ----------
@@ -587,16 +593,21 @@ class Study:
         from filmcal.calibration.posterior import posterior_inference_data
 
         path = self.layout.comparison(film)
-        spec = {"film": film, "posteriors": sorted(p.name for _, p, _ in models.values())}
+        spec = {"film": film, "posteriors": sorted(p.name for _, p, _ in models.values()),
+                "weights": "pseudo-BMA+, exact refits where Pareto k > 0.7", "max_steps": max_steps, "seed": seed}
         entry = self.manifest.entry(self.layout.relative(path)) if path.exists() else None
         if entry and entry["spec"] == spec and self.verified(path):
             return read_json(path), False
+        from functools import partial
+
         pairs = {}
         for label, (result, ppath, _) in models.items():
             problem = self.problem(ppath)
             pairs[label] = (problem, posterior_inference_data(problem, result.samples, model_name=label,
                                                               max_draws=500))
-        d = compare_models(pairs).to_dict()
+        refit = partial(refit_without_case, {label: problem for label, (problem, _) in pairs.items()}, film,
+                        max_steps, seed_for(seed, f"comparison-{film}"))
+        d = compare_models(pairs, refit=refit, workers=workers, random_state=seed).to_dict()
         for label, (result, _, _) in models.items():
             p = result.predictive
             d["models"][label].update(
@@ -699,6 +710,20 @@ def _match_rows(results, points: list[dict]) -> np.ndarray:
     for i in range(n):
         index[key_of(lambda name: results.inputs[name][i])] = i
     return np.array([index.get(key_of(p.__getitem__), -1) for p in points])
+
+
+def refit_without_case(problems: dict, film: str, max_steps: int | None, seed: int, label: str, data):
+    """Model `label` calibrated again on `data` (a fold without one case): its samples.
+
+    The exact refit of a leave-one-case-out term, for the comparison and the cross-validation.
+    """
+    from filmcal.calibration import SamplerSettings, calibrate
+
+    problem = problems[label]
+    sampler = SamplerSettings() if max_steps is None else SamplerSettings(max_steps=max_steps)
+    return calibrate(data, problem.model, film=film, poisson=problem.poisson_mode,
+                     discrepancy=None if problem.discrepancy == "none" else problem.discrepancy,
+                     priors=problem.priors, seed=seed_for(seed, label), settings=sampler).samples
 
 
 def comparison_weights(study: Study, film: str) -> dict[str, float]:

@@ -29,7 +29,8 @@ import numpy as np
 from filmcal._errors import InputError
 from filmcal._io import atomic_write_json, read_json
 from filmcal.films import FILM_TYPES
-from filmcal.study.core import IMPRINT_MODELS, KINEMATICS, CalibrationSpec, FESettings, Study, seed_for
+from filmcal.study.core import (IMPRINT_MODELS, KINEMATICS, CalibrationSpec, FESettings, Study, refit_without_case,
+                                seed_for)
 
 __all__ = ["PipelineSettings", "run_pipeline", "STAGES"]
 
@@ -176,7 +177,7 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
             pool = 1 if workers == 1 else stack.enter_context(SharedPool(workers))
             stage("design", _design_stage, study, settings, seed)
             results = stage("calibration", _calibration_stage, study, settings, films, seed, pool, dataset)
-            comparisons = stage("comparison", _comparison_stage, study, settings, results)
+            comparisons = stage("comparison", _comparison_stage, study, settings, results, seed, pool)
             chosen = {film: _preferred(results[film], comparisons.get(film)) for film in films}
             medians = {film: float(r.modulus_mpa["median"]) for film, (r, _, _) in chosen.items()}
             stage("verification", _verification_stage, study, settings, seed, medians, pool)
@@ -281,15 +282,16 @@ def _calibration_stage(study: Study, settings: PipelineSettings, films, seed: in
     return results, len(study.manifest.artefacts("posterior")) > before
 
 
-def _comparison_stage(study: Study, settings: PipelineSettings, results: dict, st):
-    """Compare each film's models by PSIS-LOO and weigh them by stacking (``comparison-<film>.json``)."""
+def _comparison_stage(study: Study, settings: PipelineSettings, results: dict, seed: int, workers, st):
+    """Compare each film's models by leave-one-case-out accuracy, exact where PSIS is not, and weigh them by
+    pseudo-BMA+ (``comparison-<film>.json``)."""
     out, computed = {}, False
     st.set_total(sum(len(m) >= 2 for m in results.values()))
     for film, models in results.items():
         if len(models) < 2:
             continue
         st.note = f"{film}: {len(models)} models"
-        d, now = study.compare(film, models)
+        d, now = study.compare(film, models, workers=workers, max_steps=settings.max_steps, seed=seed)
         computed |= now
         out[film] = d
         if now:
@@ -451,17 +453,6 @@ def _rough_laws(study: Study, settings: PipelineSettings, components: dict, film
     return laws
 
 
-def _crossval_refit(problems: dict, film: str, max_steps: int | None, seed: int, label: str, data):
-    """The exact refit of a cross-validation fold: model `label` calibrated on `data` (its samples)."""
-    from filmcal.calibration import SamplerSettings, calibrate
-
-    problem = problems[label]
-    sampler = SamplerSettings() if max_steps is None else SamplerSettings(max_steps=max_steps)
-    return calibrate(data, problem.model, film=film, poisson=problem.poisson_mode,
-                     discrepancy=None if problem.discrepancy == "none" else problem.discrepancy,
-                     priors=problem.priors, seed=seed_for(seed, f"crossval-{film}-{label}"), settings=sampler).samples
-
-
 def _crossval_stage(study: Study, settings: PipelineSettings, results: dict, comparisons: dict, seed: int, workers,
                     st):
     """Leave-one-case-out cross-validation of the combined correction (``crossval/crossval-<film>.json``).
@@ -487,8 +478,8 @@ def _crossval_stage(study: Study, settings: PipelineSettings, results: dict, com
         if entry and entry["spec"] == spec and study.verified(path):
             continue
         pairs = {label: (study.problem(p), r.samples) for label, (r, p, _) in models.items() if weights.get(label, 0) > 0}
-        refit = partial(_crossval_refit, {label: problem for label, (problem, _) in pairs.items()}, film,
-                        settings.max_steps, seed)
+        refit = partial(refit_without_case, {label: problem for label, (problem, _) in pairs.items()}, film,
+                        settings.max_steps, seed_for(seed, f"crossval-{film}"))
         st.log(f"[crossval] {film}: leave-one-case-out by PSIS over {len(pairs)} model(s)")
         cv = psis_leave_one_case_out(pairs, {k: weights[k] for k in pairs}, refit, film=film,
                                      random_state=seed_for(seed, f"crossval-{film}"),
