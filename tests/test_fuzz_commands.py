@@ -70,6 +70,10 @@ def folder(tmp_path, monkeypatch, bomb_png):
     (tmp_path / "negative.csv").write_text("modulus_mpa,poisson,sphere_radius_mm,force_kn\n2800,0.33,-450,75\n")
     (tmp_path / "ragged.csv").write_text("modulus_mpa,poisson,sphere_radius_mm,force_kn\n2800,0.33\n")
     (tmp_path / "badprofile.csv").write_text("y_mm,z_mm\n0,nan\n1,2\n")
+    (tmp_path / "hugeprofile.csv").write_text("y_mm,z_mm\n" + "".join(f"{y},{1e300 if abs(y) > 20 else -0.01 * y * y}\n"
+                                                                     for y in range(-30, 31, 2)))
+    # a flat "rail" 400 mm wide: wider than any wheel profile
+    (tmp_path / "widerail.csv").write_text("y_mm,z_mm\n" + "".join(f"{y},{-1e-4 * y * y}\n" for y in range(-200, 201, 5)))
     (tmp_path / "law.csv").write_text("closure_um,pressure_mpa\n1,abc\n")
     (tmp_path / "films.toml").write_text('[LOT7]\nthickness_mm = "thick"\n')
     (tmp_path / "notoml.toml").write_bytes(b"[[[\x00")
@@ -132,6 +136,7 @@ CASES = [
     (["fem", *FEM, "--no-film", "--film-modulus-mpa", "2800"], ["--film-modulus-mpa", "--no-film"]),
     (["fem", *FEM], ["--film-modulus-mpa", "--no-film"]),
     (["fem", "--sphere-radius-mm", "1e300", "--force-kn", "75", "--no-film"], ["--sphere-radius-mm"]),
+    (["fem", "--sphere-radius-mm", "450", "--force-kn", "1e9", "--film-modulus-mpa", "2800"], ["--force-kn"]),
     # doe
     (["doe", "--samples", "1", "--param", "a=0:1", "--out", "d.csv"], ["--samples"]),
     (["doe", "--samples", "5", "--param", "a=1:0", "--out", "d.csv"], ["a:", "low"]),
@@ -199,6 +204,9 @@ CASES = [
     (["wheelrail", *WR, "--no-film", "--wheel", "UIC60"], ["UIC60"]),
     (["wheelrail", *WR, "--film-modulus-mpa", "2800", "--film-poisson", "0.7"], ["--film-poisson", "poisson"]),
     (["wheelrail", *WR, "--film-modulus-mpa", "-1"], ["--film-modulus-mpa"]),
+    (["wheelrail", *WR, "--no-film", "--rail", "widerail.csv"], ["widerail", "cannot cover"]),
+    (["wheelrail", *WR, "--no-film", "--rail", "hugeprofile.csv"], ["hugeprofile.csv"]),
+    (["profile", "hugeprofile.csv", "--kind", "rail"], ["hugeprofile.csv"]),
     (["wheelrail", *WR, "--no-film", "--nominal-radius-mm", "0"], ["--nominal-radius-mm", "radius"]),
     (["wheelrail", *WR, "--no-film", "--wheel-roughness-ra-um", "-1"], ["--wheel-roughness-ra-um"]),
     (["wheelrail", *WR, "--no-film", "--wheel-roughness-map", "bomb.png", "--roughness-pixel-um", "1",
@@ -226,12 +234,15 @@ CASES = [
     (["correct", "--film", "HS", *WHEEL, "--scan", "cut.png", "--study-dir", "badstudy"], ["--scan"]),
     (["correct", "--film", "HS", *WHEEL, "--measurement-std-mm2", "-1", "--study-dir", "badstudy"],
      ["--measurement-std-mm2"]),
+    (["correct", "--film", "HS", "--force-kn", "100000", "--measured-area-mm2", "150", "--offset-mm=-3",
+      "--study-dir", "badstudy"], ["--force-kn"]),
     # curves
     (["curves", "--film", "HS", "--offsets-mm=-7:2:1e-7", "--study-dir", "emptystudy"], ["--offsets-mm"]),
     (["curves", "--film", "HS", "--offsets-mm=abc", "--study-dir", "emptystudy"], ["--offsets-mm"]),
     (["curves", "--film", "HS", "--forces-kn=1:1e9:1", "--study-dir", "emptystudy"], ["--forces-kn"]),
     (["curves", "--film", "HS", "--forces-kn=50,nan", "--study-dir", "emptystudy"], ["--forces-kn"]),
     (["curves", "--film", "HS", "--forces-kn=0", "--study-dir", "emptystudy"], ["--forces-kn", "--study-dir"]),
+    (["curves", "--film", "HS", "--forces-kn=1e9", "--study-dir", "emptystudy"], ["--forces-kn"]),
     (["curves", "--film", "HS", "--roughness-law", "law.csv", "--study-dir", "emptystudy"],
      ["law.csv", "--roughness-law", "--study-dir"]),
     (["curves", "--film", "XX", "--study-dir", "emptystudy"], ["XX", "--film", "--study-dir"]),

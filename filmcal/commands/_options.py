@@ -57,6 +57,7 @@ def _concepts(*items: Concept) -> dict[str, Concept]:
 
 
 _POSITIVE = (1e-12, 1e12)  # finite and > 0 (bounds stated as "> 0")
+FORCE_KN_BOUNDS = (1e-3, 2000.0)  # 1 N to 2 MN
 
 VOCABULARY: dict[str, Concept] = _concepts(
     Concept("film", "film type: MS, HS, HHS, or a film of --films-file (or of the study)", metavar="NAME"),
@@ -76,7 +77,8 @@ VOCABULARY: dict[str, Concept] = _concepts(
     Concept("kinematics", "film kinematics: small (linear film) or large (neo-Hookean, large strain)",
             choices=KINEMATICS),
     Concept("sphere_radius_mm", "sphere radius R in mm", float, (1.0, 1e5)),
-    Concept("force_kn", "normal force F in kN", float, _POSITIVE),
+    # a sphere test or a wheel load above 2 MN (a 200 t axle) is a unit error (N for kN), not a contact
+    Concept("force_kn", "normal force F in kN", float, FORCE_KN_BOUNDS),
     Concept("forces_kn", "forces in kN: a list 50,100 or start:stop:step", metavar="LIST"),
     Concept("calibration_forces_kn", "choose the posterior calibrated on this force range in kN, e.g. 50-100",
             type=lambda t: force_range(t), metavar="RANGE"),

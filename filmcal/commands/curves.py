@@ -5,7 +5,8 @@ import argparse
 import sys
 
 from filmcal.commands._common import print_json
-from filmcal.commands._options import STUDY_IMPRINT_MODELS, add, force_range, local, renamed, split_model
+from filmcal.commands._options import (FORCE_KN_BOUNDS, STUDY_IMPRINT_MODELS, add, force_range, local, renamed,
+                                       split_model)
 from filmcal.contact.names import MIXTURE
 
 
@@ -43,12 +44,14 @@ def run(args: argparse.Namespace) -> int:
     from filmcal._validation import parse_grid
     from filmcal.study import Study
 
-    study = Study(args.study_dir)
-    ft = study.film(args.film)
     forces = parse_grid("forces_kn", args.forces_kn, 50)
     offsets = parse_grid("offsets_mm", args.offsets_mm, 200)
-    if any(not (0 < f < float("inf")) for f in forces):
-        raise ValueError(f"forces_kn must be finite and > 0, got {args.forces_kn!r}")
+    lo, hi = FORCE_KN_BOUNDS
+    if any(not (lo <= f <= hi) for f in forces):
+        raise ValueError(f"--forces-kn must lie in [{lo:g}, {hi:g}] kN (a larger load is a unit error), "
+                         f"got {args.forces_kn!r}")
+    study = Study(args.study_dir)
+    ft = study.film(args.film)
     if any(not (-20 <= e <= 10) for e in offsets):
         raise ValueError(f"offsets_mm must lie in [-20, 10] mm, got {args.offsets_mm!r}")
     from filmcal.correction import CURVE_COLUMNS, curve_rows, wheel_label, write_curves_csv

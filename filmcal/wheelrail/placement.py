@@ -285,6 +285,11 @@ def place_wheel_on_rail(wheel: Profile | str = WHEEL, rail: Profile | str = RAIL
     if r0 + min(np.asarray(w.z(w.points(0.5)[0]))) <= 0:
         raise ValueError(f"nominal_radius_mm {r0:g} is too small for the depth of wheel profile {w.name}")
     lo_eta, hi_eta = offset_range_mm(w, r, incl)
+    if lo_eta > hi_eta:
+        (wlo, whi), (rlo, rhi) = w.y_range_mm, r.y_range_mm
+        raise ValueError(f"the wheel profile {w.name} ({whi - wlo:.1f} mm wide) cannot cover the rail profile "
+                         f"{r.name} ({rhi - rlo:.1f} mm wide) at any offset: give a wheel profile that spans the "
+                         "rail head, or a rail profile cut to its head")
     allowed = f"offset_mm must lie in [{lo_eta:.2f}, {hi_eta:.2f}] mm for {w.name} on {r.name}"
     if not lo_eta <= eta <= hi_eta:
         raise ValueError(f"{allowed}, got {eta:g}")

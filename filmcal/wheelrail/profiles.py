@@ -544,6 +544,11 @@ def _read_csv_points(path: Path) -> tuple[np.ndarray, np.ndarray]:
     return np.array(y), np.array(z)
 
 
+#: How far from its origin a profile's points may lie (mm): the widest wheel profile spans about 140 mm and the
+#: deepest rail about 180 mm, so a larger value is a unit or column error.
+PROFILE_EXTENT_MM = 1000.0
+
+
 def load_profile_csv(path: str | Path, kind: str = "rail", name: str | None = None,
                      smoothing: float | None = None) -> Profile:
     """A profile from a CSV file with columns y_mm,z_mm (or y,z), smoothed by a cubic spline.
@@ -583,6 +588,11 @@ def load_profile_csv(path: str | Path, kind: str = "rail", name: str | None = No
     if not path.is_file():
         raise FileNotFoundError(f"profile file not found: {path}")
     y, z = _read_csv_points(path)
+    for label, values in (("y_mm", y), ("z_mm", z)):
+        worst = float(np.max(np.abs(values)))
+        if worst > PROFILE_EXTENT_MM:
+            raise ValueError(f"{path}: {label} reaches {worst:g} mm; a wheel or rail profile lies within "
+                             f"{PROFILE_EXTENT_MM:g} mm of its origin (check the units and the column order)")
     dy = np.diff(y)
     if np.all(dy < 0):
         y, z = y[::-1], z[::-1]
