@@ -62,6 +62,18 @@ class Manifest:
             later.append({"software": now, "first_written_utc": utc_now()})
 
     def write(self) -> None:
+        """Save the manifest; unchanged content leaves the file untouched (a refused or idle writer changes
+        nothing on disk)."""
+        import json
+
+        from filmcal._json import json_safe
+
+        text = json.dumps(json_safe(self.data), indent=1, allow_nan=False) + "\n"
+        try:
+            if self.path.read_text(encoding="utf-8") == text:
+                return
+        except (OSError, UnicodeDecodeError):
+            pass
         atomic_write_json(self.path, self.data, indent=1)
 
     # ------------------------------------------------------------ artefacts
