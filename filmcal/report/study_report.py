@@ -346,7 +346,28 @@ def verification_section(v: dict | None) -> Section:
           FigureBlock(F.plot_surrogate_at_medians(v["films"]), "Surrogate minus FE radius at the posterior medians, "
                       "with the surrogate's 90 % interval, per case and film.",
                       "Surrogate against new FE solves at the posterior medians"))
-    return s
+    return s.add(*_transfer_blocks())
+
+
+def _transfer_blocks() -> list:
+    """The shipped transfer fit's held-out check (filmcal/data/film_transfer.json)."""
+    from filmcal.contact.transfer import load_transfer_fit
+
+    fit = load_transfer_fit()
+    held = fit.provenance.get("held_out") or {}
+    rows = [[key, f"{r['n']}", f"{1e3 * r['raw_mean_mm']:+.1f}", f"{1e3 * r['raw_max_mm']:.1f}",
+             f"{1e3 * r['mean_mm']:+.1f}", f"{1e3 * r['rms_mm']:.1f}", f"{1e3 * r['max_mm']:.1f}",
+             f"{1e3 * fit.std_mm[key]:.1f}"] for key, r in sorted(held.items())]
+    text = ("From calibration to application. The calibration runs the continuum FE film; every wheel-rail "
+            "answer runs the film as springs in series with the half-spaces. Both solve the same sphere on a "
+            "flat at equal film parameters at held-out points over E 400-20000 MPa, ν 0.25-0.45, R 250-600 mm, "
+            "F 20-110 kN (MS, HS and HHS thresholds; made "
+            f"{fit.provenance.get('made', '?')} by scripts/fit-transfer). Without the transfer term the springs' "
+            "imprint lies outside the calibrated film's; with it the two agree to the residual shown, which "
+            "every wheel-rail band carries as the term's standard deviation.")
+    return [text, Table(["model", "points", "raw mean (µm)", "raw max (µm)", "with term: mean (µm)", "rms (µm)",
+                         "max (µm)", "std carried (µm)"], rows,
+                        "Transfer term: calibrated FE film minus applied film springs, imprint radius, held out")]
 
 
 def preliminary_section(model, modulus_range_mpa: tuple[float, float]) -> Section:
@@ -590,16 +611,17 @@ def wheel_rail_section(curves: dict, outlines: dict | None) -> Section:
     if not curves:
         return _missing(s, "curves-<film>.csv")
     s.add("Each film's posterior of E is propagated through the wheel-rail model (boundary elements on "
-          "half-spaces, the film as springs in series, areas read as in the FE calibration model): the film "
+          "half-spaces, the film as springs in series, each imprint model reading the solved pressure): the film "
           "area is interpolated in log E from solves at three moduli spanning the posterior and checked by one "
-          "more; the "
-          "largest relative error of that interpolation is printed beside the bands (it includes the area "
-          "reading's own numerical jitter of a few tenths of a percent between neighbouring E). Rough wheel: a "
-          "Greenwood-Williamson law from Ra at the film-wheel interface. At Ra 1.5 µm it changes the area by "
-          "well under 1 %, whereas the paper's rough-wheel simulations, with an experimentally obtained "
-          "pressure-overclosure law, found a considerable increase: the rough-wheel curves here are not a "
-          "substitute for that measured law, and a rough wheel should be corrected only after its roughness "
-          "law has been measured.")
+          "more; the largest relative error of that interpolation is printed beside the bands. The springs "
+          "have no lateral coupling, so the film the calibration ran (the continuum FE film) records a slightly "
+          "smaller imprint: that transfer term, an edge offset fitted over (E, ν, R, F) and checked on held-out "
+          "sphere-on-flat points (FE model verification), shifts every film area by its signed size (a few tenths "
+          "of a percent smaller) and widens every band by its spread. Rough wheel: the boundary-element pressure-closure law "
+          "of the film-wheel interface (What the film records), computed from a synthetic surface of the stated "
+          "Ra; its inputs (the coating's hardness, the spectrum) are assumed, not measured, and their "
+          "uncertainty is not in these bands, so the rough-wheel curves show the size of the effect, not a "
+          "calibrated correction.")
     for film, rows in curves.items():
         s.add(FigureBlock(F.plot_area_curves(rows, film), f"{film}: contact area over the lateral offset without "
                           "film and with film (posterior median, 90 % band), smooth and rough wheel.",
@@ -659,6 +681,12 @@ GLOSSARY: list[tuple[str, str]] = [
      "the shortcut is reliable; above, that measurement needs an exact refit."),
     ("Stacking weight", "The weight of each model in the mixture of models that predicts left-out "
      "measurements best; weights are between 0 and 1 and sum to 1."),
+    ("Pseudo-BMA+ weight", "Each model's weight proportional to exp(ELPD-LOO), averaged over Bayesian-bootstrap "
+     "resamplings of the measurements: models the data cannot tell apart share the weight, a model a little "
+     "behind keeps a little. The weights the correction uses."),
+    ("Transfer term", "The difference between the imprint of the film the calibration ran (continuum FE) and "
+     "of the film the wheel-rail model applies (springs), at equal film parameters: a signed shift and a "
+     "spread, both carried by every wheel-rail answer."),
 ]
 
 
