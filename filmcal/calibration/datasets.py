@@ -324,14 +324,16 @@ def _parse(raw: bytes, name: str, source: str) -> Dataset:
                               f"F {data.force_kn[i]:g} kN) already appears on line {first}", lines[i], "repeat")
         used[int(case)][rep] = lines[i]
         repeat[i] = rep
+    next_free: dict[int, int] = {}  # per case, no free number below it (linear in the rows, not quadratic)
     for i, (case, rep) in enumerate(zip(data.case_index, given)):
         if rep is None:
             taken = used.setdefault(int(case), {})
-            nxt = 1
+            nxt = next_free.get(int(case), 1)
             while nxt in taken:
                 nxt += 1
             taken[nxt] = lines[i]
             repeat[i] = nxt
+            next_free[int(case)] = nxt + 1
     data = RadiusErrorData(**{**{f: getattr(data, f) for f in _FIELDS}, "repeat": repeat})
     return Dataset(name=name, source=source, sha256=sha256, measured_column=measured_column,
                    columns=tuple(header), data=data)
