@@ -365,8 +365,8 @@ def _transfer_blocks() -> list:
             f"{fit.provenance.get('made', '?')} by scripts/fit-transfer). Without the transfer term the springs' "
             "imprint lies outside the calibrated film's; with it the two agree to the residual shown, which "
             "every wheel-rail band carries as the term's standard deviation.")
-    return [text, Table(["model", "points", "raw mean (µm)", "raw max (µm)", "with term: mean (µm)", "rms (µm)",
-                         "max (µm)", "std carried (µm)"], rows,
+    return [text, Table(["model", "points", "raw mean (µm)", "raw max |d| (µm)", "with term: mean (µm)", "rms (µm)",
+                         "max |d| (µm)", "std carried (µm)"], rows,
                         "Transfer term: calibrated FE film minus applied film springs, imprint radius, held out")]
 
 
