@@ -22,7 +22,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add(p, "film", required=True)
     add(p, "forces_kn", default="50,100", extra="(default 50,100)")
     add(p, "offsets_mm", default="-7:2:1", extra="(default -7:2:1)")
-    add(p, "wheel_roughness_ra_um", extra="; also a rough wheel of this Ra, as a Greenwood-Williamson law")
+    add(p, "wheel_roughness_ra_um", extra="; also a rough wheel of this Ra: its boundary-element law against each "
+                                          "film modulus, and against the steel rail for the area without film")
     local(p, "--roughness-law", metavar="CSV",
           help="also a rough wheel with this measured film-wheel pressure-overclosure law: a CSV with "
                "columns closure_um,pressure_mpa, both strictly increasing from pressure 0")

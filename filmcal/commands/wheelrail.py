@@ -36,8 +36,8 @@ def add_parser(subparsers) -> None:
     rough = p.add_mutually_exclusive_group()
     add(rough, "wheel_roughness_ra_um",
         extra=": pressed into the film (FFT boundary elements, PET hardness cap) it gives the film-wheel "
-              "pressure-closure law; without film, the Greenwood-Williamson law at the wheel-rail interface. "
-              "Smooth by default")
+              "pressure-closure law; without film, the same surface against steel (boundary elements, steel "
+              "hardness cap), and the nominal area is reported. Smooth by default")
     local(rough, "--roughness-law", metavar="CSV",
           help="a measured film-wheel pressure-closure law: CSV with columns closure_um,pressure_mpa")
     add(rough, "wheel_roughness_map", extra=", with --roughness-pixel-um (and --roughness-height-scale for a CSV, "
@@ -88,6 +88,9 @@ def run(args: argparse.Namespace) -> int:
     print(f"{out['wheel']} on {out['rail']} (inclination {inclination:g}), eta = {result.offset_mm:g} mm, "
           f"F = {args.force_kn:g} kN, {film_text}")
     print(f"contact area     {result.area_mm2:.2f} mm2   (pressure > 0)")
+    if "nominal_area_mm2" in out:
+        print(f"nominal area     {out['nominal_area_mm2']:.2f} mm2   (rough bodies: the smooth area times the "
+              "growth of the area above 1 % of the peak pressure)")
     if result.hertz is not None:
         note = "applies" if result.hertz_like else "does not apply here"
         print(f"local Hertz      {result.hertz.area_mm2:.2f} mm2 ({note})")

@@ -104,7 +104,9 @@ __all__ = [
     "RoughSurface",
     "RoughContactLaw",
     "PET_HARDNESS_MPA",
+    "STEEL_HARDNESS_MPA",
     "rough_contact_law",
+    "steel_contact_law",
     "layer_compliance_factor",
     "bearing_area_closure_mm",
     "persson_contact_fraction",
@@ -115,6 +117,9 @@ __all__ = [
 
 #: Indentation hardness of the PET carrier (MPa): Tabor's 3 Y with Y ~ 100 MPa (BOPET).
 PET_HARDNESS_MPA = 300.0
+#: Indentation hardness of wheel and rail steel (MPa): about 280 HV (R260 rail 260-300 HB, ER7 wheels
+#: 235-285 HB; HV ~ HB in this range), 9.81 MPa per HV unit.
+STEEL_HARDNESS_MPA = 2750.0
 
 #: The synthetic surface used for a wheel or flat given only by its Ra, with sources.
 WHEEL_SURFACE_DEFAULTS: dict[str, object] = {
@@ -791,7 +796,8 @@ class RoughContactLaw(TabularLaw):
             "film_thickness_mm": self.film_thickness_mm, "hardness_mpa": self.hardness_mpa,
             "saturation_pressure_mpa": self.saturation_pressure_mpa,
             "closure_at_saturation_um": 1e3 * self.steps[-1].closure_mm,
-            "hardness_source": "Tabor H = 3 Y, Y = 100 MPa (biaxially oriented PET)",
+            "hardness_source": ("steel, about 280 HV (wheel and rail)" if self.film_thickness_mm == math.inf
+                                else "Tabor H = 3 Y, Y = 100 MPa (biaxially oriented PET)"),
         }
 
     def __repr__(self) -> str:
@@ -831,7 +837,7 @@ def rough_contact_law(surface: RoughSurface, film_modulus_mpa: float, film_poiss
     """
     e_f = check_positive("film_modulus_mpa", film_modulus_mpa)
     nu_f = check_poisson("film_poisson", film_poisson)
-    t = check_positive("film_thickness_mm", film_thickness_mm)
+    t = math.inf if film_thickness_mm == math.inf else check_positive("film_thickness_mm", film_thickness_mm)
     hard = check_positive("hardness_mpa", hardness_mpa)
     sat = check_range("saturation_fraction", saturation_fraction, 0.5, 0.99, low_open=False,
                       high_open=False)
@@ -851,6 +857,27 @@ def rough_contact_law(surface: RoughSurface, film_modulus_mpa: float, film_poiss
     while len(_CACHE) > _CACHE_SIZE:
         _CACHE.popitem(last=False)
     return law
+
+
+def steel_contact_law(surface: RoughSurface, *, hardness_mpa: float = STEEL_HARDNESS_MPA) -> RoughContactLaw:
+    """The pressure-closure law of rough steel on steel without film (cached per process).
+
+    The boundary-element mechanics of `rough_contact_law` with the film replaced by a steel half-space: two
+    elastic steel bodies whose composite roughness is ``surface`` (two rough bodies add their heights: a sum
+    surface of RMS ``sqrt(rms_1**2 + rms_2**2)``), asperity pressures capped by the steel's hardness. In series
+    with the smooth bodies it gives the rough Hertz contact: on sphere-on-flat its peak pressure follows
+    Greenwood & Tripp's as correlated by Bahrami et al. (J. Thermophys. Heat Transfer 18, 2004),
+    ``P0 / P0_Hertz = 1 / (1 + 1.37 alpha tau**-0.075)``, alpha = sigma R / a0**2, tau = R / a0, within 1 %
+    (``tests/test_roughness_no_film.py``).
+
+    Parameters
+    ----------
+    surface : RoughSurface
+        The composite surface of the two bodies.
+    hardness_mpa : float
+        Cap on asperity pressures (default :data:`STEEL_HARDNESS_MPA`).
+    """
+    return rough_contact_law(surface, STEEL_MODULUS_MPA, STEEL_POISSON, math.inf, hardness_mpa=hardness_mpa)
 
 
 # ---------------------------------------------------------------------------

@@ -101,8 +101,8 @@ def curve_moduli(components, max_samples: int = 4000) -> np.ndarray:
     return np.sort(np.concatenate([nodes, checks]))
 
 
-def correction_curves(components, offsets_mm, forces_n, *, roughness=None, max_samples: int = 4000,
-                      **wheel_rail) -> CorrectionCurves:
+def correction_curves(components, offsets_mm, forces_n, *, roughness=None, no_film_law=None,
+                      max_samples: int = 4000, **wheel_rail) -> CorrectionCurves:
     """Posterior correction curves over offsets and forces, of one film model or a mixture of models.
 
     Parameters
@@ -120,6 +120,10 @@ def correction_curves(components, offsets_mm, forces_n, *, roughness=None, max_s
         The wheel: smooth, rough (law computed against each film modulus), a
         measured film-wheel law, or the laws of a rough wheel computed
         beforehand at each modulus of `curve_moduli` (``{modulus: law}``).
+    no_film_law : InterfaceLaw, optional
+        The rough bodies' law without film (`filmcal.contact.roughness.steel_contact_law`): the area without
+        film is then their nominal area (`filmcal.wheelrail.film_contact.nominal_rough_area_mm2`); without
+        it, the smooth bodies' area.
     max_samples : int
         Posterior samples used per model.
     **wheel_rail
@@ -154,6 +158,11 @@ def correction_curves(components, offsets_mm, forces_n, *, roughness=None, max_s
         for j, eta in enumerate(offsets):
             bare = wheel_rail_model.solve(eta, force)
             a0[i, j] = bare.area_mm2
+            if no_film_law is not None:
+                from filmcal.wheelrail.film_contact import nominal_rough_area_mm2
+
+                a0[i, j] = nominal_rough_area_mm2(wheel_rail_model.solve(eta, force, roughness=no_film_law,
+                                                                         initial=bare), bare)
             pooled = []
             for key, members in groups.items():
                 recorded, spread, previous = {}, {}, bare
@@ -223,8 +232,10 @@ def curve_rows(film: str, components, offsets_mm, forces_kn, roughness=None, law
         The grid: lateral offsets eta (mm) and loads (kN).
     roughness : None, float or InterfaceLaw
         The wheel: smooth (None), rough with this Ra in um (a synthetic surface
-        whose law is computed against each film modulus, `rough_surface`), or a
-        measured film-wheel pressure-closure law (e.g. `filmcal.wheelrail.TabularLaw`).
+        whose law is computed against each film modulus, `rough_surface`, and
+        against the steel rail for the area without film), or a measured
+        film-wheel pressure-closure law (e.g. `filmcal.wheelrail.TabularLaw`;
+        the area without film is then the smooth one).
     laws : mapping, optional
         With a rough wheel of Ra `roughness`: its laws already computed at each
         modulus of `curve_moduli` (``{modulus: rough_law(modulus)}``).
@@ -232,10 +243,15 @@ def curve_rows(film: str, components, offsets_mm, forces_kn, roughness=None, law
         Passed on to `correction_curves` (profiles, inclination, ...).
     """
     law = rough_surface(float(roughness)) if isinstance(roughness, (int, float)) else roughness
+    no_film_law = None
+    if isinstance(roughness, (int, float)):  # the same surface against steel: the area without film is rough too
+        from filmcal.contact.roughness import steel_contact_law
+
+        no_film_law = steel_contact_law(law)
     if laws is not None:
         law = laws
     c = correction_curves(components, offsets_mm, np.asarray(forces_kn, dtype=float) * 1e3, roughness=law,
-                          **wheel_rail)
+                          no_film_law=no_film_law, **wheel_rail)
     wheel = wheel_label(roughness)
     return [[film, wheel, force / 1e3, eta, c.area_no_film_mm2[i, j], c.area_film_median_mm2[i, j],
              c.delta_area_median_mm2[i, j], *c.delta_area_ci90_mm2[i, j], c.ratio_median[i, j], *c.ratio_ci90[i, j],

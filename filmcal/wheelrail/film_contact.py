@@ -50,13 +50,14 @@ class WheelRoughness:
         if sum(given) > 1:
             raise ValueError("give one of a roughness Ra, a roughness map and a roughness law")
         if self.ra_um is not None:
-            check_range("wheel_roughness_ra_um", self.ra_um, 0.0, 30.0, high_open=False)
+            check_range("wheel_roughness_ra_um", self.ra_um, 0.0, 30.0, low_open=False, high_open=False)
         if self.hardness_mpa is not None:
             check_positive("hardness_mpa", self.hardness_mpa)
 
     @property
     def smooth(self) -> bool:
-        return self.ra_um is None and self.map_file is None and self.law_file is None
+        """No roughness: nothing given, or Ra = 0 (the smooth solve exactly, no law)."""
+        return not self.ra_um and self.map_file is None and self.law_file is None
 
     def surface(self):
         """The rough surface (`RoughSurface`), or None for a measured law or a smooth wheel."""
@@ -73,7 +74,7 @@ class WheelRoughness:
                     raise ValueError("an image --wheel-roughness-map needs --roughness-height-range-um")
                 return RoughSurface.from_image(path, self.pixel_um, self.height_range_um)
             return RoughSurface.from_csv(path, self.pixel_um, self.height_scale)
-        if self.ra_um is None:
+        if not self.ra_um:  # None or 0: smooth
             return None
         d = WHEEL_SURFACE_DEFAULTS
         return RoughSurface.synthetic(ra_um=self.ra_um, hurst=d["hurst"],
@@ -127,8 +128,8 @@ def solve_film_contact(offset_mm: float, force_n: float, case: FilmContactCase,
     """Solve a wheel-rail contact with (or without) a film; return ``(result, summary)``.
 
     The film's law (linear springs t/M or the large-strain law) and the wheel's roughness law in series
-    come from `FilmModel.interface`; without a film a rough wheel uses the Greenwood-Williamson law at the
-    steel-steel interface.
+    come from `FilmModel.interface`; without a film rough bodies use the steel-on-steel boundary-element law
+    (`filmcal.contact.roughness.steel_contact_law`) and report their nominal area (`nominal_rough_area_mm2`).
 
     plot_path : str or Path, optional
         Also draw the pressure map with the contact outlines into this PNG/PDF/SVG file.
@@ -140,8 +141,7 @@ def solve_film_contact(offset_mm: float, force_n: float, case: FilmContactCase,
         roughness law, and with a film type its ``imprint_area_mm2`` under ``imprint_model``).
     """
     from filmcal.contact.film import FilmModel
-    from filmcal.contact.laws import GreenwoodWilliamsonLaw, TabularLaw, film_law
-    from filmcal.hertz import contact_modulus_mpa
+    from filmcal.contact.laws import TabularLaw, film_law
     from filmcal.wheelrail.wheelrail import solve_wheel_rail
 
     check_positive("force_n", force_n)
@@ -160,11 +160,11 @@ def solve_film_contact(offset_mm: float, force_n: float, case: FilmContactCase,
         law = TabularLaw.from_csv(roughness.law_file)
         rough_info = {"model": "measured law", "file": str(roughness.law_file)}
     if no_film:
-        if roughness.map_file is not None:
-            raise ValueError("--wheel-roughness-map needs a film (the law is computed against the film)")
         if surface is not None:
-            law = GreenwoodWilliamsonLaw(roughness.ra_um, contact_modulus_mpa())
-            rough_info = {"model": "Greenwood-Williamson (steel on steel)"}
+            from filmcal.contact.roughness import steel_contact_law
+
+            law = steel_contact_law(surface)
+            rough_info = {"model": "FFT boundary elements, steel on steel", **law.describe()}
         solver_film, solver_law = film_law(None, law)
     else:
         from filmcal.contact.roughness import PET_HARDNESS_MPA, rough_contact_law
@@ -182,6 +182,10 @@ def solve_film_contact(offset_mm: float, force_n: float, case: FilmContactCase,
 
         plot_pressure_map(result, plot_path)
     out: dict[str, Any] = result.summary()
+    if no_film and law is not None and not law.is_hard:
+        out["nominal_area_mm2"] = nominal_rough_area_mm2(result, solve_wheel_rail(
+            offset_mm, force_n, wheel=_profile(wheel, "wheel"), rail=_profile(rail, "rail"),
+            rail_inclination=rail_inclination, nominal_radius_mm=nominal_radius_mm, grid_mm=grid_mm))
     if not no_film:
         from filmcal.contact.laws import FilmLayer, LargeStrainFilm
 
@@ -208,6 +212,23 @@ def solve_film_contact(offset_mm: float, force_n: float, case: FilmContactCase,
         if hasattr(law, "expected_stain"):
             out["stained_area_mm2"] = model.stained_area_mm2(result, law)
     return result, out
+
+
+def nominal_rough_area_mm2(rough, smooth) -> float:
+    """The nominal contact area of rough bodies without film (mm^2).
+
+    The smooth contact's area times the growth of the area where the nominal pressure exceeds 1 % of its
+    maximum (`filmcal.contact.reading.nominal_area_mm2`, read alike on both): a rough contact's pressure
+    decays smoothly beyond the smooth edge, and the ratio of one reading of both keeps the smooth limit
+    exact.
+    """
+    from filmcal.contact.reading import nominal_area_mm2
+
+    def level(result) -> float:
+        grid = result.contact.grid
+        return nominal_area_mm2(grid.x_mm, grid.y_mm, result.contact.pressure_mpa)
+
+    return float(smooth.area_mm2) * level(rough) / level(smooth)
 
 
 def _profile(name, kind: str):
