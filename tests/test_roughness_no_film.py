@@ -14,7 +14,11 @@ import numpy as np
 import pytest
 
 from filmcal.contact.reading import NOMINAL_LEVEL, nominal_area_mm2
-from filmcal.contact.roughness import WHEEL_SURFACE_DEFAULTS, RoughSurface, steel_contact_law
+from filmcal.contact.roughness import (
+    WHEEL_SURFACE_DEFAULTS,
+    RoughSurface,
+    steel_contact_law,
+)
 from filmcal.hertz import contact_modulus_mpa
 from filmcal.wheelrail.halfspace import sphere_on_flat_contact
 
@@ -54,7 +58,11 @@ def test_the_nominal_area_of_rough_bodies_tends_to_the_smooth_area():
     """The wheel-rail answer without film: the smooth area times the growth of the 1 % level; a roughness
     of 0.01 um leaves the area within 0.5 % of the smooth one (the growth falls off as closure**(2/3), the
     separation outside a Hertzian edge growing as distance**1.5), 1.5 um grows it by several percent."""
-    from filmcal.wheelrail.film_contact import FilmContactCase, WheelRoughness, solve_film_contact
+    from filmcal.wheelrail.film_contact import (
+        FilmContactCase,
+        WheelRoughness,
+        solve_film_contact,
+    )
 
     case = FilmContactCase(film_modulus_mpa=None)
     smooth, _ = solve_film_contact(-3.0, 100e3, case)
@@ -67,10 +75,39 @@ def test_the_nominal_area_of_rough_bodies_tends_to_the_smooth_area():
 
 
 def test_a_zero_roughness_is_the_smooth_solve_to_the_last_digit():
-    from filmcal.wheelrail.film_contact import FilmContactCase, WheelRoughness, solve_film_contact
+    from filmcal.wheelrail.film_contact import (
+        FilmContactCase,
+        WheelRoughness,
+        solve_film_contact,
+    )
 
     case = FilmContactCase(film_modulus_mpa=None)
-    smooth, out_smooth = solve_film_contact(-3.0, 100e3, case)
+    smooth, _ = solve_film_contact(-3.0, 100e3, case)
     zero, out_zero = solve_film_contact(-3.0, 100e3, case, WheelRoughness(ra_um=0.0))
     assert zero.area_mm2 == smooth.area_mm2 and np.array_equal(zero.contact.pressure_mpa, smooth.contact.pressure_mpa)
     assert "nominal_area_mm2" not in out_zero and out_zero["roughness"] is None
+
+
+def test_both_bodies_add_heights_without_film_and_closures_with_it():
+    """Roughness of both bodies: without film their heights add (a sum surface, RMS in quadrature for
+    independent draws); with a film each body closes against its own face, so the closures add."""
+    from filmcal.contact.roughness import Roughness
+
+    def small(seed):
+        return RoughSurface.synthetic(ra_um=1.0, hurst=0.8, rolloff_wavelength_um=20.0, size_um=64.0, n=32,
+                                      seed=seed)
+
+    wheel, rail = small(0), small(1)
+    both = Roughness(wheel, rail)
+    composite = both.composite()
+    np.testing.assert_allclose(composite.heights_um, wheel.heights_um + rail.heights_um)
+    assert composite.rms_um**2 == pytest.approx(wheel.rms_um**2 + rail.rms_um**2, rel=0.3)
+    assert Roughness(wheel).composite() is wheel and Roughness(rail=rail).composite() is rail
+    law = both.film_law(2800.0, 0.33, 0.09)
+    alone = [Roughness(wheel).film_law(2800.0, 0.33, 0.09), Roughness(rail=rail).film_law(2800.0, 0.33, 0.09)]
+    p = np.array([1.0, 10.0, 50.0])
+    np.testing.assert_allclose(law.closure_mm(p), alone[0].closure_mm(p) + alone[1].closure_mm(p))
+    assert Roughness.from_ra(0.0, None).smooth and Roughness().film_law(2800.0, 0.33, 0.09) is None
+    assert Roughness().steel_law() is None
+    with pytest.raises(ValueError, match="one grid"):
+        Roughness(wheel, RoughSurface.synthetic(ra_um=1.0, size_um=64.0, n=16, seed=2)).composite()

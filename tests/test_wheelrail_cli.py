@@ -36,14 +36,18 @@ def test_options_rail_inclination_radius_roughness_plot(capsys, tmp_path):
     png = tmp_path / "map.png"
     code, out, err = _run(capsys, "--offset-mm=-3", "--force-kn", "50", "--no-film", "--rail", "60E1",
                           "--rail-inclination", "1/30", "--nominal-radius-mm", "430",
-                          "--wheel-roughness-ra-um", "1.5", "--grid-mm", "0.2", "--film", "HS",
+                          "--wheel-roughness-ra-um", "1.5", "--rail-roughness-ra-um", "0.8", "--grid-mm", "0.2",
+                          "--film", "HS",
                           "--plot", str(png), "--json")
     assert code == 0, err
     data = json.loads(out)
     assert data["rail"] == "60E1"
     assert data["rail_inclination"] == pytest.approx(1 / 30)
     assert data["nominal_radius_mm"] == 430.0
-    assert data["wheel_roughness_ra_um"] == 1.5
+    assert data["wheel_roughness_ra_um"] == 1.5 and data["rail_roughness_ra_um"] == 0.8
+    assert data["roughness"]["rail_ra_um"] == pytest.approx(0.8, rel=0.05)
+    # rough bodies without film: the nominal area lies between the smooth area and the loaded support
+    assert data["nominal_area_mm2"] < data["contact_area_mm2"]
     assert data["grid_mm"] == 0.2
     assert 0.0 < data["imprint_area_mm2"] < data["contact_area_mm2"]
     assert png.stat().st_size > 10_000

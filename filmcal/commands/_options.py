@@ -87,6 +87,8 @@ VOCABULARY: dict[str, Concept] = _concepts(
     Concept("offsets_mm", "lateral offsets eta in mm: a list -5,0 or start:stop:step", metavar="LIST"),
     Concept("wheel_roughness_ra_um", "roughness Ra of the wheel in um (a synthetic self-affine surface)",
             float, (0.0, 30.0)),
+    Concept("rail_roughness_ra_um", "roughness Ra of the rail in um (a synthetic self-affine surface, drawn "
+            "independently of the wheel's)", float, (0.0, 30.0)),
     Concept("wheel_roughness_map", "a measured height map of the wheel (CSV of heights or a greyscale "
             "PNG/TIFF)", metavar="FILE"),
     Concept("scan", "a scanned imprint (PNG or TIFF)", metavar="FILE"),

@@ -62,21 +62,25 @@ class FilmModel:
         ----------
         modulus_mpa : float
             The film's Young's modulus (MPa).
-        roughness : None, RoughSurface or InterfaceLaw
-            Smooth, a rough surface (its law is computed against this film), or
-            a measured pressure-closure law taken as it is.
+        roughness : None, Roughness, RoughSurface or InterfaceLaw
+            Smooth; the rough bodies (`filmcal.contact.roughness.Roughness`:
+            each body's law against this film, in series); one rough surface
+            (its law against this film); or a measured pressure-closure law
+            taken as it is.
 
         Returns
         -------
         (FilmLayer or None, InterfaceLaw or None, InterfaceLaw or None)
             Solver film, solver law, and the roughness law.
         """
-        from filmcal.contact.roughness import RoughSurface, rough_contact_law
         from filmcal.contact.laws import FilmLayer, film_law
+        from filmcal.contact.roughness import RoughSurface, Roughness, rough_contact_law
 
         layer = FilmLayer(float(modulus_mpa), self.film.poisson, self.film.thickness_mm)
         law = roughness
-        if isinstance(roughness, RoughSurface):
+        if isinstance(roughness, Roughness):
+            law = roughness.film_law(layer.modulus_mpa, layer.poisson, layer.thickness_mm)
+        elif isinstance(roughness, RoughSurface):
             law = rough_contact_law(roughness, layer.modulus_mpa, layer.poisson, layer.thickness_mm)
         solver_film, solver_law = film_law(layer, law, kinematics=self.kinematics)
         return solver_film, solver_law, law

@@ -102,6 +102,7 @@ from filmcal.contact.laws import TabularLaw
 
 __all__ = [
     "RoughSurface",
+    "Roughness",
     "RoughContactLaw",
     "PET_HARDNESS_MPA",
     "STEEL_HARDNESS_MPA",
@@ -878,6 +879,81 @@ def steel_contact_law(surface: RoughSurface, *, hardness_mpa: float = STEEL_HARD
         Cap on asperity pressures (default :data:`STEEL_HARDNESS_MPA`).
     """
     return rough_contact_law(surface, STEEL_MODULUS_MPA, STEEL_POISSON, math.inf, hardness_mpa=hardness_mpa)
+
+
+@dataclass(frozen=True, eq=False)
+class Roughness:
+    """The roughness of both bodies of a contact: the wheel and the rail (or the sphere and the flat).
+
+    The one roughness value a correction, a curve or a solve takes (docs/film-law.md). With a film between
+    the bodies each rough body is pressed into its own face of the film: their closure laws
+    (`rough_contact_law`) act in series with the film. Without film the two surfaces touch each other: their
+    heights add into one composite surface against steel (`steel_contact_law`).
+
+    Attributes
+    ----------
+    wheel, rail : RoughSurface or None
+        The bodies' surfaces (None: smooth).
+    film_hardness_mpa : float
+        Cap on asperity pressures in the film (default: the PET carrier's, :data:`PET_HARDNESS_MPA`).
+    """
+
+    wheel: RoughSurface | None = None
+    rail: RoughSurface | None = None
+    film_hardness_mpa: float = PET_HARDNESS_MPA
+
+    @classmethod
+    def from_ra(cls, wheel_ra_um: float | None = None, rail_ra_um: float | None = None,
+                seed: int = 0, film_hardness_mpa: float = PET_HARDNESS_MPA) -> "Roughness":
+        """Synthetic surfaces of the wheel's and the rail's Ra (um; None or 0: smooth), independent draws of
+        the default spectrum (`WHEEL_SURFACE_DEFAULTS`; the rail's from ``seed + 1``)."""
+        d = WHEEL_SURFACE_DEFAULTS
+
+        def draw(ra, s) -> RoughSurface | None:
+            if not ra:
+                return None
+            return RoughSurface.synthetic(ra_um=float(ra), hurst=d["hurst"],
+                                          rolloff_wavelength_um=d["rolloff_wavelength_um"], size_um=d["size_um"],
+                                          n=d["n"], seed=s)
+
+        return cls(draw(wheel_ra_um, seed), draw(rail_ra_um, seed + 1), film_hardness_mpa)
+
+    @property
+    def smooth(self) -> bool:
+        return self.wheel is None and self.rail is None
+
+    def composite(self) -> RoughSurface | None:
+        """The two surfaces' heights added (the gap between them), or the one rough surface."""
+        if self.wheel is None or self.rail is None:
+            return self.wheel if self.rail is None else self.rail
+        a, b = self.wheel, self.rail
+        if a.heights_um.shape != b.heights_um.shape or abs(a.pixel_um - b.pixel_um) > 1e-9 * a.pixel_um:
+            raise ValueError(f"the wheel's and the rail's height maps differ in size or pixel ({a.heights_um.shape} "
+                             f"at {a.pixel_um:g} um, {b.heights_um.shape} at {b.pixel_um:g} um): give them on "
+                             "one grid")
+        return RoughSurface(a.heights_um + b.heights_um, a.pixel_um,
+                            f"wheel ({a.description}) + rail ({b.description})")
+
+    def film_law(self, film_modulus_mpa: float, film_poisson: float, film_thickness_mm: float):
+        """The rough bodies' closure against a film: each body's law in series (None when smooth)."""
+        from filmcal.contact.laws import SeriesLaw
+
+        laws = [rough_contact_law(surface, film_modulus_mpa, film_poisson, film_thickness_mm,
+                                  hardness_mpa=self.film_hardness_mpa) for surface in (self.wheel, self.rail)
+                if surface is not None]
+        if not laws:
+            return None
+        return laws[0] if len(laws) == 1 else SeriesLaw(*laws)
+
+    def steel_law(self) -> RoughContactLaw | None:
+        """The rough bodies' closure against each other without film (None when smooth)."""
+        surface = self.composite()
+        return None if surface is None else steel_contact_law(surface)
+
+    def describe(self) -> dict[str, object]:
+        """Ra of each body (None: smooth), JSON-ready."""
+        return {"wheel_ra_um": None if self.wheel is None else self.wheel.ra_um,
+                "rail_ra_um": None if self.rail is None else self.rail.ra_um}
 
 
 # ---------------------------------------------------------------------------

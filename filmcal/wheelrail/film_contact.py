@@ -19,12 +19,13 @@ __all__ = ["WheelRoughness", "FilmContactCase", "solve_film_contact"]
 
 @dataclass(frozen=True)
 class WheelRoughness:
-    """The wheel's roughness: a synthetic surface of Ra, a measured height map, or a measured law.
+    """The bodies' roughness as a user gives it: the wheel's (a synthetic surface of Ra, a measured height
+    map, or a measured film-wheel law) and the rail's (a synthetic surface of Ra).
 
     Attributes
     ----------
     ra_um : float, optional
-        Ra of a synthetic self-affine steel surface (um, 0-30).
+        Ra of a synthetic self-affine steel surface of the wheel (um, 0-30; 0: smooth).
     map_file : str, optional
         A height map: CSV of heights (times `height_scale` gives um) or a greyscale PNG/TIFF
         (black to white spans `height_range_um`), pixels `pixel_um` apart.
@@ -44,6 +45,7 @@ class WheelRoughness:
     height_range_um: float | None = None
     seed: int = 0
     hardness_mpa: float | None = None
+    rail_ra_um: float | None = None
 
     def __post_init__(self) -> None:
         given = [x is not None for x in (self.ra_um, self.map_file, self.law_file)]
@@ -51,13 +53,25 @@ class WheelRoughness:
             raise ValueError("give one of a roughness Ra, a roughness map and a roughness law")
         if self.ra_um is not None:
             check_range("wheel_roughness_ra_um", self.ra_um, 0.0, 30.0, low_open=False, high_open=False)
+        if self.rail_ra_um is not None:
+            check_range("rail_roughness_ra_um", self.rail_ra_um, 0.0, 30.0, low_open=False, high_open=False)
+            if self.law_file is not None:
+                raise ValueError("--rail-roughness-ra-um cannot be combined with --roughness-law (a measured "
+                                 "law is the whole interface as measured)")
         if self.hardness_mpa is not None:
             check_positive("hardness_mpa", self.hardness_mpa)
 
     @property
     def smooth(self) -> bool:
         """No roughness: nothing given, or Ra = 0 (the smooth solve exactly, no law)."""
-        return not self.ra_um and self.map_file is None and self.law_file is None
+        return not self.ra_um and not self.rail_ra_um and self.map_file is None and self.law_file is None
+
+    def bodies(self):
+        """The rough bodies (`filmcal.contact.roughness.Roughness`) of the wheel's surface and the rail's Ra."""
+        from filmcal.contact.roughness import PET_HARDNESS_MPA, Roughness
+
+        rail = Roughness.from_ra(rail_ra_um=self.rail_ra_um, seed=self.seed).rail
+        return Roughness(self.surface(), rail, self.hardness_mpa or PET_HARDNESS_MPA)
 
     def surface(self):
         """The rough surface (`RoughSurface`), or None for a measured law or a smooth wheel."""
@@ -153,26 +167,22 @@ def solve_film_contact(offset_mm: float, force_n: float, case: FilmContactCase,
     # a film type's imprint is read from the solve with or without its film (the latter: what it would colour)
     model = FilmModel(film_type, case.imprint_model if named is not None else "edge",
                       "small" if no_film else case.kinematics)
-    surface = roughness.surface()
+    bodies = roughness.bodies()
     law = None
     rough_info = None
     if roughness.law_file is not None:
         law = TabularLaw.from_csv(roughness.law_file)
         rough_info = {"model": "measured law", "file": str(roughness.law_file)}
     if no_film:
-        if surface is not None:
-            from filmcal.contact.roughness import steel_contact_law
-
-            law = steel_contact_law(surface)
-            rough_info = {"model": "FFT boundary elements, steel on steel", **law.describe()}
+        if not bodies.smooth:
+            law = bodies.steel_law()
+            rough_info = {"model": "FFT boundary elements, steel on steel", **law.describe(), **bodies.describe()}
         solver_film, solver_law = film_law(None, law)
     else:
-        from filmcal.contact.roughness import PET_HARDNESS_MPA, rough_contact_law
-
-        if surface is not None:
-            layer_e, nu, t = case.film_modulus_mpa, film_type.poisson, film_type.thickness_mm
-            law = rough_contact_law(surface, layer_e, nu, t, hardness_mpa=roughness.hardness_mpa or PET_HARDNESS_MPA)
-            rough_info = {"model": "FFT boundary elements", **law.describe()}
+        if not bodies.smooth:
+            law = bodies.film_law(case.film_modulus_mpa, film_type.poisson, film_type.thickness_mm)
+            parts = getattr(law, "laws", (law,))
+            rough_info = {"model": "FFT boundary elements", **parts[0].describe(), **bodies.describe()}
         solver_film, solver_law, _ = model.interface(case.film_modulus_mpa, law)
     result = solve_wheel_rail(offset_mm, force_n, wheel=_profile(wheel, "wheel"), rail=_profile(rail, "rail"),
                               rail_inclination=rail_inclination, nominal_radius_mm=nominal_radius_mm,
@@ -198,6 +208,8 @@ def solve_film_contact(offset_mm: float, force_n: float, case: FilmContactCase,
     out["roughness"] = rough_info
     if roughness.ra_um is not None:
         out["wheel_roughness_ra_um"] = roughness.ra_um
+    if roughness.rail_ra_um is not None:
+        out["rail_roughness_ra_um"] = roughness.rail_ra_um
     if named is not None:
         if no_film:
             out["film"] = {"name": named.name}
