@@ -1288,10 +1288,27 @@ class SharedPool(Executor):
             self._pool.abort()
 
 
-def _call_task(task: tuple) -> Any:
-    """Run one ``(key, function, args)`` task of `run_tasks`."""
+def _call_task(task: tuple) -> tuple[Any, list]:
+    """Run one ``(key, function, args)`` task of `run_tasks`: its value and the warnings it raised.
+
+    A worker's warnings would reach the terminal raw, line by line; they travel back with the value instead
+    and are raised again in the calling process, where a stage collects them into one line.
+    """
+    import warnings
+
     _, fn, args = task
-    return fn(*args)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        value = fn(*args)
+    return value, [(w.category, str(w.message)) for w in caught]
+
+
+def _raise_again(raised: list) -> None:
+    import warnings
+
+    for category, message in raised:
+        warnings.warn(message, category if isinstance(category, type) and issubclass(category, Warning)
+                      else UserWarning, stacklevel=2)
 
 
 def run_tasks(tasks: dict, workers: int | Executor | None, on_done: Callable[[Any, Any, int], None]) -> None:
@@ -1327,7 +1344,9 @@ def run_tasks(tasks: dict, workers: int | Executor | None, on_done: Callable[[An
     def consume(executor: Executor) -> None:
         for k, outcome in enumerate(executor.map_unordered(_call_task, items), 1):
             if outcome.ok:
-                on_done(outcome.task[0], outcome.value, k)
+                value, raised = outcome.value
+                _raise_again(raised)
+                on_done(outcome.task[0], value, k)
             else:
                 errors.append((outcome.task[0], outcome.error))
 

@@ -430,14 +430,15 @@ def user_error_message(exc: BaseException, args: argparse.Namespace, options: di
 
 
 def _notes_as_one_line(prog: str) -> None:
-    """Show `VersionNote` warnings as one line ``prog: note: ...``; other warnings as Python shows them."""
-    show = warnings.showwarning
+    """Show `VersionNote` warnings as one line ``prog: note: ...`` and other warnings as one line
+    ``prog: warning: Category: message`` (its first line; no file, line number or source line)."""
 
     def showwarning(message, category, filename, lineno, file=None, line=None):
         if issubclass(category, VersionNote):
             sys.stderr.write(f"{prog}: note: {message}\n")
         else:
-            show(message, category, filename, lineno, file, line)
+            first = str(message).strip().splitlines()[0] if str(message).strip() else ""
+            sys.stderr.write(f"{prog}: warning: {category.__name__}: {first}\n")
 
     warnings.showwarning = showwarning
     warnings.simplefilter("always", VersionNote)

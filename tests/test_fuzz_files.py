@@ -320,3 +320,24 @@ def test_a_command_that_cannot_register_is_an_internal_error(monkeypatch, capsys
     assert cli.main(["fem", "--help"]) == 70
     err = capsys.readouterr().err
     assert "Traceback" in err and "AttributeError" in err
+
+
+def test_a_library_warning_is_one_line(monkeypatch, capsys):
+    """A warning that reaches the command line (a GP fit that did not converge) is one line naming its kind,
+    without the file, line number and source line of Python's default display."""
+    import warnings
+
+    from sklearn.exceptions import ConvergenceWarning
+
+    module = importlib.import_module("filmcal.commands.profile")
+
+    def warn(args):
+        warnings.warn("GP hyperparameter optimisation: lbfgs failed to converge\nIncrease the number of iterations",
+                      ConvergenceWarning, stacklevel=1)
+        return 0
+    monkeypatch.setattr(module, "run", warn)
+    with warnings.catch_warnings():
+        code = cli.main(["profile", "S1002"])
+    out, err = capsys.readouterr()
+    assert code == 0 and err.splitlines() == [
+        "filmcal profile: warning: ConvergenceWarning: GP hyperparameter optimisation: lbfgs failed to converge"]

@@ -15,6 +15,28 @@ def _pid(_: int) -> int:
     return os.getpid()
 
 
+def _warn(k: int) -> int:
+    import warnings
+
+    warnings.warn(f"fit {k} did not converge", RuntimeWarning, stacklevel=1)
+    return k
+
+
+def test_a_workers_warnings_come_back_to_the_caller_not_to_the_terminal(capfd):
+    """A library warning raised in a worker travels back with the value and is raised again in the caller,
+    where a stage collects it (one line), instead of reaching stderr raw from the worker process."""
+    import warnings
+
+    with SharedPool(2) as pool, warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        done: dict = {}
+        run_tasks({k: (_warn, (k,)) for k in range(4)}, pool, lambda key, value, n: done.__setitem__(key, value))
+    assert done == {k: k for k in range(4)}
+    assert sorted(str(w.message) for w in caught) == [f"fit {k} did not converge" for k in range(4)]
+    assert all(w.category is RuntimeWarning for w in caught)
+    assert "did not converge" not in capfd.readouterr().err
+
+
 def test_shared_pool_starts_its_workers_with_the_first_task_only():
     before = descendant_pids(os.getpid(), direct=True)
     with SharedPool(2) as pool:
