@@ -81,6 +81,12 @@ def test_command_uses_the_study_posterior_and_refuses_nonsense(quick_study, tmp_
     assert abs(sum(m["weight"] for m in out["models"].values()) - 1) < 1e-9
     for m in out["models"].values():  # every model's answer carries the calibrated-against-applied film term
         assert -0.05 < m["transfer"]["shift_rel"] < 0.0 < m["transfer"]["std_rel"] < 0.02
+    # where the answer came from: each posterior by its file and SHA-256, the version, the options
+    prov = out["provenance"]
+    assert set(prov["posteriors"]) == set(out["models"])
+    for entry in prov["posteriors"].values():
+        assert (study / entry["file"]).is_file() and len(entry["sha256"]) == 64
+    assert prov["measurement"]["offset_mm"] == -3.0 and prov["filmcal"] and prov["transfer_fit"]["made"]
     cases = {"a negative area": ["--film", "HS", "--study-dir", str(study), "--measured-area-mm2", "-1"],
              "a stray space": ["--film", " HS", "--study-dir", str(study)],
              "an absurd area": ["--film", "HS", "--study-dir", str(study), "--measured-area-mm2", "1e9"],

@@ -932,7 +932,9 @@ def correctors(study: Study, film: str, kind: str = "sphere", *, model: str | No
             corrector = WheelRailCorrector(samples, film_model(study, spec), random_state=random_state,
                                            **(wheel_rail or {}))
             hashes[corrector.film.label] = study.manifest.entry(study.layout.relative(path))["sha256"]
-        out.append((w, corrector, spec))
+        rel = study.layout.relative(path)
+        out.append((w, corrector, dict(spec, posterior_file=rel,
+                                       posterior_sha256=study.manifest.entry(rel)["sha256"])))
     if kind == "wheel-rail":
         from filmcal.correction.wheelrail import WheelRailCorrector
 

@@ -69,6 +69,27 @@ def _check_value(name: str, value: float | None, std_name: str, std: float) -> N
         raise ValueError(f"{std_name} must be >= 0, got {std}")
 
 
+def _provenance(study, parts, measurement, sphere: bool, seed: int) -> dict[str, Any]:
+    """Where an answer came from: the study, each posterior (file and SHA-256), the filmcal version, the
+    measurement's options, the seed and, for a wheel-rail answer, the transfer fit."""
+    from dataclasses import asdict
+
+    from filmcal._versions import __version__
+    from filmcal.study.manifest import utc_now
+
+    out: dict[str, Any] = {
+        "filmcal": __version__, "study": str(Path(study.root).resolve()),
+        "posteriors": {s["model"]: {"file": s.get("posterior_file"), "sha256": s.get("posterior_sha256")}
+                       for _, _, s in parts},
+        "measurement": asdict(measurement), "seed": seed, "made_utc": utc_now()}
+    if not sphere:
+        from filmcal.contact.transfer import TRANSFER_FILE, load_transfer_fit
+
+        out["transfer_fit"] = {"file": f"filmcal/data/{TRANSFER_FILE}",
+                               "made": load_transfer_fit().provenance.get("made")}
+    return out
+
+
 def correct_measurement(study, film: str, measurement: SphereMeasurement | WheelRailMeasurement, *,
                         imprint_model: str = MIXTURE, kinematics: str | None = None, poisson: str | None = None,
                         calibration_forces_kn: str | None = None, scan: ScanReading | None = None,
@@ -146,6 +167,7 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
     if not sphere:  # the calibrated film against the applied one: included in every model's answer and band
         for w, c, s in parts:
             out["models"][s["model"]]["transfer"] = c.transfer(m.offset_mm, force_n)
+    out["provenance"] = _provenance(study, parts, measurement, sphere, seed)
     if reading is not None:
         details = {k: v for k, v in reading.to_dict().items() if k not in ("area_mm2", "area_std_mm2")}
         out.update(measured_area_mm2=reading.area_mm2, measured_area_std_mm2=reading.area_std_mm2,
