@@ -130,7 +130,8 @@ def cmd_compare(args, tables) -> None:
                                                               & (v[0].data.force_n == 25e3)][0]))
             for name, v in fits.items()]
     print("R600/25 kN standardised residual: " + ", ".join(f"{n} {z:+.2f}" for n, z in r600))
-    print(f"preferred: {comparison.preferred}; indistinguishable groups: {comparison.groups}")
+    print(f"preferred: {comparison.preferred}; pseudo-BMA+ weights: "
+          + ", ".join(f"{k} {w:.2f}" for k, w in comparison.weights.items()))
 
 
 def cmd_crossval(args, tables) -> None:

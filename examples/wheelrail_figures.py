@@ -11,10 +11,8 @@ section 2.2:
 * HS film and a rough wheel: Greenwood-Williamson law from Ra = 1.5 um at the
   film-wheel interface.
 
-The contact area (``contact_area_mm2``) is read with the edge-profile fit of
-the axisymmetric FE calibration model when there is a film; without film it
-is the positive-pressure area, which that fit reproduces for Hertzian edges.
-The positive-pressure area (``support_area_mm2``) is written too. Run::
+The contact area (``contact_area_mm2``) is the area where the pressure is
+positive (the solver's zero-pressure outline), with or without film. Run::
 
     python examples/wheelrail_figures.py [--out-dir out/wheelrail_figures] [--step-mm 0.5]
                                          [--rail 60E2]
@@ -77,7 +75,7 @@ def solve_all(model: WheelRailModel, offsets_mm: np.ndarray) -> dict:
 
 def write_csv(results: dict, path: Path) -> None:
     """One row per case."""
-    fields = ["force_kn", "offset_mm", "model", "contact_area_mm2", "support_area_mm2",
+    fields = ["force_kn", "offset_mm", "model", "contact_area_mm2",
               "max_pressure_mpa", "n_patches", "centroid_y_mm", "centroid_rail_y_mm",
               "centroid_wheel_y_mm", "contact_angle_deg", "hertz_area_mm2", "hertz_like",
               "converged", "elapsed_s"]
@@ -88,7 +86,6 @@ def write_csv(results: dict, path: Path) -> None:
             writer.writerow({
                 "force_kn": force, "offset_mm": eta, "model": name,
                 "contact_area_mm2": f"{res.area_mm2:.4f}",
-                "support_area_mm2": f"{res.support_area_mm2:.4f}",
                 "max_pressure_mpa": f"{res.max_pressure_mpa:.2f}", "n_patches": res.n_patches,
                 "centroid_y_mm": f"{res.centroid_y_mm:.4f}",
                 "centroid_rail_y_mm": f"{res.centroid_rail_y_mm:.4f}",
@@ -98,11 +95,6 @@ def write_csv(results: dict, path: Path) -> None:
                 else f"{res.hertz.area_mm2:.4f}",
                 "hertz_like": res.hertz_like if res.film is None else "",
                 "converged": res.converged, "elapsed_s": f"{res.elapsed_s:.3f}"})
-
-
-def _hard_contact(name: str) -> bool:
-    """Whether a model name is the hard contact (its area is the positive-pressure area)."""
-    return MODELS[name][0] is None and MODELS[name][1] is None
 
 
 def _curve(results: dict, force: float, name: str, offsets: np.ndarray, attr: str) -> np.ndarray:
@@ -117,13 +109,9 @@ def plot_area_curves(results: dict, offsets: np.ndarray, path: Path) -> None:
         ax = axes[0, col]
         for name in MODELS:
             color, marker = STYLE[name]
-            label = name if _hard_contact(name) else f"{name} (FE edge reading)"
+            label = name
             ax.plot(offsets, _curve(results, force, name, offsets, "area_mm2"), "-", color=color,
                     marker=marker, ms=4, label=label)
-        rough = _curve(results, force, "HS film + rough wheel", offsets, "support_area_mm2")
-        ax.plot(offsets, rough, "--", color=STYLE["HS film + rough wheel"][0], lw=1.0,
-                label="HS film + rough wheel, pressure > 0 (the Greenwood-Williamson tail, "
-                      f"below {ROUGH_WHEEL.saturation_pressure_mpa:.1f} MPa)")
         ax.set_title(f"F = {force:g} kN")
         ax.set_ylabel("contact area A (mm$^2$)")
         ax.grid(True, lw=0.3)
@@ -133,7 +121,6 @@ def plot_area_curves(results: dict, offsets: np.ndarray, path: Path) -> None:
             color, marker = STYLE[name]
             ratio_ax.plot(offsets, _curve(results, force, name, offsets, "area_mm2") / bare, "-",
                           color=color, marker=marker, ms=4, label=name)
-        ratio_ax.plot(offsets, rough / bare, "--", color=STYLE["HS film + rough wheel"][0], lw=1.0)
         ratio_ax.set_xlabel("lateral offset $\\eta$ (mm), flange towards the gauge corner $\\rightarrow$")
         ratio_ax.set_ylabel("A / A(no film)")
         ratio_ax.grid(True, lw=0.3)

@@ -1296,11 +1296,21 @@ def _call_task(task: tuple) -> tuple[Any, list]:
     """
     import warnings
 
+    import pickle
+
     _, fn, args = task
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         value = fn(*args)
-    return value, [(w.category, str(w.message)) for w in caught]
+    raised: dict = {}  # each (kind, message) once: a warning in an inner loop is not sent back a thousand times
+    for w in caught:
+        category = w.category
+        try:
+            pickle.dumps(category)
+        except Exception:  # a warning class defined where the caller cannot import it
+            category = UserWarning
+        raised.setdefault((category, str(w.message)), None)
+    return value, list(raised)
 
 
 def _raise_again(raised: list) -> None:

@@ -93,3 +93,17 @@ def test_the_transfer_term_brings_the_applied_film_to_the_calibrated_one(fresh_r
         std = fit.std_mm[f"{imprint}/small"]
         assert np.max(np.abs(residual)) <= 3 * std, (imprint, residual)
         assert abs(np.mean(residual)) <= std, (imprint, residual)
+
+
+def test_nothing_recorded_gives_no_transfer_term():
+    """An imprint model that records nothing (the peak pressure below the film's activation pressure) has no
+    edge to move: a zero term, not NaN."""
+    from filmcal.contact.film import FilmModel
+    from filmcal.contact.laws import FilmLayer
+
+    model = FilmModel(get_film("HHS"), "activation", "small")
+    result = sphere_on_flat_contact(450.0, 1e3, film=FilmLayer(400.0, get_film("HHS").poisson, 0.09))
+    assert result.max_pressure_mpa < get_film("HHS").activation_pressure_mpa
+    assert model.recorded_area_mm2(result) == 0.0
+    term = model.transfer_term(400.0, result)
+    assert (term.shift_mm2, term.std_mm2) == (0.0, 0.0)

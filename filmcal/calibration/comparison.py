@@ -34,9 +34,9 @@ From the corrected pointwise terms it gives three sets of weights:
   same predictive densities its objective is flat and the optimum a corner
   (weight 1 and 0), so it is reported, not used;
 - the **weights used** (``ModelComparison.weights``) are the pseudo-BMA+
-  weights: no cut-off, a step in no ELPD difference (moving one model's ELPD
-  by 0.1 moves a weight by at most 0.025, since ``dw_k / d elpd_k =
-  w_k (1 - w_k)``), and a mixture's 90 % band contains the median of every
+  weights, a model below `MIN_WEIGHT` (0.001) left out: no step larger than
+  that in any ELPD difference (moving one model's ELPD by 0.1 moves a weight
+  by at most 0.025, since ``dw_k / d elpd_k = w_k (1 - w_k)``), and a mixture's 90 % band contains the median of every
   model of weight >= 0.1 (half of such a model's mass, >= 5 % of the mixture,
   lies on either side of its median).
 
@@ -68,6 +68,10 @@ __all__ = [
     "pseudo_bma_plus_weights",
     "stacking_weights",
 ]
+
+#: Models whose pseudo-BMA+ weight is below this are left out of the mixture (and the rest renormalised):
+#: they would cost solves and refits without moving an answer (a weight jumps by at most this much).
+MIN_WEIGHT = 1e-3
 
 #: Pareto k above which an importance-sampling leave-one-out estimate is unreliable.
 PARETO_K_THRESHOLD = 0.7
@@ -346,12 +350,15 @@ def compare_models(models: Mapping[str, tuple[CalibrationProblem, object]], max_
                       "n_refit": sum(1 for (n, _) in exact if n == names[k]),
                       "n_pareto_k_high": assessments[names[k]].n_pareto_k_high,
                       "stacking_weight": float(stacking[k]), "pseudo_bma_weight": float(pseudo_bma[k]),
-                      "weight": float(pseudo_bma[k])})
-    weights = {n: float(w) for n, w in zip(names, pseudo_bma)}
+                      "weight": float(used[k])})
+    used = np.where(pseudo_bma >= MIN_WEIGHT, pseudo_bma, 0.0)
+    used /= used.sum()
+    weights = {n: float(w) for n, w in zip(names, used)}
     preferred = max(names, key=lambda n: (weights[n], elpd[names.index(n)]))
     return ModelComparison(assessments=assessments, weights=weights,
                            stacking_weights={n: float(w) for n, w in zip(names, stacking)},
-                           pseudo_bma_weights=dict(weights), table=table, preferred=preferred,
+                           pseudo_bma_weights={n: float(w) for n, w in zip(names, pseudo_bma)}, table=table,
+                           preferred=preferred,
                            elpd_loo={n: float(e) for n, e in zip(names, elpd)},
                            n_refit=len(exact))
 

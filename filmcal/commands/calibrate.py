@@ -97,7 +97,8 @@ def run(args: argparse.Namespace) -> int:
             calibrated[one.model_label] = study.calibrate(one, dataset=args.data, workers=args.workers,
                                                           progress=False)
         if mixture and len(calibrated) > 1:
-            comparison, _ = study.compare(film.name, calibrated, workers=args.workers, seed=args.seed)
+            comparison, _ = study.compare(film.name, calibrated, workers=args.workers, max_steps=spec.max_steps,
+                                          seed=args.seed)
             label = comparison["preferred"]
             assessment = comparison["models"][label]
         else:

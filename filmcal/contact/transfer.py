@@ -204,6 +204,8 @@ def transfer_term(fit: TransferFit, imprint: str, kinematics: str, film, modulus
         Length of the recorded outline; a circle of the recorded area when not given.
     """
     area = float(recorded_area_mm2)
+    if not (area > 0.0 and max_pressure_mpa > 0.0):  # nothing recorded (e.g. below the activation pressure)
+        return TransferTerm(shift_mm=0.0, std_mm=0.0, shift_mm2=0.0, std_mm2=0.0)
     radius = math.sqrt(area / math.pi)
     level = getattr(film, "activation_pressure_mpa", None)
     features = transfer_features(imprint, modulus_mpa, film.poisson, film.thickness_mm, radius, max_pressure_mpa,

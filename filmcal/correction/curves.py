@@ -13,7 +13,8 @@ posterior sample; the models' samples are pooled by their weights, giving the
 posterior of Delta A = A_film - A_0 and of the ratio A_0 / A_film. A_film is
 the area the calibrated film records: the application's reading plus the
 transfer term (`FilmModel.transfer_term`), whose standard deviation widens
-each sample (relative, interpolated in log E; drawn with a fixed seed). The fit's
+each sample (relative, interpolated in log E; drawn with a seed of the (force,
+offset) cell). The fit's
 error is measured by one more solve, between the first two moduli, and
 reported beside the bands: the error of a quadratic through three points is
 odd about the middle one to leading order, so one check measures both halves.
@@ -153,9 +154,10 @@ def correction_curves(components, offsets_mm, forces_n, *, roughness=None, no_fi
     interfaces = {(key, m): parts[members[0]][0].interface(float(m), law_at[m])[:2]
                   for key, members in groups.items() for m in moduli}
 
-    rng = np.random.default_rng(0)
     for i, force in enumerate(forces):
         for j, eta in enumerate(offsets):
+            # the transfer spread's draws: seeded by the cell, so a cell's band does not depend on the others
+            rng = np.random.default_rng([int(round(force)), int(round(1e3 * eta)) + 10**7])
             bare = wheel_rail_model.solve(eta, force)
             a0[i, j] = bare.area_mm2
             if no_film_law is not None:

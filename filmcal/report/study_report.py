@@ -514,6 +514,7 @@ def film_records_section(comparison: dict | None, curves: dict | None = None) ->
         stacking = d.get("stacking_weights") or {}
         elpd = d.get("elpd_loo") or {}
         refits = {row.get("name"): row.get("n_refit", 0) for row in d.get("table") or [] if isinstance(row, dict)}
+        se = {row.get("name"): row.get("se") for row in d.get("table") or [] if isinstance(row, dict)}
         for model, v in (d.get("models") or {}).items():
             if not isinstance(v, dict):
                 continue
@@ -522,7 +523,8 @@ def film_records_section(comparison: dict | None, curves: dict | None = None) ->
                          _fmt(v.get("rms_residual_mm"), "{:.3f}"),
                          f"{v.get('ppc_inside_90', '')}/{v.get('n_data', '')}",
                          _fmt(elpd.get(model, v.get("elpd_loo")), "{:.1f}")
-                         + (f" ± {v['elpd_loo_se']:.1f}" if isinstance(v.get("elpd_loo_se"), (int, float)) else ""),
+                         + (f" ± {se.get(model, v.get('elpd_loo_se')):.1f}"
+                            if isinstance(se.get(model, v.get("elpd_loo_se")), (int, float)) else ""),
                          _fmt(v.get("pareto_k_max"), "{:.2f}") + (f" ({refits[model]} refit)" if refits.get(model)
                                                                    else ""),
                          f"{_fmt(stacking.get(model), '{:.2f}')} / {_fmt(weights.get(model), '{:.2f}')}",

@@ -70,8 +70,21 @@ class WheelRoughness:
         """The rough bodies (`filmcal.contact.roughness.Roughness`) of the wheel's surface and the rail's Ra."""
         from filmcal.contact.roughness import PET_HARDNESS_MPA, Roughness
 
+        wheel = self.surface()
         rail = Roughness.from_ra(rail_ra_um=self.rail_ra_um, seed=self.seed).rail
-        return Roughness(self.surface(), rail, self.hardness_mpa or PET_HARDNESS_MPA)
+        if wheel is not None and rail is not None and self.map_file is not None:
+            # the rail's synthetic surface on the wheel map's grid, so that their heights can add
+            from filmcal.contact.roughness import WHEEL_SURFACE_DEFAULTS, RoughSurface
+
+            n, m = wheel.heights_um.shape
+            if n != m:
+                raise ValueError(f"--rail-roughness-ra-um with a {n} x {m} --wheel-roughness-map: the rail's "
+                                 "surface is drawn on the map's grid, which must be square")
+            d = WHEEL_SURFACE_DEFAULTS
+            rail = RoughSurface.synthetic(ra_um=self.rail_ra_um, hurst=d["hurst"],
+                                          rolloff_wavelength_um=d["rolloff_wavelength_um"],
+                                          size_um=n * wheel.pixel_um, n=n, seed=self.seed + 1)
+        return Roughness(wheel, rail, self.hardness_mpa or PET_HARDNESS_MPA)
 
     def surface(self):
         """The rough surface (`RoughSurface`), or None for a measured law or a smooth wheel."""
