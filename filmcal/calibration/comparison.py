@@ -340,6 +340,8 @@ def compare_models(models: Mapping[str, tuple[CalibrationProblem, object]], max_
     elpd = matrix.sum(axis=1)
     pseudo_bma = pseudo_bma_plus_weights(matrix, n_bootstrap, random_state)
     stacking = stacking_weights(matrix)
+    used = np.where(pseudo_bma >= MIN_WEIGHT, pseudo_bma, 0.0)
+    used /= used.sum()
     best = int(np.argmax(elpd))
     table = []
     for k in np.argsort(-elpd, kind="stable"):
@@ -351,8 +353,6 @@ def compare_models(models: Mapping[str, tuple[CalibrationProblem, object]], max_
                       "n_pareto_k_high": assessments[names[k]].n_pareto_k_high,
                       "stacking_weight": float(stacking[k]), "pseudo_bma_weight": float(pseudo_bma[k]),
                       "weight": float(used[k])})
-    used = np.where(pseudo_bma >= MIN_WEIGHT, pseudo_bma, 0.0)
-    used /= used.sum()
     weights = {n: float(w) for n, w in zip(names, used)}
     preferred = max(names, key=lambda n: (weights[n], elpd[names.index(n)]))
     return ModelComparison(assessments=assessments, weights=weights,
