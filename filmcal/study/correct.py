@@ -75,13 +75,12 @@ def _provenance(study, parts, measurement, sphere: bool, seed: int) -> dict[str,
     from dataclasses import asdict
 
     from filmcal._versions import __version__
-    from filmcal.study.manifest import utc_now
 
     out: dict[str, Any] = {
         "filmcal": __version__, "study": str(Path(study.root).resolve()),
         "posteriors": {s["model"]: {"file": s.get("posterior_file"), "sha256": s.get("posterior_sha256")}
                        for _, _, s in parts},
-        "measurement": asdict(measurement), "seed": seed, "made_utc": utc_now()}
+        "measurement": asdict(measurement), "seed": seed}  # no clock: the same inputs give the same bytes
     if not sphere:
         from filmcal.contact.transfer import TRANSFER_FILE, load_transfer_fit
 
