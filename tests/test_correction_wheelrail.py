@@ -87,6 +87,9 @@ def test_command_uses_the_study_posterior_and_refuses_nonsense(quick_study, tmp_
     for entry in prov["posteriors"].values():
         assert (study / entry["file"]).is_file() and len(entry["sha256"]) == 64
     assert prov["measurement"]["offset_mm"] == -3.0 and prov["filmcal"] and prov["transfer_fit"]["made"]
+    assert any("roughness" in what for what in out["not_included"])  # the band does not hold it: said so
+    text = subprocess.run(base[:-1] + ["--film", "HS", "--study-dir", str(study)], capture_output=True, text=True)
+    assert text.returncode == 0 and "not included: the bodies' roughness" in text.stdout
     cases = {"a negative area": ["--film", "HS", "--study-dir", str(study), "--measured-area-mm2", "-1"],
              "a stray space": ["--film", " HS", "--study-dir", str(study)],
              "an absurd area": ["--film", "HS", "--study-dir", str(study), "--measured-area-mm2", "1e9"],

@@ -123,6 +123,8 @@ def run(args: argparse.Namespace) -> int:
             std = sum(w * t["std_rel"] for w, t in terms) / total
             print(f"includes the transfer term (the calibrated FE film against the wheel-rail model's): film area "
                   f"{100 * shift:+.2f} % +/- {100 * std:.2f} %")
+        for what in out.get("not_included", []):
+            print(f"not included: {what}")
         if args.outline_out is not None:
             print(f"outline without film ({out['outline_rule']}): {args.outline_out}")
     return 0

@@ -69,6 +69,12 @@ def _check_value(name: str, value: float | None, std_name: str, std: float) -> N
         raise ValueError(f"{std_name} must be >= 0, got {std}")
 
 
+#: The error a wheel-rail answer does not carry yet: the bodies are taken as smooth.
+ROUGHNESS_NOT_INCLUDED = ("the bodies' roughness: wheel and rail are taken as smooth; a service wheel's roughness can "
+                          "enlarge an imprint by several percent (filmcal wheelrail --wheel-roughness-ra-um / "
+                          "--rail-roughness-ra-um shows its size)")
+
+
 def _provenance(study, parts, measurement, sphere: bool, seed: int) -> dict[str, Any]:
     """Where an answer came from: the study, each posterior (file and SHA-256), the filmcal version, the
     measurement's options, the seed and, for a wheel-rail answer, the transfer fit."""
@@ -167,6 +173,8 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
         for w, c, s in parts:
             out["models"][s["model"]]["transfer"] = c.transfer(m.offset_mm, force_n)
     out["provenance"] = _provenance(study, parts, measurement, sphere, seed)
+    if not sphere:  # what the band does not hold, said with the answer
+        out["not_included"] = [ROUGHNESS_NOT_INCLUDED]
     if reading is not None:
         details = {k: v for k, v in reading.to_dict().items() if k not in ("area_mm2", "area_std_mm2")}
         out.update(measured_area_mm2=reading.area_mm2, measured_area_std_mm2=reading.area_std_mm2,
