@@ -121,3 +121,43 @@ def test_an_area_uncertainty_as_large_as_the_area_is_refused_before_any_solve():
     for std in (150.0, 1e308):
         with pytest.raises(ValueError, match="smaller than the measured area"):
             c.correct(150.0, -3.0, 100e3, measurement_std_mm2=std)
+
+
+def test_roughness_multiplies_each_sample_by_a_drawn_growth_factor():
+    """On rough bodies a sample's factor A_0 / A_f is multiplied by g_0 / g_f of a draw: with every draw at
+    g_0 / g_f = 0.9 the answer is the smooth one times 0.9, sample by sample; with two draws the band widens."""
+    from filmcal.correction.roughness import RoughGrowth
+
+    c = WheelRailCorrector(point_posterior(n=400, sigma=0.02), HS_EDGE, random_state=3)
+    smooth = c.correct(150.0, -3.0, 100e3)
+    fixed = RoughGrowth(np.full(4, 1.1), np.full(4, 0.99), np.full(4, 0.25))
+    rough = c.correct(150.0, -3.0, 100e3, rough=fixed)
+    np.testing.assert_allclose(rough.samples_mm2, 0.9 * smooth.samples_mm2, rtol=1e-12)
+    spread = RoughGrowth(np.array([1.05, 1.15]), np.ones(2), np.full(2, 0.5))
+    wide = c.correct(150.0, -3.0, 100e3, rough=spread)
+    assert wide.area_std_mm2 > 2 * smooth.area_std_mm2
+    with pytest.raises(ValueError, match="one offset and force"):
+        c.correct([150.0, 150.0], [-3.0, 0.0], 100e3, rough=spread)
+
+
+def test_command_with_a_rough_wheel_widens_the_band_and_reports_the_roughness_share(quick_study):
+    study, _, _ = quick_study
+    base = [sys.executable, "-m", "filmcal.cli", "correct", "--film", "HS", "--measured-area-mm2", "150",
+            "--offset-mm=-3", "--force-kn", "100", "--study-dir", str(study), "--json", "--progress", "quiet"]
+    smooth = json.loads(subprocess.run(base, capture_output=True, text=True, check=True).stdout)
+    p = subprocess.run(base + ["--wheel-roughness-ra-um", "1.5", "--roughness-draws", "2"], capture_output=True,
+                       text=True)
+    assert p.returncode == 0, p.stderr
+    out = json.loads(p.stdout)
+    rough = out["roughness"]
+    assert rough["smooth_area_mm2"] == pytest.approx(smooth["area_mm2"], rel=1e-12)  # same seed, same draws
+    assert out["area_std_mm2"] > smooth["area_std_mm2"] and 0.0 < rough["share_of_variance"] < 1.0
+    change = np.mean([m["correction_factor_change"]["mean_pct"] for m in rough["models"].values()])
+    assert out["area_mm2"] / smooth["area_mm2"] - 1 == pytest.approx(change / 100, abs=0.01)
+    assert "not_included" not in out and out["provenance"]["roughness"]["wheel_ra_um"] == 1.5
+    again = subprocess.run(base + ["--wheel-roughness-ra-um", "0"], capture_output=True, text=True, check=True)
+    assert json.loads(again.stdout)["area_mm2"] == smooth["area_mm2"]  # Ra 0: the smooth answer to the digit
+    sphere = subprocess.run([a for a in base if a not in ("--measured-area-mm2", "150", "--offset-mm=-3")]
+                            + ["--measured-radius-mm", "8", "--sphere-radius-mm", "450",
+                               "--wheel-roughness-ra-um", "1.5"], capture_output=True, text=True)
+    assert sphere.returncode == 2 and "wheel-rail" in sphere.stderr

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 
 from filmcal.commands._common import print_json
 from filmcal.commands._options import STUDY_IMPRINT_MODELS, add, add_wheel_rail_options, force_range, local, renamed, split_model
@@ -59,6 +60,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     local(p, "--field-side", choices=("right", "left", "up", "down"), default="right",
           help="--outline-out, wheel-rail: direction of the rail's field side in the scan (default "
                "right); the rolling direction is the other image axis")
+    add(p, "wheel_roughness_ra_um", extra="(wheel-rail): the answer and its band include what the bodies' roughness "
+        "does to the imprint and to the contact without film (default: smooth)")
+    add(p, "rail_roughness_ra_um", extra="(wheel-rail)")
+    local(p, "--roughness-draws", type=int, default=8,
+          help="wheel-rail with roughness: draws of the roughness law's conditioned inputs (coating hardness, "
+               "the scan's reading level, the surface's spectrum) that the band takes, 1-16 (default 8; each "
+               "costs a few seconds; the JSON gives the Monte-Carlo error)")
+    add(p, "progress", default="auto", extra="(wheel-rail with roughness)")
     add(p, "calibration_forces_kn")
     add(p, "study_dir", default="filmcal-study", extra="with the calibrated posterior (default ./filmcal-study; "
                                                        "must exist)")
@@ -80,9 +89,26 @@ def _check_scan_options(args: argparse.Namespace) -> None:
                 raise ValueError(f"--{name.replace('_', '-')} needs --scan")
 
 
+@contextlib.contextmanager
+def _rough_progress(mode: str, smooth: bool):
+    """``advance(done, total)`` for the rough solves, shown as a progress stage (nothing for smooth bodies)."""
+    if smooth:
+        yield None
+        return
+    from filmcal._progress import Progress
+
+    with Progress(mode).stage("rough solves") as stage:
+        def advance(done: int, total: int) -> None:
+            stage.set_total(total)
+            stage.advance()
+
+        yield advance
+
+
 def run(args: argparse.Namespace) -> int:
     from filmcal.study import Study
-    from filmcal.study.correct import ScanReading, SphereMeasurement, WheelRailMeasurement, correct_measurement
+    from filmcal.study.correct import (BodyRoughness, ScanReading, SphereMeasurement, WheelRailMeasurement,
+                                       correct_measurement)
 
     sphere = args.measured_radius_mm is not None or args.sphere_radius_mm is not None
     wheel_rail = args.measured_area_mm2 is not None or args.offset_mm is not None
@@ -104,10 +130,15 @@ def run(args: argparse.Namespace) -> int:
     scan = None if args.scan is None else ScanReading(
         args.scan, args.dpi, args.mm_per_pixel, args.threshold,
         1.0 if args.min_region_mm2 is None else args.min_region_mm2, args.outline_out, args.field_side)
+    roughness = BodyRoughness(args.wheel_roughness_ra_um, args.rail_roughness_ra_um, args.roughness_draws)
+    if sphere and not roughness.smooth:
+        raise ValueError("--wheel-roughness-ra-um / --rail-roughness-ra-um apply to the wheel-rail form")
     study = Study(args.study_dir)  # an existing study: a mistyped folder is an error, not a new study
-    out, reading = correct_measurement(study, args.film, measurement, imprint_model=args.imprint_model,
-                                       kinematics=args.kinematics, poisson=args.poisson,
-                                       calibration_forces_kn=args.calibration_forces_kn, scan=scan, seed=args.seed)
+    with _rough_progress(args.progress, roughness.smooth) as advance:
+        out, reading = correct_measurement(study, args.film, measurement, imprint_model=args.imprint_model,
+                                           kinematics=args.kinematics, poisson=args.poisson,
+                                           calibration_forces_kn=args.calibration_forces_kn, scan=scan,
+                                           roughness=roughness, seed=args.seed, progress=advance)
     if args.json:
         print_json(out)
     else:
@@ -123,6 +154,13 @@ def run(args: argparse.Namespace) -> int:
             std = sum(w * t["std_rel"] for w, t in terms) / total
             print(f"includes the transfer term (the calibrated FE film against the wheel-rail model's): film area "
                   f"{100 * shift:+.2f} % +/- {100 * std:.2f} %")
+        rough = out.get("roughness")
+        if rough is not None:
+            slo, shi = rough["smooth_area_ci90_mm2"]
+            print(f"includes the bodies' roughness (wheel Ra {rough['wheel_ra_um']:g} um, rail Ra "
+                  f"{rough['rail_ra_um']:g} um, {rough['n_draws']} draws of its inputs): smooth bodies would give "
+                  f"{rough['smooth_area_mm2']:.2f} mm2 (90 % {slo:.2f} - {shi:.2f}); roughness is "
+                  f"{100 * rough['share_of_variance']:.0f} % of the band's variance")
         for what in out.get("not_included", []):
             print(f"not included: {what}")
         if args.outline_out is not None:

@@ -35,9 +35,12 @@ def add_parser(subparsers) -> None:
               "large-strain film (compressible neo-Hookean, compressed oedometrically)")
     rough = p.add_mutually_exclusive_group()
     add(rough, "wheel_roughness_ra_um",
-        extra=": pressed into the film (FFT boundary elements, PET hardness cap) it gives the film-wheel "
-              "pressure-closure law; without film, the same surface against steel (boundary elements, steel "
-              "hardness cap), and the nominal area is reported. Smooth by default")
+        extra=": pressed into the film (FFT boundary elements, the coating's hardness capping the asperity "
+              "pressures) it gives the film-wheel pressure-closure law, and the imprint is read where the "
+              "asperities colour the film densely enough for a scan; without film, the same surface against "
+              "steel (steel hardness cap), and the nominal area is reported. The surface's spectrum, hardness "
+              "and reading level are the representative draw of the inputs conditioned on the paper's "
+              "roughened flat (filmcal correct carries their spread). Smooth by default")
     local(rough, "--roughness-law", metavar="CSV",
           help="a measured film-wheel pressure-closure law: CSV with columns closure_um,pressure_mpa")
     add(rough, "wheel_roughness_map", extra=", with --roughness-pixel-um (and --roughness-height-scale for a CSV, "
@@ -49,8 +52,10 @@ def add_parser(subparsers) -> None:
           help="CSV height map: factor from the numbers to um (default 1)")
     local(p, "--roughness-height-range-um", type=float,
           help="image height map: height in um from black to full white")
-    local(p, "--roughness-seed", type=int, default=0, help="seed of the synthetic rough surface (default 0)")
-    local(p, "--hardness-mpa", type=float, help="cap on asperity pressures in the film (default 300 MPa, PET)")
+    local(p, "--roughness-seed", type=int, help="realisation of the synthetic rough surfaces (default: the "
+                                                "representative conditioned draw's)")
+    local(p, "--hardness-mpa", type=float, help="cap on asperity pressures in the film's coating (MPa; default: "
+                                                "the representative conditioned draw's)")
     add_wheel_rail_options(p, grid=True)
     add(p, "film", extra="; also report the area its imprint model colours (imprint_area_mm2); its thickness "
                          "and nu are the defaults of the film")
@@ -103,6 +108,9 @@ def run(args: argparse.Namespace) -> int:
     if "imprint_area_mm2" in out:
         print(f"imprint area     {out['imprint_area_mm2']:.2f} mm2 ({out['imprint_model']} model, "
               f"film {out['film']['name']})")
+        if (out.get("roughness") or {}).get("reading_level") is not None:
+            print(f"                 (rough: read where {100 * out['roughness']['reading_level']:.0f} % of the "
+                  f"film is coloured)")
         if "stained_area_mm2" in out:
             print(f"stained spots    {out['stained_area_mm2']:.2f} mm2 (asperity pressures)")
     if "transfer_shift_mm2" in out:

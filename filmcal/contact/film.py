@@ -9,13 +9,10 @@ neo-Hookean oedometric law of the FE model's ``large_strain`` film). The same
 calibration is used.
 
 With a rough surface (`filmcal.contact.roughness`), the film-wheel interface
-adds the rough law's closure in series: the nominal pressure spreads, and the
-imprint model reads the nominal pressure field as it does for a smooth wheel.
-(The area of the coloured asperity spots alone, `RoughContactLaw.expected_stain`,
-is smaller than the nominal patch inside which they lie; at a scanner's
-resolution of tens of micrometres the spots merge into the patch, so the
-nominal reading is the one that a scanned imprint is compared with.
-``filmcal wheelrail`` reports the spot area beside it.)
+adds the rough law's closure in series: the nominal pressure spreads.
+What the film records there is where the asperities colour it densely enough
+for a scan to read it (`filmcal.contact.rough_imprint`): `recorded_area_mm2`
+takes the rough law for that.
 """
 from __future__ import annotations
 
@@ -74,18 +71,20 @@ class FilmModel:
             Solver film, solver law, and the roughness law.
         """
         from filmcal.contact.laws import FilmLayer, film_law
-        from filmcal.contact.roughness import RoughSurface, Roughness, rough_contact_law
+        from filmcal.contact.rough_imprint import representative_roughness_inputs
+        from filmcal.contact.roughness import RoughSurface, Roughness
 
         layer = FilmLayer(float(modulus_mpa), self.film.poisson, self.film.thickness_mm)
         law = roughness
         if isinstance(roughness, Roughness):
             law = roughness.film_law(layer.modulus_mpa, layer.poisson, layer.thickness_mm)
         elif isinstance(roughness, RoughSurface):
-            law = rough_contact_law(roughness, layer.modulus_mpa, layer.poisson, layer.thickness_mm)
+            law = Roughness(roughness, None, representative_roughness_inputs().film_hardness_mpa).film_law(
+                layer.modulus_mpa, layer.poisson, layer.thickness_mm)
         solver_film, solver_law = film_law(layer, law, kinematics=self.kinematics)
         return solver_film, solver_law, law
 
-    def recorded_area_mm2(self, result) -> float:
+    def recorded_area_mm2(self, result, rough_law=None, reading_level: float | None = None) -> float:
         """The area (mm^2) that the film records of a solved contact with film.
 
         Parameters
@@ -93,9 +92,22 @@ class FilmModel:
         result : WheelRailResult or ContactResult
             A solved contact (``.contact`` of a wheel-rail result, or the
             half-space result itself).
+        rough_law : RoughContactLaw or SeriesLaw of them, optional
+            The rough bodies' law the contact was solved with (the third value of `interface`): the film
+            then records where the asperities colour it (`filmcal.contact.rough_imprint`). A law that does
+            not know its local pressures (a measured one) is read like a smooth contact.
+        reading_level : float, optional
+            Coverage at which a scan reads the film as stained (default: the representative conditioned
+            draw's, `filmcal.contact.rough_imprint.representative_roughness_inputs`).
         """
         from filmcal.contact.imprint import get_imprint_model
 
+        if rough_law is not None and all(hasattr(law, "fraction_above") for law in getattr(rough_law, "laws",
+                                                                                               (rough_law,))):
+            from filmcal.contact.rough_imprint import representative_roughness_inputs, rough_recorded_area_mm2
+
+            level = representative_roughness_inputs().reading_level if reading_level is None else reading_level
+            return rough_recorded_area_mm2(self, result, rough_law, level)
         if self.imprint == "edge":
             return float(result.area_mm2)
         contact = getattr(result, "contact", result)

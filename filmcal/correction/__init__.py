@@ -10,7 +10,7 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "filmcal.correction.crossval": ["CaseCrossValidation", "cross_validate_case", "leave_one_case_out",
                                     "psis_leave_one_case_out"],
     "filmcal.correction.curves": ["CURVE_COLUMNS", "CorrectionCurves", "correction_curves", "curve_moduli", "curve_rows",
-                                  "read_curves_csv", "rough_surface", "wheel_label", "write_curves_csv"],
+                                  "read_curves_csv", "rough_bodies", "wheel_label", "write_curves_csv"],
     "filmcal.correction.imprint": ["Imprint", "measure_imprint", "otsu_threshold", "read_imprint",
                                    "stain_intensity"],
     "filmcal.correction.outline": ["CorrectedOutline", "ModelOutlines", "correct_outline", "hausdorff_distance_mm",

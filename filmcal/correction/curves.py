@@ -35,7 +35,7 @@ from filmcal.correction.moduli import modulus_grid
 from filmcal.wheelrail.wheelrail import get_wheel_rail_model
 
 __all__ = ["CorrectionCurves", "correction_curves", "curve_moduli", "CURVE_COLUMNS", "curve_rows", "write_curves_csv",
-           "read_curves_csv", "rough_surface", "wheel_label"]
+           "read_curves_csv", "rough_bodies", "wheel_label"]
 
 #: Solver tolerance of the sweeps: areas within 1e-6 (relative) of the default 1e-9, a fifth faster.
 SWEEP_TOL = 1e-6
@@ -117,10 +117,11 @@ def correction_curves(components, offsets_mm, forces_n, *, roughness=None, no_fi
         between models that the data cannot tell apart.
     offsets_mm, forces_n : array_like
         The grid (lateral offsets eta in mm, forces in N).
-    roughness : None, RoughSurface, InterfaceLaw or mapping
-        The wheel: smooth, rough (law computed against each film modulus), a
-        measured film-wheel law, or the laws of a rough wheel computed
-        beforehand at each modulus of `curve_moduli` (``{modulus: law}``).
+    roughness : None, Roughness, RoughSurface, InterfaceLaw or mapping
+        The bodies: smooth, rough (`filmcal.contact.roughness.Roughness`, or one rough surface; laws computed
+        against each film modulus), a measured film-wheel law, or the laws of rough bodies computed
+        beforehand at each modulus of `curve_moduli` (``{modulus: law}``). The film's rough reading
+        (`FilmModel.recorded_area_mm2` with the law) uses the representative conditioned draw's reading level.
     no_film_law : InterfaceLaw, optional
         The rough bodies' law without film (`filmcal.contact.roughness.steel_contact_law`): the area without
         film is then their nominal area (`filmcal.wheelrail.film_contact.nominal_rough_area_mm2`); without
@@ -151,7 +152,7 @@ def correction_curves(components, offsets_mm, forces_n, *, roughness=None, no_fi
     moduli = np.sort(np.concatenate([nodes, checks]))  # as `curve_moduli` gives them
     wheel_rail_model = get_wheel_rail_model(**wheel_rail, tol=SWEEP_TOL)
     law_at = roughness if isinstance(roughness, Mapping) else {m: roughness for m in moduli}
-    interfaces = {(key, m): parts[members[0]][0].interface(float(m), law_at[m])[:2]
+    interfaces = {(key, m): parts[members[0]][0].interface(float(m), law_at[m])
                   for key, members in groups.items() for m in moduli}
 
     for i, force in enumerate(forces):
@@ -169,10 +170,10 @@ def correction_curves(components, offsets_mm, forces_n, *, roughness=None, no_fi
             for key, members in groups.items():
                 recorded, spread, previous = {}, {}, bare
                 for m in moduli:  # each solve starts from its neighbour's pressure
-                    film, law = interfaces[key, m]
+                    film, law, rough_law = interfaces[key, m]
                     previous = wheel_rail_model.solve(eta, force, film=film, roughness=law, initial=previous)
                     terms = [parts[k][0].transfer_term(float(m), previous) for k in members]
-                    recorded[m] = [parts[k][0].recorded_area_mm2(previous) + t.shift_mm2
+                    recorded[m] = [parts[k][0].recorded_area_mm2(previous, rough_law) + t.shift_mm2
                                    for k, t in zip(members, terms)]
                     spread[m] = [t.std_mm2 / r for t, r in zip(terms, recorded[m])]
                 at_nodes = np.log(np.array([recorded[m] for m in nodes]) / a0[i, j])
@@ -202,14 +203,13 @@ CURVE_COLUMNS = ("film", "wheel", "force_kn", "offset_mm", "area_no_film_mm2", "
                  "ratio_hi", "interpolation_error_rel")
 
 
-def rough_surface(ra_um: float, seed: int = 0):
-    """The synthetic rough wheel of roughness Ra (um): `filmcal.contact.roughness.RoughSurface` with the
-    wheel defaults (self-affine spectrum, `WHEEL_SURFACE_DEFAULTS`)."""
-    from filmcal.contact.roughness import WHEEL_SURFACE_DEFAULTS, RoughSurface
+def rough_bodies(ra_um: float):
+    """A rough wheel of roughness Ra (um) on a smooth rail: `filmcal.contact.roughness.Roughness` of the
+    representative conditioned draw of the roughness inputs (spectrum, coating hardness;
+    `filmcal.contact.rough_imprint.representative_roughness_inputs`)."""
+    from filmcal.contact.rough_imprint import representative_roughness_inputs
 
-    d = WHEEL_SURFACE_DEFAULTS
-    return RoughSurface.synthetic(ra_um=float(ra_um), hurst=d["hurst"], rolloff_wavelength_um=d["rolloff_wavelength_um"],
-                                  size_um=d["size_um"], n=d["n"], seed=seed)
+    return representative_roughness_inputs().bodies(float(ra_um))
 
 
 def wheel_label(roughness=None) -> str:
@@ -233,9 +233,8 @@ def curve_rows(film: str, components, offsets_mm, forces_kn, roughness=None, law
     offsets_mm, forces_kn : sequence of float
         The grid: lateral offsets eta (mm) and loads (kN).
     roughness : None, float or InterfaceLaw
-        The wheel: smooth (None), rough with this Ra in um (a synthetic surface
-        whose law is computed against each film modulus, `rough_surface`, and
-        against the steel rail for the area without film), or a measured
+        The wheel: smooth (None), rough with this Ra in um (`rough_bodies`: laws computed against each film
+        modulus, and against the steel rail for the area without film), or a measured
         film-wheel pressure-closure law (e.g. `filmcal.wheelrail.TabularLaw`;
         the area without film is then the smooth one).
     laws : mapping, optional
@@ -244,12 +243,10 @@ def curve_rows(film: str, components, offsets_mm, forces_kn, roughness=None, law
     **wheel_rail
         Passed on to `correction_curves` (profiles, inclination, ...).
     """
-    law = rough_surface(float(roughness)) if isinstance(roughness, (int, float)) else roughness
+    law = rough_bodies(float(roughness)) if isinstance(roughness, (int, float)) else roughness
     no_film_law = None
     if isinstance(roughness, (int, float)):  # the same surface against steel: the area without film is rough too
-        from filmcal.contact.roughness import steel_contact_law
-
-        no_film_law = steel_contact_law(law)
+        no_film_law = law.steel_law()
     if laws is not None:
         law = laws
     c = correction_curves(components, offsets_mm, np.asarray(forces_kn, dtype=float) * 1e3, roughness=law,

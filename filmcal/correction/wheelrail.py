@@ -23,7 +23,10 @@ sample is
 A_m the measured area, u the user's area uncertainty, r_m = sqrt(A_m / pi)
 its equivalent radius and sigma the scatter of one imprint's radius about the
 model (inferred on the sphere-on-flat tests), carried over as a relative area
-scatter; eps_1..3 standard normal.
+scatter; eps_1..3 standard normal. On rough bodies each sample is further
+multiplied by ``g_0 / g_f`` of one draw of the roughness inputs
+(`filmcal.correction.roughness`: the rough/smooth growth of the contact
+without film over that of the film's reading).
 """
 from __future__ import annotations
 
@@ -266,7 +269,7 @@ class WheelRailCorrector:
         film = FilmLayer(float(np.median(self.modulus_mpa_)), ft.poisson, ft.thickness_mm)
         return wheel_rail_outlines(offset_mm, force_n, film, **self.settings)
 
-    def correct(self, measured_area_mm2, offset_mm, force_n, measurement_std_mm2=0.0) -> CorrectedArea:
+    def correct(self, measured_area_mm2, offset_mm, force_n, measurement_std_mm2=0.0, rough=None) -> CorrectedArea:
         """The contact area without film behind measured imprint areas (vectorised).
 
         Parameters
@@ -279,6 +282,10 @@ class WheelRailCorrector:
             Wheel load (N), > 0.
         measurement_std_mm2 : float or array_like
             The user's standard uncertainty of the measured area (mm^2), >= 0.
+        rough : RoughGrowth, optional
+            The bodies' roughness at this offset and force (`filmcal.correction.roughness`): each sample's
+            factor is multiplied by ``g_0 / g_f`` of a draw of the roughness inputs, drawn by their weights
+            (one offset and force for every point).
         """
         A, eta, F, u = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in
                                             (measured_area_mm2, offset_mm, force_n, measurement_std_mm2)))
@@ -302,5 +309,9 @@ class WheelRailCorrector:
             measured = A[idx] + u[idx] * rng.standard_normal(n)
             scatter = 1.0 + 2.0 * self.sigma_mm_ / r_m * rng.standard_normal(n)
             samples[idx] = measured * ratio * scatter / (1.0 + transfer * rng.standard_normal(n))
+        if rough is not None:
+            if len(cache) > 1:
+                raise ValueError("a roughness growth belongs to one offset and force: correct the points apart")
+            samples *= rough.factor[rng.choice(len(rough.factor), size=n, p=rough.weights)]
         samples = np.clip(samples, 0.0, None)
         return _summarise(samples, np.sqrt(samples / np.pi))

@@ -15,7 +15,7 @@ from typing import Any
 from filmcal.contact.names import MIXTURE
 from filmcal.wheelrail.settings import NOMINAL_RADIUS_MM, RAIL, RAIL_INCLINATION, WHEEL
 
-__all__ = ["SphereMeasurement", "WheelRailMeasurement", "ScanReading", "correct_measurement"]
+__all__ = ["SphereMeasurement", "WheelRailMeasurement", "ScanReading", "BodyRoughness", "correct_measurement"]
 
 
 @dataclass(frozen=True)
@@ -62,6 +62,35 @@ class ScanReading:
     field_side: str = "right"
 
 
+@dataclass(frozen=True)
+class BodyRoughness:
+    """The bodies' roughness of a wheel-rail measurement: each body's Ra (um; None or 0: smooth) and how many
+    draws of the roughness law's conditioned inputs (`filmcal.contact.rough_imprint.load_roughness_inputs`)
+    the band takes."""
+
+    wheel_ra_um: float | None = None
+    rail_ra_um: float | None = None
+    n_draws: int = 8
+
+    def __post_init__(self) -> None:
+        from filmcal._validation import check_range
+        from filmcal.contact.rough_imprint import load_roughness_inputs
+
+        for name in ("wheel_ra_um", "rail_ra_um"):
+            value = getattr(self, name)
+            if value is not None:
+                check_range(name.replace("_ra_um", "_roughness_ra_um"), value, 0.0, 30.0, low_open=False,
+                            high_open=False)
+        available = len(load_roughness_inputs())
+        if isinstance(self.n_draws, bool) or not isinstance(self.n_draws, int) or not 1 <= self.n_draws <= available:
+            raise ValueError(f"roughness_draws must be an integer in [1, {available}] (the shipped conditioned "
+                             f"draws), got {self.n_draws!r}")
+
+    @property
+    def smooth(self) -> bool:
+        return not self.wheel_ra_um and not self.rail_ra_um
+
+
 def _check_value(name: str, value: float | None, std_name: str, std: float) -> None:
     if value is not None and not (value > 0 and math.isfinite(value)):
         raise ValueError(f"{name} must be finite and > 0, got {value}")
@@ -69,10 +98,10 @@ def _check_value(name: str, value: float | None, std_name: str, std: float) -> N
         raise ValueError(f"{std_name} must be >= 0, got {std}")
 
 
-#: The error a wheel-rail answer does not carry yet: the bodies are taken as smooth.
+#: What a smooth wheel-rail answer does not carry: the bodies' roughness.
 ROUGHNESS_NOT_INCLUDED = ("the bodies' roughness: wheel and rail are taken as smooth; a service wheel's roughness can "
-                          "enlarge an imprint by several percent (filmcal wheelrail --wheel-roughness-ra-um / "
-                          "--rail-roughness-ra-um shows its size)")
+                          "enlarge an imprint by several percent (give --wheel-roughness-ra-um / "
+                          "--rail-roughness-ra-um)")
 
 
 def _provenance(study, parts, measurement, sphere: bool, seed: int) -> dict[str, Any]:
@@ -98,7 +127,8 @@ def _provenance(study, parts, measurement, sphere: bool, seed: int) -> dict[str,
 def correct_measurement(study, film: str, measurement: SphereMeasurement | WheelRailMeasurement, *,
                         imprint_model: str = MIXTURE, kinematics: str | None = None, poisson: str | None = None,
                         calibration_forces_kn: str | None = None, scan: ScanReading | None = None,
-                        seed: int = 0) -> tuple[dict[str, Any], Any]:
+                        roughness: BodyRoughness | None = None, seed: int = 0,
+                        progress=None) -> tuple[dict[str, Any], Any]:
     """Correct one measured imprint with a study's calibrated film; return ``(answer, scan reading)``.
 
     Parameters
@@ -112,8 +142,15 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
         Which posteriors: ``mixture`` (default) pools the models the study compared by their weights.
     scan : ScanReading, optional
         Read the measured value from a scanned imprint (its uncertainty adds in quadrature).
+    roughness : BodyRoughness, optional
+        Wheel-rail: the bodies' roughness; the answer and its band then include the rough/smooth growth of
+        the contact without film over the film's (`filmcal.correction.roughness`), and ``roughness`` reports
+        the smooth answer, each model's growths with their Monte-Carlo error and the roughness share of the
+        band's variance.
     seed : int
         Seed of the scatter draws.
+    progress : callable, optional
+        ``progress(done, total)`` while the rough solves run.
 
     Returns
     -------
@@ -159,12 +196,32 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
                                            nominal_radius_mm=m.nominal_radius_mm), **match)
         parts[0][1].check_plausible(area, m.offset_mm, force_n)
         results = [c.correct(area, m.offset_mm, force_n, area_std) for _, c, _ in parts]
-    if len(parts) == 1:
-        result = results[0]
-    else:
-        from filmcal.correction.sphere import pool_corrected
+    if sphere and roughness is not None and not roughness.smooth:
+        raise ValueError("roughness applies to the wheel-rail form (sphere-on-flat corrections are calibrated on "
+                         "the paper's smooth spheres)")
+    result = _pool(results, parts, seed)
+    rough_out = None
+    if not sphere and roughness is not None and not roughness.smooth:
+        from filmcal.contact.rough_imprint import load_roughness_inputs
+        from filmcal.correction.roughness import corrector_growths
 
-        result = pool_corrected(results, [w for w, _, _ in parts], random_state=seed)
+        draws = load_roughness_inputs()[:roughness.n_draws]
+        growths = corrector_growths([c for _, c, _ in parts], [w for w, _, _ in parts], m.offset_mm, force_n,
+                                    draws, wheel_ra_um=roughness.wheel_ra_um, rail_ra_um=roughness.rail_ra_um,
+                                    progress=progress)
+        smooth = result
+        results = [c.correct(area, m.offset_mm, force_n, area_std, rough=growths[c.film.label])
+                   for _, c, _ in parts]
+        result = _pool(results, parts, seed)
+        var_rough, var_smooth = float(result.area_std_mm2) ** 2, float(smooth.area_std_mm2) ** 2
+        rough_out = {
+            "wheel_ra_um": roughness.wheel_ra_um or 0.0, "rail_ra_um": roughness.rail_ra_um or 0.0,
+            "inputs": "conditioned draws shipped with filmcal (filmcal/data/roughness_inputs.json)",
+            "n_draws": len(draws), "smooth_area_mm2": float(smooth.area_mm2),
+            "smooth_area_std_mm2": float(smooth.area_std_mm2),
+            "smooth_area_ci90_mm2": [float(v) for v in smooth.area_ci90_mm2],
+            "share_of_variance": max(0.0, 1.0 - var_smooth / var_rough) if var_rough > 0 else 0.0,
+            "models": {s["model"]: growths[c.film.label].summary() for _, c, s in parts}}
     out = result.to_dict()
     out.update(film=film, form="sphere-on-flat" if sphere else "wheel-rail",
                models={s["model"]: {"weight": w, "area_mm2": float(r.area_mm2), "area_ci90_mm2": r.area_ci90_mm2}
@@ -173,7 +230,10 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
         for w, c, s in parts:
             out["models"][s["model"]]["transfer"] = c.transfer(m.offset_mm, force_n)
     out["provenance"] = _provenance(study, parts, measurement, sphere, seed)
-    if not sphere:  # what the band does not hold, said with the answer
+    if rough_out is not None:
+        out["roughness"] = rough_out
+        out["provenance"]["roughness"] = {k: rough_out[k] for k in ("wheel_ra_um", "rail_ra_um", "n_draws")}
+    elif not sphere:  # what the band does not hold, said with the answer
         out["not_included"] = [ROUGHNESS_NOT_INCLUDED]
     if reading is not None:
         details = {k: v for k, v in reading.to_dict().items() if k not in ("area_mm2", "area_std_mm2")}
@@ -190,3 +250,12 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
             outline.write_csv(Path(scan.outline_out))
             out.update(outline_file=str(scan.outline_out), outline_rule=outline.rule)
     return out, reading
+
+
+def _pool(results, parts, seed: int):
+    """One model's answer, or the models' mixture by their weights."""
+    if len(parts) == 1:
+        return results[0]
+    from filmcal.correction.sphere import pool_corrected
+
+    return pool_corrected(results, [w for w, _, _ in parts], random_state=seed)

@@ -377,6 +377,10 @@ def _curves_stage(study: Study, settings: PipelineSettings, films, workers, st):
         specs[film] = {"posteriors": sorted(p.name for _, p, _ in chosen),
                        "weights": {s["model"]: w for w, _, s in chosen}, "offsets_mm": list(settings.offsets_mm),
                        "forces_kn": list(settings.forces_kn), "rough_ra_um": settings.rough_ra_um}
+        if settings.rough_ra_um:  # the rough bodies' inputs (their spectrum, hardness and reading level)
+            from filmcal.contact.rough_imprint import representative_roughness_inputs
+
+            specs[film]["rough_inputs"] = representative_roughness_inputs().to_dict()
         path = study.layout.curves(film)
         entry = study.manifest.entry(study.layout.relative(path)) if path.exists() else None
         if entry and entry["spec"] == specs[film] and study.verified(path):
@@ -430,17 +434,16 @@ def _rough_laws(study: Study, settings: PipelineSettings, components: dict, film
     """The rough wheel's pressure-closure laws (BEM) at the moduli each film's curves solve at, in parallel:
     ``{film: {modulus: law}}``."""
     from filmcal._parallel import run_tasks
-    from filmcal.contact.roughness import rough_contact_law
-    from filmcal.correction import curve_moduli, rough_surface
+    from filmcal.correction import curve_moduli, rough_bodies
 
     if not films:
         return {}
-    surface = rough_surface(settings.rough_ra_um)
+    bodies = rough_bodies(settings.rough_ra_um)
     tasks = {}
     for film in films:
         ft = study.film(film)
         for m in curve_moduli(components[film]):
-            tasks[film, float(m)] = (rough_contact_law, (surface, float(m), ft.poisson, ft.thickness_mm))
+            tasks[film, float(m)] = (bodies.film_law, (float(m), ft.poisson, ft.thickness_mm))
     st.log(f"[curves] rough wheel (Ra {settings.rough_ra_um:g} um): {len(tasks)} pressure-closure laws (BEM) "
            "at the films' moduli")
     laws: dict = {}

@@ -31,10 +31,10 @@ class WheelRoughness:
         (black to white spans `height_range_um`), pixels `pixel_um` apart.
     law_file : str, optional
         A measured film-wheel pressure-closure law (CSV closure_um,pressure_mpa).
-    seed : int
-        Seed of the synthetic surface.
+    seed : int, optional
+        Realisation of the synthetic surfaces (default: the representative conditioned draw's).
     hardness_mpa : float, optional
-        Cap on asperity pressures in the film (default: the PET carrier's).
+        Cap on asperity pressures in the film (default: the representative conditioned draw's).
     """
 
     ra_um: float | None = None
@@ -43,7 +43,7 @@ class WheelRoughness:
     pixel_um: float | None = None
     height_scale: float = 1.0
     height_range_um: float | None = None
-    seed: int = 0
+    seed: int | None = None
     hardness_mpa: float | None = None
     rail_ra_um: float | None = None
 
@@ -66,29 +66,43 @@ class WheelRoughness:
         """No roughness: nothing given, or Ra = 0 (the smooth solve exactly, no law)."""
         return not self.ra_um and not self.rail_ra_um and self.map_file is None and self.law_file is None
 
+    def inputs(self):
+        """The roughness law's inputs: the representative conditioned draw
+        (`filmcal.contact.rough_imprint.representative_roughness_inputs`), with this seed and hardness when
+        given."""
+        from dataclasses import replace
+
+        from filmcal.contact.rough_imprint import representative_roughness_inputs
+
+        inputs = representative_roughness_inputs()
+        if self.seed is not None:
+            inputs = replace(inputs, seed=int(self.seed))
+        if self.hardness_mpa is not None:
+            inputs = replace(inputs, film_hardness_mpa=float(self.hardness_mpa))
+        return inputs
+
     def bodies(self):
         """The rough bodies (`filmcal.contact.roughness.Roughness`) of the wheel's surface and the rail's Ra."""
-        from filmcal.contact.roughness import PET_HARDNESS_MPA, Roughness
+        from filmcal.contact.roughness import Roughness, RoughSurface
 
+        inputs = self.inputs()
         wheel = self.surface()
-        rail = Roughness.from_ra(rail_ra_um=self.rail_ra_um, seed=self.seed).rail
+        rail = inputs.surface(self.rail_ra_um, 1) if self.rail_ra_um else None
         if wheel is not None and rail is not None and self.map_file is not None:
             # the rail's synthetic surface on the wheel map's grid, so that their heights can add
-            from filmcal.contact.roughness import WHEEL_SURFACE_DEFAULTS, RoughSurface
-
             n, m = wheel.heights_um.shape
             if n != m:
                 raise ValueError(f"--rail-roughness-ra-um with a {n} x {m} --wheel-roughness-map: the rail's "
                                  "surface is drawn on the map's grid, which must be square")
-            d = WHEEL_SURFACE_DEFAULTS
-            rail = RoughSurface.synthetic(ra_um=self.rail_ra_um, hurst=d["hurst"],
-                                          rolloff_wavelength_um=d["rolloff_wavelength_um"],
-                                          size_um=n * wheel.pixel_um, n=n, seed=self.seed + 1)
-        return Roughness(wheel, rail, self.hardness_mpa or PET_HARDNESS_MPA)
+            size = n * wheel.pixel_um
+            rail = RoughSurface.synthetic(ra_um=self.rail_ra_um, hurst=inputs.hurst,
+                                          rolloff_wavelength_um=min(inputs.rolloff_wavelength_um, size),
+                                          size_um=size, n=n, seed=2 * inputs.seed + 1)
+        return Roughness(wheel, rail, inputs.film_hardness_mpa)
 
     def surface(self):
-        """The rough surface (`RoughSurface`), or None for a measured law or a smooth wheel."""
-        from filmcal.contact.roughness import WHEEL_SURFACE_DEFAULTS, RoughSurface
+        """The wheel's rough surface (`RoughSurface`), or None for a measured law or a smooth wheel."""
+        from filmcal.contact.roughness import RoughSurface
 
         if self.map_file is not None:
             path = Path(self.map_file)
@@ -103,10 +117,7 @@ class WheelRoughness:
             return RoughSurface.from_csv(path, self.pixel_um, self.height_scale)
         if not self.ra_um:  # None or 0: smooth
             return None
-        d = WHEEL_SURFACE_DEFAULTS
-        return RoughSurface.synthetic(ra_um=self.ra_um, hurst=d["hurst"],
-                                      rolloff_wavelength_um=d["rolloff_wavelength_um"], size_um=d["size_um"],
-                                      n=d["n"], seed=self.seed)
+        return self.inputs().surface(self.ra_um, 0)
 
 
 @dataclass(frozen=True)
@@ -197,6 +208,7 @@ def solve_film_contact(offset_mm: float, force_n: float, case: FilmContactCase,
             parts = getattr(law, "laws", (law,))
             rough_info = {"model": "FFT boundary elements", **parts[0].describe(), **bodies.describe()}
         solver_film, solver_law, _ = model.interface(case.film_modulus_mpa, law)
+        rough_info = rough_info and {**rough_info, "reading_level": roughness.inputs().reading_level}
     result = solve_wheel_rail(offset_mm, force_n, wheel=_profile(wheel, "wheel"), rail=_profile(rail, "rail"),
                               rail_inclination=rail_inclination, nominal_radius_mm=nominal_radius_mm,
                               film=solver_film, roughness=solver_law, grid_mm=grid_mm)
@@ -227,7 +239,9 @@ def solve_film_contact(offset_mm: float, force_n: float, case: FilmContactCase,
         if no_film:
             out["film"] = {"name": named.name}
         out["imprint_model"] = model.imprint
-        out["imprint_area_mm2"] = model.recorded_area_mm2(result)
+        rough_law = None if no_film else law
+        level = roughness.inputs().reading_level
+        out["imprint_area_mm2"] = model.recorded_area_mm2(result, rough_law, level)
         if not no_film:
             term = model.transfer_term(case.film_modulus_mpa, result)
             out["transfer_shift_mm2"], out["transfer_std_mm2"] = term.shift_mm2, term.std_mm2
