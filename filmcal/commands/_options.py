@@ -89,8 +89,11 @@ VOCABULARY: dict[str, Concept] = _concepts(
             float, (0.0, 30.0)),
     Concept("rail_roughness_ra_um", "roughness Ra of the rail in um (a synthetic self-affine surface, drawn "
             "independently of the wheel's)", float, (0.0, 30.0)),
-    Concept("wheel_roughness_map", "a measured height map of the wheel (CSV of heights or a greyscale "
-            "PNG/TIFF)", metavar="FILE"),
+    Concept("wheel_roughness_map", "a measured surface of the wheel: an x3p map or profile, a stylus line "
+            "profile across the lay (CSV with x_um or x_mm and z_um or z_nm columns), a CSV of heights or a "
+            "greyscale PNG/TIFF (these two with --roughness-pixel-um)", metavar="FILE"),
+    Concept("rail_roughness_map", "a measured surface of the rail (the formats of --wheel-roughness-map)",
+            metavar="FILE"),
     Concept("scan", "a scanned imprint (PNG or TIFF)", metavar="FILE"),
     Concept("simulator_command", "a command template run once per design point; placeholders are the "
             "design's columns plus {work_dir} and {point_id}", metavar="TEMPLATE"),

@@ -63,10 +63,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add(p, "wheel_roughness_ra_um", extra="(wheel-rail): the answer and its band include what the bodies' roughness "
         "does to the imprint and to the contact without film (default: smooth)")
     add(p, "rail_roughness_ra_um", extra="(wheel-rail)")
+    add(p, "wheel_roughness_map", extra="(wheel-rail; instead of --wheel-roughness-ra-um; its Ra is reported)")
+    add(p, "rail_roughness_map", extra="(wheel-rail; instead of --rail-roughness-ra-um)")
+    local(p, "--roughness-pixel-um", type=float, help="pixel size in um of a CSV or image roughness map")
     local(p, "--roughness-draws", type=int, default=8,
           help="wheel-rail with roughness: draws of the roughness law's conditioned inputs (coating hardness, "
                "the scan's reading level, the surface's spectrum) that the band takes, 1-16 (default 8; each "
-               "costs a few seconds; the JSON gives the Monte-Carlo error)")
+               "costs 10-30 s; the JSON gives the Monte-Carlo error)")
     add(p, "progress", default="auto", extra="(wheel-rail with roughness)")
     add(p, "calibration_forces_kn")
     add(p, "study_dir", default="filmcal-study", extra="with the calibrated posterior (default ./filmcal-study; "
@@ -130,7 +133,8 @@ def run(args: argparse.Namespace) -> int:
     scan = None if args.scan is None else ScanReading(
         args.scan, args.dpi, args.mm_per_pixel, args.threshold,
         1.0 if args.min_region_mm2 is None else args.min_region_mm2, args.outline_out, args.field_side)
-    roughness = BodyRoughness(args.wheel_roughness_ra_um, args.rail_roughness_ra_um, args.roughness_draws)
+    roughness = BodyRoughness(args.wheel_roughness_ra_um, args.rail_roughness_ra_um, args.roughness_draws,
+                              args.wheel_roughness_map, args.rail_roughness_map, args.roughness_pixel_um)
     if sphere and not roughness.smooth:
         raise ValueError("--wheel-roughness-ra-um / --rail-roughness-ra-um apply to the wheel-rail form")
     study = Study(args.study_dir)  # an existing study: a mistyped folder is an error, not a new study

@@ -45,6 +45,7 @@ def add_parser(subparsers) -> None:
           help="a measured film-wheel pressure-closure law: CSV with columns closure_um,pressure_mpa")
     add(rough, "wheel_roughness_map", extra=", with --roughness-pixel-um (and --roughness-height-scale for a CSV, "
                                              "--roughness-height-range-um for an image)")
+    add(p, "rail_roughness_map")
     add(p, "rail_roughness_ra_um", extra=": with a film, pressed into the film's other face (its law in series "
                                           "with the wheel's); without film, its heights add to the wheel's")
     local(p, "--roughness-pixel-um", type=float, help="pixel size of --wheel-roughness-map in um")
@@ -80,7 +81,8 @@ def run(args: argparse.Namespace) -> int:
                            args.film_thickness_mm, args.film, args.films_file, args.imprint_model, args.kinematics)
     roughness = WheelRoughness(args.wheel_roughness_ra_um, args.wheel_roughness_map, args.roughness_law,
                                args.roughness_pixel_um, args.roughness_height_scale, args.roughness_height_range_um,
-                               args.roughness_seed, args.hardness_mpa, args.rail_roughness_ra_um)
+                               args.roughness_seed, args.hardness_mpa, args.rail_roughness_ra_um,
+                               args.rail_roughness_map)
     result, out = solve_film_contact(args.offset_mm, 1e3 * args.force_kn, case, roughness, wheel=args.wheel,
                                      rail=args.rail, rail_inclination=inclination,
                                      nominal_radius_mm=args.nominal_radius_mm, grid_mm=args.grid_mm,

@@ -103,12 +103,21 @@ class RoughnessInputs:
                                       cutoff_wavelength_um=self.cutoff_wavelength_um, size_um=SURFACE_SIZE_UM,
                                       n=SURFACE_PIXELS, seed=2 * int(self.seed) + body)
 
-    def bodies(self, wheel_ra_um: float | None = None, rail_ra_um: float | None = None):
-        """Both bodies' roughness (`filmcal.contact.roughness.Roughness`) of this draw (None or 0: smooth)."""
-        from filmcal.contact.roughness import Roughness
+    def bodies(self, wheel=None, rail=None):
+        """Both bodies' roughness (`filmcal.contact.roughness.Roughness`) of this draw.
 
-        return Roughness(self.surface(wheel_ra_um, 0) if wheel_ra_um else None,
-                         self.surface(rail_ra_um, 1) if rail_ra_um else None, float(self.film_hardness_mpa))
+        ``wheel`` and ``rail`` (or flat and sphere) are each None or 0 (smooth), an Ra in um (this draw's
+        synthetic surface) or a measured `RoughSurface` (taken as it is: only the hardness and the reading
+        level of the draw apply to it).
+        """
+        from filmcal.contact.roughness import Roughness, RoughSurface
+
+        def body(value, k):
+            if isinstance(value, RoughSurface):
+                return value
+            return self.surface(value, k) if value else None
+
+        return Roughness(body(wheel, 0), body(rail, 1), float(self.film_hardness_mpa))
 
     def to_dict(self) -> dict:
         return asdict(self)

@@ -798,7 +798,8 @@ class RoughContactLaw(TabularLaw):
             "saturation_pressure_mpa": self.saturation_pressure_mpa,
             "closure_at_saturation_um": 1e3 * self.steps[-1].closure_mm,
             "hardness_source": ("steel, about 280 HV (wheel and rail)" if self.film_thickness_mm == math.inf
-                                else "Tabor H = 3 Y, Y = 100 MPa (biaxially oriented PET)"),
+                                else "the film's coating: a draw of filmcal.contact.rough_imprint.ROUGHNESS_PRIOR "
+                                     "conditioned on the paper's roughened flat"),
         }
 
     def __repr__(self) -> str:

@@ -10,7 +10,8 @@ the same configuration:
 
 A correction multiplies its smooth factor ``A_0 / A_f`` by ``g_0 / g_f``. Each draw of the uncertain inputs
 (`RoughnessInputs`: the coating's hardness, the scan's reading level, the spectrum, the realisation) gives
-one pair; `RoughGrowth` keeps the draws and their weights and summarises them with the Monte-Carlo error of
+one pair; a body is given by its Ra (each draw's synthetic surface) or as a measured `RoughSurface`
+(`filmcal.contact.surface_files`). `RoughGrowth` keeps the draws and their weights and summarises them with the Monte-Carlo error of
 the mean. Ra = 0 on both bodies gives no law and the ratio 1 exactly.
 """
 from __future__ import annotations
@@ -79,9 +80,9 @@ class RoughGrowth:
 
 
 def film_growth(model, modulus_mpa: float, inputs: RoughnessInputs, solve: Callable, smooth,
-                wheel_ra_um: float | None = None, rail_ra_um: float | None = None) -> float:
+                wheel=None, rail=None) -> float:
     """``g_f`` of one draw: ``solve(film, law)`` solves the configuration, ``smooth`` is its smooth solve."""
-    bodies = inputs.bodies(wheel_ra_um, rail_ra_um)
+    bodies = inputs.bodies(wheel, rail)
     if bodies.smooth:
         return 1.0
     film, law, rough_law = model.interface(float(modulus_mpa), bodies)
@@ -92,12 +93,12 @@ def film_growth(model, modulus_mpa: float, inputs: RoughnessInputs, solve: Calla
     return rough_recorded_area_mm2(model, rough, rough_law, inputs.reading_level) / base
 
 
-def no_film_growth(inputs: RoughnessInputs, solve: Callable, smooth, wheel_ra_um: float | None = None,
-                   rail_ra_um: float | None = None) -> float:
+def no_film_growth(inputs: RoughnessInputs, solve: Callable, smooth, wheel=None,
+                   rail=None) -> float:
     """``g_0`` of one draw: the rough bodies' nominal area against steel over the smooth area."""
     from filmcal.contact.reading import nominal_area_mm2
 
-    bodies = inputs.bodies(wheel_ra_um, rail_ra_um)
+    bodies = inputs.bodies(wheel, rail)
     if bodies.smooth:
         return 1.0
     rough = solve(None, bodies.steel_law())
@@ -120,12 +121,12 @@ def sphere_growth(model, modulus_mpa: float, inputs: RoughnessInputs, ra_um: flo
     if smooth is None:
         film, law, _ = model.interface(float(modulus_mpa))
         smooth = solve(film, law)
-    return film_growth(model, modulus_mpa, inputs, solve, smooth, wheel_ra_um=ra_um)
+    return film_growth(model, modulus_mpa, inputs, solve, smooth, wheel=ra_um)
 
 
 def wheel_rail_growth(model, modulus_mpa: float, draws: Sequence[RoughnessInputs], offset_mm: float,
-                      force_n: float, settings: dict, *, wheel_ra_um: float | None = None,
-                      rail_ra_um: float | None = None, weights: Sequence[float] | None = None,
+                      force_n: float, settings: dict, *, wheel=None,
+                      rail=None, weights: Sequence[float] | None = None,
                       progress: Callable[[int, int], None] | None = None) -> RoughGrowth:
     """`RoughGrowth` of a wheel-rail configuration over ``draws`` (``settings``: `solve_wheel_rail`'s keywords).
 
@@ -144,8 +145,8 @@ def wheel_rail_growth(model, modulus_mpa: float, draws: Sequence[RoughnessInputs
     g_f, g_0 = np.ones(len(draws)), np.ones(len(draws))
     for i, d in enumerate(draws):
         if d not in done:
-            done[d] = (film_growth(model, modulus_mpa, d, solve, smooth_film, wheel_ra_um, rail_ra_um),
-                       no_film_growth(d, solve, smooth_bare, wheel_ra_um, rail_ra_um))
+            done[d] = (film_growth(model, modulus_mpa, d, solve, smooth_film, wheel, rail),
+                       no_film_growth(d, solve, smooth_bare, wheel, rail))
         g_f[i], g_0[i] = done[d]
         if progress is not None:
             progress(i + 1, len(draws))
@@ -167,14 +168,15 @@ def sphere_growths(inputs: dict, ra_um: float, films: Sequence[tuple[str, float,
 
 
 def corrector_growths(correctors: Sequence, weights: Sequence[float], offset_mm: float, force_n: float,
-                      draws: Sequence[RoughnessInputs], *, wheel_ra_um: float | None = None,
-                      rail_ra_um: float | None = None,
+                      draws: Sequence[RoughnessInputs], *, wheel=None,
+                      rail=None,
                       progress: Callable[[int, int], None] | None = None) -> dict[str, RoughGrowth]:
     """`RoughGrowth` of each wheel-rail corrector's film model (by its label) at one offset and force.
 
-    Models of one kinematics share their rough solves (one per draw, at the weighted median of their
-    posteriors' moduli) and read them each with its own imprint model; the contact without film is solved
-    once per draw for all. Repeated draws are solved once.
+    Models of one kinematics share their rough solves (one per draw) and read them each with its own imprint
+    model; every model is solved at one modulus, the weighted median of all the posteriors' moduli (a growth
+    ratio varies little across a posterior), so that one rough law per draw serves all. The contact without
+    film is solved once per draw for all. Repeated draws are solved once.
     """
     from filmcal.wheelrail import solve_wheel_rail
 
@@ -200,20 +202,21 @@ def corrector_growths(correctors: Sequence, weights: Sequence[float], offset_mm:
     smooth_bare = solve(None, None)
     g0 = {}
     for d in unique:
-        g0[d] = no_film_growth(d, solve, smooth_bare, wheel_ra_um, rail_ra_um)
+        g0[d] = no_film_growth(d, solve, smooth_bare, wheel, rail)
         step()
     gf: dict[int, dict] = {k: {} for k in range(len(correctors))}
+    # one modulus for all: the models' weighted median (one rough law per draw, shared by the kinematics)
+    e = np.concatenate([c.modulus_mpa_ for c in correctors])
+    w = np.concatenate([np.full(len(c.modulus_mpa_), weights[k] / len(c.modulus_mpa_))
+                        for k, c in enumerate(correctors)])
+    modulus = float(weighted_quantiles(e, w if w.sum() > 0 else np.ones_like(w), [0.5])[0])
     for members in groups.values():
-        e = np.concatenate([correctors[k].modulus_mpa_ for k in members])
-        w = np.concatenate([np.full(len(correctors[k].modulus_mpa_), weights[k] / len(correctors[k].modulus_mpa_))
-                            for k in members])
-        modulus = float(weighted_quantiles(e, w if w.sum() > 0 else np.ones_like(w), [0.5])[0])
         lead = correctors[members[0]].film
         film0, law0, _ = lead.interface(modulus)
         smooth = solve(film0, law0)
         base = {k: correctors[k].film.recorded_area_mm2(smooth) for k in members}
         for d in unique:
-            bodies = d.bodies(wheel_ra_um, rail_ra_um)
+            bodies = d.bodies(wheel, rail)
             if bodies.smooth:
                 for k in members:
                     gf[k][d] = 1.0

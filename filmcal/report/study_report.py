@@ -562,10 +562,17 @@ def film_records_section(comparison: dict | None, curves: dict | None = None) ->
                                    f"{100 * (r['area_film_median_mm2'] / smooth[k]['area_film_median_mm2'] - 1):+.1f}"])
         if growth:
             s.add("Roughness acts through the film-wheel interface: a synthetic steel surface of the wheel's Ra "
-                  "(self-affine, Hurst exponent 0.8, roll-off 50 um) is pressed into the film by periodic FFT "
-                  "boundary elements, with asperity pressures capped at the PET carrier's hardness (300 MPa, "
-                  "about three times its yield stress); its pressure-closure law acts in series with the film and "
-                  "spreads the nominal pressure, which the imprint model reads.")
+                  "(self-affine) is pressed into the film by periodic FFT boundary elements, with asperity "
+                  "pressures capped at the coating's hardness; its pressure-closure law acts in series with the "
+                  "film and spreads the nominal pressure. The film records where the asperities colour it: the "
+                  "imprint is read where the coloured fraction reaches the scan's reading level (real contact "
+                  "for the edge model, local pressures above the activation pressure for the activation model). "
+                  "A coating softer than a film's activation pressure cannot be stained by single asperities, so "
+                  "HHS barely grows while MS and HS do, as the paper observed on its roughened flat. The "
+                  "inputs (hardness, reading level, spectrum) are drawn from stated priors and conditioned on "
+                  "that observation (filmcal/data/roughness_inputs.json); these curves use the representative "
+                  "conditioned draw, and `filmcal correct --wheel-roughness-ra-um` carries the draws' spread in "
+                  "its band. The table gives the growth the curves show.")
             s.add(Table(["film", "F (kN)", "eta (mm)", "recorded area, smooth (mm²)", "rough (mm²)", "growth (%)"],
                         growth, "Recorded (imprint) area with film, posterior medians: smooth against rough wheel"))
     return s
@@ -621,9 +628,8 @@ def wheel_rail_section(curves: dict, outlines: dict | None) -> Section:
           "sphere-on-flat points (FE model verification), shifts every film area by its signed size (a few tenths "
           "of a percent smaller) and widens every band by its spread. Rough wheel: the boundary-element pressure-closure law "
           "of the film-wheel interface (What the film records), computed from a synthetic surface of the stated "
-          "Ra; its inputs (the coating's hardness, the spectrum) are assumed, not measured, and their "
-          "uncertainty is not in these bands, so the rough-wheel curves show the size of the effect, not a "
-          "calibrated correction.")
+          "Ra with the representative draw of the inputs conditioned on the paper's roughened flat; the "
+          "spread over those inputs is not in these bands (filmcal correct carries it, draw by draw).")
     for film, rows in curves.items():
         s.add(FigureBlock(F.plot_area_curves(rows, film), f"{film}: contact area over the lateral offset without "
                           "film and with film (posterior median, 90 % band), smooth and rough wheel.",

@@ -64,31 +64,66 @@ class ScanReading:
 
 @dataclass(frozen=True)
 class BodyRoughness:
-    """The bodies' roughness of a wheel-rail measurement: each body's Ra (um; None or 0: smooth) and how many
-    draws of the roughness law's conditioned inputs (`filmcal.contact.rough_imprint.load_roughness_inputs`)
-    the band takes."""
+    """The bodies' roughness of a wheel-rail measurement and how many draws of the roughness law's conditioned
+    inputs (`filmcal.contact.rough_imprint.load_roughness_inputs`) the band takes.
+
+    Each body is smooth (None or Ra 0), an Ra in um (a synthetic surface per draw) or a measured surface
+    file (`filmcal.contact.surface_files.read_surface_file`: x3p, a CSV line profile across the lay, or a
+    CSV height map with ``pixel_um``); not both for one body.
+    """
 
     wheel_ra_um: float | None = None
     rail_ra_um: float | None = None
     n_draws: int = 8
+    wheel_map: str | None = None
+    rail_map: str | None = None
+    pixel_um: float | None = None
 
     def __post_init__(self) -> None:
         from filmcal._validation import check_range
         from filmcal.contact.rough_imprint import load_roughness_inputs
 
-        for name in ("wheel_ra_um", "rail_ra_um"):
-            value = getattr(self, name)
+        for name in ("wheel", "rail"):
+            value = getattr(self, f"{name}_ra_um")
             if value is not None:
-                check_range(name.replace("_ra_um", "_roughness_ra_um"), value, 0.0, 30.0, low_open=False,
-                            high_open=False)
+                check_range(f"{name}_roughness_ra_um", value, 0.0, 30.0, low_open=False, high_open=False)
+                if getattr(self, f"{name}_map") is not None:
+                    raise ValueError(f"give the {name}'s roughness as an Ra or as a map, not both")
         available = len(load_roughness_inputs())
         if isinstance(self.n_draws, bool) or not isinstance(self.n_draws, int) or not 1 <= self.n_draws <= available:
             raise ValueError(f"roughness_draws must be an integer in [1, {available}] (the shipped conditioned "
                              f"draws), got {self.n_draws!r}")
+        surfaces = {name: self._read(getattr(self, f"{name}_map")) for name in ("wheel", "rail")}
+        object.__setattr__(self, "_surfaces", surfaces)
+
+    def _read(self, path: str | None):
+        if path is None:
+            return None
+        from filmcal.contact.surface_files import read_surface_file
+
+        return read_surface_file(path, self.pixel_um)
+
+    def wheel(self):
+        """The wheel as `RoughnessInputs.bodies` takes it: a measured surface, an Ra or None."""
+        return self._surfaces["wheel"] or self.wheel_ra_um
+
+    def rail(self):
+        return self._surfaces["rail"] or self.rail_ra_um
 
     @property
     def smooth(self) -> bool:
-        return not self.wheel_ra_um and not self.rail_ra_um
+        return not self.wheel() and not self.rail()
+
+    def describe(self) -> dict[str, Any]:
+        """Each body's Ra (um; measured from its map when given) and its map file, JSON-ready."""
+        out: dict[str, Any] = {}
+        for name in ("wheel", "rail"):
+            surface = self._surfaces[name]
+            out[f"{name}_ra_um"] = surface.ra_um if surface is not None else (getattr(self, f"{name}_ra_um") or 0.0)
+            if surface is not None:
+                out[f"{name}_map"] = {"file": str(getattr(self, f"{name}_map")), "surface": surface.description,
+                                      "rms_um": surface.rms_um}
+        return out
 
 
 def _check_value(name: str, value: float | None, std_name: str, std: float) -> None:
@@ -207,15 +242,14 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
 
         draws = load_roughness_inputs()[:roughness.n_draws]
         growths = corrector_growths([c for _, c, _ in parts], [w for w, _, _ in parts], m.offset_mm, force_n,
-                                    draws, wheel_ra_um=roughness.wheel_ra_um, rail_ra_um=roughness.rail_ra_um,
-                                    progress=progress)
+                                    draws, wheel=roughness.wheel(), rail=roughness.rail(), progress=progress)
         smooth = result
         results = [c.correct(area, m.offset_mm, force_n, area_std, rough=growths[c.film.label])
                    for _, c, _ in parts]
         result = _pool(results, parts, seed)
         var_rough, var_smooth = float(result.area_std_mm2) ** 2, float(smooth.area_std_mm2) ** 2
         rough_out = {
-            "wheel_ra_um": roughness.wheel_ra_um or 0.0, "rail_ra_um": roughness.rail_ra_um or 0.0,
+            **roughness.describe(),
             "inputs": "conditioned draws shipped with filmcal (filmcal/data/roughness_inputs.json)",
             "n_draws": len(draws), "smooth_area_mm2": float(smooth.area_mm2),
             "smooth_area_std_mm2": float(smooth.area_std_mm2),
@@ -232,7 +266,7 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
     out["provenance"] = _provenance(study, parts, measurement, sphere, seed)
     if rough_out is not None:
         out["roughness"] = rough_out
-        out["provenance"]["roughness"] = {k: rough_out[k] for k in ("wheel_ra_um", "rail_ra_um", "n_draws")}
+        out["provenance"]["roughness"] = {**roughness.describe(), "n_draws": rough_out["n_draws"]}
     elif not sphere:  # what the band does not hold, said with the answer
         out["not_included"] = [ROUGHNESS_NOT_INCLUDED]
     if reading is not None:

@@ -26,9 +26,10 @@ class WheelRoughness:
     ----------
     ra_um : float, optional
         Ra of a synthetic self-affine steel surface of the wheel (um, 0-30; 0: smooth).
-    map_file : str, optional
-        A height map: CSV of heights (times `height_scale` gives um) or a greyscale PNG/TIFF
-        (black to white spans `height_range_um`), pixels `pixel_um` apart.
+    map_file, rail_map_file : str, optional
+        The wheel's (rail's) measured surface (`filmcal.contact.surface_files.read_surface_file`): an x3p map
+        or profile, a CSV line profile across the lay, a CSV of heights (times `height_scale` gives um) or a
+        greyscale PNG/TIFF (black to white spans `height_range_um`), these two with pixels `pixel_um` apart.
     law_file : str, optional
         A measured film-wheel pressure-closure law (CSV closure_um,pressure_mpa).
     seed : int, optional
@@ -46,6 +47,7 @@ class WheelRoughness:
     seed: int | None = None
     hardness_mpa: float | None = None
     rail_ra_um: float | None = None
+    rail_map_file: str | None = None
 
     def __post_init__(self) -> None:
         given = [x is not None for x in (self.ra_um, self.map_file, self.law_file)]
@@ -53,6 +55,10 @@ class WheelRoughness:
             raise ValueError("give one of a roughness Ra, a roughness map and a roughness law")
         if self.ra_um is not None:
             check_range("wheel_roughness_ra_um", self.ra_um, 0.0, 30.0, low_open=False, high_open=False)
+        if self.rail_ra_um is not None and self.rail_map_file is not None:
+            raise ValueError("give the rail's roughness as an Ra or as a map, not both")
+        if self.rail_map_file is not None and self.law_file is not None:
+            raise ValueError("--rail-roughness-map cannot be combined with --roughness-law")
         if self.rail_ra_um is not None:
             check_range("rail_roughness_ra_um", self.rail_ra_um, 0.0, 30.0, low_open=False, high_open=False)
             if self.law_file is not None:
@@ -64,7 +70,8 @@ class WheelRoughness:
     @property
     def smooth(self) -> bool:
         """No roughness: nothing given, or Ra = 0 (the smooth solve exactly, no law)."""
-        return not self.ra_um and not self.rail_ra_um and self.map_file is None and self.law_file is None
+        return (not self.ra_um and not self.rail_ra_um and self.map_file is None and self.law_file is None
+                and self.rail_map_file is None)
 
     def inputs(self):
         """The roughness law's inputs: the representative conditioned draw
@@ -88,7 +95,11 @@ class WheelRoughness:
         inputs = self.inputs()
         wheel = self.surface()
         rail = inputs.surface(self.rail_ra_um, 1) if self.rail_ra_um else None
-        if wheel is not None and rail is not None and self.map_file is not None:
+        if self.rail_map_file is not None:
+            from filmcal.contact.surface_files import read_surface_file
+
+            rail = read_surface_file(self.rail_map_file, self.pixel_um, self.height_scale, self.height_range_um)
+        if wheel is not None and rail is not None and self.map_file is not None and self.rail_map_file is None:
             # the rail's synthetic surface on the wheel map's grid, so that their heights can add
             n, m = wheel.heights_um.shape
             if n != m:
@@ -102,19 +113,10 @@ class WheelRoughness:
 
     def surface(self):
         """The wheel's rough surface (`RoughSurface`), or None for a measured law or a smooth wheel."""
-        from filmcal.contact.roughness import RoughSurface
-
         if self.map_file is not None:
-            path = Path(self.map_file)
-            if not path.is_file():
-                raise ValueError(f"wheel_roughness_map {path}: not found")
-            if self.pixel_um is None:
-                raise ValueError("--wheel-roughness-map needs --roughness-pixel-um")
-            if path.suffix.lower() in (".png", ".tif", ".tiff"):
-                if self.height_range_um is None:
-                    raise ValueError("an image --wheel-roughness-map needs --roughness-height-range-um")
-                return RoughSurface.from_image(path, self.pixel_um, self.height_range_um)
-            return RoughSurface.from_csv(path, self.pixel_um, self.height_scale)
+            from filmcal.contact.surface_files import read_surface_file
+
+            return read_surface_file(self.map_file, self.pixel_um, self.height_scale, self.height_range_um)
         if not self.ra_um:  # None or 0: smooth
             return None
         return self.inputs().surface(self.ra_um, 0)
