@@ -120,3 +120,41 @@ def test_the_representative_draw_reproduces_the_paper_roughened_flat():
               for name, model in (("MS", MS), ("HS", HS), ("HHS", HHS))}
     assert growth["MS"] >= 0.02 and growth["HS"] >= 0.02, growth
     assert abs(growth["HHS"]) <= 0.01, growth
+
+
+@pytest.mark.slow
+def test_a_dataset_with_flat_ra_calibrates_stiffer_as_the_rough_law_says():
+    """Rows measured on a roughened flat (flat_ra_um): the model radius there is the smooth one times
+    sqrt(g_f), g_f > 1 for HS (its imprint grows on a rough flat), so the same measured radii are fitted
+    by a stiffer film (a smaller film enlargement) than when the column is ignored; without the growth the
+    problem refuses the rows instead of calibrating them as smooth."""
+    from dataclasses import replace as dc_replace
+
+    from filmcal.calibration import CalibrationProblem
+    from filmcal.calibration.datasets import load_table1
+    from filmcal.calibration.roughness import RoughFlatGrowth
+    from filmcal.hertz import hertz_radius_mm
+
+    class FilmEnlargement:  # a smooth model of the imprint radius: Hertz plus a film term falling with E
+        def predict(self, e, nu, r, f):
+            return hertz_radius_mm(r, f) + 2800.0 / np.asarray(e) * 1.1, np.zeros_like(np.asarray(e, float))
+
+    data = load_table1("HS", "50-100")
+    rough = dc_replace(data, flat_ra_um=np.where(data.force_n == 50e3, 1.5, np.nan))
+    growth = RoughFlatGrowth(FilmModel(get_film("HS"), "edge", "small"), (1000.0, 8000.0), n_moduli=3)
+    with pytest.raises(ValueError, match="roughened flat"):
+        CalibrationProblem(rough, FilmEnlargement())
+    plain = CalibrationProblem(data, FilmEnlargement())
+    with_ra = CalibrationProblem(rough, FilmEnlargement(), rough_flat=growth)
+    e = np.geomspace(1000.0, 8000.0, 400)
+    nu = np.full(e.size, 0.33)
+
+    def best(problem) -> float:
+        mean, _ = problem.model_radius(e, nu)
+        return float(e[np.argmin(((mean - data.measured_radius_mm) ** 2).sum(axis=1))])
+
+    factor = with_ra.model_radius(np.array([2800.0]), np.array([0.33]))[0] / \
+        plain.model_radius(np.array([2800.0]), np.array([0.33]))[0]
+    rows = data.force_n == 50e3
+    assert np.all(factor[0, ~rows] == 1.0) and np.all(factor[0, rows] > 1.005)
+    assert best(with_ra) > 1.02 * best(plain)

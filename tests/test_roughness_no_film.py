@@ -111,3 +111,29 @@ def test_both_bodies_add_heights_without_film_and_closures_with_it():
     assert Roughness().steel_law() is None
     with pytest.raises(ValueError, match="one grid"):
         Roughness(wheel, RoughSurface.synthetic(ra_um=1.0, size_um=64.0, n=16, seed=2)).composite()
+
+
+@pytest.mark.parametrize("radius_mm, force_n", [(450.0, 50e3), (300.0, 25e3)])
+def test_the_nominal_growth_follows_the_rigid_plastic_bearing_area_law(radius_mm, force_n):
+    """Steel asperities at Ra 1.5 um are far in the plastic regime (plasticity index E*/H sqrt(sigma/beta)
+    ~ 10 against 1), so the nominal area's growth is that of the rigid-plastic Abbott-Firestone law (real
+    area p/H at the surface's bearing level; Bowden & Tabor), a second formulation of the same contact:
+    the boundary-element law's growth within 2 % of it. (Greenwood and Tripp's elastic asperities, as
+    Bahrami et al. correlate the macro-contact radius, would give about a third of this growth.)"""
+    from filmcal.contact.laws import TabularLaw
+    from filmcal.contact.roughness import STEEL_HARDNESS_MPA, bearing_area_closure_mm
+
+    surface = _surface(1.5)
+    p = np.geomspace(0.05, 0.9 * STEEL_HARDNESS_MPA, 80)
+    c = bearing_area_closure_mm(surface, p, STEEL_HARDNESS_MPA)
+    c = np.maximum.accumulate(c - c[0]) + 1e-12 * np.arange(c.size)
+    plastic = TabularLaw(np.concatenate([[0.0], c + 1e-12]), np.concatenate([[0.0], p]))
+    smooth = sphere_on_flat_contact(radius_mm, force_n)
+
+    def growth(law) -> float:
+        rough = sphere_on_flat_contact(radius_mm, force_n, law=law)
+        return nominal_area_mm2(rough.grid.x_mm, rough.grid.y_mm, rough.pressure_mpa) / nominal_area_mm2(
+            smooth.grid.x_mm, smooth.grid.y_mm, smooth.pressure_mpa) - 1.0
+
+    bem, bearing = growth(steel_contact_law(surface)), growth(plastic)
+    assert bearing > 0.1 and bem == pytest.approx(bearing, rel=0.02)

@@ -222,11 +222,15 @@ class CalibrationProblem:
     film : FilmType, optional
         The film calibrated; the data must hold only this film. Its nominal
         nu is used when `priors` is not given.
+    rough_flat : RoughFlatGrowth, optional
+        Needed when rows have ``flat_ra_um > 0``: their model radius is the
+        smooth one times the film model's rough-flat growth
+        (`filmcal.calibration.roughness.RoughFlatGrowth`).
     """
 
     def __init__(self, data: RadiusErrorData, model: RadiusModel, priors: Priors | None = None,
                  poisson: str = "fixed", discrepancy: str = "none", case_scatter: str = "auto",
-                 film: FilmType | None = None) -> None:
+                 film: FilmType | None = None, rough_flat=None) -> None:
         if film is not None:
             if not isinstance(film, FilmType):
                 raise ValueError(f"film must be a filmcal.films.FilmType, got {type(film).__name__}")
@@ -258,6 +262,14 @@ class CalibrationProblem:
             self._position[i] = counts.get(int(c), 0)
             counts[int(c)] = self._position[i] + 1
         self._measurement_var = np.asarray(data.measurement_std_mm, dtype=float) ** 2
+        ra = np.asarray(data.flat_ra_um if data.flat_ra_um is not None else np.full(len(data), np.nan), float)
+        self.rough_flat = None
+        if np.any(np.isfinite(ra) & (ra > 0)):
+            if rough_flat is None:
+                raise ValueError("rows with flat_ra_um > 0 were measured on a roughened flat: the calibration needs "
+                                 "the film model's rough-flat growth (rough_flat=RoughFlatGrowth(...)) to use them")
+            rough_flat.prepare(data)
+            self.rough_flat = rough_flat
         self.target_radius_mm = np.asarray(data.target_radius_mm, dtype=float)
         self._predictor = self._case_table()
         self.parameter_names = self._names()
@@ -428,7 +440,11 @@ class CalibrationProblem:
                 f"model returned mean={float(mean[j])!r}, std={float(std[j])!r} (need finite values, std >= 0) at "
                 f"modulus_mpa={args[0][j]:g}, poisson={args[1][j]:g}, sphere_radius_mm={args[2][j]:g}, "
                 f"force_n={args[3][j]:g}")
-        return mean.reshape(k, n), std.reshape(k, n)
+        mean, std = mean.reshape(k, n), std.reshape(k, n)
+        if self.rough_flat is not None and sphere_radius_mm is None and force_n is None:
+            factor = self.rough_flat.radius_factor(E, self.data)  # rows measured on a roughened flat
+            mean, std = mean * factor, std * factor
+        return mean, std
 
     # ------------------------------------------------------------- density
     def log_prior(self, theta: np.ndarray) -> np.ndarray:

@@ -55,7 +55,8 @@ def _notes(problem: CalibrationProblem) -> list[str]:
 def calibrate(data: RadiusErrorData, model: RadiusModel, *, film: str | None = None, loads: str | None = None,
               poisson: str = "fixed", discrepancy: str | None = None, priors: Priors | None = None,
               seed: int = 0, backend_path: str | Path | None = None, reset: bool = False,
-              settings: SamplerSettings | None = None, progress: bool = False) -> CalibrationResult:
+              settings: SamplerSettings | None = None, progress: bool = False,
+              rough_flat=None) -> CalibrationResult:
     """Calibrate the film model on given measured radii.
 
     Parameters
@@ -70,6 +71,8 @@ def calibrate(data: RadiusErrorData, model: RadiusModel, *, film: str | None = N
         Load range label of the result (kN).
     poisson, discrepancy, priors, seed, backend_path, reset, settings, progress
         As in `calibrate_film`.
+    rough_flat : RoughFlatGrowth, optional
+        The film model's growth on a roughened flat, for rows with ``flat_ra_um > 0`` (`CalibrationProblem`).
 
     Returns
     -------
@@ -77,7 +80,7 @@ def calibrate(data: RadiusErrorData, model: RadiusModel, *, film: str | None = N
     """
     t0 = time.perf_counter()
     problem = CalibrationProblem(data, model, priors, poisson=poisson,
-                                 discrepancy="none" if discrepancy is None else discrepancy)
+                                 discrepancy="none" if discrepancy is None else discrepancy, rough_flat=rough_flat)
     settings = SamplerSettings() if settings is None else settings
     label = film if film is not None else "+".join(sorted(set(data.film.tolist())))
     with threadpool_limits(limits=1):

@@ -24,7 +24,7 @@ import numpy as np
 from scipy.stats import norm
 
 __all__ = ["RoughFlatObservation", "PAPER_ROUGH_FLAT", "DETECTION_SCATTER", "observation_likelihood",
-           "condition_weights", "resample"]
+           "condition_weights", "resample", "RoughFlatGrowth"]
 
 #: Relative area scatter of one imprint (2 sigma / r with sigma ~ 0.075 mm, r ~ 7 mm).
 DETECTION_SCATTER = 0.02
@@ -115,3 +115,66 @@ def resample(weights: np.ndarray, n: int, random_state: int = 0) -> np.ndarray:
         raise ValueError("weights must be a non-negative vector summing to 1")
     u = (np.random.default_rng(random_state).random() + np.arange(n)) / n
     return np.minimum(np.searchsorted(np.cumsum(w), u), w.size - 1)
+
+
+class RoughFlatGrowth:
+    """The growth of a film's imprint radius on a roughened flat, for the calibration's rough rows.
+
+    A dataset row with ``flat_ra_um > 0`` measured its imprint on a roughened flat: the model's radius there is
+    the smooth radius times ``sqrt(g_f(E))``, ``g_f`` the film model's rough/smooth area growth on
+    sphere-on-flat (`filmcal.correction.roughness.sphere_growth`, the representative conditioned draw of the
+    roughness inputs). ``g_f`` is solved once per rough case (R, F, Ra) at moduli log-spaced over the prior's
+    range and interpolated linearly in log E (`prepare`); rows with no or zero Ra keep the factor 1.
+
+    Parameters
+    ----------
+    film_model : FilmModel
+        The film type, imprint model and kinematics being calibrated.
+    modulus_range_mpa : (float, float)
+        The prior's range of E.
+    n_moduli : int
+        Moduli at which each rough case is solved.
+    """
+
+    def __init__(self, film_model, modulus_range_mpa: tuple[float, float], n_moduli: int = 5) -> None:
+        lo, hi = (float(v) for v in modulus_range_mpa)
+        if not 0 < lo < hi:
+            raise ValueError(f"modulus_range_mpa must be increasing and > 0, got {modulus_range_mpa!r}")
+        self.film_model = film_model
+        self.moduli_mpa = np.geomspace(lo, hi, int(n_moduli))
+        self.log_growth: dict[tuple[float, float, float], np.ndarray] = {}
+
+    @staticmethod
+    def _cases(data) -> list[tuple[float, float, float]]:
+        ra = np.asarray(data.flat_ra_um if data.flat_ra_um is not None else np.full(len(data), np.nan),
+                        dtype=float)
+        return [(float(r), float(f), float(a)) for r, f, a in
+                zip(np.asarray(data.sphere_radius_mm, float), np.asarray(data.force_n, float), ra)]
+
+    def prepare(self, data) -> None:
+        """Solve the growth of every rough case of ``data`` not solved yet."""
+        from filmcal.contact.rough_imprint import representative_roughness_inputs
+        from filmcal.correction.roughness import sphere_growth
+
+        draw = representative_roughness_inputs()
+        for case in self._cases(data):
+            radius, force, ra = case
+            if not (math.isfinite(ra) and ra > 0) or case in self.log_growth:
+                continue
+            self.log_growth[case] = np.log([sphere_growth(self.film_model, float(e), draw, ra,
+                                                          sphere_radius_mm=radius, force_n=force)
+                                            for e in self.moduli_mpa])
+
+    def radius_factor(self, modulus_mpa: np.ndarray, data) -> np.ndarray:
+        """``sqrt(g_f(E))`` for every modulus (k,) and row of ``data`` (n,): shape (k, n)."""
+        log_e = np.log(np.atleast_1d(np.asarray(modulus_mpa, dtype=float)))
+        out = np.ones((log_e.size, len(data)))
+        grid = np.log(self.moduli_mpa)
+        for j, case in enumerate(self._cases(data)):
+            table = self.log_growth.get(case)
+            if table is not None:
+                out[:, j] = np.exp(0.5 * np.interp(log_e, grid, table))
+            elif math.isfinite(case[2]) and case[2] > 0:
+                raise ValueError(f"the rough case R {case[0]:g} mm, F {case[1] / 1e3:g} kN, flat Ra {case[2]:g} um "
+                                 "was not prepared")
+        return out

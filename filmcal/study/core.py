@@ -474,7 +474,8 @@ class Study:
             kwargs = {"film": film.name, "loads": spec.loads, "poisson": spec.poisson, "discrepancy": spec.discrepancy,
                       "priors": Priors.for_film(film, modulus_range_mpa=spec.fe.domain.modulus_mpa),
                       "seed": seed_for(spec.fe.seed, f"chain-{film.name}-{spec.model_label}"), "backend_path": chain,
-                      "settings": settings, "progress": False}
+                      "settings": settings, "progress": False,
+                      "rough_flat": _rough_flat(data, film, spec.imprint, spec.fe.kinematics, spec.fe.domain.modulus_mpa)}
             tasks[i] = (_calibrate_call, (data, model, kwargs))
             made[i] = (spec, full, path, skey)
 
@@ -552,7 +553,9 @@ class Study:
         model = _sphere_model(self, posterior_path)
         priors = Priors.for_film(film, modulus_range_mpa=model.domain.modulus_mpa)
         return CalibrationProblem(data, model, priors, poisson=spec["poisson"],
-                                  discrepancy="none" if spec["discrepancy"] is None else spec["discrepancy"])
+                                  discrepancy="none" if spec["discrepancy"] is None else spec["discrepancy"],
+                                  rough_flat=_rough_flat(data, film, spec["imprint"], spec["fe"]["kinematics"],
+                                                         model.domain.modulus_mpa))
 
     def assess(self, path: Path, result=None):
         """Fit and PSIS-LOO of one recorded posterior (`filmcal.calibration.assess_model`)."""
@@ -666,6 +669,17 @@ class Study:
         return load_result(path), path, spec
 
 
+def _rough_flat(data, film, imprint: str, kinematics: str, modulus_range_mpa):
+    """The film model's rough-flat growth when `data` has rows measured on a roughened flat (else None)."""
+    ra = data.flat_ra_um
+    if ra is None or not np.any(np.isfinite(ra) & (np.asarray(ra, float) > 0)):
+        return None
+    from filmcal.calibration.roughness import RoughFlatGrowth
+    from filmcal.contact.film import FilmModel
+
+    return RoughFlatGrowth(FilmModel(film, imprint, kinematics), tuple(modulus_range_mpa))
+
+
 def _calibrate_call(data, model, kwargs: dict):
     """`filmcal.calibration.calibrate` as a worker's task."""
     from filmcal.calibration import calibrate
@@ -723,7 +737,8 @@ def refit_without_case(problems: dict, film: str, max_steps: int | None, seed: i
     sampler = SamplerSettings() if max_steps is None else SamplerSettings(max_steps=max_steps)
     return calibrate(data, problem.model, film=film, poisson=problem.poisson_mode,
                      discrepancy=None if problem.discrepancy == "none" else problem.discrepancy,
-                     priors=problem.priors, seed=seed_for(seed, label), settings=sampler).samples
+                     priors=problem.priors, seed=seed_for(seed, label), settings=sampler,
+                     rough_flat=problem.rough_flat).samples
 
 
 def comparison_weights(study: Study, film: str) -> dict[str, float]:
