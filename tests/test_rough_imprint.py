@@ -158,3 +158,14 @@ def test_a_dataset_with_flat_ra_calibrates_stiffer_as_the_rough_law_says():
     rows = data.force_n == 50e3
     assert np.all(factor[0, ~rows] == 1.0) and np.all(factor[0, rows] > 1.005)
     assert best(with_ra) > 1.02 * best(plain)
+
+
+def test_a_synthetic_surface_beyond_the_micro_law_says_so():
+    d = representative_roughness_inputs()
+    with pytest.warns(UserWarning, match="rms slopes above 1"):
+        d.surface(30.0)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        d.surface(1.5)

@@ -50,10 +50,18 @@ from filmcal._validation import check_positive, check_range
 __all__ = ["RoughnessInputs", "PriorInput", "ROUGHNESS_PRIOR", "DEFAULT_ROUGHNESS_INPUTS", "sample_roughness_prior",
            "representative_roughness_inputs",
            "coverage", "coverage_level_mpa", "rough_recorded_area_mm2", "load_roughness_inputs",
-           "ROUGHNESS_INPUTS_FILE"]
+           "ROUGHNESS_INPUTS_FILE", "RoughnessRangeWarning", "MAX_RMS_SLOPE"]
 
 #: The shipped conditioned draws (package data).
 ROUGHNESS_INPUTS_FILE = "roughness_inputs.json"
+
+#: Above this rms slope a synthetic surface is outside what the micro law represents (a warning).
+MAX_RMS_SLOPE = 1.0
+
+
+class RoughnessRangeWarning(UserWarning):
+    """A rough answer outside the range the roughness law represents."""
+
 
 #: Side and pixels of the synthetic surfaces (the law is converged in both: `filmcal.contact.roughness`).
 SURFACE_SIZE_UM = 200.0
@@ -96,12 +104,21 @@ class RoughnessInputs:
     def surface(self, ra_um: float, body: int = 0):
         """The synthetic surface of this draw at ``ra_um`` (`RoughSurface`); ``body`` 0 (wheel, flat) or 1
         (rail, sphere) gives independent realisations of the same spectrum."""
+        import warnings
+
         from filmcal.contact.roughness import RoughSurface
 
-        return RoughSurface.synthetic(ra_um=float(ra_um), hurst=self.hurst,
-                                      rolloff_wavelength_um=self.rolloff_wavelength_um,
-                                      cutoff_wavelength_um=self.cutoff_wavelength_um, size_um=SURFACE_SIZE_UM,
-                                      n=SURFACE_PIXELS, seed=2 * int(self.seed) + body)
+        surface = RoughSurface.synthetic(ra_um=float(ra_um), hurst=self.hurst,
+                                         rolloff_wavelength_um=self.rolloff_wavelength_um,
+                                         cutoff_wavelength_um=self.cutoff_wavelength_um, size_um=SURFACE_SIZE_UM,
+                                         n=SURFACE_PIXELS, seed=2 * int(self.seed) + body)
+        if surface.rms_slope > MAX_RMS_SLOPE:
+            warnings.warn(RoughnessRangeWarning(
+                f"Ra {float(ra_um):g} um: synthetic surfaces of this Ra have rms slopes above {MAX_RMS_SLOPE:g}: at "
+                "such roughness waviness longer than the contact grid (a turned wheel's feed "
+                "marks) belongs to the macro gap, which is not separated here; take the rough answer as an "
+                "estimate, or give a measured surface"), stacklevel=2)
+        return surface
 
     def bodies(self, wheel=None, rail=None):
         """Both bodies' roughness (`filmcal.contact.roughness.Roughness`) of this draw.
