@@ -62,6 +62,8 @@ SIZE_BOUNDS: dict[str, tuple[float, float]] = {
     "workers": (1, 256),
     "seed": (0, 2**32 - 1),
     "roughness_seed": (0, 2**32 - 1),
+    "roughness_draws": (1, 16),
+    "elastic_limit_mpa": (100.0, 1e4),
     "samples": (1, 2000),
     "iterations": (1, 1000),
     "element_size_mm": (0.02, 5.0),

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 
@@ -152,7 +153,8 @@ def test_command_with_a_rough_wheel_widens_the_band_and_reports_the_roughness_sh
     rough = out["roughness"]
     assert rough["smooth_area_mm2"] == pytest.approx(smooth["area_mm2"], rel=1e-12)  # same seed, same draws
     assert out["area_std_mm2"] > smooth["area_std_mm2"] and 0.0 < rough["share_of_variance"] < 1.0
-    change = np.mean([m["correction_factor_change"]["mean_pct"] for m in rough["models"].values()])
+    change = sum(out["models"][name]["weight"] * m["correction_factor_change"]["mean_pct"]
+                 for name, m in rough["models"].items())  # the models' mixture, by their weights
     assert out["area_mm2"] / smooth["area_mm2"] - 1 == pytest.approx(change / 100, abs=0.01)
     assert "not_included" not in out and out["provenance"]["roughness"]["wheel_ra_um"] == 1.5
     again = subprocess.run(base + ["--wheel-roughness-ra-um", "0"], capture_output=True, text=True, check=True)
@@ -161,3 +163,40 @@ def test_command_with_a_rough_wheel_widens_the_band_and_reports_the_roughness_sh
                             + ["--measured-radius-mm", "8", "--sphere-radius-mm", "450",
                                "--wheel-roughness-ra-um", "1.5"], capture_output=True, text=True)
     assert sphere.returncode == 2 and "wheel-rail" in sphere.stderr
+
+
+def test_an_uncertain_offset_widens_the_band_by_the_slope_of_the_correction():
+    """One modulus, no other scatter: the band's relative width is |d ln(A_0 / A_f) / d eta| u, the slope
+    taken from separate solves at eta -/+ u (the film's area with its transfer shift)."""
+    def ratio(eta):
+        a0 = solve_wheel_rail(eta, 100e3).area_mm2
+        result = solve_wheel_rail(eta, 100e3, film=FilmLayer(2800.0, 0.33, 0.09))
+        return a0 / (result.area_mm2 + HS_EDGE.transfer_term(2800.0, result).shift_mm2)
+
+    u = 1.0
+    slope = (math.log(ratio(-3.0 + u)) - math.log(ratio(-3.0 - u))) / (2 * u)
+    c = WheelRailCorrector(point_posterior(n=4000), HS_EDGE)
+    base = c.correct(150.0, -3.0, 100e3)
+    wide = c.correct(150.0, -3.0, 100e3, offset_std_mm=u)
+    added = math.sqrt(float(wide.area_std_mm2) ** 2 - float(base.area_std_mm2) ** 2) / float(base.area_mm2)
+    assert abs(slope) * u > 0.003  # the factor does change with the offset here
+    assert added == pytest.approx(abs(slope) * u, rel=0.1)
+    with pytest.raises(ValueError, match="offset_std_mm"):
+        c.correct(150.0, -3.0, 100e3, offset_std_mm=-1.0)
+
+
+def test_a_correction_beyond_the_elastic_limit_says_so(quick_study):
+    """The paper skipped R300 at 75 and 100 kN to avoid plastic strain (Hertz p0 1290 and 1420 MPa); R450 /
+    50 kN (860 MPa) is elastic."""
+    study, _, _ = quick_study
+    base = [sys.executable, "-m", "filmcal.cli", "correct", "--film", "HS", "--study-dir", str(study), "--json"]
+    out = {}
+    for radius, force, measured in (("300", "100", "8.5"), ("450", "50", "7.0")):
+        p = subprocess.run(base + ["--sphere-radius-mm", radius, "--force-kn", force, "--measured-radius-mm",
+                                   measured], capture_output=True, text=True)
+        assert p.returncode == 0, p.stderr
+        out[radius] = (json.loads(p.stdout), p.stderr)
+    (hot, err), (cool, _) = out["300"], out["450"]
+    assert hot["max_pressure_no_film_mpa"] == pytest.approx(1420, rel=0.01)
+    assert any("elastic limit" in w for w in hot["warnings"]) and "elastic limit" in err
+    assert "warnings" not in cool and cool["max_pressure_no_film_mpa"] < 1000

@@ -84,6 +84,8 @@ VOCABULARY: dict[str, Concept] = _concepts(
             type=lambda t: force_range(t), metavar="RANGE"),
     Concept("offset_mm", "lateral offset eta in mm (the paper's convention; write --offset-mm=-3 for "
             "negative values)", float, (-60.0, 60.0)),
+    Concept("offset_std_mm", "standard uncertainty of the lateral offset in mm (a ruler or gauge: about "
+            "0.5-1 mm)", float, (0.0, 10.0)),
     Concept("offsets_mm", "lateral offsets eta in mm: a list -5,0 or start:stop:step", metavar="LIST"),
     Concept("wheel_roughness_ra_um", "roughness Ra of the wheel in um (a synthetic self-affine surface)",
             float, (0.0, 30.0)),

@@ -34,6 +34,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add(p, "force_kn", required=True, extra="(the wheel load, or the sphere's force)")
     local(p, "--measured-area-mm2", type=float, help="wheel-rail: imprint area on the film (mm2)")
     add(p, "offset_mm", extra="(wheel-rail)")
+    add(p, "offset_std_mm", default=0.0, extra="(wheel-rail, default 0): the band includes it through the "
+        "correction's slope in the offset (two more offsets solved)")
     local(p, "--measurement-std-mm2", type=float, default=0.0,
           help="wheel-rail: standard uncertainty of the measured area (mm2, default 0)")
     add_wheel_rail_options(p)
@@ -71,6 +73,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                "the scan's reading level, the surface's spectrum) that the band takes, 1-16 (default 8; each "
                "costs 10-30 s; the JSON gives the Monte-Carlo error)")
     add(p, "progress", default="auto", extra="(wheel-rail with roughness)")
+    local(p, "--elastic-limit-mpa", type=float, default=1250.0,
+          help="peak pressure of the contact without film above which the answer warns that the elastic model "
+               "is outside its validity (MPa, default 1250: the paper's specimens stayed elastic at p0 1083-1127 "
+               "MPa and it skipped 1290 MPa)")
     add(p, "calibration_forces_kn")
     add(p, "study_dir", default="filmcal-study", extra="with the calibrated posterior (default ./filmcal-study; "
                                                        "must exist)")
@@ -119,6 +125,8 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("give either --measured-area-mm2 (or --scan) with --offset-mm (wheel-rail) or "
                          "--measured-radius-mm (or --scan) with --sphere-radius-mm (sphere on flat)")
     _check_scan_options(args)
+    if sphere and args.offset_std_mm:
+        raise ValueError("--offset-std-mm applies to the wheel-rail form")
     if sphere and (args.sphere_radius_mm is None or (args.measured_radius_mm is None and args.scan is None)):
         raise ValueError("sphere-on-flat needs --measured-radius-mm (or --scan) and --sphere-radius-mm")
     if wheel_rail and (args.offset_mm is None or (args.measured_area_mm2 is None and args.scan is None)):
@@ -129,7 +137,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         measurement = WheelRailMeasurement(args.measured_area_mm2, args.offset_mm, args.force_kn,
                                            args.measurement_std_mm2, args.wheel, args.rail, args.rail_inclination,
-                                           args.nominal_radius_mm)
+                                           args.nominal_radius_mm, args.offset_std_mm)
     scan = None if args.scan is None else ScanReading(
         args.scan, args.dpi, args.mm_per_pixel, args.threshold,
         1.0 if args.min_region_mm2 is None else args.min_region_mm2, args.outline_out, args.field_side)
@@ -142,7 +150,8 @@ def run(args: argparse.Namespace) -> int:
         out, reading = correct_measurement(study, args.film, measurement, imprint_model=args.imprint_model,
                                            kinematics=args.kinematics, poisson=args.poisson,
                                            calibration_forces_kn=args.calibration_forces_kn, scan=scan,
-                                           roughness=roughness, seed=args.seed, progress=advance)
+                                           roughness=roughness, seed=args.seed, progress=advance,
+                                           elastic_limit_mpa=args.elastic_limit_mpa)
     if args.json:
         print_json(out)
     else:

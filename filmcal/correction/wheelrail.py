@@ -23,7 +23,9 @@ sample is
 A_m the measured area, u the user's area uncertainty, r_m = sqrt(A_m / pi)
 its equivalent radius and sigma the scatter of one imprint's radius about the
 model (inferred on the sphere-on-flat tests), carried over as a relative area
-scatter; eps_1..3 standard normal. On rough bodies each sample is further
+scatter; eps_1..3 standard normal. An uncertain offset (standard uncertainty
+u) moves each sample's factor along its secant slope in the offset over
+eta -/+ u, by u times a standard normal draw. On rough bodies each sample is further
 multiplied by ``g_0 / g_f`` of one draw of the roughness inputs
 (`filmcal.correction.roughness`: the rough/smooth growth of the contact
 without film over that of the film's reading).
@@ -269,7 +271,8 @@ class WheelRailCorrector:
         film = FilmLayer(float(np.median(self.modulus_mpa_)), ft.poisson, ft.thickness_mm)
         return wheel_rail_outlines(offset_mm, force_n, film, **self.settings)
 
-    def correct(self, measured_area_mm2, offset_mm, force_n, measurement_std_mm2=0.0, rough=None) -> CorrectedArea:
+    def correct(self, measured_area_mm2, offset_mm, force_n, measurement_std_mm2=0.0, rough=None,
+                offset_std_mm=0.0) -> CorrectedArea:
         """The contact area without film behind measured imprint areas (vectorised).
 
         Parameters
@@ -286,13 +289,21 @@ class WheelRailCorrector:
             The bodies' roughness at this offset and force (`filmcal.correction.roughness`): each sample's
             factor is multiplied by ``g_0 / g_f`` of a draw of the roughness inputs, drawn by their weights
             (one offset and force for every point).
+        offset_std_mm : float or array_like
+            Standard uncertainty of the offset (mm), >= 0: each sample's factor moves along its slope in
+            the offset, the secant of ln(A_0 / A_f) between eta - u and eta + u (two more solved offsets),
+            by u times a standard normal draw.
         """
-        A, eta, F, u = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in
-                                            (measured_area_mm2, offset_mm, force_n, measurement_std_mm2)))
+        A, eta, F, u, u_eta = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in
+                                                   (measured_area_mm2, offset_mm, force_n, measurement_std_mm2,
+                                                    offset_std_mm)))
         if not np.all(np.isfinite(A)) or np.any(A <= 0):
             raise ValueError("measured_area_mm2 must be finite and > 0")
         if not np.all(np.isfinite(u)) or np.any(u < 0):
             raise ValueError("measurement_std_mm2 must be finite and >= 0")
+        if not np.all(np.isfinite(u_eta)) or np.any(u_eta < 0) or np.any(u_eta > 10.0):
+            raise ValueError("offset_std_mm must be finite, >= 0 and at most 10 mm (a ruler reads the offset to "
+                             "about 0.5-1 mm)")
         if np.any(u >= A):
             raise ValueError("measurement_std_mm2 must be smaller than the measured area (an uncertainty as large as "
                              "the measurement leaves nothing to correct): check the units")
@@ -309,6 +320,10 @@ class WheelRailCorrector:
             measured = A[idx] + u[idx] * rng.standard_normal(n)
             scatter = 1.0 + 2.0 * self.sigma_mm_ / r_m * rng.standard_normal(n)
             samples[idx] = measured * ratio * scatter / (1.0 + transfer * rng.standard_normal(n))
+            if u_eta[idx] > 0:
+                shifted = [self.area_ratio(key[0] + sign * float(u_eta[idx]), key[1])[0] for sign in (-1.0, 1.0)]
+                slope = (np.log(shifted[1]) - np.log(shifted[0])) / (2.0 * float(u_eta[idx]))
+                samples[idx] *= np.exp(slope * float(u_eta[idx]) * rng.standard_normal(n))
         if rough is not None:
             if len(cache) > 1:
                 raise ValueError("a roughness growth belongs to one offset and force: correct the points apart")

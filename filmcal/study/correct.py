@@ -15,7 +15,8 @@ from typing import Any
 from filmcal.contact.names import MIXTURE
 from filmcal.wheelrail.settings import NOMINAL_RADIUS_MM, RAIL, RAIL_INCLINATION, WHEEL
 
-__all__ = ["SphereMeasurement", "WheelRailMeasurement", "ScanReading", "BodyRoughness", "correct_measurement"]
+__all__ = ["SphereMeasurement", "WheelRailMeasurement", "ScanReading", "BodyRoughness", "correct_measurement",
+           "ELASTIC_LIMIT_MPA", "ElasticLimitWarning"]
 
 
 @dataclass(frozen=True)
@@ -43,9 +44,12 @@ class WheelRailMeasurement:
     rail: str = RAIL
     rail_inclination: float = RAIL_INCLINATION
     nominal_radius_mm: float = NOMINAL_RADIUS_MM
+    offset_std_mm: float = 0.0
 
     def __post_init__(self) -> None:
         _check_value("measured_area_mm2", self.measured_area_mm2, "measurement_std_mm2", self.measurement_std_mm2)
+        if not (math.isfinite(self.offset_std_mm) and 0.0 <= self.offset_std_mm <= 10.0):
+            raise ValueError(f"offset_std_mm must be finite and in [0, 10] mm, got {self.offset_std_mm}")
 
 
 @dataclass(frozen=True)
@@ -133,6 +137,17 @@ def _check_value(name: str, value: float | None, std_name: str, std: float) -> N
         raise ValueError(f"{std_name} must be >= 0, got {std}")
 
 
+#: The steel's elastic limit as a peak Hertz pressure (MPa): the paper's specimens stayed elastic at R450 / 100 kN
+#: (p0 1083 MPa) and R300 / 50 kN (1127 MPa); it skipped R300 at 75 and 100 kN (1290 and 1420 MPa) "to avoid
+#: plastic strain".
+ELASTIC_LIMIT_MPA = 1250.0
+
+
+class ElasticLimitWarning(UserWarning):
+    """The corrected contact's peak pressure exceeds the steel's elastic limit: the elastic model is outside its
+    validity."""
+
+
 #: What a smooth wheel-rail answer does not carry: the bodies' roughness.
 ROUGHNESS_NOT_INCLUDED = ("the bodies' roughness: wheel and rail are taken as smooth; a service wheel's roughness can "
                           "enlarge an imprint by several percent (give --wheel-roughness-ra-um / "
@@ -163,7 +178,7 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
                         imprint_model: str = MIXTURE, kinematics: str | None = None, poisson: str | None = None,
                         calibration_forces_kn: str | None = None, scan: ScanReading | None = None,
                         roughness: BodyRoughness | None = None, seed: int = 0,
-                        progress=None) -> tuple[dict[str, Any], Any]:
+                        progress=None, elastic_limit_mpa: float = ELASTIC_LIMIT_MPA) -> tuple[dict[str, Any], Any]:
     """Correct one measured imprint with a study's calibrated film; return ``(answer, scan reading)``.
 
     Parameters
@@ -186,6 +201,9 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
         Seed of the scatter draws.
     progress : callable, optional
         ``progress(done, total)`` while the rough solves run.
+    elastic_limit_mpa : float
+        Above this peak pressure of the contact without film the answer carries a warning (``warnings`` in
+        the dict, and an `ElasticLimitWarning`): the elastic model is outside its validity.
 
     Returns
     -------
@@ -230,7 +248,8 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
                            wheel_rail=dict(wheel=m.wheel, rail=m.rail, rail_inclination=m.rail_inclination,
                                            nominal_radius_mm=m.nominal_radius_mm), **match)
         parts[0][1].check_plausible(area, m.offset_mm, force_n)
-        results = [c.correct(area, m.offset_mm, force_n, area_std) for _, c, _ in parts]
+        results = [c.correct(area, m.offset_mm, force_n, area_std, offset_std_mm=m.offset_std_mm)
+                   for _, c, _ in parts]
     if sphere and roughness is not None and not roughness.smooth:
         raise ValueError("roughness applies to the wheel-rail form (sphere-on-flat corrections are calibrated on "
                          "the paper's smooth spheres)")
@@ -244,7 +263,8 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
         growths = corrector_growths([c for _, c, _ in parts], [w for w, _, _ in parts], m.offset_mm, force_n,
                                     draws, wheel=roughness.wheel(), rail=roughness.rail(), progress=progress)
         smooth = result
-        results = [c.correct(area, m.offset_mm, force_n, area_std, rough=growths[c.film.label])
+        results = [c.correct(area, m.offset_mm, force_n, area_std, rough=growths[c.film.label],
+                             offset_std_mm=m.offset_std_mm)
                    for _, c, _ in parts]
         result = _pool(results, parts, seed)
         var_rough, var_smooth = float(result.area_std_mm2) ** 2, float(smooth.area_std_mm2) ** 2
@@ -264,6 +284,16 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
         for w, c, s in parts:
             out["models"][s["model"]]["transfer"] = c.transfer(m.offset_mm, force_n)
     out["provenance"] = _provenance(study, parts, measurement, sphere, seed)
+    peak = _no_film_peak_mpa(measurement, parts, sphere)
+    out["max_pressure_no_film_mpa"] = peak
+    if peak > elastic_limit_mpa:
+        import warnings
+
+        text = (f"the contact without film reaches a peak pressure of {peak:.0f} MPa, above the steel's elastic "
+                f"limit of {elastic_limit_mpa:.0f} MPa (--elastic-limit-mpa): the elastic model is outside its "
+                "validity and the real contact is larger (plastic)")
+        out.setdefault("warnings", []).append(text)
+        warnings.warn(ElasticLimitWarning(text), stacklevel=2)
     if rough_out is not None:
         out["roughness"] = rough_out
         out["provenance"]["roughness"] = {**roughness.describe(), "n_draws": rough_out["n_draws"]}
@@ -284,6 +314,17 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
             outline.write_csv(Path(scan.outline_out))
             out.update(outline_file=str(scan.outline_out), outline_rule=outline.rule)
     return out, reading
+
+
+def _no_film_peak_mpa(m, parts, sphere: bool) -> float:
+    """Peak pressure (MPa) of the measured configuration's contact without film (Hertz, or the wheel-rail solve)."""
+    if sphere:
+        from filmcal.hertz import hertz_max_pressure_mpa
+
+        return float(hertz_max_pressure_mpa(m.sphere_radius_mm, 1e3 * m.force_kn))
+    from filmcal.wheelrail import solve_wheel_rail
+
+    return float(solve_wheel_rail(m.offset_mm, 1e3 * m.force_kn, film=None, **parts[0][1].settings).max_pressure_mpa)
 
 
 def _pool(results, parts, seed: int):
