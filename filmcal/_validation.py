@@ -13,7 +13,7 @@ from numbers import Real
 from typing import Any, Callable
 
 __all__ = ["as_finite", "check_positive", "check_range", "check_poisson", "check_choice",
-           "check_count", "arg_finite", "arg_int_in", "arg_float_in", "parse_grid", "arg_grid"]
+           "check_count", "arg_finite", "arg_int_in", "arg_float_in", "parse_grid", "arg_grid", "FORCE_KN_BOUNDS"]
 
 
 def as_finite(name: str, value: object) -> float:
@@ -206,3 +206,8 @@ def arg_grid(max_count: int) -> Callable[[str], str]:
     parse.filmcal_checked = True  # type: ignore[attr-defined]
     parse.max_count = max_count  # type: ignore[attr-defined]
     return parse
+
+
+#: The loads a command, a batch row or a served request takes (kN): 1 N to 2 MN; a sphere test or a wheel load
+#: above 2 MN (a 200 t axle) is a unit error (N for kN), not a contact.
+FORCE_KN_BOUNDS = (1e-3, 2000.0)

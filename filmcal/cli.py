@@ -87,7 +87,8 @@ GRID_BOUNDS: dict[str, int] = {"forces_kn": 50, "offsets_mm": 200}
 # writes into, and files it only reads. Checked before any work.
 OUTPUT_FILE_DESTS = ("out", "csv", "plot", "pressure_csv", "outline_out")
 OUTPUT_DIR_DESTS = ("study_dir", "out_dir", "plots", "work_dir")
-INPUT_FILE_DESTS = ("design", "augment", "scan", "roughness_law", "wheel_roughness_map", "rail_roughness_map", "data", "films_file",
+INPUT_FILE_DESTS = ("design", "augment", "scan", "batch", "roughness_law", "wheel_roughness_map", "rail_roughness_map",
+                    "data", "films_file",
                     "template_file")
 PLOT_SUFFIXES = (".png", ".pdf", ".svg")
 

@@ -57,7 +57,7 @@ def _concepts(*items: Concept) -> dict[str, Concept]:
 
 
 _POSITIVE = (1e-12, 1e12)  # finite and > 0 (bounds stated as "> 0")
-FORCE_KN_BOUNDS = (1e-3, 2000.0)  # 1 N to 2 MN
+from filmcal._validation import FORCE_KN_BOUNDS  # noqa: E402 (one place for the bound)
 
 VOCABULARY: dict[str, Concept] = _concepts(
     Concept("film", "film type: MS, HS, HHS, or a film of --films-file (or of the study)", metavar="NAME"),

@@ -26,12 +26,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "moduli spanning the posteriors (one solve serves every imprint model of a film kinematics); "
                     "the study keeps those solved areas when no other process is writing it, so correcting again "
                     "at the same offset and force reads them instead of solving.")
-    add(p, "film", required=True)
+    add(p, "film", extra="(required, except with --batch whose rows name their film)")
     add(p, "imprint_model", choices=STUDY_IMPRINT_MODELS, default=MIXTURE,
         extra=f"; or {MIXTURE} (default): the study's weighted mixture of the models it compared")
     add(p, "kinematics", extra="(default: every kinematics of the chosen posteriors, by their weights)")
     local(p, "--poisson", choices=["fixed", "free"], help="choose the posterior calibrated with this nu mode")
-    add(p, "force_kn", required=True, extra="(the wheel load, or the sphere's force)")
+    add(p, "force_kn", extra="(the wheel load, or the sphere's force; required, except with --batch)")
     local(p, "--measured-area-mm2", type=float, help="wheel-rail: imprint area on the film (mm2)")
     add(p, "offset_mm", extra="(wheel-rail)")
     add(p, "offset_std_mm", default=0.0, extra="(wheel-rail, default 0): the band includes it through the "
@@ -82,6 +82,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                                                        "must exist)")
     add(p, "seed", default=0, extra="of the scatter draws (default 0)")
     add(p, "json", action="store_true")
+    local(p, "--batch", metavar="IN.csv",
+          help="correct one measurement per row (columns film, force_kn and either measured_area_mm2, offset_mm "
+               "or measured_radius_mm, sphere_radius_mm; optional measurement_std_mm2 / measurement_std_mm, "
+               "offset_std_mm, wheel_roughness_ra_um, rail_roughness_ra_um) in one process, the posteriors read "
+               "once; with --out")
+    local(p, "--out", metavar="OUT.csv",
+          help="--batch: the rows with area_mm2, area_std_mm2, area_ci90_low_mm2, area_ci90_high_mm2 and status "
+               "(ok, or failed: and the reason) added, and OUT.csv.provenance.json beside it. Exit 0 when every "
+               "row is corrected, 1 when some failed, 2 when the file cannot be read")
     renamed(p, "--model", "--imprint-model IMPRINT --kinematics KINEMATICS", convert=split_model)
     renamed(p, "--imprint", "--scan")
     renamed(p, "--loads", "--calibration-forces-kn", type=force_range)
@@ -114,11 +123,51 @@ def _rough_progress(mode: str, smooth: bool):
         yield advance
 
 
+def run_batch(args: argparse.Namespace) -> int:
+    """Correct every row of --batch into --out; exit 1 when some rows failed."""
+    from filmcal._io import atomic_path, atomic_write_json
+    from filmcal.study import Study
+    from filmcal.study.batch import OUTPUT_COLUMNS, correct_batch, read_batch
+
+    if args.out is None:
+        raise ValueError("--batch needs --out")
+    single = [name for name in ("film", "force_kn", "measured_area_mm2", "offset_mm", "measured_radius_mm", "sphere_radius_mm",
+                                "scan", "wheel_roughness_ra_um", "rail_roughness_ra_um")
+              if getattr(args, name, None) is not None]
+    if single:
+        raise ValueError(f"--batch takes the measurements from its rows, not --{single[0].replace('_', '-')}")
+    header, rows = read_batch(args.batch)
+    study = Study(args.study_dir)
+    with contextlib.ExitStack() as stack:
+        from filmcal._progress import Progress
+
+        stage = stack.enter_context(Progress(args.progress).stage("batch", len(rows)))
+        out, provenance = correct_batch(study, rows, seed=args.seed, elastic_limit_mpa=args.elastic_limit_mpa,
+                                        progress=lambda k, n: stage.advance())
+    import csv
+
+    with atomic_path(args.out) as tmp, open(tmp, "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=header + list(OUTPUT_COLUMNS))
+        writer.writeheader()
+        writer.writerows(out)
+    atomic_write_json(f"{args.out}.provenance.json", {**provenance, "batch": str(args.batch)})
+    failed = provenance["failed"]
+    print(f"{len(rows) - failed} of {len(rows)} rows corrected into {args.out}"
+          + (f"; {failed} failed (status column)" if failed else ""))
+    return 1 if failed else 0
+
+
 def run(args: argparse.Namespace) -> int:
     from filmcal.study import Study
     from filmcal.study.correct import (BodyRoughness, ScanReading, SphereMeasurement, WheelRailMeasurement,
                                        correct_measurement)
 
+    if args.batch is not None:
+        return run_batch(args)
+    if args.out is not None:
+        raise ValueError("--out needs --batch")
+    if args.film is None or args.force_kn is None:
+        raise ValueError("--film and --force-kn are required (or --batch, whose rows give them)")
     sphere = args.measured_radius_mm is not None or args.sphere_radius_mm is not None
     wheel_rail = args.measured_area_mm2 is not None or args.offset_mm is not None
     if sphere == wheel_rail:

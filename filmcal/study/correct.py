@@ -178,7 +178,8 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
                         imprint_model: str = MIXTURE, kinematics: str | None = None, poisson: str | None = None,
                         calibration_forces_kn: str | None = None, scan: ScanReading | None = None,
                         roughness: BodyRoughness | None = None, seed: int = 0,
-                        progress=None, elastic_limit_mpa: float = ELASTIC_LIMIT_MPA) -> tuple[dict[str, Any], Any]:
+                        progress=None, elastic_limit_mpa: float = ELASTIC_LIMIT_MPA,
+                        cache: dict | None = None) -> tuple[dict[str, Any], Any]:
     """Correct one measured imprint with a study's calibrated film; return ``(answer, scan reading)``.
 
     Parameters
@@ -201,6 +202,8 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
         Seed of the scatter draws.
     progress : callable, optional
         ``progress(done, total)`` while the rough solves run.
+    cache : dict, optional
+        Correctors kept between calls (a batch): the posteriors are read and their solves shared once.
     elastic_limit_mpa : float
         Above this peak pressure of the contact without film the answer carries a warning (``warnings`` in
         the dict, and an `ElasticLimitWarning`): the elastic model is outside its validity.
@@ -212,8 +215,6 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
         ``film``, ``form`` and ``models`` (each pooled model's weight and answer); with a scan also
         ``measured_area_mm2``, ``measured_area_std_mm2``, ``scan`` and, when asked, ``outline_file``.
     """
-    from filmcal.study.core import correctors
-
     sphere = isinstance(measurement, SphereMeasurement)
     m = measurement
     value = m.measured_radius_mm if sphere else m.measured_area_mm2
@@ -236,7 +237,7 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
             radius_std = math.hypot(m.measurement_std_mm, reading.area_std_mm2 / (2.0 * math.pi * radius))
         else:
             radius, radius_std = m.measured_radius_mm, m.measurement_std_mm
-        parts = correctors(study, film, "sphere", random_state=seed, **match)
+        parts = _correctors(cache, study, film, "sphere", seed, None, match)
         parts[0][1].check_plausible(radius, m.sphere_radius_mm, force_n)
         results = [c.correct(radius, m.sphere_radius_mm, force_n, radius_std) for _, c, _ in parts]
     else:
@@ -244,9 +245,9 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
             area, area_std = reading.area_mm2, math.hypot(m.measurement_std_mm2, reading.area_std_mm2)
         else:
             area, area_std = m.measured_area_mm2, m.measurement_std_mm2
-        parts = correctors(study, film, "wheel-rail", random_state=seed,
-                           wheel_rail=dict(wheel=m.wheel, rail=m.rail, rail_inclination=m.rail_inclination,
-                                           nominal_radius_mm=m.nominal_radius_mm), **match)
+        parts = _correctors(cache, study, film, "wheel-rail", seed,
+                            dict(wheel=m.wheel, rail=m.rail, rail_inclination=m.rail_inclination,
+                                 nominal_radius_mm=m.nominal_radius_mm), match)
         parts[0][1].check_plausible(area, m.offset_mm, force_n)
         results = [c.correct(area, m.offset_mm, force_n, area_std, offset_std_mm=m.offset_std_mm)
                    for _, c, _ in parts]
@@ -284,7 +285,7 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
         for w, c, s in parts:
             out["models"][s["model"]]["transfer"] = c.transfer(m.offset_mm, force_n)
     out["provenance"] = _provenance(study, parts, measurement, sphere, seed)
-    peak = _no_film_peak_mpa(measurement, parts, sphere)
+    peak = _no_film_peak_mpa(measurement, parts, sphere, cache)
     out["max_pressure_no_film_mpa"] = peak
     if peak > elastic_limit_mpa:
         import warnings
@@ -316,7 +317,20 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
     return out, reading
 
 
-def _no_film_peak_mpa(m, parts, sphere: bool) -> float:
+def _correctors(cache: dict | None, study, film: str, kind: str, seed: int, wheel_rail: dict | None, match: dict):
+    """`filmcal.study.core.correctors`, kept in `cache` by their options."""
+    from filmcal.study.core import correctors
+
+    key = (film, kind, seed, tuple(sorted((wheel_rail or {}).items())), tuple(sorted(match.items())))
+    if cache is not None and key in cache:
+        return cache[key]
+    parts = correctors(study, film, kind, random_state=seed, wheel_rail=wheel_rail, **match)
+    if cache is not None:
+        cache[key] = parts
+    return parts
+
+
+def _no_film_peak_mpa(m, parts, sphere: bool, cache: dict | None = None) -> float:
     """Peak pressure (MPa) of the measured configuration's contact without film (Hertz, or the wheel-rail solve)."""
     if sphere:
         from filmcal.hertz import hertz_max_pressure_mpa
@@ -324,7 +338,14 @@ def _no_film_peak_mpa(m, parts, sphere: bool) -> float:
         return float(hertz_max_pressure_mpa(m.sphere_radius_mm, 1e3 * m.force_kn))
     from filmcal.wheelrail import solve_wheel_rail
 
-    return float(solve_wheel_rail(m.offset_mm, 1e3 * m.force_kn, film=None, **parts[0][1].settings).max_pressure_mpa)
+    settings = parts[0][1].settings
+    key = ("peak", m.offset_mm, m.force_kn, tuple(sorted((k, str(v)) for k, v in settings.items())))
+    if cache is not None and key in cache:
+        return cache[key]
+    peak = float(solve_wheel_rail(m.offset_mm, 1e3 * m.force_kn, film=None, **settings).max_pressure_mpa)
+    if cache is not None:
+        cache[key] = peak
+    return peak
 
 
 def _pool(results, parts, seed: int):
