@@ -200,3 +200,23 @@ def test_a_correction_beyond_the_elastic_limit_says_so(quick_study):
     assert hot["max_pressure_no_film_mpa"] == pytest.approx(1420, rel=0.01)
     assert any("elastic limit" in w for w in hot["warnings"]) and "elastic limit" in err
     assert "warnings" not in cool and cool["max_pressure_no_film_mpa"] < 1000
+
+
+def test_the_corrected_patch_has_a_length_width_and_position_with_bands(quick_study):
+    """S1002 / 60E2, 100 kN, eta 0: the patch without film's extents (its solved outline, exact to the grid)
+    scaled by sqrt(corrected area / its area); the lateral position is its centroid on the rail."""
+    study, _, _ = quick_study
+    bare = solve_wheel_rail(0.0, 100e3)
+    points = np.concatenate([np.asarray(r) for r in bare.outline_mm])
+    length, width = np.ptp(points[:, 0]), np.ptp(points[:, 1])
+    p = subprocess.run([sys.executable, "-m", "filmcal.cli", "correct", "--film", "HS", "--study-dir", str(study),
+                        "--measured-area-mm2", "190", "--offset-mm=0", "--force-kn", "100", "--json"],
+                       capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    out = json.loads(p.stdout)
+    patch = out["patch"]
+    assert patch["no_film_length_mm"] == pytest.approx(length) and patch["no_film_width_mm"] == pytest.approx(width)
+    scale = math.sqrt(out["area_mm2"] / bare.area_mm2)
+    assert patch["length_mm"]["mean"] == pytest.approx(length * scale, rel=0.01)
+    assert patch["width_mm"]["ci90"][0] < width * scale < patch["width_mm"]["ci90"][1]
+    assert patch["lateral_position_mm"]["mean"] == pytest.approx(bare.centroid_rail_y_mm)

@@ -451,6 +451,7 @@ class Study:
                 raise InputError(f"the {spec.imprint} imprint model cannot read film {film.name} (it reads "
                                  f"{', '.join(imprint_models_for(film))})")
             data, data_meta = self.dataset_rows(film.name, spec.loads, dataset)
+            spec = _covering_spec(spec, data)
             full = self._calibration_spec_dict(spec, data_meta)
             path = self.layout.posterior(spec_key(full))
             if self.verified(path):
@@ -667,6 +668,29 @@ class Study:
         path, spec = found[0]
         self.verified(path)
         return load_result(path), path, spec
+
+
+class DomainNote(UserWarning):
+    """The study's design was extended to cover a dataset's cases (how many new FE runs it costs)."""
+
+
+def _covering_spec(spec: "CalibrationSpec", data) -> "CalibrationSpec":
+    """`spec` with its FE domain extended to cover the data's cases (`SurrogateDomain.covering`), said first;
+    a case outside the supported domain is refused in one line before any FE work."""
+    import warnings
+
+    try:
+        domain = spec.fe.domain.covering(data.sphere_radius_mm, np.asarray(data.force_n, float) / 1e3)
+    except ValueError as exc:
+        raise InputError(f"the dataset is outside the supported domain: {exc}") from None
+    if domain is spec.fe.domain:
+        return spec
+    levels = ", ".join(f"{r:g}" for r in domain.radius_levels_mm)
+    warnings.warn(DomainNote(
+        f"the dataset's cases lie outside the design's domain: it is extended to sphere radii {levels} mm and "
+        f"forces {domain.force_kn[0]:.3g}-{domain.force_kn[1]:.3g} kN, {spec.fe.n_train + spec.fe.n_test} FE runs "
+        "per film kinematics (a new design)"), stacklevel=3)
+    return replace(spec, fe=replace(spec.fe, domain=domain))
 
 
 def _rough_flat(data, film, imprint: str, kinematics: str, modulus_range_mpa):

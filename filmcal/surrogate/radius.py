@@ -16,6 +16,8 @@ spans a decade), over (log E, nu, log R, log F):
 """
 from __future__ import annotations
 
+import math
+
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -79,6 +81,61 @@ class SurrogateDomain:
 
     def to_dict(self) -> dict:
         return {k: list(v) for k, v in asdict(self).items()}
+
+    def covering(self, sphere_radius_mm, force_kn) -> "SurrogateDomain":
+        """This domain, or one extended to cover the data's cases (radii and forces) with margins.
+
+        Inside this domain it is returned unchanged (its runs are reused). Otherwise the radius levels span
+        the data's and this domain's radii at the same density (about 1.19 between neighbours, as Table 1's
+        300-600 mm in five levels) and the force range the data's with 10 % margins; the modulus and Poisson
+        ranges stay. Cases outside the supported domain (`check_supported`) are refused first.
+        """
+        radii = np.asarray(sphere_radius_mm, dtype=float).ravel()
+        forces = np.asarray(force_kn, dtype=float).ravel()
+        check_supported(radii, forces)
+        lo_r, hi_r = min(self.radius_levels_mm), max(self.radius_levels_mm)
+        lo_f, hi_f = self.force_kn
+        if radii.min() >= lo_r and radii.max() <= hi_r and forces.min() >= lo_f and forces.max() <= hi_f:
+            return self
+        new_lo, new_hi = min(lo_r, float(radii.min())), max(hi_r, float(radii.max()))
+        levels = self.radius_levels_mm
+        if (new_lo, new_hi) != (lo_r, hi_r):
+            step = (hi_r / lo_r) ** (1.0 / max(len(levels) - 1, 1))
+            n = int(math.ceil(math.log(new_hi / new_lo) / math.log(step))) + 1
+            levels = tuple(float(round(v, 3)) for v in np.geomspace(new_lo, new_hi, max(n, 2)))
+        force = (min(lo_f, float(forces.min()) / 1.1), max(hi_f, float(forces.max()) * 1.1))
+        return SurrogateDomain(self.modulus_mpa, self.poisson, levels, force)
+
+
+#: The supported domain's physical limits: the steel stays elastic (the Hertz peak pressure without film, as
+#: the paper's specimens: elastic at 1083-1127 MPa, R300 at 1290 MPa skipped) and the contact stays small
+#: against the modelled bodies (the refined zone, 1.6 times the contact radius, within 0.6 of the 50 mm body).
+ELASTIC_LIMIT_MPA = 1250.0
+MAX_CONTACT_RADIUS_MM = 0.6 * 50.0 / 1.6
+
+
+def check_supported(sphere_radius_mm, force_kn) -> None:
+    """Refuse, in one line and before any FE work, cases outside the supported domain (`ELASTIC_LIMIT_MPA`,
+    `MAX_CONTACT_RADIUS_MM`) or with non-physical sizes."""
+    from filmcal.hertz import hertz_max_pressure_mpa, hertz_radius_mm
+
+    radii = np.asarray(sphere_radius_mm, dtype=float).ravel()
+    forces = np.asarray(force_kn, dtype=float).ravel()
+    if radii.size == 0 or not (np.all(np.isfinite(radii)) and np.all(np.isfinite(forces))) \
+            or np.any(radii <= 0) or np.any(forces <= 0):
+        raise ValueError("sphere radii and forces must be finite and > 0")
+    peak = hertz_max_pressure_mpa(radii, 1e3 * forces)
+    worst = int(np.argmax(peak))
+    if peak[worst] > ELASTIC_LIMIT_MPA:
+        raise ValueError(f"the case R {radii[worst]:g} mm / {forces[worst]:g} kN presses the steel to a Hertz peak "
+                         f"pressure of {peak[worst]:.0f} MPa, above its elastic limit ({ELASTIC_LIMIT_MPA:g} MPa, "
+                         "where the paper stopped): leave it out, or use a larger sphere or a smaller force")
+    a = hertz_radius_mm(radii, 1e3 * forces)
+    widest = int(np.argmax(a))
+    if a[widest] > MAX_CONTACT_RADIUS_MM:
+        raise ValueError(f"the case R {radii[widest]:g} mm / {forces[widest]:g} kN has a contact radius of "
+                         f"{a[widest]:.1f} mm, too large for the modelled 50 mm bodies (at most "
+                         f"{MAX_CONTACT_RADIUS_MM:.1f} mm): leave it out or use a smaller sphere or force")
 
 
 def option_columns(options: "ContactOptions") -> dict:
