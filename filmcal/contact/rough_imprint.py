@@ -278,8 +278,10 @@ def rough_recorded_area_mm2(model, result, rough_law, reading_level: float) -> f
 
     contact = getattr(result, "contact", result)
     field = GridField(contact.grid.x_mm, contact.grid.y_mm, np.clip(contact.pressure_mpa, 0.0, None))
-    if model.imprint == "capsule":
-        return field.integral_mm2(lambda p: coverage(model, rough_law, p))
+    if model.imprint == "capsule":  # the coverage tabulated over the field's pressures (smooth in p), then read
+        nodes = np.linspace(0.0, float(field.pressure_mpa.max()), 513)
+        table = coverage(model, rough_law, nodes)
+        return field.integral_mm2(lambda p: np.interp(p, nodes, table) * (p > 0.0))
     level = coverage_level_mpa(model, rough_law, reading_level, float(field.pressure_mpa.max()))
     if not math.isfinite(level):
         return 0.0
