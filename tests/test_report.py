@@ -403,7 +403,8 @@ def test_film_records_hook_says_not_computed_without_its_file():
 
 
 def test_film_records_section_states_the_preference_and_the_rough_growth():
-    """Two models, the second clearly better and holding R600/25 kN; a rough wheel 5 % larger than the smooth."""
+    """Two models, the second clearly better and holding R600/25 kN; a rough wheel: the imprint 5 % larger, the
+    contact without film 10 % larger, so the correcting factor 10/5 - 1 = 4.8 % larger."""
     cases = {"sphere_radius_mm": [300.0, 600.0], "force_kn": [50.0, 25.0]}
     models = {
         "edge/small": {"modulus_mpa": {"median": 6900.0, "ci90": [6000.0, 8000.0]}, "rms_residual_mm": 0.097,
@@ -417,15 +418,18 @@ def test_film_records_section_states_the_preference_and_the_rough_growth():
                           "stacking_weights": {"edge/small": 0.0, "activation/small": 1.0},
                           "groups": [["edge/small"], ["activation/small"]], "preferred": "activation/small"}}
     curve = {"film": "HHS", "force_kn": 50.0, "offset_mm": -3.0}
-    curves = {"HHS": [{**curve, "wheel": "smooth", "area_film_median_mm2": 100.0},
-                      {**curve, "wheel": "rough Ra 1.5 um", "area_film_median_mm2": 105.0}]}
+    curves = {"HHS": [{**curve, "wheel": "smooth", "area_film_median_mm2": 100.0, "area_no_film_mm2": 70.0,
+                       "ratio_median": 0.7},
+                      {**curve, "wheel": "rough Ra 1.5 um", "area_film_median_mm2": 105.0, "area_no_film_mm2": 77.0,
+                       "ratio_median": 77.0 / 105.0}]}
     section = film_records_section(comparison, curves)
     text = " ".join(b for b in section.blocks if isinstance(b, str))
     assert "HHS: the data prefer activation/small" in text and "-0.38 (in)" in text
     tables = [b for b in section.blocks if isinstance(b, Table)]
     assert [r[1] for r in tables[0].rows] == ["edge/small", "activation/small"]
     assert tables[0].rows[0][-1] == "-1.70 (out)" and tables[0].rows[1][-2] == "1.00 / 1.00"
-    assert tables[1].rows == [["HHS", "50", "-3", "100.0", "105.0", "+5.0"]]
+    assert tables[1].rows == [["HHS", "Ra 1.5 um", "50", "-3", "100.0", "105.0", "+5.0", "+10.0", "+4.8"]]
+    assert [r[1] for r in tables[2].rows[:3]] == ["MS", "HS", "HHS"]  # the shipped prior and conditioned growth
 
 
 def test_report_opens_in_chromium_with_every_figure(quick_study, tmp_path):
