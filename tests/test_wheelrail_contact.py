@@ -250,3 +250,13 @@ def test_wheel_rail_iterations_stay_flat_under_refinement():
     assert max(counts) <= 22
     assert counts[2] - counts[0] <= 6
     assert areas[2] == pytest.approx(areas[1], rel=2e-3)
+
+
+def test_a_flange_contact_is_solved_at_a_fine_grid_and_the_grid_is_bounded_by_its_cells():
+    """A flange patch is long and narrow (1009 x 96 cells at 0.025 mm): it is within the cell bound (800 x
+    800), and converged in the grid (0.1 / 0.05 / 0.025 mm within 0.2 % in area); a crown patch at 0.01 mm
+    (about 2000 x 2000 cells) is refused before any solve."""
+    areas = [solve_wheel_rail(5.0, 10e3, rail="60E1", grid_mm=g).area_mm2 for g in (0.1, 0.05, 0.025)]
+    assert max(areas) / min(areas) - 1 < 0.002
+    with pytest.raises(ValueError, match="cells"):
+        solve_wheel_rail(-3.0, 150e3, grid_mm=0.01)
