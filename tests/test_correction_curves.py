@@ -70,3 +70,23 @@ def test_rough_bodies_give_their_nominal_area_without_film():
     assert 1.03 < rough.area_no_film_mm2[0, 0] / smooth.area_no_film_mm2[0, 0] < 1.3
     assert rough.area_film_median_mm2[0, 0] == pytest.approx(smooth.area_film_median_mm2[0, 0], rel=1e-9)
     assert rough.ratio_median[0, 0] > smooth.ratio_median[0, 0]
+
+
+def test_curve_rows_label_rough_bodies_by_their_measured_ra():
+    from filmcal.contact.rough_imprint import representative_roughness_inputs
+    from filmcal.correction.curves import wheel_label
+
+    bodies = representative_roughness_inputs().bodies(None, 1.5)
+    assert wheel_label(bodies) == f"rough rail Ra {bodies.rail.ra_um:.3g} um"
+    assert wheel_label(1.5) == "rough Ra 1.5 um" and wheel_label(None) == "smooth"
+
+
+def test_curves_refuses_an_ra_and_a_map_for_one_body(tmp_path):
+    import subprocess
+    import sys
+
+    (tmp_path / "st").mkdir()
+    p = subprocess.run([sys.executable, "-m", "filmcal.cli", "curves", "--film", "HS", "--study-dir",
+                        str(tmp_path / "st"), "--rail-roughness-ra-um", "1.5", "--rail-roughness-map",
+                        str(tmp_path / "none.x3p")], capture_output=True, text=True)
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1

@@ -24,6 +24,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add(p, "offsets_mm", default="-7:2:1", extra="(default -7:2:1)")
     add(p, "wheel_roughness_ra_um", extra="; also a rough wheel of this Ra: its boundary-element law against each "
                                           "film modulus, and against the steel rail for the area without film")
+    add(p, "rail_roughness_ra_um", extra="; with the wheel's, or alone")
+    add(p, "wheel_roughness_map", extra="(instead of --wheel-roughness-ra-um)")
+    add(p, "rail_roughness_map", extra="(instead of --rail-roughness-ra-um)")
+    local(p, "--roughness-pixel-um", type=float, help="pixel size in um of a CSV or image roughness map")
     local(p, "--roughness-law", metavar="CSV",
           help="also a rough wheel with this measured film-wheel pressure-overclosure law: a CSV with "
                "columns closure_um,pressure_mpa, both strictly increasing from pressure 0")
@@ -39,6 +43,23 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     renamed(p, "--loads", "--calibration-forces-kn", type=force_range)
     renamed(p, "--model", "--imprint-model IMPRINT --kinematics KINEMATICS", convert=split_model)
     p.set_defaults(func=run)
+
+
+def _rough_bodies(args: argparse.Namespace) -> list:
+    """The rough bodies asked for (none, a rough wheel's Ra, or `Roughness` of Ra values and measured maps)."""
+    if args.wheel_roughness_ra_um and args.wheel_roughness_map or args.rail_roughness_ra_um and args.rail_roughness_map:
+        raise ValueError("give each body's roughness as an Ra or as a map, not both")
+    if not (args.rail_roughness_ra_um or args.wheel_roughness_map or args.rail_roughness_map):
+        return [args.wheel_roughness_ra_um] if args.wheel_roughness_ra_um else []
+    from filmcal.contact.rough_imprint import representative_roughness_inputs
+    from filmcal.contact.surface_files import read_surface_file
+
+    def body(ra, path):
+        return read_surface_file(path, args.roughness_pixel_um) if path else ra
+
+    bodies = representative_roughness_inputs().bodies(body(args.wheel_roughness_ra_um, args.wheel_roughness_map),
+                                                      body(args.rail_roughness_ra_um, args.rail_roughness_map))
+    return [] if bodies.smooth else [bodies]
 
 
 def run(args: argparse.Namespace) -> int:
@@ -63,15 +84,14 @@ def run(args: argparse.Namespace) -> int:
              "kinematics": args.kinematics, "loads": args.calibration_forces_kn}
     chosen = chosen_posteriors(study, film, **match)
     components = curve_components(study, film, **match)
-    wheels = [None] + ([args.wheel_roughness_ra_um] if args.wheel_roughness_ra_um else [])
+    wheels = [None] + _rough_bodies(args)
     if args.roughness_law:
         from filmcal.contact.laws import TabularLaw
 
         wheels.append(TabularLaw.from_csv(args.roughness_law))
     rows = []
     for wheel in wheels:
-        sys.stderr.write(f"[curves] {film}, {wheel_label(wheel)} wheel: {len(forces)} loads x {len(offsets)} "
-                         "offsets\n")
+        sys.stderr.write(f"[curves] {film}, {wheel_label(wheel)}: {len(forces)} loads x {len(offsets)} offsets\n")
         rows += curve_rows(film, components, offsets, forces, wheel)
     if args.csv:
         write_curves_csv(args.csv, rows)

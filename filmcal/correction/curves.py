@@ -213,11 +213,18 @@ def rough_bodies(ra_um: float):
 
 
 def wheel_label(roughness=None) -> str:
-    """The ``wheel`` column of curve rows: ``smooth``, ``rough Ra <x> um`` or ``rough, measured law``."""
+    """The ``wheel`` column of curve rows: ``smooth``, ``rough Ra <x> um``, the rough bodies' Ra, or ``rough,
+    measured law``."""
+    from filmcal.contact.roughness import Roughness
+
     if roughness is None:
         return "smooth"
     if isinstance(roughness, (int, float)):
         return f"rough Ra {roughness:g} um"
+    if isinstance(roughness, Roughness):
+        ra = roughness.describe()
+        parts = [f"{body} Ra {ra[f'{body}_ra_um']:.3g} um" for body in ("wheel", "rail") if ra[f"{body}_ra_um"]]
+        return "rough " + ", ".join(parts)
     return "rough, measured law"
 
 
@@ -232,9 +239,10 @@ def curve_rows(film: str, components, offsets_mm, forces_kn, roughness=None, law
         The film's calibrated models, as `correction_curves` takes them.
     offsets_mm, forces_kn : sequence of float
         The grid: lateral offsets eta (mm) and loads (kN).
-    roughness : None, float or InterfaceLaw
-        The wheel: smooth (None), rough with this Ra in um (`rough_bodies`: laws computed against each film
-        modulus, and against the steel rail for the area without film), or a measured
+    roughness : None, float, Roughness or InterfaceLaw
+        The bodies: smooth (None), a rough wheel with this Ra in um (`rough_bodies`: laws computed against each
+        film modulus, and against the steel rail for the area without film), rough bodies
+        (`filmcal.contact.roughness.Roughness`, e.g. measured surfaces), or a measured
         film-wheel pressure-closure law (e.g. `filmcal.wheelrail.TabularLaw`;
         the area without film is then the smooth one).
     laws : mapping, optional
@@ -243,9 +251,11 @@ def curve_rows(film: str, components, offsets_mm, forces_kn, roughness=None, law
     **wheel_rail
         Passed on to `correction_curves` (profiles, inclination, ...).
     """
+    from filmcal.contact.roughness import Roughness
+
     law = rough_bodies(float(roughness)) if isinstance(roughness, (int, float)) else roughness
     no_film_law = None
-    if isinstance(roughness, (int, float)):  # the same surface against steel: the area without film is rough too
+    if isinstance(law, Roughness):  # the same surfaces against each other: the area without film is rough too
         no_film_law = law.steel_law()
     if laws is not None:
         law = laws
