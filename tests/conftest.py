@@ -48,6 +48,8 @@ SLOW_FIXTURES: frozenset[str] = frozenset({
 #: (setup + call, wall time on 2 cores shared with other work, so about 2-3x
 #: the idle time) by ``python3 -m pytest -q --durations=60 -p no:cacheprovider``.
 SLOW_TESTS: dict[str, str] = {
+    "test_roughness_no_film.py::test_the_nominal_growth_follows_the_rigid_plastic_bearing_area_law":
+        "6 s each: two rough Hertz solves and a boundary-element law",
     "test_surface_files.py::test_wheelrail_command_reports_the_measured_ra_of_an_x3p_and_a_profile":
         "41 s: boundary-element laws of a measured map and a profile",
     "test_rough_imprint.py::test_an_asperity_cannot_stain_a_film_whose_activation_lies_above_the_coating_hardness":

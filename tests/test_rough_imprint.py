@@ -15,7 +15,8 @@ from filmcal.contact.rough_imprint import (DEFAULT_ROUGHNESS_INPUTS, ROUGHNESS_P
                                            coverage, coverage_level_mpa, load_roughness_inputs,
                                            representative_roughness_inputs, rough_recorded_area_mm2,
                                            sample_roughness_prior)
-from filmcal.correction.roughness import RoughGrowth, sphere_growth, weighted_quantiles
+from filmcal.correction.roughness import RoughGrowth, weighted_quantiles
+from filmcal.wheelrail.rough_growth import sphere_growth
 from filmcal.films import get_film
 from filmcal.wheelrail.halfspace import sphere_on_flat_contact
 

@@ -154,7 +154,7 @@ class RoughFlatGrowth:
     def prepare(self, data) -> None:
         """Solve the growth of every rough case of ``data`` not solved yet."""
         from filmcal.contact.rough_imprint import representative_roughness_inputs
-        from filmcal.correction.roughness import sphere_growth
+        from filmcal.wheelrail.rough_growth import sphere_growth
 
         draw = representative_roughness_inputs()
         for case in self._cases(data):

@@ -156,6 +156,11 @@ ROUGHNESS_NOT_INCLUDED = ("the bodies' roughness: wheel and rail are taken as sm
                           "--rail-roughness-ra-um)")
 
 
+#: What an answer with an exact offset does not carry.
+OFFSET_NOT_INCLUDED = ("the offset's uncertainty: eta is taken as exact; a ruler or gauge reads it to about 0.5-1 mm "
+                       "(give --offset-std-mm)")
+
+
 def _provenance(study, parts, measurement, sphere: bool, seed: int) -> dict[str, Any]:
     """Where an answer came from: the study, each posterior (file and SHA-256), the filmcal version, the
     measurement's options, the seed and, for a wheel-rail answer, the transfer fit."""
@@ -304,6 +309,8 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
         out["provenance"]["roughness"] = {**roughness.describe(), "n_draws": rough_out["n_draws"]}
     elif not sphere:  # what the band does not hold, said with the answer
         out["not_included"] = [ROUGHNESS_NOT_INCLUDED]
+    if not sphere and not m.offset_std_mm:
+        out.setdefault("not_included", []).append(OFFSET_NOT_INCLUDED)
     if reading is not None:
         details = {k: v for k, v in reading.to_dict().items() if k not in ("area_mm2", "area_std_mm2")}
         out.update(measured_area_mm2=reading.area_mm2, measured_area_std_mm2=reading.area_std_mm2,
