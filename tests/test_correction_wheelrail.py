@@ -158,6 +158,9 @@ def test_command_with_a_rough_wheel_widens_the_band_and_reports_the_roughness_sh
     assert out["area_mm2"] / smooth["area_mm2"] - 1 == pytest.approx(change / 100, abs=0.01)
     assert not any("roughness" in w for w in out["not_included"]) and any("offset" in w for w in out["not_included"])
     assert out["provenance"]["roughness"]["wheel_ra_um"] == 1.5
+    kept = subprocess.run(base + ["--wheel-roughness-ra-um", "1.5", "--roughness-draws", "2"], capture_output=True,
+                          text=True, check=True)  # the study kept the rough solves: read back, the same answer
+    assert kept.stdout == p.stdout and list(study.glob("posteriors/*-roughness.json"))
     again = subprocess.run(base + ["--wheel-roughness-ra-um", "0"], capture_output=True, text=True, check=True)
     assert json.loads(again.stdout)["area_mm2"] == smooth["area_mm2"]  # Ra 0: the smooth answer to the digit
     sphere = subprocess.run([a for a in base if a not in ("--measured-area-mm2", "150", "--offset-mm=-3")]

@@ -107,7 +107,9 @@ def test_both_bodies_add_heights_without_film_and_closures_with_it():
     alone = [Roughness(wheel).film_law(2800.0, 0.33, 0.09), Roughness(rail=rail).film_law(2800.0, 0.33, 0.09)]
     p = np.array([1.0, 10.0, 50.0])
     np.testing.assert_allclose(law.closure_mm(p), alone[0].closure_mm(p) + alone[1].closure_mm(p))
-    assert Roughness.from_ra(0.0, None).smooth and Roughness().film_law(2800.0, 0.33, 0.09) is None
+    from filmcal.contact.rough_imprint import DEFAULT_ROUGHNESS_INPUTS
+
+    assert DEFAULT_ROUGHNESS_INPUTS.bodies(0.0, None).smooth and Roughness().film_law(2800.0, 0.33, 0.09) is None
     assert Roughness().steel_law() is None
     with pytest.raises(ValueError, match="one grid"):
         Roughness(wheel, RoughSurface.synthetic(ra_um=1.0, size_um=64.0, n=16, seed=2)).composite()

@@ -886,7 +886,8 @@ def steel_contact_law(surface: RoughSurface, *, hardness_mpa: float = STEEL_HARD
 class Roughness:
     """The roughness of both bodies of a contact: the wheel and the rail (or the sphere and the flat).
 
-    The one roughness value a correction, a curve or a solve takes (docs/film-law.md). With a film between
+    The one roughness value a correction, a curve or a solve takes (docs/film-law.md); synthetic bodies of an
+    Ra come from a draw of the roughness inputs (`filmcal.contact.rough_imprint.RoughnessInputs.bodies`). With a film between
     the bodies each rough body is pressed into its own face of the film: their closure laws
     (`rough_contact_law`) act in series with the film. Without film the two surfaces touch each other: their
     heights add into one composite surface against steel (`steel_contact_law`).
@@ -902,22 +903,6 @@ class Roughness:
     wheel: RoughSurface | None = None
     rail: RoughSurface | None = None
     film_hardness_mpa: float = PET_HARDNESS_MPA
-
-    @classmethod
-    def from_ra(cls, wheel_ra_um: float | None = None, rail_ra_um: float | None = None,
-                seed: int = 0, film_hardness_mpa: float = PET_HARDNESS_MPA) -> "Roughness":
-        """Synthetic surfaces of the wheel's and the rail's Ra (um; None or 0: smooth), independent draws of
-        the default spectrum (`WHEEL_SURFACE_DEFAULTS`; the rail's from ``seed + 1``)."""
-        d = WHEEL_SURFACE_DEFAULTS
-
-        def draw(ra, s) -> RoughSurface | None:
-            if not ra:
-                return None
-            return RoughSurface.synthetic(ra_um=float(ra), hurst=d["hurst"],
-                                          rolloff_wavelength_um=d["rolloff_wavelength_um"], size_um=d["size_um"],
-                                          n=d["n"], seed=s)
-
-        return cls(draw(wheel_ra_um, seed), draw(rail_ra_um, seed + 1), film_hardness_mpa)
 
     @property
     def smooth(self) -> bool:

@@ -929,6 +929,69 @@ class _StudySupports:
             pass  # the writer lock is taken or the folder is read-only: the solves stay uncached
 
 
+class StudyGrowths:
+    """Rough/smooth growths of a film's models kept in the study, one file per configuration and roughness.
+
+    ``posteriors/<key>-roughness.json``, ``<key>`` the hash of its spec: the posteriors (SHA-256), the
+    wheel-rail settings, the offset and force, the bodies (each Ra, a measured surface by its fingerprint),
+    the shipped roughness inputs (their file's SHA-256) and the number of draws. Recorded under the manifest's
+    ``caches`` and verified like `_StudySupports`; written only when the writer lock is free.
+    """
+
+    KIND = "wheel-rail-roughness"
+
+    def __init__(self, study: Study, parts: list) -> None:
+        self.study = study
+        self.parts = parts
+
+    def spec(self, offset_mm: float, force_n: float, bodies: dict, n_draws: int) -> dict:
+        import hashlib
+        from importlib import resources
+
+        from filmcal.contact.rough_imprint import ROUGHNESS_INPUTS_FILE
+
+        shipped = resources.files("filmcal.data").joinpath(ROUGHNESS_INPUTS_FILE).read_bytes()
+        settings = {k: (_profile_spec(v) if k in ("wheel", "rail") else v)
+                    for k, v in self.parts[0][1].settings.items()}
+        return _json_roundtrip({"kind": self.KIND, "posteriors": {s["model"]: s.get("posterior_sha256")
+                                                                  for _, _, s in self.parts},
+                                "wheel_rail": settings, "offset_mm": float(offset_mm), "force_n": float(force_n),
+                                "bodies": bodies, "inputs_sha256": hashlib.sha256(shipped).hexdigest(),
+                                "n_draws": int(n_draws)})
+
+    def _path(self, spec: dict) -> Path:
+        key = spec_key(spec)
+        return self.study.layout.posterior(key).with_name(f"{key}-roughness.json")
+
+    def get(self, spec: dict) -> dict | None:
+        from filmcal._io import read_json, sha256_file
+
+        path = self._path(spec)
+        entry = (self.study.manifest.data.get("caches") or {}).get(self.study.layout.relative(path))
+        if entry is None or entry.get("spec") != spec or not path.exists():
+            return None
+        if sha256_file(path) != entry.get("sha256"):
+            raise InputError(f"{path} was changed after the study wrote it (SHA-256 differs from the manifest); "
+                             "delete it and run again to recompute it")
+        data = read_json(path)
+        return data if isinstance(data, dict) and set(data) == set(spec["posteriors"]) else None
+
+    def put(self, spec: dict, data: dict) -> None:
+        from filmcal._io import atomic_write_json, sha256_file
+
+        path = self._path(spec)
+        try:
+            with self.study.writing("filmcal correct: keeping rough wheel-rail solves"):
+                path.parent.mkdir(parents=True, exist_ok=True)
+                atomic_write_json(path, data)
+                caches = self.study.manifest.data.setdefault("caches", {})
+                caches[self.study.layout.relative(path)] = {"kind": self.KIND, "spec": spec,
+                                                            "sha256": sha256_file(path), "written_utc": utc_now()}
+                self.study.manifest.write()
+        except (InputError, OSError):
+            pass  # the writer lock is taken or the folder is read-only: the growths stay uncached
+
+
 def _json_roundtrip(value: Any) -> Any:
     """`value` as it reads back from the manifest's JSON (tuples as lists, numpy as plain numbers)."""
     import json

@@ -120,6 +120,14 @@ class BodyRoughness:
     def smooth(self) -> bool:
         return not self.wheel() and not self.rail()
 
+    def fingerprint(self) -> dict[str, Any]:
+        """What the rough solves depend on: each body's Ra, or its measured surface's fingerprint."""
+        out: dict[str, Any] = {}
+        for name in ("wheel", "rail"):
+            surface = self._surfaces[name]
+            out[name] = surface.fingerprint() if surface is not None else float(getattr(self, f"{name}_ra_um") or 0.0)
+        return out
+
     def describe(self) -> dict[str, Any]:
         """Each body's Ra (um; measured from its map when given) and its map file, JSON-ready."""
         out: dict[str, Any] = {}
@@ -267,9 +275,23 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
         from filmcal.contact.rough_imprint import load_roughness_inputs
         from filmcal.correction.roughness import corrector_growths
 
+        from filmcal.correction.roughness import RoughGrowth
+        from filmcal.study.core import StudyGrowths
+
         draws = load_roughness_inputs()[:roughness.n_draws]
-        growths = corrector_growths([c for _, c, _ in parts], [w for w, _, _ in parts], m.offset_mm, force_n,
-                                    draws, wheel=roughness.wheel(), rail=roughness.rail(), progress=progress)
+        kept = StudyGrowths(study, parts)
+        spec = kept.spec(m.offset_mm, force_n, roughness.fingerprint(), len(draws))
+        stored = kept.get(spec)
+        if stored is not None:  # solved before for these posteriors, bodies and draws
+            w = np.full(len(draws), 1.0 / len(draws))
+            growths = {c.film.label: RoughGrowth(np.asarray(stored[s["model"]]["film"], float),
+                                                 np.asarray(stored[s["model"]]["no_film"], float), w, draws)
+                       for _, c, s in parts}
+        else:
+            growths = corrector_growths([c for _, c, _ in parts], [w for w, _, _ in parts], m.offset_mm, force_n,
+                                        draws, wheel=roughness.wheel(), rail=roughness.rail(), progress=progress)
+            kept.put(spec, {s["model"]: {"film": growths[c.film.label].film.tolist(),
+                                         "no_film": growths[c.film.label].no_film.tolist()} for _, c, s in parts})
         smooth = result
         results = [c.correct(area, m.offset_mm, force_n, area_std, rough=growths[c.film.label],
                              offset_std_mm=m.offset_std_mm)
