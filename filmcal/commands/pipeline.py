@@ -18,7 +18,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "and 100 kN, eta -7..2 mm, smooth and rough wheel) with 90 %% credible bands, contact outlines, "
                     "leave-one-case-out cross-validation of the correction on Table 1, and the HTML + PDF report (STUDY_DIR/report). Finished work is kept and reused: an interrupted "
                     "run resumes where it stopped, and a second run only reads. The full run takes a few minutes on "
-                    "2 cores (the README gives measured times). A folder keeps "
+                    "2 cores (docs/pipeline.md gives measured times). A folder keeps "
                     "the settings it was made with; other settings need another folder.")
     add(p, "study_dir", extra="(default ./filmcal-study, or ./filmcal-study-quick with --quick, "
                              "./filmcal-study-smoke with --smoke)")

@@ -20,7 +20,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "share); the PDF is that same page printed on A4 by headless Chromium (a title page with the "
                     "answer per film, contents with page numbers, each figure with its caption). Without "
                     "Chromium the PDF holds the figures only, and the command says so. Reads the study's files "
-                    "only; the figures are drawn on every core (the README gives measured times).")
+                    "only; the figures are drawn on every core (docs/pipeline.md gives measured times).")
     add(p, "study_dir", default="filmcal-study", help="study folder (default ./filmcal-study)")
     local(p, "--out-dir", default=None, help="output folder (default STUDY_DIR/report)")
     add(p, "json", action="store_true", help="print the written paths as one JSON object")
