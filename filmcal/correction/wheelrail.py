@@ -96,14 +96,15 @@ class SupportAreas:
         self._solved: dict[tuple[float, float], dict] = {}
 
     def __call__(self, offset_mm: float, force_n: float) -> dict:
-        """``area_no_film_mm2``, ``modulus_grid_mpa``, and per model label: ``area_film_mm2`` (the area the
+        """``area_no_film_mm2``, ``no_film`` (the contact without film's peak pressure, length and width of its
+        outline and centroid on the rail), ``modulus_grid_mpa``, and per model label: ``area_film_mm2`` (the area the
         calibrated film records at each modulus: the application's reading plus the transfer term's shift) and
         ``transfer_shift_mm2`` and ``transfer_std_mm2`` (the term's shift, included in ``area_film_mm2``, and
         its standard deviation there)."""
         key = (float(offset_mm), float(force_n))
         if key not in self._solved:
             areas = self.cache.get(*key, self) if self.cache is not None else None
-            if areas is None or "transfer_shift_mm2" not in areas:
+            if areas is None or "transfer_shift_mm2" not in areas or "no_film" not in areas:
                 areas = self._solve(*key)
                 if self.cache is not None:
                     self.cache.put(*key, self, areas)
@@ -113,7 +114,9 @@ class SupportAreas:
     def _solve(self, offset_mm: float, force_n: float) -> dict:
         from filmcal.wheelrail import solve_wheel_rail
 
-        a0 = float(solve_wheel_rail(offset_mm, force_n, film=None, **self.settings).area_mm2)
+        bare = solve_wheel_rail(offset_mm, force_n, film=None, **self.settings)
+        a0 = float(bare.area_mm2)
+        points = np.concatenate([np.asarray(ring) for ring in bare.outline_mm])
         recorded = {m.label: [] for m in self.models}
         shift = {m.label: [] for m in self.models}
         spread = {m.label: [] for m in self.models}
@@ -127,7 +130,10 @@ class SupportAreas:
                 spread[m.label].append(term.std_mm2)
         self.n_solves += 1 + len(self.moduli_mpa)
         return {"area_no_film_mm2": a0, "modulus_grid_mpa": [float(e) for e in self.moduli_mpa],
-                "area_film_mm2": recorded, "transfer_shift_mm2": shift, "transfer_std_mm2": spread}
+                "area_film_mm2": recorded, "transfer_shift_mm2": shift, "transfer_std_mm2": spread,
+                "no_film": {"max_pressure_mpa": float(bare.max_pressure_mpa),
+                            "length_mm": float(np.ptp(points[:, 0])), "width_mm": float(np.ptp(points[:, 1])),
+                            "centroid_rail_y_mm": float(bare.centroid_rail_y_mm)}}
 
 
 def nominal_modulus_mpa(posterior: dict, nominal_poisson: float) -> np.ndarray:

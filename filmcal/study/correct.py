@@ -315,8 +315,8 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
             out["models"][s["model"]]["transfer"] = c.transfer(m.offset_mm, force_n)
     out["provenance"] = _provenance(study, parts, measurement, sphere, seed)
     if not sphere:
-        out["patch"] = _patch(m, parts, result, cache)
-    peak = _no_film_peak_mpa(measurement, parts, sphere, cache)
+        out["patch"] = _patch(m, parts, result)
+    peak = _no_film_peak_mpa(measurement, parts, sphere)
     out["max_pressure_no_film_mpa"] = peak
     if peak > elastic_limit_mpa:
         import warnings
@@ -363,34 +363,20 @@ def _correctors(cache: dict | None, study, film: str, kind: str, seed: int, whee
     return parts
 
 
-def _no_film(m, parts, cache: dict | None = None, offset_mm: float | None = None):
-    """The wheel-rail contact without film of the measured configuration (kept in `cache`)."""
-    from filmcal.wheelrail import solve_wheel_rail
-
-    eta = m.offset_mm if offset_mm is None else offset_mm
-    settings = parts[0][1].settings
-    key = ("no film", eta, m.force_kn, tuple(sorted((k, str(v)) for k, v in settings.items())))
-    if cache is not None and key in cache:
-        return cache[key]
-    result = solve_wheel_rail(eta, 1e3 * m.force_kn, film=None, **settings)
-    if cache is not None:
-        cache[key] = result
-    return result
+def _no_film(m, parts, offset_mm: float | None = None) -> dict:
+    """The wheel-rail contact without film of the measured configuration (area, peak pressure, outline length
+    and width, centroid on the rail), from the correctors' shared solves (kept in the study)."""
+    supports = parts[0][1].supports(m.offset_mm if offset_mm is None else offset_mm, 1e3 * m.force_kn)
+    return {"area_mm2": supports["area_no_film_mm2"], **supports["no_film"]}
 
 
-def _no_film_peak_mpa(m, parts, sphere: bool, cache: dict | None = None) -> float:
+def _no_film_peak_mpa(m, parts, sphere: bool) -> float:
     """Peak pressure (MPa) of the measured configuration's contact without film (Hertz, or the wheel-rail solve)."""
     if sphere:
         from filmcal.hertz import hertz_max_pressure_mpa
 
         return float(hertz_max_pressure_mpa(m.sphere_radius_mm, 1e3 * m.force_kn))
-    return float(_no_film(m, parts, cache).max_pressure_mpa)
-
-
-def _extent_mm(result) -> tuple[float, float]:
-    """Length (rolling, x) and width (lateral, y) of a solved contact's outline, all patches together."""
-    points = np.concatenate([np.asarray(ring) for ring in result.outline_mm])
-    return float(np.ptp(points[:, 0])), float(np.ptp(points[:, 1]))
+    return float(_no_film(m, parts)["max_pressure_mpa"])
 
 
 def _band(samples: np.ndarray) -> dict[str, Any]:
@@ -398,21 +384,21 @@ def _band(samples: np.ndarray) -> dict[str, Any]:
     return {"mean": float(np.mean(samples)), "std": float(np.std(samples, ddof=1)), "ci90": [float(lo), float(hi)]}
 
 
-def _patch(m, parts, result, cache: dict | None) -> dict[str, Any]:
+def _patch(m, parts, result) -> dict[str, Any]:
     """The corrected patch's length and width (mm) and its lateral position on the rail (mm), with bands.
 
     The patch without film keeps its shape: each sample of the corrected area scales the solved contact's
     length and width by sqrt(A / A_0). Its lateral position is the solved contact's centroid on the rail;
     with an uncertain offset, moved along its slope in the offset (solves at eta -/+ u).
     """
-    bare = _no_film(m, parts, cache)
-    length, width = _extent_mm(bare)
-    scale = np.sqrt(np.clip(np.asarray(result.samples_mm2, dtype=float).ravel(), 0.0, None) / float(bare.area_mm2))
-    position = np.full(scale.size, float(bare.centroid_rail_y_mm))
+    bare = _no_film(m, parts)
+    length, width = bare["length_mm"], bare["width_mm"]
+    scale = np.sqrt(np.clip(np.asarray(result.samples_mm2, dtype=float).ravel(), 0.0, None) / bare["area_mm2"])
+    position = np.full(scale.size, bare["centroid_rail_y_mm"])
     u = float(m.offset_std_mm)
     if u > 0:
-        lo, hi = (_no_film(m, parts, cache, m.offset_mm + sign * u) for sign in (-1.0, 1.0))
-        slope = (hi.centroid_rail_y_mm - lo.centroid_rail_y_mm) / (2.0 * u)
+        lo, hi = (_no_film(m, parts, m.offset_mm + sign * u) for sign in (-1.0, 1.0))
+        slope = (hi["centroid_rail_y_mm"] - lo["centroid_rail_y_mm"]) / (2.0 * u)
         position = position + slope * u * np.random.default_rng(1).standard_normal(scale.size)
     return {"length_mm": _band(length * scale), "width_mm": _band(width * scale),
             "lateral_position_mm": _band(position), "no_film_length_mm": length, "no_film_width_mm": width,
