@@ -139,3 +139,15 @@ def test_the_nominal_growth_follows_the_rigid_plastic_bearing_area_law(radius_mm
 
     bem, bearing = growth(steel_contact_law(surface)), growth(plastic)
     assert bearing > 0.1 and bem == pytest.approx(bearing, rel=0.02)
+
+
+def test_two_measured_surfaces_on_different_grids_act_in_series_without_film():
+    from filmcal.contact.laws import SeriesLaw
+    from filmcal.contact.roughness import Roughness
+
+    a = RoughSurface.synthetic(ra_um=0.5, n=32, size_um=40.0, rolloff_wavelength_um=20.0, seed=1)
+    b = RoughSurface.synthetic(ra_um=0.5, n=32, size_um=48.0, rolloff_wavelength_um=20.0, seed=2)
+    law = Roughness(a, b).steel_law()
+    assert isinstance(law, SeriesLaw) and len(law.laws) == 2
+    same = Roughness(a, RoughSurface(b.heights_um, a.pixel_um)).steel_law()
+    assert not isinstance(same, SeriesLaw)  # one grid: the composite surface

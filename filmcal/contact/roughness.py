@@ -931,8 +931,18 @@ class Roughness:
             return None
         return laws[0] if len(laws) == 1 else SeriesLaw(*laws)
 
-    def steel_law(self) -> RoughContactLaw | None:
-        """The rough bodies' closure against each other without film (None when smooth)."""
+    def steel_law(self):
+        """The rough bodies' closure against each other without film (None when smooth).
+
+        Their heights add into one composite surface when both are on one grid (synthetic draws, or maps of
+        one instrument); two measured surfaces on different grids act as two laws in series, each against
+        smooth steel (the closures add; an approximation of the composite surface's)."""
+        from filmcal.contact.laws import SeriesLaw
+
+        a, b = self.wheel, self.rail
+        if a is not None and b is not None and (a.heights_um.shape != b.heights_um.shape
+                                                or abs(a.pixel_um - b.pixel_um) > 1e-9 * a.pixel_um):
+            return SeriesLaw(steel_contact_law(a), steel_contact_law(b))
         surface = self.composite()
         return None if surface is None else steel_contact_law(surface)
 
