@@ -99,13 +99,18 @@ def run(args: argparse.Namespace) -> int:
         from filmcal.report.figures import plot_area_curves
 
         plot_area_curves([dict(zip(CURVE_COLUMNS, r)) for r in rows], film).savefig(args.plot, dpi=120)
+    rough_note = ("the rough rows use the representative draw of the roughness inputs: their bands do not hold the "
+                  "inputs' spread (filmcal correct with the same roughness carries it)") if len(wheels) > 1 else None
     if args.json:
         print_json({"film": film, "models": {s["model"]: w for w, _, s in chosen},
-                    "posterior_files": [str(p) for _, p, _ in chosen], "columns": list(CURVE_COLUMNS), "rows": rows})
+                    "posterior_files": [str(p) for _, p, _ in chosen], "columns": list(CURVE_COLUMNS), "rows": rows,
+                    **({"not_included": [rough_note]} if rough_note else {})})
     else:
         print(f"{'wheel':>16} {'F kN':>6} {'eta mm':>7} {'A0 mm2':>8} {'dA median':>9} {'dA 90 %':>17} "
               f"{'A0/A':>7} {'A0/A 90 %':>17} {'interp %':>8}")
         for r in rows:
             print(f"{r[1]:>16} {r[2]:6g} {r[3]:+7g} {r[4]:8.1f} {r[6]:9.1f} [{r[7]:6.1f}, {r[8]:6.1f}] "
                   f"{r[9]:7.4f} [{r[10]:.4f}, {r[11]:.4f}] {100 * r[12]:8.3f}")
+        if rough_note:
+            print(f"not included: {rough_note}")
     return 0

@@ -897,36 +897,15 @@ class _StudySupports:
         return self.study.layout.posterior(key).with_name(f"{key}-supports.json")
 
     def get(self, offset_mm: float, force_n: float, support) -> dict | None:
-        from filmcal._io import read_json, sha256_file
-
         spec = self._spec(offset_mm, force_n, support)
-        path = self._path(spec)
-        entry = (self.study.manifest.data.get("caches") or {}).get(self.study.layout.relative(path))
-        if entry is None or entry.get("spec") != spec or not path.exists():
-            return None
-        if sha256_file(path) != entry.get("sha256"):
-            raise InputError(f"{path} was changed after the study wrote it (SHA-256 differs from the manifest); "
-                             "delete it and run again to recompute it")
-        areas = read_json(path)
+        areas = _read_cache(self.study, self._path(spec), spec)
         if not isinstance(areas, dict) or set(areas.get("area_film_mm2", {})) != {m.label for m in support.models}:
             return None
         return areas
 
     def put(self, offset_mm: float, force_n: float, support, areas: dict) -> None:
-        from filmcal._io import atomic_write_json, sha256_file
-
         spec = self._spec(offset_mm, force_n, support)
-        path = self._path(spec)
-        try:
-            with self.study.writing("filmcal correct: keeping wheel-rail solves"):
-                path.parent.mkdir(parents=True, exist_ok=True)
-                atomic_write_json(path, areas)
-                caches = self.study.manifest.data.setdefault("caches", {})
-                caches[self.study.layout.relative(path)] = {"kind": self.KIND, "spec": spec,
-                                                            "sha256": sha256_file(path), "written_utc": utc_now()}
-                self.study.manifest.write()
-        except (InputError, OSError):
-            pass  # the writer lock is taken or the folder is read-only: the solves stay uncached
+        _write_cache(self.study, self._path(spec), spec, areas, "keeping wheel-rail solves")
 
 
 class StudyGrowths:
@@ -964,32 +943,42 @@ class StudyGrowths:
         return self.study.layout.posterior(key).with_name(f"{key}-roughness.json")
 
     def get(self, spec: dict) -> dict | None:
-        from filmcal._io import read_json, sha256_file
-
-        path = self._path(spec)
-        entry = (self.study.manifest.data.get("caches") or {}).get(self.study.layout.relative(path))
-        if entry is None or entry.get("spec") != spec or not path.exists():
-            return None
-        if sha256_file(path) != entry.get("sha256"):
-            raise InputError(f"{path} was changed after the study wrote it (SHA-256 differs from the manifest); "
-                             "delete it and run again to recompute it")
-        data = read_json(path)
+        data = _read_cache(self.study, self._path(spec), spec)
         return data if isinstance(data, dict) and set(data) == set(spec["posteriors"]) else None
 
     def put(self, spec: dict, data: dict) -> None:
-        from filmcal._io import atomic_write_json, sha256_file
+        _write_cache(self.study, self._path(spec), spec, data, "keeping rough wheel-rail solves")
 
-        path = self._path(spec)
-        try:
-            with self.study.writing("filmcal correct: keeping rough wheel-rail solves"):
-                path.parent.mkdir(parents=True, exist_ok=True)
-                atomic_write_json(path, data)
-                caches = self.study.manifest.data.setdefault("caches", {})
-                caches[self.study.layout.relative(path)] = {"kind": self.KIND, "spec": spec,
-                                                            "sha256": sha256_file(path), "written_utc": utc_now()}
-                self.study.manifest.write()
-        except (InputError, OSError):
-            pass  # the writer lock is taken or the folder is read-only: the growths stay uncached
+
+def _read_cache(study: Study, path: Path, spec: dict):
+    """A cache file the study recorded with this spec (None when absent or made for another spec); a file
+    changed since is refused, naming it."""
+    from filmcal._io import read_json, sha256_file
+
+    entry = (study.manifest.data.get("caches") or {}).get(study.layout.relative(path))
+    if entry is None or entry.get("spec") != spec or not path.exists():
+        return None
+    if sha256_file(path) != entry.get("sha256"):
+        raise InputError(f"{path} was changed after the study wrote it (SHA-256 differs from the manifest); "
+                         "delete it and run again to recompute it")
+    return read_json(path)
+
+
+def _write_cache(study: Study, path: Path, spec: dict, data: dict, what: str) -> None:
+    """Keep `data` in the study under the manifest's ``caches`` (kind, spec, SHA-256); when the writer lock is
+    taken or the folder is read-only, nothing is kept."""
+    from filmcal._io import atomic_write_json, sha256_file
+
+    try:
+        with study.writing(f"filmcal correct: {what}"):
+            path.parent.mkdir(parents=True, exist_ok=True)
+            atomic_write_json(path, data)
+            caches = study.manifest.data.setdefault("caches", {})
+            caches[study.layout.relative(path)] = {"kind": spec["kind"], "spec": spec, "sha256": sha256_file(path),
+                                                   "written_utc": utc_now()}
+            study.manifest.write()
+    except (InputError, OSError):
+        pass  # the writer lock is taken or the folder is read-only: nothing is kept
 
 
 def _json_roundtrip(value: Any) -> Any:
