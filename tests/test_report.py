@@ -393,7 +393,7 @@ def test_answer_is_quoted_at_the_reference_case():
     table, _ = answer_table({}, {"HS": rows})
     ref = next(r for r in rows if r["wheel"] == "smooth" and r["force_kn"] == 100.0 and r["offset_mm"] == 0.0)
     assert table.rows[0][4] == f"{ref['ratio_median']:.3f} [{ref['ratio_lo']:.3f}, {ref['ratio_hi']:.3f}]"
-    assert "F = 100 kN" in table.caption and "η = +0 mm" in table.caption
+    assert "F = 100 kN" in table.caption and "η = 0 mm" in table.caption and "+0" not in table.caption
 
 
 def test_film_records_hook_says_not_computed_without_its_file():

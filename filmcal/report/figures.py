@@ -30,6 +30,11 @@ REPORT_STYLE = {"font.size": 8.5, "axes.titlesize": 9, "axes.labelsize": 8.5, "x
                 "axes.formatter.useoffset": False}
 
 
+def signed_offset(value: float) -> str:
+    """A signed offset as a table or title shows it: +2, -3, 0 (not +0)."""
+    return f"{value:+g}" if value else "0"
+
+
 def _figure(**kwargs) -> Figure:
     return Figure(layout="constrained", **kwargs)
 
@@ -370,7 +375,7 @@ def plot_outlines(outlines: dict, film: str) -> Figure:
                 ring = np.asarray(ring)
                 ax.plot(ring[:, 1], ring[:, 0], style, color=color, lw=1.1,
                         label=(f"{key}" if key == "no film" else f"{film} film") if k == 0 else None)
-        ax.set_title(f"η = {case['offset_mm']:+g} mm\nA = {case['no film']['area_mm2']:.0f} / "
+        ax.set_title(f"η = {signed_offset(case['offset_mm'])} mm\nA = {case['no film']['area_mm2']:.0f} / "
                      f"{case[film]['area_mm2']:.0f} mm²", fontsize=7.5)
         ax.set_xlim(y_lo, y_hi)
         ax.set_ylim(-x_hi, x_hi)

@@ -254,7 +254,7 @@ def answer_table(posteriors: dict, curves: dict) -> tuple[Table, list[str]]:
         rows.append(cells)
     where = ("the reference case" if ref_case is None else
              f"S1002 wheel ({ref_case['wheel']}) on 60E2 rail, F = {ref_case['force_kn']:g} kN, "
-             f"η = {ref_case['offset_mm']:+g} mm")
+             f"η = {F.signed_offset(ref_case['offset_mm'])} mm")
     table = Table(["film", "E median (MPa)", "E 90 % credible interval (MPa)", "sampler diagnostics",
                    "correction factor A(no film)/A(film), median [90 %]", "area added by the film ΔA (mm²), "
                    "median [90 %]"], rows,
@@ -558,7 +558,7 @@ def film_records_section(comparison: dict | None, curves: dict | None = None) ->
                 k = (r["force_kn"], r["offset_mm"])
                 if r["wheel"] != "smooth" and k in smooth:
                     growth.append([film, r["wheel"].replace("rough ", ""), f"{r['force_kn']:g}",
-                                   f"{r['offset_mm']:+g}",
+                                   f"{F.signed_offset(r['offset_mm'])}",
                                    f"{smooth[k]['area_film_median_mm2']:.1f}", f"{r['area_film_median_mm2']:.1f}",
                                    f"{100 * (r['area_film_median_mm2'] / smooth[k]['area_film_median_mm2'] - 1):+.1f}",
                                    f"{100 * (r['area_no_film_mm2'] / smooth[k]['area_no_film_mm2'] - 1):+.1f}",
@@ -664,7 +664,7 @@ def wheel_rail_section(curves: dict, outlines: dict | None) -> Section:
     for film, rows in curves.items():
         s.add(Table(["wheel", "F (kN)", "η (mm)", "A0 (mm²)", "ΔA median (mm²)", "ΔA 90 % (mm²)", "A0/A median",
                      "A0/A 90 %", "prop. error (%)"],
-                    [[r["wheel"], f"{r['force_kn']:g}", f"{r['offset_mm']:+g}", f"{r['area_no_film_mm2']:.1f}",
+                    [[r["wheel"], f"{r['force_kn']:g}", f"{F.signed_offset(r['offset_mm'])}", f"{r['area_no_film_mm2']:.1f}",
                       f"{r['delta_area_median_mm2']:.1f}", f"[{r['delta_area_lo_mm2']:.1f}, {r['delta_area_hi_mm2']:.1f}]",
                       f"{r['ratio_median']:.4f}", f"[{r['ratio_lo']:.4f}, {r['ratio_hi']:.4f}]",
                       f"{100 * r['interpolation_error_rel']:.3f}"] for r in rows],
