@@ -42,7 +42,7 @@ _EXPORTS = {
                           "solve_wheel_rail_many", "WheelRailModel", "HalfSpaceContactSolver", "FilmLayer"],
     "filmcal.correction": ["SphereCorrector", "WheelRailCorrector", "CorrectedArea", "correction_curves",
                            "CorrectionCurves", "read_imprint", "measure_imprint", "Imprint", "correct_outline",
-                           "CorrectedOutline", "ModelOutlines", "wheel_rail_outlines"],
+                           "CorrectedOutline", "ModelOutlines", "wheel_rail_outlines", "read_sheet", "Sheet"],
     "filmcal.report": ["build_report", "write_report"],
 }
 __all__, __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())

@@ -52,7 +52,7 @@ EXIT_INTERRUPTED = 130  # Ctrl-C (128 + SIGINT)
 
 # The order in which `--help` lists the subcommands; any other module in
 # `filmcal.commands` (not starting with "_") follows in alphabetical order.
-ORDER = ["pipeline", "fem", "doe", "campaign", "calibrate", "profile", "wheelrail", "correct", "report"]
+ORDER = ["pipeline", "fem", "doe", "campaign", "calibrate", "profile", "wheelrail", "correct", "scan", "report"]
 
 # Bounds of the size options of every command, by option destination
 # (inclusive). They keep a mistyped size from exhausting memory or running
@@ -85,9 +85,9 @@ GRID_BOUNDS: dict[str, int] = {"forces_kn": 50, "offsets_mm": 200}
 
 # Path options by destination: files that a command writes, folders it
 # writes into, and files it only reads. Checked before any work.
-OUTPUT_FILE_DESTS = ("out", "csv", "plot", "pressure_csv", "outline_out")
+OUTPUT_FILE_DESTS = ("out", "csv", "plot", "overview", "pressure_csv", "outline_out")
 OUTPUT_DIR_DESTS = ("study_dir", "out_dir", "plots", "work_dir")
-INPUT_FILE_DESTS = ("design", "augment", "scan", "batch", "roughness_law", "wheel_roughness_map", "rail_roughness_map",
+INPUT_FILE_DESTS = ("design", "augment", "scan", "sheet", "batch", "roughness_law", "wheel_roughness_map", "rail_roughness_map",
                     "data", "films_file",
                     "template_file")
 PLOT_SUFFIXES = (".png", ".pdf", ".svg")
@@ -235,7 +235,7 @@ def preflight(args: argparse.Namespace, actions: dict[str, argparse.Action]) -> 
         value = path_value(dest)
         if value is not None:
             check_output_file(value, opt(dest))
-            if dest == "plot" and Path(value).suffix.lower() not in PLOT_SUFFIXES:
+            if dest in ("plot", "overview") and Path(value).suffix.lower() not in PLOT_SUFFIXES:
                 raise InputError(f"{opt(dest)} must end in {', '.join(PLOT_SUFFIXES)}, got {value!r}")
     for dest in OUTPUT_DIR_DESTS:
         value = path_value(dest)

@@ -13,6 +13,7 @@ from PIL import Image
 
 from filmcal._errors import DamagedFileError
 from filmcal.correction import measure_imprint, otsu_threshold, read_imprint, stain_intensity
+from filmcal.correction.imprint import DYE_OPTICAL_DENSITY, NEUTRAL_OPTICAL_DENSITY, YELLOW_OPTICAL_DENSITY
 
 REPO = Path(__file__).resolve().parents[1]
 PAPER_RGB = np.array([245.0, 243.0, 240.0])
@@ -56,11 +57,23 @@ def test_otsu_splits_two_equal_modes_midway():
         otsu_threshold(np.full(100, 0.3))
 
 
-def test_stain_intensity_uses_green_and_treats_transparency_as_paper():
-    rgb = np.full((3, 3, 3), 255, dtype=np.uint8)
-    rgb[0, 0] = (255, 0, 255)  # magenta: no green
-    rgb[0, 1] = (255, 255, 0)  # yellow: full green
-    assert stain_intensity(rgb)[0].tolist() == [1.0, 0.0, 0.0]
+def _pixel(optical_density) -> np.ndarray:
+    """The 8-bit colour of a layer of given (R, G, B) optical densities on white paper (Beer-Lambert)."""
+    return np.rint(255 * 10 ** -np.asarray(optical_density, dtype=float))
+
+
+def test_stain_intensity_follows_the_dye_and_ignores_tape_ink_and_grey():
+    """By Beer-Lambert a layer's densities add: dye of green density k under any grey or yellow reads 1 - 10^-k."""
+    dye, grey, yellow = (np.array(c) for c in (DYE_OPTICAL_DENSITY, NEUTRAL_OPTICAL_DENSITY, YELLOW_OPTICAL_DENSITY))
+    blue_ink = np.array([0.30, 0.12, 0.02])  # absorbs red and some green, passes blue
+    layers = [0.5 * dye, 0.5 * dye + 0.2 * grey, 0.5 * dye + 0.15 * yellow, 0.8 * grey, 0.3 * yellow, blue_ink,
+              blue_ink + 0.3 * grey, np.zeros(3)]
+    rgb = np.zeros((3, 3, 3), dtype=np.uint8)
+    rgb.reshape(-1, 3)[: len(layers)] = [_pixel(od) for od in layers]
+    rgb.reshape(-1, 3)[len(layers):] = 255
+    got = stain_intensity(rgb).ravel()[: len(layers)]
+    assert got[:3] == pytest.approx(1 - 10**-0.5, abs=0.01)  # the dye, alone, under grey, under tape
+    assert np.all(got[3:] < 0.005)  # grey, tape, blue ink, ink on grey, paper (to the 8-bit rounding)
     rgba = np.zeros((3, 3, 4), dtype=np.uint8)  # black but fully transparent
     assert np.all(stain_intensity(rgba) == 0.0)
     grey16 = np.full((3, 3), 65535 // 4, dtype=np.uint16)

@@ -257,6 +257,11 @@ CASES = [
     (["pipeline", "--films", ",", "--study-dir", "emptystudy"], ["--films"]),
     (["pipeline", "--films-file", "films.toml", "--study-dir", "emptystudy"], ["films.toml"]),
     (["pipeline", "--study-dir", "badstudy"], ["badstudy/study.json"]),
+    # scan
+    (["scan", "missing.jpg", "--out", "s.csv"], ["missing.jpg"]),
+    (["scan", "films.toml", "--out", "s.csv"], ["films.toml"]),
+    (["scan", "films.toml", "--out", "s.csv", "--min-imprint-mm2", "-1"], ["--min-imprint-mm2", "min_imprint_mm2"]),
+    (["scan", "films.toml", "--out", "s.csv", "--overview", "s.txt"], ["--overview"]),
     # report
     (["report", "--study-dir", "missing"], ["--study-dir", "study_dir"]),
     (["report", "--study-dir", "emptystudy"], ["--study-dir", "study_dir", "emptystudy"]),

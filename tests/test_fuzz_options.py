@@ -239,6 +239,7 @@ def base_argv(path: tuple[str, ...], tmp: Path) -> list[str]:
         ("correct",): ["--film", "HS", "--force-kn", "100", "--measured-area-mm2", "150", "--offset-mm=-3"],
         ("curves",): ["--film", "HS"],
         ("report",): [],
+        ("scan",): [str(design), "--out", str(tmp / "s.csv")],
     }
     return list(base.get(path, []))
 

@@ -96,7 +96,7 @@ VOCABULARY: dict[str, Concept] = _concepts(
             "greyscale PNG/TIFF (these two with --roughness-pixel-um)", metavar="FILE"),
     Concept("rail_roughness_map", "a measured surface of the rail (the formats of --wheel-roughness-map)",
             metavar="FILE"),
-    Concept("scan", "a scanned imprint (PNG or TIFF)", metavar="FILE"),
+    Concept("scan", "a scanned imprint (PNG, TIFF or JPEG)", metavar="FILE"),
     Concept("simulator_command", "a command template run once per design point; placeholders are the "
             "design's columns plus {work_dir} and {point_id}", metavar="TEMPLATE"),
     Concept("simulator_python", "a Python function MODULE:FUNCTION called with the design's columns",

@@ -2,7 +2,8 @@
 sphere-on-flat imprints (`SphereCorrector`) and wheel-rail imprints
 (`WheelRailCorrector`), correction curves over offset and load with
 credible bands (`correction_curves`), scanned imprints read into an area and
-outline (`read_imprint`), and the outline without film behind a measured one
+outline (`read_imprint`), scanned sheets of several imprints found, numbered
+and read (`read_sheet`), and the outline without film behind a measured one
 (`correct_outline`)."""
 from filmcal._lazy import lazy_exports
 
@@ -17,6 +18,8 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
                                    "offset_outline", "outline_area_mm2", "outline_centroid_mm",
                                    "outline_perimeter_mm", "shrink_outline", "signed_distance_mm",
                                    "wheel_rail_outlines"],
+    "filmcal.correction.sheet": ["Sheet", "SheetImprint", "find_imprints", "plot_sheet", "read_sheet", "scan_sheet",
+                                 "write_sheet_table"],
     "filmcal.correction.sphere": ["CorrectedArea", "SphereCorrector"],
     "filmcal.correction.wheelrail": ["WheelRailCorrector"],
 }, globals())

@@ -1,15 +1,19 @@
 """Scanned film imprints: the stained area, its outline and its uncertainty.
 
-A Prescale imprint is scanned (PNG or TIFF) and read as follows:
+A Prescale imprint is scanned (PNG, TIFF or JPEG) and read as follows:
 
 1. Stain intensity in [0, 1] (0 = paper, 1 = fully stained), see
-   `stain_intensity`: ``1 - G`` (green channel) for colour scans, ``1 - L``
-   for greyscale scans. Prescale develops a red-magenta dye, which absorbs
-   green light (about 500-570 nm) and reflects red: on white paper the green
-   channel carries most of the stain's contrast, the red channel almost none,
-   so the green channel separates stain from paper better than the luminance
-   (which mixes in the red channel's noise without its contrast). A greyscale
-   scan has only the luminance.
+   `stain_intensity`. A colour scan is unmixed by the dye's colour: each
+   channel's optical density ``-log10(value / white)`` is, by Beer-Lambert,
+   a sum of the densities of what lies on the page, and three colours span
+   what a scanned sheet holds: the Prescale dye (a red-magenta that absorbs
+   green and blue light and hardly any red), neutral grey (paper shading,
+   pencil and black pen, the scanner's lid) and yellow (masking tape, aged
+   paper). The dye's share, solved for per pixel, is independent of the
+   other two, and blue ink comes out below zero (it absorbs red, the dye
+   does not); it is clipped at zero and returned as the green-channel
+   darkening the dye alone would cause on white paper. A greyscale scan has
+   only the luminance: ``1 - L``.
 2. Threshold: Otsu's (1979) threshold of the intensity histogram (the level
    that maximises the variance between the two classes it separates), or one
    given by the user.
@@ -57,7 +61,7 @@ from filmcal._errors import DamagedFileError, damaged
 from filmcal._validation import as_finite, check_positive, check_range
 from filmcal.correction.outline import _signed_area_mm2, outline_centroid_mm, outline_perimeter_mm
 
-__all__ = ["Imprint", "read_imprint", "measure_imprint", "stain_intensity", "otsu_threshold"]
+__all__ = ["Imprint", "read_imprint", "measure_imprint", "stain_intensity", "otsu_threshold", "load_scan"]
 
 MM_PER_INCH = 25.4
 # Largest scan read (pixels): 30 million is a 600 dpi scan of 23 cm x 23 cm or a 1200 dpi scan of
@@ -67,6 +71,16 @@ MAX_IMPRINT_PIXELS = 30_000_000
 MIN_METADATA_DPI = 25.0  # file resolutions below this are placeholders (e.g. 1 dpi in a TIFF without one)
 THRESHOLD_SPREAD = 0.1  # threshold uncertainty as a fraction of the stain-paper contrast
 _EPS = 1e-9
+#: Optical densities (R, G, B) of the three colours a scanned sheet is unmixed into, each scaled to its green
+#: density. The dye's and the tape's are the mean over the dense cores and over the masking tape of a real
+#: 200 dpi flatbed scan of Prescale LW imprints (tests/data/scans), against the paper beside them.
+DYE_OPTICAL_DENSITY = (0.026, 1.0, 0.86)
+NEUTRAL_OPTICAL_DENSITY = (1.0, 1.0, 1.0)
+YELLOW_OPTICAL_DENSITY = (0.12, 0.33, 1.0)
+# The dye's (green) density is this row dotted with a pixel's densities: the first row of the inverse of the
+# matrix whose columns are the three colours.
+_DYE_UNMIXING = tuple(float(w) for w in np.linalg.inv(
+    np.column_stack([DYE_OPTICAL_DENSITY, NEUTRAL_OPTICAL_DENSITY, YELLOW_OPTICAL_DENSITY]))[0])
 
 
 @dataclass
@@ -167,10 +181,12 @@ def stain_intensity(pixels) -> np.ndarray:
 
     Returns
     -------
-    ndarray of float, shape (rows, columns)
-        ``1 - G`` for colour (the green channel, where the red-magenta
-        Prescale dye has its contrast), ``1 - L`` for greyscale;
-        transparent pixels count as white paper.
+    ndarray of float32, shape (rows, columns)
+        For colour, ``1 - 10**(-c)`` with ``c`` the dye's green optical
+        density unmixed from `DYE_OPTICAL_DENSITY`, `NEUTRAL_OPTICAL_DENSITY`
+        and `YELLOW_OPTICAL_DENSITY` (module notes): tape, pencil, black pen
+        and blue ink read as paper. ``1 - L`` for greyscale. Transparent
+        pixels count as white paper.
     """
     pixels = np.asarray(pixels)
     if pixels.dtype == bool:
@@ -183,13 +199,22 @@ def stain_intensity(pixels) -> np.ndarray:
         raise ValueError(f"pixels must have shape (rows, columns) or (rows, columns, 2|3|4), got {pixels.shape}")
     if min(channels.shape[:2]) < 3:
         raise ValueError(f"the image must be at least 3 x 3 pixels, got {channels.shape[0]} x {channels.shape[1]}")
-    scale = _full_scale(channels)
+    scale = np.float32(_full_scale(channels))
     n = channels.shape[2]
-    value = channels[:, :, 1 if n >= 3 else 0].astype(float) / scale
-    if n in (2, 4):  # composite over white paper
-        alpha = channels[:, :, -1].astype(float) / scale
-        value = alpha * value + (1.0 - alpha)
-    return 1.0 - value
+    alpha = channels[:, :, -1].astype(np.float32) / scale if n in (2, 4) else None
+    if n < 3:
+        value = channels[:, :, 0].astype(np.float32) / scale
+        if alpha is not None:  # composite over white paper
+            value = alpha * value + (1.0 - alpha)
+        return 1.0 - value
+    floor = np.float32(0.5 / scale if scale > 1 else 1.0 / 65535.0)
+    density = np.zeros(channels.shape[:2], dtype=np.float32)
+    for k, weight in enumerate(_DYE_UNMIXING):
+        value = channels[:, :, k].astype(np.float32) / scale
+        if alpha is not None:
+            value = alpha * value + (1.0 - alpha)
+        density -= np.float32(weight) * np.log10(np.maximum(value, floor))
+    return -np.expm1(np.float32(-math.log(10.0)) * np.maximum(density, 0.0))
 
 
 def otsu_threshold(values, bins: int = 256) -> float:
@@ -399,10 +424,56 @@ def _image_pixels(image) -> np.ndarray:
     return pixels
 
 
+def load_scan(path, max_pixels: int = MAX_IMPRINT_PIXELS) -> tuple[np.ndarray, dict]:
+    """The pixels (as `stain_intensity` takes them) and the metadata of a scan, verified before decoding.
+
+    Raises
+    ------
+    FileNotFoundError
+        If the file does not exist.
+    filmcal._errors.DamagedFileError
+        (a `ValueError`) for a file that is not an image, is truncated or
+        damaged, or has more than ``max_pixels`` pixels (refused from its
+        header, before it is decoded).
+    """
+    import warnings
+
+    from PIL import Image
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"scan not found: {path}")
+    try:
+        with warnings.catch_warnings():
+            # Pillow warns above its own pixel limit; the smaller limit below refuses first
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            with Image.open(path) as image:
+                width, height = image.size
+                if width < 2 or height < 2 or width * height > max_pixels:
+                    raise DamagedFileError(
+                        path, f"{width} x {height} pixels; a scan needs 2 x 2 to "
+                              f"{max_pixels / 1e6:g} million pixels: crop or downsample it")
+                image.load()
+                info = dict(image.info)
+                pixels = _image_pixels(image)
+    except DamagedFileError:
+        raise
+    except Image.DecompressionBombError as exc:
+        raise damaged(path, exc) from None
+    except MemoryError:
+        raise DamagedFileError(path, "too large to decode in the available memory: crop or downsample it") from None
+    except (OSError, SyntaxError, ValueError, EOFError, struct.error, zlib.error) as exc:
+        # UnidentifiedImageError (not an image), "image file is truncated", broken chunks
+        if "cannot identify image file" in str(exc):
+            raise DamagedFileError(path, "not an image Pillow can read (PNG, TIFF or JPEG expected)") from None
+        raise damaged(path, exc) from None
+    return pixels, info
+
+
 def read_imprint(path, *, dpi: float | None = None, mm_per_pixel: float | None = None,
                  threshold: float | None = None, min_region_mm2: float = 1.0,
                  min_contrast: float = 0.1) -> Imprint:
-    """Read a scanned imprint (PNG or TIFF) into its stained area and outline.
+    """Read a scanned imprint (PNG, TIFF or JPEG) into its stained area and outline.
 
     Parameters
     ----------
@@ -425,47 +496,14 @@ def read_imprint(path, *, dpi: float | None = None, mm_per_pixel: float | None =
 
     Raises
     ------
-    FileNotFoundError
-        If the file does not exist.
-    filmcal._errors.DamagedFileError
-        (a `ValueError`) for a file that is not an image, is truncated or
-        damaged, or has more than `MAX_IMPRINT_PIXELS` pixels (refused
-        before it is decoded).
+    FileNotFoundError, filmcal._errors.DamagedFileError
+        As `load_scan` (at most `MAX_IMPRINT_PIXELS` pixels).
     ValueError
         For a missing or doubly given pixel size, or an image without a
         usable stain (`measure_imprint`).
     """
-    import warnings
-
-    from PIL import Image
-
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"imprint file not found: {path}")
-    try:
-        with warnings.catch_warnings():
-            # Pillow warns above its own pixel limit; the smaller limit below refuses first
-            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-            with Image.open(path) as image:
-                width, height = image.size
-                if width < 2 or height < 2 or width * height > MAX_IMPRINT_PIXELS:
-                    raise DamagedFileError(
-                        path, f"{width} x {height} pixels; an imprint scan needs 2 x 2 to "
-                              f"{MAX_IMPRINT_PIXELS / 1e6:g} million pixels: crop or downsample it")
-                image.load()
-                info = dict(image.info)
-                pixels = _image_pixels(image)
-    except DamagedFileError:
-        raise
-    except Image.DecompressionBombError as exc:
-        raise damaged(path, exc) from None
-    except MemoryError:
-        raise DamagedFileError(path, "too large to decode in the available memory: crop or downsample it") from None
-    except (OSError, SyntaxError, ValueError, EOFError, struct.error, zlib.error) as exc:
-        # UnidentifiedImageError (not an image), "image file is truncated", broken chunks
-        if "cannot identify image file" in str(exc):
-            raise DamagedFileError(path, "not an image Pillow can read (PNG or TIFF expected)") from None
-        raise damaged(path, exc) from None
+    pixels, info = load_scan(path)
     pixel_mm, source = _pixel_size(dpi, mm_per_pixel, info, path)
     return measure_imprint(stain_intensity(pixels), pixel_mm, threshold=threshold,
                            min_region_mm2=min_region_mm2, min_contrast=min_contrast, pixel_size_source=source)

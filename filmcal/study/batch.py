@@ -3,7 +3,8 @@
 One row per measurement, in the vocabulary's names: ``film``, ``force_kn`` and either ``measured_area_mm2``,
 ``offset_mm`` (wheel-rail) or ``measured_radius_mm``, ``sphere_radius_mm`` (sphere-on-flat); optional
 ``measurement_std_mm2`` / ``measurement_std_mm``, ``offset_std_mm``, ``wheel_roughness_ra_um``,
-``rail_roughness_ra_um``. Every row meets the same rules as `filmcal correct` (it is corrected by
+``rail_roughness_ra_um``; the table `filmcal scan` writes is one as it stands (its other columns,
+`PASSED_COLUMNS`, are kept). Every row meets the same rules as `filmcal correct` (it is corrected by
 `correct_measurement`, with the correctors read once and their solves shared): a good row's answer is the
 single command's to the digit, a bad row is kept with its reason in ``status``. The output repeats the input
 columns and adds `OUTPUT_COLUMNS`; a sidecar ``OUT.csv.provenance.json`` says where the answers came from.
@@ -15,12 +16,16 @@ import math
 from pathlib import Path
 from typing import Any
 
-__all__ = ["INPUT_COLUMNS", "OUTPUT_COLUMNS", "correct_batch", "read_batch"]
+__all__ = ["INPUT_COLUMNS", "PASSED_COLUMNS", "OUTPUT_COLUMNS", "correct_batch", "read_batch"]
 
 #: The columns a batch row may have (film and force_kn always).
 INPUT_COLUMNS = ("film", "force_kn", "measured_area_mm2", "offset_mm", "measured_radius_mm", "sphere_radius_mm",
                  "measurement_std_mm2", "measurement_std_mm", "offset_std_mm", "wheel_roughness_ra_um",
                  "rail_roughness_ra_um")
+#: Columns a batch keeps as they are without reading them: those `filmcal scan` writes beside the measurement
+#: (which imprint of which sheet, where, its halo), so its table is a batch as it stands.
+PASSED_COLUMNS = ("imprint", "scan", "region_px", "x_mm", "y_mm", "equivalent_radius_mm", "halo_area_mm2",
+                  "halo_coverage", "scan_status")
 #: What a batch adds to each row.
 OUTPUT_COLUMNS = ("area_mm2", "area_std_mm2", "area_ci90_low_mm2", "area_ci90_high_mm2", "status")
 #: The most rows one batch takes.
@@ -43,10 +48,10 @@ def read_batch(path: str | Path) -> tuple[list[str], list[dict[str, str]]]:
         raise ValueError(f"batch {path}: not found") from None
     except (UnicodeDecodeError, IsADirectoryError, csv.Error) as exc:
         raise ValueError(f"batch {path}: not a CSV text file ({exc})") from None
-    unknown = [h for h in header if h not in INPUT_COLUMNS]
+    unknown = [h for h in header if h not in INPUT_COLUMNS and h not in PASSED_COLUMNS]
     if unknown or "film" not in header or "force_kn" not in header:
-        raise ValueError(f"batch {path}: needs columns film and force_kn and takes only {', '.join(INPUT_COLUMNS)}; "
-                         f"found {', '.join(header) or 'no header'}")
+        raise ValueError(f"batch {path}: needs columns film and force_kn and takes only {', '.join(INPUT_COLUMNS)} "
+                         f"(and {', '.join(PASSED_COLUMNS)}, kept as they are); found {', '.join(header) or 'no header'}")
     if not rows:
         raise ValueError(f"batch {path}: no rows")
     return header, rows
