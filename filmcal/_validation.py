@@ -13,7 +13,8 @@ from numbers import Real
 from typing import Any, Callable
 
 __all__ = ["as_finite", "check_positive", "check_range", "check_poisson", "check_choice",
-           "check_count", "arg_finite", "arg_int_in", "arg_float_in", "parse_grid", "arg_grid", "FORCE_KN_BOUNDS"]
+           "check_count", "arg_finite", "arg_int_in", "arg_float_in", "parse_grid", "arg_grid", "FORCE_KN_BOUNDS",
+           "SPHERE_RADIUS_MM_BOUNDS", "OFFSET_MM_BOUNDS"]
 
 
 def as_finite(name: str, value: object) -> float:
@@ -211,3 +212,6 @@ def arg_grid(max_count: int) -> Callable[[str], str]:
 #: The loads a command, a batch row or a served request takes (kN): 1 N to 2 MN; a sphere test or a wheel load
 #: above 2 MN (a 200 t axle) is a unit error (N for kN), not a contact.
 FORCE_KN_BOUNDS = (1e-3, 2000.0)
+#: Sphere radius (mm) and lateral offset eta (mm) a measurement may have (an option, a batch row, a request).
+SPHERE_RADIUS_MM_BOUNDS = (1.0, 1e5)
+OFFSET_MM_BOUNDS = (-60.0, 60.0)

@@ -38,7 +38,7 @@ from pathlib import Path
 
 import filmcal.commands
 from filmcal._errors import DamagedFileError
-from filmcal._validation import arg_finite, arg_float_in, arg_grid, arg_int_in
+from filmcal._validation import SPHERE_RADIUS_MM_BOUNDS, arg_finite, arg_float_in, arg_grid, arg_int_in
 from filmcal._versions import VersionNote
 from filmcal.commands._options import bounds_text, missing_required
 
@@ -67,7 +67,7 @@ SIZE_BOUNDS: dict[str, tuple[float, float]] = {
     "samples": (1, 2000),
     "iterations": (1, 1000),
     "element_size_mm": (0.02, 5.0),
-    "sphere_radius_mm": (1.0, 1e5),
+    "sphere_radius_mm": SPHERE_RADIUS_MM_BOUNDS,
     "film_layers": (1, 8),
     "grid_mm": (0.01, 1.0),  # the wheel-rail model's own (filmcal.wheelrail.settings.GRID_MM_RANGE)
     "friction_coefficient": (0.0, 10.0),  # ContactOptions' bound

@@ -262,6 +262,11 @@ CASES = [
     (["scan", "films.toml", "--out", "s.csv"], ["films.toml"]),
     (["scan", "films.toml", "--out", "s.csv", "--min-imprint-mm2", "-1"], ["--min-imprint-mm2", "min_imprint_mm2"]),
     (["scan", "films.toml", "--out", "s.csv", "--overview", "s.txt"], ["--overview"]),
+    # serve
+    (["serve", "--study-dir", "missing"], ["--study-dir"]),
+    (["serve", "--study-dir", "badstudy"], ["badstudy/study.json"]),
+    (["serve", "--study-dir", "emptystudy", "--port", "70000"], ["--port"]),
+    (["serve", "--study-dir", "emptystudy", "--request-timeout-s", "0"], ["--request-timeout-s"]),
     # report
     (["report", "--study-dir", "missing"], ["--study-dir", "study_dir"]),
     (["report", "--study-dir", "emptystudy"], ["--study-dir", "study_dir", "emptystudy"]),

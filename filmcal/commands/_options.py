@@ -57,7 +57,7 @@ def _concepts(*items: Concept) -> dict[str, Concept]:
 
 
 _POSITIVE = (1e-12, 1e12)  # finite and > 0 (bounds stated as "> 0")
-from filmcal._validation import FORCE_KN_BOUNDS  # noqa: E402 (one place for the bound)
+from filmcal._validation import FORCE_KN_BOUNDS, OFFSET_MM_BOUNDS, SPHERE_RADIUS_MM_BOUNDS  # noqa: E402 (one place)
 
 VOCABULARY: dict[str, Concept] = _concepts(
     Concept("film", "film type: MS, HS, HHS, or a film of --films-file (or of the study)", metavar="NAME"),
@@ -76,14 +76,14 @@ VOCABULARY: dict[str, Concept] = _concepts(
             f"({', '.join(IMPRINT_MODELS)})", metavar="MODELS"),
     Concept("kinematics", "film kinematics: small (linear film) or large (neo-Hookean, large strain)",
             choices=KINEMATICS),
-    Concept("sphere_radius_mm", "sphere radius R in mm", float, (1.0, 1e5)),
+    Concept("sphere_radius_mm", "sphere radius R in mm", float, SPHERE_RADIUS_MM_BOUNDS),
     # a sphere test or a wheel load above 2 MN (a 200 t axle) is a unit error (N for kN), not a contact
     Concept("force_kn", "normal force F in kN", float, FORCE_KN_BOUNDS),
     Concept("forces_kn", "forces in kN: a list 50,100 or start:stop:step", metavar="LIST"),
     Concept("calibration_forces_kn", "choose the posterior calibrated on this force range in kN, e.g. 50-100",
             type=lambda t: force_range(t), metavar="RANGE"),
     Concept("offset_mm", "lateral offset eta in mm (the paper's convention; write --offset-mm=-3 for "
-            "negative values)", float, (-60.0, 60.0)),
+            "negative values)", float, OFFSET_MM_BOUNDS),
     Concept("offset_std_mm", "standard uncertainty of the lateral offset in mm (a ruler or gauge: about "
             "0.5-1 mm)", float, (0.0, 10.0)),
     Concept("offsets_mm", "lateral offsets eta in mm: a list -5,0 or start:stop:step", metavar="LIST"),

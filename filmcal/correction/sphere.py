@@ -21,6 +21,9 @@ import numpy as np
 
 from filmcal.hertz import hertz_radius_mm
 
+#: (R, F) predictions a sphere corrector keeps (each two arrays of its posterior samples, 32 kB at 2000).
+PREDICTIONS_KEPT = 64
+
 __all__ = ["CorrectedArea", "SphereCorrector", "pool_corrected"]
 
 
@@ -134,6 +137,21 @@ class SphereCorrector:
                              f"{sphere_radius_mm:g} mm and F = {force_n / 1e3:g} kN (Hertz radius {a_h:.2f} mm; a "
                              f"film imprint lies within {lo:.2f}-{hi:.2f} mm): check the units")
 
+    def _predict(self, R: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The radius model at every posterior sample for each (R, F); one (R, F)'s prediction is kept
+        (`PREDICTIONS_KEPT` of them, the latest), so that imprints of one sphere and load are corrected without
+        predicting again: the same numbers, computed once."""
+        e, nu = self.modulus_mpa_[None, :], self.poisson_[None, :]
+        if R.size != 1 or F.size != 1:
+            return self.model.predict(e, nu, R.reshape(-1, 1), F.reshape(-1, 1))
+        key = (float(R.ravel()[0]), float(F.ravel()[0]))
+        kept = self.__dict__.setdefault("_predictions", {})
+        if key not in kept:
+            if len(kept) >= PREDICTIONS_KEPT:
+                kept.pop(next(iter(kept)))
+            kept[key] = self.model.predict(e, nu, np.full((1, 1), key[0]), np.full((1, 1), key[1]))
+        return kept[key]
+
     def correct(self, measured_radius_mm, sphere_radius_mm, force_n, measurement_std_mm=0.0) -> CorrectedArea:
         """The contact area without film behind measured imprint radii (vectorised).
 
@@ -157,8 +175,7 @@ class SphereCorrector:
             raise ValueError("measurement_std_mm must be smaller than the measured radius (an uncertainty as large as "
                              "the measurement leaves nothing to correct): check the units")
         shape = r_m.shape
-        e = self.modulus_mpa_[None, :]
-        mean, std = self.model.predict(e, self.poisson_[None, :], R.reshape(-1, 1), F.reshape(-1, 1))
+        mean, std = self._predict(R, F)
         if not np.all(np.isfinite(mean)):
             raise ValueError("sphere_radius_mm or force_n outside the radius model's domain")
         delta = mean - hertz_radius_mm(R.reshape(-1, 1), F.reshape(-1, 1))

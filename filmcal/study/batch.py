@@ -76,10 +76,6 @@ def _measurement(row: dict):
     force = _number(row, "force_kn")
     if force is None:
         raise ValueError("force_kn is empty")
-    from filmcal._validation import FORCE_KN_BOUNDS
-
-    if not FORCE_KN_BOUNDS[0] <= force <= FORCE_KN_BOUNDS[1]:
-        raise ValueError(f"force_kn {force:g} outside [{FORCE_KN_BOUNDS[0]:g}, {FORCE_KN_BOUNDS[1]:g}] kN")
     area, offset = _number(row, "measured_area_mm2"), _number(row, "offset_mm")
     radius, sphere = _number(row, "measured_radius_mm"), _number(row, "sphere_radius_mm")
     if (area is not None or offset is not None) == (radius is not None or sphere is not None):
@@ -133,7 +129,8 @@ def correct_batch(study, rows: list[dict[str, str]], *, seed: int = 0, elastic_l
         out.append(result)
         if progress is not None:
             progress(k, len(rows))
-    provenance = {"filmcal": __version__, "study": str(Path(study.root).resolve()), "seed": seed,
+    provenance = {"filmcal": __version__, "study": str(Path(study.root).resolve()),
+                  "manifest_sha256": study.manifest_sha256, "seed": seed,
                   "posteriors": posteriors, "rows": len(rows),
                   "failed": sum(1 for r in out if r["status"].startswith("failed"))}
     return out, provenance

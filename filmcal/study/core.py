@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any, Iterator
 import numpy as np
 
 from filmcal._errors import InputError
-from filmcal._io import check_output_dir
+from filmcal._io import check_output_dir, sha256_file
 from filmcal._versions import VersionNote, version_note
 from filmcal.contact.names import DEFAULT_KINEMATICS, IMPRINT_MODELS, KINEMATICS
 from filmcal.contact.options import ContactOptions
@@ -158,15 +158,30 @@ class Study:
         ``--study-dir`` never starts a new study silently.
     films_file : str or Path, optional
         A TOML file of user film types to add to the study's films.
+    read_only : bool
+        Never write the folder (a server, an archive): `writing` refuses, and
+        the solves a correction would keep are not kept.
+
+    Attributes
+    ----------
+    manifest_sha256 : str or None
+        SHA-256 of the manifest as it was read (None for a new study): where
+        an answer came from.
     """
 
-    def __init__(self, root: str | Path, *, create: bool = False, films_file: str | Path | None = None) -> None:
+    def __init__(self, root: str | Path, *, create: bool = False, films_file: str | Path | None = None,
+                 read_only: bool = False) -> None:
+        if create and read_only:
+            raise ValueError("a study cannot be both created and read-only")
+        self.read_only = read_only
         self.layout = StudyLayout(root)
         self.root = self.layout.root
         # a study that is only read (correct, curves, report) may be read-only: a colleague's, an archive
         check_output_dir(self.root, "--study-dir", must_exist=not create, writable=create)
+        self.manifest_sha256 = None
         if self.layout.manifest.exists():
             self.manifest = Manifest.read(self.layout.manifest)
+            self.manifest_sha256 = sha256_file(self.layout.manifest)
         elif create:
             if self.root.exists() and any(p.name != ".lock" for p in self.root.iterdir()):
                 raise InputError(f"--study-dir {str(self.root)!r} is a folder with files but no study manifest "
@@ -199,6 +214,8 @@ class Study:
     @contextlib.contextmanager
     def writing(self, what: str = "") -> Iterator["Study"]:
         """Hold the study's writer lock; the manifest is saved on exit (also after an error)."""
+        if self.read_only:
+            raise InputError(f"study {self.root} is open read-only: {what or 'writing'} is refused")
         if self._lock.held:
             yield self
             return

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from filmcal._validation import FORCE_KN_BOUNDS, OFFSET_MM_BOUNDS, SPHERE_RADIUS_MM_BOUNDS
 from filmcal.contact.names import MIXTURE
 from filmcal.wheelrail.settings import NOMINAL_RADIUS_MM, RAIL, RAIL_INCLINATION, WHEEL
 
@@ -32,6 +33,8 @@ class SphereMeasurement:
 
     def __post_init__(self) -> None:
         _check_value("measured_radius_mm", self.measured_radius_mm, "measurement_std_mm", self.measurement_std_mm)
+        _check_bounds("sphere_radius_mm", self.sphere_radius_mm, SPHERE_RADIUS_MM_BOUNDS)
+        _check_bounds("force_kn", self.force_kn, FORCE_KN_BOUNDS)
 
 
 @dataclass(frozen=True)
@@ -50,6 +53,8 @@ class WheelRailMeasurement:
 
     def __post_init__(self) -> None:
         _check_value("measured_area_mm2", self.measured_area_mm2, "measurement_std_mm2", self.measurement_std_mm2)
+        _check_bounds("offset_mm", self.offset_mm, OFFSET_MM_BOUNDS)
+        _check_bounds("force_kn", self.force_kn, FORCE_KN_BOUNDS)
         if not (math.isfinite(self.offset_std_mm) and 0.0 <= self.offset_std_mm <= 10.0):
             raise ValueError(f"offset_std_mm must be finite and in [0, 10] mm, got {self.offset_std_mm}")
 
@@ -140,6 +145,11 @@ class BodyRoughness:
         return out
 
 
+def _check_bounds(name: str, value: float, bounds: tuple[float, float]) -> None:
+    if not (math.isfinite(value) and bounds[0] <= value <= bounds[1]):
+        raise ValueError(f"{name} {value:g} outside [{bounds[0]:g}, {bounds[1]:g}]")
+
+
 def _check_value(name: str, value: float | None, std_name: str, std: float) -> None:
     if value is not None and not (value > 0 and math.isfinite(value)):
         raise ValueError(f"{name} must be finite and > 0, got {value}")
@@ -177,7 +187,7 @@ def _provenance(study, parts, measurement, sphere: bool, seed: int) -> dict[str,
     from filmcal._versions import __version__
 
     out: dict[str, Any] = {
-        "filmcal": __version__, "study": str(Path(study.root).resolve()),
+        "filmcal": __version__, "study": str(Path(study.root).resolve()), "manifest_sha256": study.manifest_sha256,
         "posteriors": {s["model"]: {"file": s.get("posterior_file"), "sha256": s.get("posterior_sha256")}
                        for _, _, s in parts},
         "measurement": asdict(measurement), "seed": seed}  # no clock: the same inputs give the same bytes
