@@ -573,3 +573,15 @@ def test_preferred_imprint_model_first_and_unused_models_left_out(tmp_path):
         study.manifest.forget(study.layout.relative(comparison))
         comparison.unlink()  # not compared: every posterior, in file order
     assert [m for _, m in _ordered_posteriors(study, "HS")] == ["edge/small", "activation/small", "edge/large"]
+
+
+def test_the_report_repeats_the_elastic_limit_warning_of_its_curves():
+    """Rows whose contact without film peaks above 1250 MPa are named; below it the highest peak is stated."""
+    from filmcal.report.study_report import elastic_limit_note
+
+    row = {"force_kn": 100.0, "offset_mm": -3.0, "max_pressure_no_film_mpa": 1100.0}
+    calm = elastic_limit_note({"HS": [row, {**row, "force_kn": 50.0, "max_pressure_no_film_mpa": 900.0}]})
+    assert calm.startswith("Validity") and "1100 MPa at 100 kN, η = -3 mm" in calm
+    hot = elastic_limit_note({"HS": [row, {**row, "offset_mm": 0.0, "max_pressure_no_film_mpa": 1300.0}]})
+    assert hot.startswith("Warning") and "100 kN / η = 0 mm" in hot and "-3 mm" not in hot.split("(highest")[0]
+    assert "run `filmcal pipeline` again" in elastic_limit_note({"HS": [{"force_kn": 100.0, "offset_mm": 0.0}]})

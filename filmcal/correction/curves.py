@@ -56,6 +56,9 @@ class CorrectionCurves:
         A_0 / A_film, the factor that corrects a measured area.
     interpolation_error_rel : ndarray
         Largest relative error of the interpolated film area at the check quantiles.
+    max_pressure_no_film_mpa : ndarray
+        Peak pressure of the smooth contact without film: above the steel's elastic limit the elastic model is
+        outside its validity.
     """
 
     offsets_mm: np.ndarray
@@ -67,6 +70,7 @@ class CorrectionCurves:
     ratio_median: np.ndarray
     ratio_ci90: np.ndarray
     interpolation_error_rel: np.ndarray
+    max_pressure_no_film_mpa: np.ndarray
 
 
 def _thinned(samples, max_samples: int) -> np.ndarray:
@@ -142,6 +146,7 @@ def correction_curves(components, offsets_mm, forces_n, *, roughness=None, no_fi
     d_med, r_med = np.empty(shape), np.empty(shape)
     d_ci, r_ci = np.empty(shape + (2,)), np.empty(shape + (2,))
     err = np.zeros(shape)
+    peak = np.empty(shape)
 
     # Models of one film type and kinematics read the same contact: one solve per modulus serves them all.
     groups: dict = {}
@@ -161,6 +166,7 @@ def correction_curves(components, offsets_mm, forces_n, *, roughness=None, no_fi
             rng = np.random.default_rng([int(round(force)), int(round(1e3 * eta)) + 10**7])
             bare = wheel_rail_model.solve(eta, force)
             a0[i, j] = bare.area_mm2
+            peak[i, j] = bare.max_pressure_mpa
             if no_film_law is not None:
                 from filmcal.wheelrail.film_contact import nominal_rough_area_mm2
 
@@ -195,12 +201,12 @@ def correction_curves(components, offsets_mm, forces_n, *, roughness=None, no_fi
             d_med[i, j], r_med[i, j] = np.median(delta), np.median(ratio)
             d_ci[i, j] = np.quantile(delta, [0.05, 0.95])
             r_ci[i, j] = np.quantile(ratio, [0.05, 0.95])
-    return CorrectionCurves(offsets, forces, a0, a_med, d_med, d_ci, r_med, r_ci, err)
+    return CorrectionCurves(offsets, forces, a0, a_med, d_med, d_ci, r_med, r_ci, err, peak)
 
 
 CURVE_COLUMNS = ("film", "wheel", "force_kn", "offset_mm", "area_no_film_mm2", "area_film_median_mm2",
                  "delta_area_median_mm2", "delta_area_lo_mm2", "delta_area_hi_mm2", "ratio_median", "ratio_lo",
-                 "ratio_hi", "interpolation_error_rel")
+                 "ratio_hi", "interpolation_error_rel", "max_pressure_no_film_mpa")
 
 
 def rough_bodies(ra_um: float):
@@ -264,7 +270,7 @@ def curve_rows(film: str, components, offsets_mm, forces_kn, roughness=None, law
     wheel = wheel_label(roughness)
     return [[film, wheel, force / 1e3, eta, c.area_no_film_mm2[i, j], c.area_film_median_mm2[i, j],
              c.delta_area_median_mm2[i, j], *c.delta_area_ci90_mm2[i, j], c.ratio_median[i, j], *c.ratio_ci90[i, j],
-             c.interpolation_error_rel[i, j]]
+             c.interpolation_error_rel[i, j], c.max_pressure_no_film_mpa[i, j]]
             for i, force in enumerate(c.forces_n) for j, eta in enumerate(c.offsets_mm)]
 
 

@@ -638,6 +638,28 @@ def crossval_section(results: dict) -> Section:
     return s
 
 
+def elastic_limit_note(curves: dict) -> str:
+    """What the curves' contacts without film say about the elastic model's validity (as `filmcal correct`
+    warns above the steel's elastic limit)."""
+    from filmcal.study.correct import ELASTIC_LIMIT_MPA
+
+    rows = [r for rows in curves.values() for r in rows if "max_pressure_no_film_mpa" in r]
+    if not rows:
+        return ("These curves were computed before their contacts' peak pressures were kept: run `filmcal "
+                "pipeline` again to check them against the steel's elastic limit.")
+    top = max(rows, key=lambda r: r["max_pressure_no_film_mpa"])
+    where = f"{top['max_pressure_no_film_mpa']:.0f} MPa at {top['force_kn']:g} kN, η = {F.signed_offset(top['offset_mm'])} mm"
+    over = sorted({(r["force_kn"], r["offset_mm"]) for r in rows if r["max_pressure_no_film_mpa"] > ELASTIC_LIMIT_MPA})
+    if not over:
+        return (f"Validity: the contact without film stays below the steel's elastic limit of {ELASTIC_LIMIT_MPA:.0f} "
+                f"MPa (a peak Hertz pressure the paper's specimens carried without plastic strain) in every row; "
+                f"its highest peak is {where}.")
+    cases = ", ".join(f"{f:g} kN / η = {F.signed_offset(e)} mm" for f, e in over)
+    return (f"Warning: the contact without film exceeds the steel's elastic limit of {ELASTIC_LIMIT_MPA:.0f} MPa at "
+            f"{cases} (highest {where}): there the elastic model is outside its validity and the real contact is "
+            "larger (plastic); filmcal correct warns the same way.")
+
+
 def wheel_rail_section(curves: dict, outlines: dict | None) -> Section:
     """Correction curves (Fig. 6), the correction factor, the tables per film and the outlines (Fig. 7)."""
     s = Section("Wheel-rail correction curves (Figs. 6 and 7)")
@@ -669,6 +691,7 @@ def wheel_rail_section(curves: dict, outlines: dict | None) -> Section:
                       f"{r['ratio_median']:.4f}", f"[{r['ratio_lo']:.4f}, {r['ratio_hi']:.4f}]",
                       f"{100 * r['interpolation_error_rel']:.3f}"] for r in rows],
                     f"{film}: correction curves (A0: area without film; ΔA: area added by the film)"))
+    s.add(elastic_limit_note(curves))
     if outlines is None:
         return _missing(s, "wheelrail-outlines.json")
     for film in outlines["films"]:

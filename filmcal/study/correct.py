@@ -179,7 +179,7 @@ OFFSET_NOT_INCLUDED = ("the offset's uncertainty: eta is taken as exact; a ruler
                        "(give --offset-std-mm)")
 
 
-def _provenance(study, parts, measurement, sphere: bool, seed: int) -> dict[str, Any]:
+def _provenance(study, parts, measurement, sphere: bool, seed: int, options: dict) -> dict[str, Any]:
     """Where an answer came from: the study, each posterior (file and SHA-256), the filmcal version, the
     measurement's options, the seed and, for a wheel-rail answer, the transfer fit."""
     from dataclasses import asdict
@@ -190,7 +190,8 @@ def _provenance(study, parts, measurement, sphere: bool, seed: int) -> dict[str,
         "filmcal": __version__, "study": str(Path(study.root).resolve()), "manifest_sha256": study.manifest_sha256,
         "posteriors": {s["model"]: {"file": s.get("posterior_file"), "sha256": s.get("posterior_sha256")}
                        for _, _, s in parts},
-        "measurement": asdict(measurement), "seed": seed}  # no clock: the same inputs give the same bytes
+        "measurement": asdict(measurement), "options": options,
+        "seed": seed}  # no clock: the same inputs give the same bytes
     if not sphere:
         from filmcal.contact.transfer import TRANSFER_FILE, load_transfer_fit
 
@@ -323,7 +324,10 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
     if not sphere:  # the calibrated film against the applied one: included in every model's answer and band
         for w, c, s in parts:
             out["models"][s["model"]]["transfer"] = c.transfer(m.offset_mm, force_n)
-    out["provenance"] = _provenance(study, parts, measurement, sphere, seed)
+    out["provenance"] = _provenance(study, parts, measurement, sphere, seed,
+                                    {"imprint_model": imprint_model, "kinematics": kinematics, "poisson": poisson,
+                                     "calibration_forces_kn": calibration_forces_kn,
+                                     "elastic_limit_mpa": elastic_limit_mpa})
     if not sphere:
         out["patch"] = _patch(m, parts, result)
     peak = _no_film_peak_mpa(measurement, parts, sphere)
