@@ -1,10 +1,15 @@
 """Shared fixtures and the test tiers.
 
-Two tiers, one suite:
+Three tiers, one suite:
 
-- ``python3 -m pytest`` (what ``.ci/run`` runs): every test.
+- ``python3 -m pytest -m "not acceptance"`` (what ``.ci/run`` runs first): every
+  test but the acceptance tier, within 15 minutes on 2 cores.
 - ``python3 -m pytest -m "not slow"``: the fast tier, every stage covered,
   within about 90 s on 2 cores.
+- ``python3 -m pytest -m acceptance`` (``.ci/run`` runs it last): the
+  acceptance tier, :data:`ACCEPTANCE_TESTS`, tests that reproduce an
+  acceptance figure of the physics with many boundary-element laws or solves
+  (minutes each); it belongs to the slow tier too.
 
 A test is in the slow tier when any of these holds (decided here, at
 collection, so that test files need no markers):
@@ -50,8 +55,6 @@ SLOW_FIXTURES: frozenset[str] = frozenset({
 SLOW_TESTS: dict[str, str] = {
     "test_roughness_no_film.py::test_the_nominal_growth_follows_the_rigid_plastic_bearing_area_law":
         "6 s each: two rough Hertz solves and a boundary-element law",
-    "test_surface_files.py::test_wheelrail_command_reports_the_measured_ra_of_an_x3p_and_a_profile":
-        "41 s: boundary-element laws of a measured map and a profile",
     "test_rough_imprint.py::test_an_asperity_cannot_stain_a_film_whose_activation_lies_above_the_coating_hardness":
         "8 s: two boundary-element laws, one mostly plastic",
     "test_calibration_mcmc.py::test_contract_keys": "17 s: the module's default calibration",
@@ -90,15 +93,24 @@ SLOW_TESTS: dict[str, str] = {
     "test_study.py::": "14 s shared FE campaign and surrogate, 19 s refinement",
     "test_surrogate.py::test_same_random_state_same_fit_serial_or_parallel": "8 s: parallel refits",
     "test_wheelrail_contact.py::test_film_enlarges_the_area_at_every_offset": "11 s: a sweep of solves",
-    "test_wheelrail_cli.py::test_rough_wheel_grows_the_imprint_in_the_papers_order": "48 s: 12 wheel-rail solves, 3 BEM laws",
     "test_film_law.py::test_large_strain_sphere_on_flat_matches_the_fe": "5-10 s each: FE large-strain solves",
     "test_roughness.py::test_fully_plastic_limit_is_the_bearing_area_curve": "5 s: slow projected-gradient solves",
     "test_roughness.py::test_law_lies_above_the_rigid_plastic_bearing_curve_and_tends_to_it": "12 s: three BEM laws",
-    "test_roughness_sphere.py::test_rough_flat_grows_the_sphere_imprint_in_the_papers_order": "37 s: 3 BEM laws, 12 sphere solves",
 }
 
 #: An unmarked test slower than this is named at the end of the run.
 FAST_TEST_LIMIT_S = 3.0
+
+#: Node-id prefixes of the acceptance tier (also slow): tests that reproduce an acceptance figure of the
+#: physics with many boundary-element laws or solves, run by ``.ci/run`` after the rest, with their time.
+ACCEPTANCE_TESTS: dict[str, str] = {
+    "test_wheelrail_cli.py::test_rough_wheel_grows_the_imprint_in_the_papers_order":
+        "48 s: 12 wheel-rail solves, 3 BEM laws (the paper's film order, wheel-rail)",
+    "test_roughness_sphere.py::test_rough_flat_grows_the_sphere_imprint_in_the_papers_order":
+        "37 s: 3 BEM laws, 12 sphere solves (the paper's film order, sphere-on-flat)",
+    "test_surface_files.py::test_wheelrail_command_reports_the_measured_ra_of_an_x3p_and_a_profile":
+        "41 s: boundary-element laws of a measured map and a profile (Ra reported within 2 %)",
+}
 
 #: Node ids kept in the fast tier although they take longer, with the reason.
 FAST_BY_DESIGN: dict[str, str] = {
@@ -173,6 +185,11 @@ def slow_reason(item: pytest.Item) -> str | None:
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """Mark the slow tier (before ``-m`` deselects) and keep the whole collection for the tier checks."""
     for item in items:
+        nodeid = relative_nodeid(item)
+        for key, why in ACCEPTANCE_TESTS.items():
+            if key_matches(key, nodeid):
+                item.add_marker(pytest.mark.acceptance(reason=why))
+                item.add_marker(pytest.mark.slow(reason=why))
         if item.get_closest_marker("slow") is None:
             reason = slow_reason(item)
             if reason is not None:

@@ -11,7 +11,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from conftest import SLOW_FIXTURES, SLOW_TESTS, STAGES, TESTS_DIR, collected_items, key_matches, relative_nodeid, slow_reason
+from conftest import ACCEPTANCE_TESTS, SLOW_FIXTURES, SLOW_TESTS, STAGES, TESTS_DIR, collected_items, key_matches, relative_nodeid, slow_reason
 
 ROOT = TESTS_DIR.parent
 
@@ -56,7 +56,7 @@ def suite_items(request, tmp_path_factory) -> list:
 
 def test_every_slow_key_names_a_collected_test(suite_items):
     ids = [relative_nodeid(item) for item in suite_items]
-    stale = [key for key in SLOW_TESTS if not any(key_matches(key, nodeid) for nodeid in ids)]
+    stale = [key for key in (*SLOW_TESTS, *ACCEPTANCE_TESTS) if not any(key_matches(key, nodeid) for nodeid in ids)]
     assert not stale, f"SLOW_TESTS in tests/conftest.py names tests that no longer exist: {stale}"
 
 

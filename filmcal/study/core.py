@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any, Iterator
 import numpy as np
 
 from filmcal._errors import InputError
-from filmcal._io import check_output_dir, sha256_file
+from filmcal._io import canonical_json, check_output_dir
 from filmcal._versions import VersionNote, version_note
 from filmcal.contact.names import DEFAULT_KINEMATICS, IMPRINT_MODELS, KINEMATICS
 from filmcal.contact.options import ContactOptions
@@ -165,8 +165,9 @@ class Study:
     Attributes
     ----------
     manifest_sha256 : str or None
-        SHA-256 of the manifest as it was read (None for a new study): where
-        an answer came from.
+        SHA-256 of the manifest's content as it was read, its ``caches``
+        aside (solves a correction keeps are no result of the study; None for
+        a new study): where an answer came from.
     """
 
     def __init__(self, root: str | Path, *, create: bool = False, films_file: str | Path | None = None,
@@ -181,7 +182,7 @@ class Study:
         self.manifest_sha256 = None
         if self.layout.manifest.exists():
             self.manifest = Manifest.read(self.layout.manifest)
-            self.manifest_sha256 = sha256_file(self.layout.manifest)
+            self.manifest_sha256 = _results_sha256(self.manifest.data)
         elif create:
             if self.root.exists() and any(p.name != ".lock" for p in self.root.iterdir()):
                 raise InputError(f"--study-dir {str(self.root)!r} is a folder with files but no study manifest "
@@ -996,6 +997,13 @@ def _write_cache(study: Study, path: Path, spec: dict, data: dict, what: str) ->
             study.manifest.write()
     except (InputError, OSError):
         pass  # the writer lock is taken or the folder is read-only: nothing is kept
+
+
+def _results_sha256(manifest: dict) -> str:
+    """SHA-256 of a manifest's canonical JSON without its ``caches``."""
+    import hashlib
+
+    return hashlib.sha256(canonical_json({k: v for k, v in manifest.items() if k != "caches"}).encode()).hexdigest()
 
 
 def _json_roundtrip(value: Any) -> Any:
