@@ -8,8 +8,8 @@ Three tiers, one suite:
   within about 90 s on 2 cores.
 - ``python3 -m pytest -m acceptance`` (``.ci/run`` runs it last): the
   acceptance tier, :data:`ACCEPTANCE_TESTS`, tests that reproduce an
-  acceptance figure of the physics with many boundary-element laws or solves
-  (minutes each); it belongs to the slow tier too.
+  acceptance figure end to end with many boundary-element laws, solves or
+  calibrations (up to a minute each); it belongs to the slow tier too.
 
 A test is in the slow tier when any of these holds (decided here, at
 collection, so that test files need no markers):
@@ -101,8 +101,8 @@ SLOW_TESTS: dict[str, str] = {
 #: An unmarked test slower than this is named at the end of the run.
 FAST_TEST_LIMIT_S = 3.0
 
-#: Node-id prefixes of the acceptance tier (also slow): tests that reproduce an acceptance figure of the
-#: physics with many boundary-element laws or solves, run by ``.ci/run`` after the rest, with their time.
+#: Node-id prefixes of the acceptance tier (also slow): tests that reproduce an acceptance figure end to end
+#: with many boundary-element laws, solves or calibrations, run by ``.ci/run`` after the rest, with their time.
 ACCEPTANCE_TESTS: dict[str, str] = {
     "test_wheelrail_cli.py::test_rough_wheel_grows_the_imprint_in_the_papers_order":
         "48 s: 12 wheel-rail solves, 3 BEM laws (the paper's film order, wheel-rail)",
@@ -110,6 +110,10 @@ ACCEPTANCE_TESTS: dict[str, str] = {
         "37 s: 3 BEM laws, 12 sphere solves (the paper's film order, sphere-on-flat)",
     "test_surface_files.py::test_wheelrail_command_reports_the_measured_ra_of_an_x3p_and_a_profile":
         "41 s: boundary-element laws of a measured map and a profile (Ra reported within 2 %)",
+    "test_simulators.py::test_a_python_simulator_of_another_law_recovers_its_own_modulus":
+        "25 s: two calibrations on a lab's simulator (its own E recovered)",
+    "test_simulators.py::test_a_command_simulator_fails_on_some_points_and_resumes_without_running_any_twice":
+        "30 s: a calibration on an external command, killed and resumed",
 }
 
 #: Node ids kept in the fast tier although they take longer, with the reason.

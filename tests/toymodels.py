@@ -22,3 +22,15 @@ class ToyRadiusModel:
         p = 3.0 * F / (2.0 * np.pi * a**2)
         mean = a + 2.2 * np.sqrt(p / (E * oedometric_ratio(nu)))
         return mean, np.zeros(mean.shape)
+
+
+def toy_simulator(params: dict) -> dict:
+    """A lab's simulator stand-in (not physics): `ToyRadiusModel`'s radius, and a Hertz-shaped pressure
+    profile over it, p(r) = p0 sqrt(1 - (r/a)^2) with p0 = 3F / (2 pi a^2) (Johnson, eq. 4.22)."""
+    E, nu = float(params["modulus_mpa"]), float(params["poisson"])
+    R, F = float(params["sphere_radius_mm"]), 1e3 * float(params["force_kn"])
+    a = float(ToyRadiusModel().predict(E, nu, R, F)[0])
+    r = np.linspace(0.0, 1.5 * a, 1501)
+    p0 = 3.0 * F / (2.0 * np.pi * a**2)
+    pressure = p0 * np.sqrt(np.clip(1.0 - (r / a) ** 2, 0.0, None))
+    return {"contact_radius_mm": a, "radius_mm": r.tolist(), "pressure_mpa": pressure.tolist()}

@@ -142,8 +142,9 @@ def _json_object(stdout: str) -> dict[str, Any] | None:
     return None
 
 
-def parse_outputs(obj: Mapping[str, Any]) -> dict[str, Any]:
-    """The numeric (and boolean) values of a command's JSON object; a ``reason`` string is kept too.
+def parse_outputs(obj: Mapping[str, Any], arrays: Sequence[str] = ()) -> dict[str, Any]:
+    """The numeric (and boolean) values of a command's JSON object; a ``reason`` string is kept too, and the
+    lists of numbers named in `arrays`.
 
     Raises
     ------
@@ -154,6 +155,10 @@ def parse_outputs(obj: Mapping[str, Any]) -> dict[str, Any]:
     for name, value in obj.items():
         if isinstance(value, bool) or (isinstance(value, (int, float))):
             outputs[str(name)] = value if isinstance(value, bool) else float(value)
+        elif name in arrays and isinstance(value, list):
+            if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+                raise ModelFailure(f"{name} must be a list of numbers")
+            outputs[str(name)] = [float(v) for v in value]
     if not any(isinstance(v, float) for v in outputs.values()):
         raise ModelFailure(f"the command's JSON object has no numeric value (keys: {', '.join(map(str, obj)) or 'none'})")
     if outputs.get("converged") is False and isinstance(obj.get("reason"), str):
@@ -176,6 +181,8 @@ class CommandModel:
         working folder (use `from_files` to read them from disk).
     timeout_s : float, optional
         Deadline of each run; the command's process group is killed at it.
+    arrays : tuple of str
+        Outputs kept when they are lists of numbers (a profile); other lists are dropped.
 
     Examples
     --------
@@ -189,6 +196,7 @@ class CommandModel:
     work_root: Path
     template_files: tuple[tuple[str, str], ...] = ()
     timeout_s: float | None = None
+    arrays: tuple[str, ...] = ()
     takes_point_id: ClassVar[bool] = True
     model_name: str = field(init=False)
 
@@ -308,6 +316,6 @@ class CommandModel:
                 shown = _tail(run.stdout) or "nothing"
                 raise ModelFailure(f"the command printed no JSON object (stdout: {shown}){said}")
         try:
-            return parse_outputs(obj)
+            return parse_outputs(obj, self.arrays)
         except ModelFailure as exc:
             raise ModelFailure(f"{exc}{said}") from None

@@ -10,8 +10,6 @@ that says who holds the store.
 from __future__ import annotations
 
 import argparse
-import importlib
-import re
 import shlex
 import sys
 from pathlib import Path
@@ -25,7 +23,6 @@ from filmcal.contact.names import KINEMATICS
 DEFAULT_MODEL = "filmcal.fem:evaluate_point"
 REQUIRED_COLUMNS = ("modulus_mpa", "poisson", "sphere_radius_mm", "force_kn")
 CONTACT_CHOICES = ("frictionless", "tied", "friction")
-_MODEL_SPEC = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")
 
 
 def _contact(name: str, value: Any) -> str:
@@ -91,20 +88,6 @@ def check_fe_design(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return checked
 
 
-def import_model(spec: str) -> Callable[[dict], dict]:
-    """Import the model ``module:function`` by name (nothing is read from data files)."""
-    if not _MODEL_SPEC.match(spec):
-        raise ValueError(f"--simulator-python must be given as MODULE:FUNCTION, got {spec!r}")
-    module_name, function_name = spec.split(":")
-    try:
-        model = getattr(importlib.import_module(module_name), function_name)
-    except (ImportError, AttributeError) as exc:
-        raise ValueError(f"cannot import the model {spec}: {exc}") from None
-    if not callable(model):
-        raise ValueError(f"model {spec} is not callable")
-    return model
-
-
 def default_work_dir(store: str | Path) -> Path:
     """Working folders of an external command: ``<store stem>.work`` beside the store."""
     store = Path(store)
@@ -144,6 +127,7 @@ def _run(args: argparse.Namespace) -> int:
     from filmcal._io import check_output_dir
     from filmcal._parallel import DaskExecutor, check_dask_address
     from filmcal.campaign import Campaign, CommandModel, read_design_csv
+    from filmcal.campaign.simulator import import_model
 
     # every option is checked, and the Dask scheduler reached, before any
     # work and before any file is written

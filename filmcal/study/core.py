@@ -68,6 +68,9 @@ class FESettings:
         The study's seed (designs and GP restarts draw from their own streams).
     domain : SurrogateDomain, optional
         Where the surrogates are trained (default: Table 1's experiments with margins).
+    simulator : filmcal.campaign.simulator.Simulator, optional
+        A lab's own simulator in place of the in-house FE (its runs then make the surrogates; the contact
+        options and kinematics above are the in-house FE's and do not reach it).
     """
 
     sphere_contact: str = ContactOptions.sphere_contact
@@ -79,6 +82,7 @@ class FESettings:
     n_test: int = 100
     seed: int = 0
     domain: Any = None
+    simulator: Any = None
 
     def __post_init__(self) -> None:
         from filmcal.surrogate.radius import SurrogateDomain
@@ -89,6 +93,13 @@ class FESettings:
             raise InputError(f"kinematics must be one of {', '.join(KINEMATICS)}, got {self.kinematics!r}")
         if not (20 <= self.n_train <= 5000 and 5 <= self.n_test <= 5000):
             raise InputError(f"train_runs must be 20-5000 and test_runs 5-5000, got {self.n_train} and {self.n_test}")
+
+    def as_spec(self) -> dict:
+        """The settings as a spec: the in-house FE's as before, a lab's simulator by its own spec."""
+        out = {k: v for k, v in asdict(self).items() if k != "simulator"}
+        if self.simulator is not None:
+            out["simulator"] = self.simulator.spec()
+        return out
 
     def contact_options(self) -> ContactOptions:
         return ContactOptions(sphere_contact=self.sphere_contact, flat_contact=self.flat_contact,
@@ -290,7 +301,7 @@ class Study:
 
     def _store_spec(self, fe: FESettings) -> dict:
         films = self._fe_films(fe.film_thickness_mm)
-        return {"kind": "fe-runs", "options": {k: v for k, v in asdict(fe).items()
+        return {"kind": "fe-runs", "options": {k: v for k, v in fe.as_spec().items()
                                               if k not in ("n_train", "n_test", "seed", "domain")},
                 "films": [f.to_dict() for f in films]}
 
@@ -321,7 +332,13 @@ class Study:
         store_spec = self._store_spec(fe)
         store = self.layout.runs_store(spec_key(store_spec))
         store.parent.mkdir(parents=True, exist_ok=True)
-        model = partial(evaluate_point, films=films) if films else evaluate_point
+        if fe.simulator is not None:
+            from filmcal.fem import imprint_columns
+
+            pairs = [(m, film) for m, film, _ in imprint_columns(films)]
+            model = fe.simulator.model(pairs, store.with_suffix(".work"))
+        else:
+            model = partial(evaluate_point, films=films) if films else evaluate_point
         pool = {"executor": workers} if isinstance(workers, Executor) else {"workers": workers}
         campaign = Campaign(model, store, settings={"spec": store_spec}, **pool)
         campaign.run(train + test, progress=progress or False)
@@ -351,7 +368,7 @@ class Study:
         return self.radius_models([(fe, column)], workers, progress)[fe, column]
 
     def _radius_spec(self, fe: FESettings, column: str) -> dict:
-        return {"kind": "radius-surrogate", "fe": asdict(fe), "store": self._store_spec(fe), "column": column}
+        return {"kind": "radius-surrogate", "fe": fe.as_spec(), "store": self._store_spec(fe), "column": column}
 
     def _recorded_radius_model(self, fe: FESettings, column: str):
         from filmcal._io import read_json
@@ -390,7 +407,11 @@ class Study:
             if fe not in runs:
                 runs[fe] = self.fe_runs(fe, workers, progress)
             r = runs[fe]
-            if column not in r["Y_train"]:
+            if column not in r["Y_train"] or not np.isfinite(r["Y_train"][column]).any():
+                if fe.simulator is not None:
+                    raise InputError(f"the simulator ({fe.simulator.label()}) gave no pressure profile "
+                                     "(radius_mm, pressure_mpa) to read the other imprint models from: calibrate "
+                                     "--imprint-model edge (its contact_radius_mm), or return the profile")
                 raise InputError(f"the FE runs have no output {column!r}")
             ytr, yte = r["Y_train"][column], r["Y_test"][column]
             ok_tr, ok_te = np.isfinite(ytr), np.isfinite(yte)
@@ -423,7 +444,7 @@ class Study:
     # ------------------------------------------------------------ calibration
     def _calibration_spec_dict(self, spec: CalibrationSpec, data_meta: dict) -> dict:
         return {"kind": "posterior", "film": self.film(spec.film).to_dict(), "imprint": spec.imprint,
-                "model": spec.model_label, "fe": asdict(spec.fe), "loads": spec.loads, "poisson": spec.poisson,
+                "model": spec.model_label, "fe": spec.fe.as_spec(), "loads": spec.loads, "poisson": spec.poisson,
                 "discrepancy": spec.discrepancy, "max_steps": spec.max_steps, "dataset": data_meta}
 
     def calibrate(self, spec: CalibrationSpec, dataset=None, workers: int | Executor | None = None, progress=None):
