@@ -9,6 +9,8 @@ import sqlite3
 import subprocess
 import sys
 import textwrap
+import threading
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +23,7 @@ from filmcal.films import get_film
 
 TESTS = Path(__file__).resolve().parent
 sys.path.insert(0, str(TESTS))
-from toymodels import ToyRadiusModel  # noqa: E402
+from toymodels import ToyRadiusModel, toy_simulator  # noqa: E402
 
 
 def test_a_python_simulator_is_read_by_every_imprint_model_from_its_profile():
@@ -39,7 +41,7 @@ def test_a_python_simulator_is_read_by_every_imprint_model_from_its_profile():
 
 
 def test_a_simulator_is_checked_before_any_run_and_its_failures_have_reasons(tmp_path):
-    with pytest.raises(InputError, match="either a Python function or a command"):
+    with pytest.raises(InputError, match="one of a Python function, a command or a UM-Bridge model"):
         Simulator()
     with pytest.raises(InputError, match="MODULE:FUNCTION"):
         Simulator(python="not a spec")
@@ -54,6 +56,49 @@ def test_a_simulator_is_checked_before_any_run_and_its_failures_have_reasons(tmp
     assert model({**point, "force_kn": 107.5}, point_id="p1")["contact_radius_mm"] == 7.5
     with pytest.raises(ModelFailure, match="no finite contact_radius_mm > 0"):
         model({**point, "force_kn": 50.0}, point_id="p2")
+
+
+class _ToyUMBridge(BaseHTTPRequestHandler):
+    """A UM-Bridge model of the toy law (protocol 1.0, as any language's server would answer)."""
+
+    def log_message(self, *args):
+        pass
+
+    def do_POST(self):  # noqa: N802
+        request = json.loads(self.rfile.read(int(self.headers["Content-Length"])))
+        if request.get("name") != "toy":
+            status, body = 400, {"error": {"type": "ModelNotFound", "message": f"no model {request.get('name')}"}}
+        else:
+            e, nu, r, f, t = request["input"][0]
+            out = toy_simulator(dict(modulus_mpa=e, poisson=nu, sphere_radius_mm=r, force_kn=f, film_thickness_mm=t))
+            status, body = 200, {"output": [[out["contact_radius_mm"]], out["radius_mm"], out["pressure_mpa"]]}
+        data = json.dumps(body).encode()
+        self.send_response(status)
+        self.send_header("Content-Length", str(len(data)))
+        self.end_headers()
+        self.wfile.write(data)
+
+
+def test_a_umbridge_model_runs_the_points_and_its_profile_is_read():
+    server = ThreadingHTTPServer(("127.0.0.1", 0), _ToyUMBridge)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    try:
+        url = f"http://127.0.0.1:{server.server_address[1]}"
+        hs = get_film("HS")
+        point = {"modulus_mpa": 2000.0, "poisson": 0.33, "sphere_radius_mm": 450.0, "force_kn": 50.0,
+                 "film_thickness_mm": 0.09}
+        served = Simulator(umbridge=url, umbridge_model="toy").model([("activation", hs)], ".")(point)
+        local = Simulator(python="toymodels:toy_simulator").model([("activation", hs)], ".")(point)
+        assert served == local
+        assert Simulator(umbridge=url, umbridge_model="toy").spec() == {"umbridge": url, "model": "toy"}
+        with pytest.raises(ModelFailure, match="ModelNotFound: no model other"):
+            Simulator(umbridge=url, umbridge_model="other").model([], ".")(point)
+    finally:
+        server.shutdown()
+    with pytest.raises(InputError, match="needs --umbridge-model"):
+        Simulator(umbridge="http://127.0.0.1:1")
+    with pytest.raises(ModelFailure, match="cannot be reached"):
+        Simulator(umbridge="http://127.0.0.1:1", umbridge_model="toy", timeout_s=5).model([], ".")(point)
 
 
 DATASET_CASES = [(300, 25), (300, 50), (450, 25), (450, 50), (450, 75), (450, 100), (600, 50), (600, 100)]

@@ -5,6 +5,9 @@ A lab with an FE deck of its own film model (the paper's set-up was Abaqus) cali
 * ``Simulator(python="MODULE:FUNCTION")``: a function called with a dict of `SIMULATOR_INPUTS`
   (``modulus_mpa``, ``poisson``, ``sphere_radius_mm``, ``force_kn``, ``film_thickness_mm``) that returns a
   dict;
+* ``Simulator(umbridge="http://host:port", umbridge_model="NAME")``: a UM-Bridge model (protocol 1.0, any
+  language) whose one input vector is `SIMULATOR_INPUTS` in that order and whose output vectors are
+  ``[contact_radius_mm]`` and optionally ``radius_mm`` and ``pressure_mpa``;
 * ``Simulator(command="TEMPLATE")``: a shell command run once per point in a fresh folder, with the
   conventions of ``filmcal campaign run --simulator-command`` (`filmcal.campaign.command.CommandModel`):
   placeholders ``{modulus_mpa}``, ``{poisson}``, ``{sphere_radius_mm}``, ``{force_kn}``,
@@ -74,10 +77,23 @@ class Simulator:
     command: str | None = None
     template_files: tuple[tuple[str, str], ...] = field(default=(), repr=False)
     timeout_s: float | None = None
+    umbridge: str | None = None
+    umbridge_model: str | None = None
 
     def __post_init__(self) -> None:
-        if (self.python is None) == (self.command is None):
-            raise InputError("give the simulator as either a Python function or a command, not both")
+        given = [x is not None for x in (self.python, self.command, self.umbridge)]
+        if sum(given) != 1:
+            raise InputError("give the simulator as one of a Python function, a command or a UM-Bridge model")
+        if self.umbridge is not None:
+            if not re.match(r"^https?://[^\s/]+(/[^\s]*)?$", self.umbridge):
+                raise InputError(f"--simulator-umbridge must be an http(s) URL, got {self.umbridge!r}")
+            if not self.umbridge_model:
+                raise InputError("--simulator-umbridge needs --umbridge-model NAME")
+            if self.template_files:
+                raise InputError("template files belong to a command simulator")
+            return
+        if self.umbridge_model is not None:
+            raise InputError("--umbridge-model needs --simulator-umbridge URL")
         if self.python is not None:
             import_model(self.python)  # an unimportable model is refused before any work
             if self.template_files or self.timeout_s is not None:
@@ -95,10 +111,14 @@ class Simulator:
         """What makes its runs: the runs of equal specs are the same runs."""
         if self.python is not None:
             return {"python": self.python}
+        if self.umbridge is not None:
+            return {"umbridge": self.umbridge.rstrip("/"), "model": self.umbridge_model}
         model = CommandModel(self.command, Path("."), self.template_files, self.timeout_s)
         return {"command": self.command, **model.settings(), "timeout_s": self.timeout_s}
 
     def label(self) -> str:
+        if self.umbridge is not None:
+            return f"UM-Bridge model {self.umbridge_model!r} at {self.umbridge}"
         return f"python {self.python}" if self.python is not None else f"command {self.command!r}"
 
     def model(self, pairs: Sequence[tuple[str, Any]], work_root: str | Path) -> "SimulatorModel":
@@ -126,6 +146,8 @@ class SimulatorModel:
             raw = import_model(sim.python)(dict(inputs))
             if not isinstance(raw, Mapping):
                 raise ModelFailure(f"{sim.python} returned a {type(raw).__name__}, not a dict")
+        elif sim.umbridge is not None:
+            raw = _umbridge_evaluate(sim, [inputs[name] for name in SIMULATOR_INPUTS])
         else:
             command = CommandModel(sim.command, self.work_root, sim.template_files, sim.timeout_s,
                                    arrays=PROFILE_OUTPUTS)
@@ -151,3 +173,34 @@ class SimulatorModel:
             except ValueError as exc:
                 raise ModelFailure(f"the pressure profile cannot be read: {exc}") from None
         return out
+
+
+def _umbridge_evaluate(sim: Simulator, vector: list[float]) -> dict[str, Any]:
+    """One UM-Bridge Evaluate (protocol 1.0): the outputs by name, or a `ModelFailure` saying why not."""
+    import json
+    import urllib.error
+    import urllib.request
+
+    body = json.dumps({"name": sim.umbridge_model, "input": [vector], "config": {}}).encode()
+    request = urllib.request.Request(sim.umbridge.rstrip("/") + "/Evaluate", data=body, method="POST",
+                                     headers={"Content-Type": "application/json"})
+    try:
+        with urllib.request.urlopen(request, timeout=sim.timeout_s or 3600.0) as response:
+            answer = json.loads(response.read())
+    except urllib.error.HTTPError as exc:
+        try:
+            error = json.loads(exc.read()).get("error", {})
+            text = f"{error.get('type', 'error')}: {error.get('message', '')}"
+        except ValueError:
+            text = f"HTTP {exc.code}"
+        raise ModelFailure(f"the UM-Bridge model answered {text}") from None
+    except (urllib.error.URLError, OSError, ValueError) as exc:
+        raise ModelFailure(f"the UM-Bridge server at {sim.umbridge} cannot be reached or answered no JSON "
+                           f"({exc})") from None
+    output = answer.get("output") if isinstance(answer, dict) else None
+    if not (isinstance(output, list) and output and all(isinstance(v, list) for v in output) and output[0]):
+        raise ModelFailure(f"the UM-Bridge answer has no output vectors (got {str(answer)[:200]})")
+    raw: dict[str, Any] = {"contact_radius_mm": output[0][0]}
+    if len(output) >= 3:
+        raw.update(radius_mm=output[1], pressure_mpa=output[2])
+    return raw

@@ -101,6 +101,9 @@ VOCABULARY: dict[str, Concept] = _concepts(
             "design's columns plus {work_dir} and {point_id}", metavar="TEMPLATE"),
     Concept("simulator_python", "a Python function MODULE:FUNCTION called with the design's columns",
             metavar="MODULE:FUNCTION"),
+    Concept("simulator_umbridge", "the URL of a UM-Bridge server whose model runs one point (protocol 1.0)",
+            metavar="URL"),
+    Concept("umbridge_model", "the model's name on the UM-Bridge server", metavar="NAME"),
     Concept("dask", "address of a Dask distributed scheduler (tcp://host:port) to run on", metavar="ADDRESS"),
     Concept("progress", "progress on stderr: bar (live bars on a terminal), log (plain lines, a heartbeat at "
             "least every 10 s), quiet, or auto (bar on a terminal, log otherwise)", type=lambda t: progress_mode(t),
@@ -330,3 +333,24 @@ def progress_mode(text: str) -> str:
 
 #: The imprint-model choices of commands that read a study: a model, or the study's weighted mixture.
 STUDY_IMPRINT_MODELS = (*IMPRINT_MODELS, MIXTURE)
+
+
+def add_simulator_options(parser) -> None:
+    """A lab's own simulator in place of the in-house FE: --simulator-python, --simulator-command (with
+    --template-file) or --simulator-umbridge (with --umbridge-model), and --timeout-s; read by
+    `filmcal.commands._common.simulator_from_args`."""
+    sim = parser.add_argument_group("a lab's own simulator in place of the in-house FE (docs/calibration.md)")
+    which = sim.add_mutually_exclusive_group()
+    add(which, "simulator_python", extra="; called with modulus_mpa, poisson, sphere_radius_mm, force_kn, "
+        "film_thickness_mm, it returns contact_radius_mm and optionally the pressure profile radius_mm, "
+        "pressure_mpa (lists) from which every imprint model is read")
+    add(which, "simulator_command", extra="; placeholders {modulus_mpa}, {poisson}, {sphere_radius_mm}, "
+        "{force_kn}, {film_thickness_mm}, {work_dir}, {point_id}; it prints (or writes to outputs.json) a JSON "
+        "object with contact_radius_mm and optionally radius_mm, pressure_mpa")
+    add(which, "simulator_umbridge", extra="; input [[modulus_mpa, poisson, sphere_radius_mm, force_kn, "
+        "film_thickness_mm]], output [[contact_radius_mm]] and optionally [radius_mm], [pressure_mpa]")
+    add(sim, "umbridge_model")
+    local(sim, "--template-file", action="append", metavar="FILE",
+          help="input file template rendered into each run's folder (NAME.tmpl is written as NAME); repeatable")
+    local(sim, "--timeout-s", type=float, metavar="T",
+          help="deadline of one --simulator-command or --simulator-umbridge run in seconds")

@@ -4,8 +4,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from filmcal.commands._common import print_json
-from filmcal.commands._options import STUDY_IMPRINT_MODELS, add, add_contact_options, force_range, local, renamed
+from filmcal.commands._common import print_json, simulator_from_args
+from filmcal.commands._options import (
+    STUDY_IMPRINT_MODELS, add, add_contact_options, add_simulator_options, force_range, local, renamed,
+)
 from filmcal.contact.names import DEFAULT_KINEMATICS, MIXTURE
 
 
@@ -33,17 +35,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                "0.29-0.37 (then only M is identified)")
     local(p, "--discrepancy", choices=["none", "load"], default="none",
           help="'load': an offset per load level (normal prior, 0.2 mm)")
-    sim = p.add_argument_group("a lab's own simulator in place of the in-house FE (docs/calibration.md)")
-    which = sim.add_mutually_exclusive_group()
-    add(which, "simulator_python", extra="; called with modulus_mpa, poisson, sphere_radius_mm, force_kn, "
-        "film_thickness_mm, it returns contact_radius_mm and optionally the pressure profile radius_mm, "
-        "pressure_mpa (lists) from which every imprint model is read")
-    add(which, "simulator_command", extra="; placeholders {modulus_mpa}, {poisson}, {sphere_radius_mm}, "
-        "{force_kn}, {film_thickness_mm}, {work_dir}, {point_id}; it prints (or writes to outputs.json) a JSON "
-        "object with contact_radius_mm and optionally radius_mm, pressure_mpa")
-    local(sim, "--template-file", action="append", metavar="FILE",
-          help="input file template rendered into each run's folder (NAME.tmpl is written as NAME); repeatable")
-    local(sim, "--timeout-s", type=float, metavar="T", help="deadline of one --simulator-command run in seconds")
+    add_simulator_options(p)
     add_contact_options(p, prefix="FE ")
     add(p, "kinematics", default=DEFAULT_KINEMATICS, extra=f"of the FE model (default {DEFAULT_KINEMATICS})")
     add(p, "study_dir", default="filmcal-study",
@@ -62,25 +54,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _simulator(args: argparse.Namespace):
-    """The lab's simulator of the options (None: the in-house FE), checked before any work."""
-    from filmcal._errors import InputError
-
-    if args.simulator_python is None and args.simulator_command is None:
-        if args.template_file or args.timeout_s is not None:
-            raise InputError("--template-file and --timeout-s need --simulator-command")
-        return None
-    from filmcal.campaign import CommandModel
-    from filmcal.campaign.simulator import Simulator
-
-    if args.simulator_python is not None:
-        if args.template_file or args.timeout_s is not None:
-            raise InputError("--template-file and --timeout-s need --simulator-command")
-        return Simulator(python=args.simulator_python)
-    files = CommandModel.from_files(args.simulator_command, ".", args.template_file or ()).template_files
-    return Simulator(command=args.simulator_command, template_files=files, timeout_s=args.timeout_s)
-
-
 def _spec(args: argparse.Namespace):
     """The calibration spec of the command's options (validated before any work)."""
     from filmcal.study import CalibrationSpec, FESettings
@@ -88,7 +61,7 @@ def _spec(args: argparse.Namespace):
     fe = FESettings(sphere_contact=args.sphere_contact, flat_contact=args.flat_contact,
                     friction_coefficient=args.friction_coefficient,
                     kinematics=args.kinematics, n_train=args.train_runs,
-                    n_test=args.test_runs, seed=args.seed, simulator=_simulator(args))
+                    n_test=args.test_runs, seed=args.seed, simulator=simulator_from_args(args))
     imprint = "edge" if args.imprint_model == MIXTURE else args.imprint_model
     return CalibrationSpec(args.film, imprint=imprint, fe=fe, loads=args.forces_kn, poisson=args.poisson,
                            discrepancy=None if args.discrepancy == "none" else args.discrepancy,

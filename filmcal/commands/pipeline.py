@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import argparse
 
-from filmcal.commands._common import print_json
-from filmcal.commands._options import add, local
+from filmcal.commands._common import print_json, simulator_from_args
+from filmcal.commands._options import add, add_simulator_options, local
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -38,6 +38,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add(p, "kinematics", help="film kinematics of the FE model, each calibrated and compared: small, large or "
                               "small,large (default small,large; small with --quick and --smoke)",
         choices=None, metavar="KINEMATICS")
+    add_simulator_options(p)
     add(p, "workers", extra="; one pool shared by every stage (default: all cores)")
     add(p, "seed", extra="(default 0)", default=0)
     local(p, "--no-report", action="store_true", help="skip the HTML/PDF report")
@@ -72,12 +73,19 @@ def run(args: argparse.Namespace) -> int:
         settings = replace(settings, imprint_models=tuple(m.strip() for m in args.imprint_models.split(",")))
     if args.kinematics is not None:
         settings = replace(settings, kinematics=tuple(k.strip() for k in args.kinematics.split(",")))
+    simulator = simulator_from_args(args)
+    if simulator is not None:
+        settings = replace(settings, simulator=simulator)
     study_dir = args.study_dir or ("filmcal-study" + (f"-{size}" if size else ""))
     from filmcal._progress import Progress
 
     from filmcal.report import write_report
 
     progress = Progress(args.progress)
+    if simulator is not None:
+        progress.warnings.append(f"the calibration ran on {simulator.label()}; the wheel-rail curves apply "
+                                 "filmcal's own film model at the calibrated modulus (with the transfer term "
+                                 "fitted to filmcal's FE): valid where your model and filmcal's agree")
     summary = run_pipeline(study_dir, settings, films, args.seed, args.workers, progress,
                            report=None if args.no_report else write_report,
                            films_file=args.films_file, dataset=args.data)

@@ -23,6 +23,7 @@ import contextlib
 import time
 import warnings
 from dataclasses import asdict, dataclass
+from typing import Any
 
 import numpy as np
 
@@ -61,6 +62,10 @@ class PipelineSettings:
         Film types cross-validated leave-one-case-out (None: every film).
     max_steps : int or None
         Cap of the MCMC steps per walker (None: until converged).
+    simulator : filmcal.campaign.simulator.Simulator, optional
+        A lab's own simulator in place of the in-house FE for the calibration's runs. The wheel-rail stages
+        still apply filmcal's own film model at the calibrated modulus (and its transfer term, fitted to
+        filmcal's FE): valid where the lab's model and filmcal's agree.
     """
 
     train_runs: int = 200
@@ -73,6 +78,7 @@ class PipelineSettings:
     outline_force_kn: float = 50.0
     crossval_films: tuple[str, ...] | None = None
     max_steps: int | None = None
+    simulator: Any = None
 
     def __post_init__(self) -> None:
         for m in self.imprint_models:
@@ -98,7 +104,15 @@ class PipelineSettings:
                    offsets_mm=(0.0,), forces_kn=(50.0,), rough_ra_um=None, crossval_films=(), max_steps=400)
 
     def fe(self, kinematics: str, seed: int) -> FESettings:
-        return FESettings(kinematics=kinematics, n_train=self.train_runs, n_test=self.test_runs, seed=seed)
+        return FESettings(kinematics=kinematics, n_train=self.train_runs, n_test=self.test_runs, seed=seed,
+                          simulator=self.simulator)
+
+    def record(self) -> dict:
+        """The settings as the study records them (a lab's simulator by its spec; none: as before)."""
+        out = {k: v for k, v in asdict(self).items() if k != "simulator"}
+        if self.simulator is not None:
+            out["simulator"] = self.simulator.spec()
+        return out
 
     def specs(self, film: str, imprint_models, seed: int) -> list[CalibrationSpec]:
         return [CalibrationSpec(film, imprint=m, fe=self.fe(k, seed), max_steps=self.max_steps)
@@ -153,7 +167,7 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
     for f in films:
         study.film(f)  # unknown films are refused before anything is written
     with study.writing("filmcal pipeline"):
-        study.set_settings({"pipeline": asdict(settings), "seed": seed})
+        study.set_settings({"pipeline": settings.record(), "seed": seed})
         known = list(study.manifest.data.get("pipeline_films", []))
         films = known + [f for f in films if f not in known]
         study.manifest.data["pipeline_films"] = films
