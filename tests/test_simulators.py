@@ -1,6 +1,7 @@
 """A lab's own simulator in the calibration: a Python function or an external command in place of the FE."""
 from __future__ import annotations
 
+import csv
 import json
 import math
 import os
@@ -193,3 +194,17 @@ def test_a_command_simulator_fails_on_some_points_and_resumes_without_running_an
     with sqlite3.connect(stores[0]) as db:
         failed = db.execute("SELECT reason FROM runs WHERE status = 'failed'").fetchall()
     assert failed and all("exit status 3" in r and "solver diverged at high load" in r for (r,) in failed)
+
+
+def test_the_lab_example_runs_end_to_end(tmp_path):
+    """examples/lab at its fast size: the lab's own solver behind a deck and a results file, calibrated, and its
+    imprints corrected; the data were made at E = 2200 MPa."""
+    p = subprocess.run([sys.executable, str(TESTS.parent / "examples" / "lab" / "workflow.py"), "--fast", "--out-dir",
+                        str(tmp_path / "lab")], capture_output=True, text=True, timeout=900)
+    assert p.returncode == 0, p.stderr[-2000:]
+    lo, hi = (float(v) for v in p.stdout.split("90 % [")[1].split("]")[0].split(", "))
+    assert lo < 2200.0 < hi
+    with open(tmp_path / "lab" / "corrected.csv", newline="") as fh:
+        rows = list(csv.DictReader(line for line in fh if not line.startswith("#")))
+    assert len(rows) == 4 and all(r["status"].startswith("ok") for r in rows)
+    assert all(float(r["area_mm2"]) < float(r["measured_area_mm2"]) for r in rows)  # the film enlarges
