@@ -39,7 +39,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                               "small,large (default small,large; small with --quick and --smoke)",
         choices=None, metavar="KINEMATICS")
     add_simulator_options(p)
-    add(p, "workers", extra="; one pool shared by every stage (default: all cores)")
+    where = p.add_mutually_exclusive_group()
+    add(where, "workers", extra="; one pool shared by every stage (default: all cores)")
+    add(where, "dask", extra="; every stage's parallel work runs there (FE or simulator runs, fits, calibrations, "
+        "roughness laws, curve solves)")
     add(p, "seed", extra="(default 0)", default=0)
     local(p, "--no-report", action="store_true", help="skip the HTML/PDF report")
     add(p, "progress", default="auto")
@@ -88,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
                                  "fitted to filmcal's FE): valid where your model and filmcal's agree")
     summary = run_pipeline(study_dir, settings, films, args.seed, args.workers, progress,
                            report=None if args.no_report else write_report,
-                           films_file=args.films_file, dataset=args.data)
+                           films_file=args.films_file, dataset=args.data, dask=args.dask)
     for film, s in summary["films"].items():
         if not s["diagnostics_ok"]:
             why = "; ".join(s.get("diagnostics_messages") or []) or "see the report's diagnostics"

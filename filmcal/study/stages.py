@@ -127,7 +127,8 @@ def _models_for(study: Study, film: str, settings: PipelineSettings) -> tuple[st
 
 
 def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM_TYPES, seed: int = 0,
-                 workers: int | None = None, progress=None, report=None, films_file=None, dataset=None) -> dict:
+                 workers: int | None = None, progress=None, report=None, films_file=None, dataset=None,
+                 dask: str | None = None) -> dict:
     """Run (or resume) the pipeline in a study folder; return the summary also written to ``summary.json``.
 
     Parameters
@@ -142,6 +143,9 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
         The study's seed; every stage draws from its own stream of it.
     workers : int, optional
         Worker processes, shared by every stage (default: all cores; 1: everything in this process).
+    dask : str, optional
+        A Dask scheduler's address: every stage's parallel work (FE or simulator runs, fits, calibrations,
+        roughness laws and curve solves) runs on that cluster instead (`workers` is then unused).
     progress : filmcal._progress.Progress, optional
         The run's progress display (default: ``auto``, on stderr).
     report : callable, optional
@@ -188,7 +192,12 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
 
         # one pool for every stage, started by the first task (a rerun with nothing to do starts none)
         with contextlib.ExitStack() as stack:
-            pool = 1 if workers == 1 else stack.enter_context(SharedPool(workers))
+            if dask is not None:  # every stage's parallel work on a Dask cluster instead of local processes
+                from filmcal._parallel import DaskExecutor
+
+                pool = stack.enter_context(DaskExecutor(dask))
+            else:
+                pool = 1 if workers == 1 else stack.enter_context(SharedPool(workers))
             stage("design", _design_stage, study, settings, seed)
             results = stage("calibration", _calibration_stage, study, settings, films, seed, pool, dataset)
             comparisons = stage("comparison", _comparison_stage, study, settings, results, seed, pool)
