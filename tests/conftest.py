@@ -115,7 +115,7 @@ ACCEPTANCE_TESTS: dict[str, str] = {
     "test_simulators.py::test_a_command_simulator_fails_on_some_points_and_resumes_without_running_any_twice":
         "30 s: a calibration on an external command, killed and resumed",
     "test_simulators.py::test_the_lab_example_runs_end_to_end": "45 s: examples/lab at its fast size",
-    "test_pipeline_dask.py::": "50 s: two smoke pipelines, one on a local Dask cluster",
+    "test_pipeline_dask.py::": "55 s: two smoke pipelines, one on a local Dask cluster; an unreachable one",
 }
 
 #: Node ids kept in the fast tier although they take longer, with the reason.

@@ -22,3 +22,10 @@ def test_the_pipeline_on_a_local_dask_cluster_gives_the_posterior_of_local_worke
     local = _pipeline(tmp_path / "local", "--workers", "2")
     assert on_cluster["films"]["HS"]["modulus_mpa"] == local["films"]["HS"]["modulus_mpa"]
     assert on_cluster["films"]["HS"]["imprint_weights"] == local["films"]["HS"]["imprint_weights"]
+
+
+def test_an_unreachable_scheduler_is_refused_before_anything_is_written(tmp_path):
+    p = subprocess.run([sys.executable, "-m", "filmcal.cli", "pipeline", "--smoke", "--study-dir", str(tmp_path / "st"),
+                        "--dask", "tcp://127.0.0.1:1"], capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and "Dask scheduler" in p.stderr
+    assert not (tmp_path / "st").exists()

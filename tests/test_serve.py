@@ -197,3 +197,18 @@ def test_serving_beyond_this_machine_says_the_protocol_has_no_authentication(qui
     finally:
         process.terminate()
         process.wait(timeout=30)
+
+
+def test_an_address_it_cannot_listen_on_is_refused_in_one_line(quick_study, tmp_path):
+    study, _, _ = quick_study
+    busy = socket.socket()
+    busy.bind(("127.0.0.1", 0))
+    busy.listen()
+    try:
+        for host, port in (("999.1.1.1", "0"), ("127.0.0.1", str(busy.getsockname()[1]))):
+            p = subprocess.run([sys.executable, "-m", "filmcal.cli", "serve", "--study-dir", str(study), "--host", host,
+                                "--port", port], capture_output=True, text=True, timeout=60)
+            assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
+            assert f"--host {host} --port {port}: cannot listen there" in p.stderr
+    finally:
+        busy.close()

@@ -96,6 +96,7 @@ class CorrectionServer:
 
     def __init__(self, study_dir, *, host: str = "127.0.0.1", port: int = 4242, workers: int = 2,
                  request_timeout_s: float = 120.0) -> None:
+        from filmcal._errors import InputError
         from filmcal.study import Study
         from filmcal.study.correct import ElasticLimitWarning
 
@@ -109,7 +110,12 @@ class CorrectionServer:
         self._pending = threading.BoundedSemaphore(MAX_CONNECTIONS)  # corrections submitted, not yet done
         # an answer's warnings travel in its JSON; the warnings module is not one thread's
         warnings.simplefilter("ignore", ElasticLimitWarning)
-        self.httpd = _Server((host, int(port)), _handler(self))
+        try:
+            self.httpd = _Server((host, int(port)), _handler(self))
+        except OSError as exc:  # an unknown host, a port in use or not allowed
+            self._pool.shutdown(wait=False)
+            raise InputError(f"--host {host} --port {port}: cannot listen there "
+                             f"({exc.strerror or exc})") from None
 
     @property
     def port(self) -> int:

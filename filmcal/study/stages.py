@@ -167,9 +167,19 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
     keep_freed_memory()  # the stages that run in this process allocate as the workers do
     if seed < 0 or seed >= 2**32:
         raise InputError(f"seed must be in 0..{2**32 - 1}, got {seed}")
-    study = Study(study_dir, create=True, films_file=films_file)
-    for f in films:
-        study.film(f)  # unknown films are refused before anything is written
+    dask_pool = None
+    if dask is not None:  # the scheduler is reached before anything is written
+        from filmcal._parallel import DaskExecutor
+
+        dask_pool = DaskExecutor(dask)
+    try:
+        study = Study(study_dir, create=True, films_file=films_file)
+        for f in films:
+            study.film(f)  # unknown films are refused before anything is written
+    except BaseException:
+        if dask_pool is not None:
+            dask_pool.shutdown()
+        raise
     with study.writing("filmcal pipeline"):
         study.set_settings({"pipeline": settings.record(), "seed": seed})
         known = list(study.manifest.data.get("pipeline_films", []))
@@ -192,10 +202,8 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
 
         # one pool for every stage, started by the first task (a rerun with nothing to do starts none)
         with contextlib.ExitStack() as stack:
-            if dask is not None:  # every stage's parallel work on a Dask cluster instead of local processes
-                from filmcal._parallel import DaskExecutor
-
-                pool = stack.enter_context(DaskExecutor(dask))
+            if dask_pool is not None:  # every stage's parallel work on a Dask cluster instead of local processes
+                pool = stack.enter_context(dask_pool)
             else:
                 pool = 1 if workers == 1 else stack.enter_context(SharedPool(workers))
             stage("design", _design_stage, study, settings, seed)
