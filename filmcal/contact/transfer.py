@@ -47,7 +47,7 @@ __all__ = ["TransferTerm", "TransferFit", "transfer_features", "load_transfer_fi
 #: The shipped fit (package data).
 TRANSFER_FILE = "film_transfer.json"
 #: Names of the fitted features (the order of the coefficients).
-FEATURES = ("1", "nu", "x", "x^2", "nu x", "y")
+FEATURES = ("1", "nu", "nu^2", "x", "x^2", "nu x", "y", "nu y", "y^2")
 
 
 @dataclass(frozen=True)
@@ -97,7 +97,7 @@ def transfer_features(imprint: str, modulus_mpa, poisson, thickness_mm, radius_m
         if level_mpa is None:
             raise ValueError(f"the {imprint} model's transfer needs the film's activation pressure")
         y = np.log(np.asarray(level_mpa, dtype=float) / pmax)
-    return np.stack([np.ones_like(x), nu, x, x * x, nu * x, y], axis=-1)
+    return np.stack([np.ones_like(x), nu, nu * nu, x, x * x, nu * x, y, nu * y, y * y], axis=-1)
 
 
 def outline_perimeter_mm(rings, smoothing: int = 5) -> float:

@@ -16,14 +16,14 @@ from filmcal.contact import DEFAULT_IMPRINT_MODEL, IMPRINT_MODELS, get_imprint_m
 from filmcal.fem.forms import lame_parameters, oedometric_modulus_mpa
 from filmcal.hertz import (STEEL_MODULUS_MPA, STEEL_POISSON, contact_modulus_mpa, hertz_approach_mm,
                                hertz_max_pressure_mpa, hertz_pressure_mpa, hertz_radius_mm)
-from filmcal.fem.mesh import MeshSettings
+from filmcal.fem.mesh import FILM_LAYERS, MeshSettings
 from filmcal.contact.options import CONTACT_MODES, ContactOptions
 from filmcal.fem.model import Film, SphereOnFlat
 from filmcal.fem.result import FEResult
 from filmcal.fem.thinlayer import ThinLayerResult, thin_layer_contact
 
 __all__ = [
-    "SphereOnFlat", "Film", "ContactOptions", "MeshSettings", "FEResult", "CONTACT_MODES",
+    "SphereOnFlat", "Film", "ContactOptions", "MeshSettings", "FILM_LAYERS", "FEResult", "CONTACT_MODES",
     "solve_sphere_on_flat", "solve_many", "evaluate_point", "imprint_columns", "OUTPUT_KEYS",
     "hertz_radius_mm", "hertz_max_pressure_mpa", "hertz_approach_mm", "hertz_pressure_mpa",
     "contact_modulus_mpa", "oedometric_modulus_mpa", "lame_parameters",
@@ -35,7 +35,7 @@ _MAX_MODELS = 8
 
 
 def get_model(sphere_radius_mm: float, mesh: MeshSettings | None = None, film_thickness_mm: float = 0.09,
-              film_layers: int = 1) -> SphereOnFlat:
+              film_layers: int = FILM_LAYERS) -> SphereOnFlat:
     """A `SphereOnFlat` for these settings, built once per process and kept (LRU of 8)."""
     mesh = MeshSettings() if mesh is None else mesh
     key = (float(sphere_radius_mm), mesh, float(film_thickness_mm), int(film_layers))
@@ -51,7 +51,7 @@ def get_model(sphere_radius_mm: float, mesh: MeshSettings | None = None, film_th
 
 def solve_sphere_on_flat(sphere_radius_mm: float, force_n: float, film: Film | None = None,
                          options: ContactOptions | None = None, mesh: MeshSettings | None = None,
-                         film_thickness_mm: float = 0.09, film_layers: int = 1,
+                         film_thickness_mm: float = 0.09, film_layers: int = FILM_LAYERS,
                          activation_pressure_mpa: float | None = None, film_type=None,
                          imprint_model: str = DEFAULT_IMPRINT_MODEL) -> FEResult:
     """One evaluation of the FE model (reusing a cached model for this R and mesh).
@@ -81,7 +81,7 @@ def solve_sphere_on_flat(sphere_radius_mm: float, force_n: float, film: Film | N
 
 def solve_many(sphere_radius_mm: float, points: Iterable[tuple[Film | None, float]],
                options: ContactOptions | None = None, mesh: MeshSettings | None = None,
-               film_thickness_mm: float = 0.09, film_layers: int = 1) -> list[FEResult]:
+               film_thickness_mm: float = 0.09, film_layers: int = FILM_LAYERS) -> list[FEResult]:
     """Evaluate many (film, force_n) points for one sphere radius, sharing the condensed bodies."""
     model = get_model(sphere_radius_mm, mesh, film_thickness_mm, film_layers)
     return [model.solve(film, force, options) for film, force in points]

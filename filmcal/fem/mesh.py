@@ -17,8 +17,9 @@ import numpy as np
 from skfem import MeshQuad
 
 from filmcal._validation import check_positive, check_range
+from filmcal.contact.names import FILM_LAYERS
 
-__all__ = ["MeshSettings", "BodyGrid", "graded_coordinates", "sphere_grid", "flat_grid", "film_grid",
+__all__ = ["FILM_LAYERS", "MeshSettings", "BodyGrid", "graded_coordinates", "sphere_grid", "flat_grid", "film_grid",
            "default_contact_zone_mm"]
 
 

@@ -40,7 +40,7 @@ from filmcal.fem.contact import CLOSED, FREE, OPEN, ContactState, PairSystem, so
 from filmcal.fem.forms import axial_traction, lame_parameters, linear_elasticity, oedometric_modulus_mpa
 from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, hertz_radius_mm
 from filmcal.fem.largestrain import film_internal_force_and_tangent
-from filmcal.fem.mesh import BodyGrid, MeshSettings, film_grid, flat_grid, sphere_grid
+from filmcal.fem.mesh import FILM_LAYERS, BodyGrid, MeshSettings, film_grid, flat_grid, sphere_grid
 from filmcal.fem.result import FEResult
 
 __all__ = ["Film", "SphereOnFlat"]
@@ -147,7 +147,8 @@ class SphereOnFlat:
     film_thickness_mm : float
         Film thickness t (the paper: 0.09 mm).
     film_layers : int
-        Element layers through the film thickness (the paper: 1).
+        Element layers through the film thickness (default
+        :data:`filmcal.fem.mesh.FILM_LAYERS`, 2; the paper: 1).
     steel_modulus_mpa, steel_poisson : float
         Elastic constants of both steel bodies.
 
@@ -159,7 +160,7 @@ class SphereOnFlat:
     """
 
     def __init__(self, sphere_radius_mm: float, mesh: MeshSettings | None = None, film_thickness_mm: float = 0.09,
-                 film_layers: int = 1, steel_modulus_mpa: float = STEEL_MODULUS_MPA,
+                 film_layers: int = FILM_LAYERS, steel_modulus_mpa: float = STEEL_MODULUS_MPA,
                  steel_poisson: float = STEEL_POISSON) -> None:
         t0 = time.perf_counter()
         self.sphere_radius_mm = check_positive("sphere_radius_mm", sphere_radius_mm)
@@ -504,7 +505,7 @@ class SphereOnFlat:
         pressure = np.where(state.normal_status == CLOSED, lam_n / self.face_area_mm2, 0.0)
         active = state.normal_status == CLOSED
         gaps = state.relative[:n] if len(state.relative) else np.full(n, np.nan)
-        tip = (film_tip_length_mm(self.film_thickness_mm, film.oedometric_modulus_mpa)
+        tip = (film_tip_length_mm(self.film_thickness_mm, film.oedometric_modulus_mpa, film.poisson)
                if film is not None else float("inf"))
         if converged and active[-3:].any():
             converged = False

@@ -26,7 +26,7 @@ import numpy as np
 from filmcal._errors import InputError
 from filmcal._io import canonical_json, check_output_dir
 from filmcal._versions import VersionNote, version_note
-from filmcal.contact.names import DEFAULT_KINEMATICS, IMPRINT_MODELS, KINEMATICS
+from filmcal.contact.names import DEFAULT_KINEMATICS, FE_MODEL_REVISION, IMPRINT_MODELS, KINEMATICS
 from filmcal.contact.options import ContactOptions
 from filmcal.films import FilmRegistry, FilmType, load_films_file
 from filmcal.study.layout import StudyLayout, spec_key
@@ -99,6 +99,8 @@ class FESettings:
         out = {k: v for k, v in asdict(self).items() if k != "simulator"}
         if self.simulator is not None:
             out["simulator"] = self.simulator.spec()
+        else:
+            out["fe_model_revision"] = FE_MODEL_REVISION
         return out
 
     def contact_options(self) -> ContactOptions:

@@ -1,0 +1,391 @@
+"""A second FE formulation of sphere-on-flat with a film, for verification.
+
+It shares the geometry with `SphereOnFlat` (steel sphere with an exact
+spherical face on a steel flat, 50 x 50 mm bodies, the film between, frictionless
+at the sphere and tied to the flat) but none of its formulation:
+
+- biquadratic 9-node Lagrange quadrilaterals (no locking of the film at
+  nu up to 0.45, second-order accurate displacements), isotropic elements of
+  size h in the contact zone and several element layers through the film;
+- the film and the flat are one body with shared nodes (the tied interface),
+  condensed onto the film's top z-DOFs; the sphere onto its face z-DOFs;
+- the contact edge is read from the *closing load* of each face node: with the
+  contact set fixed the solution is affine in the force, so the load at which
+  the next node's gap closes is exact, and the radius at the given force is
+  interpolated between the two nodes whose closing loads bracket it
+  (a^3 linear in F, exact for Hertz). No pressure profile is fitted.
+
+It is slower than `SphereOnFlat` (seconds per film instead of milliseconds)
+and is not used by the calibration: `bench/verification.py` and the tests run
+the production model against it.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+from skfem import Basis, BilinearForm, ElementQuad2, ElementVector, FacetBasis, LinearForm, MeshQuad
+
+from filmcal._validation import check_poisson, check_positive, check_range
+from filmcal.elastic import lame_parameters
+from filmcal.fem.condense import condense
+from filmcal.fem.mesh import MeshSettings, default_contact_zone_mm, graded_coordinates
+from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, hertz_radius_mm
+
+__all__ = ["ReferenceResult", "QuadraticSphereOnFlat"]
+
+#: Condensed lower bodies (flat with film) kept per process, shared by spheres on the same mesh.
+_LOWERS: dict = {}
+_LOWERS_KEPT = 4
+
+
+def _constitutive(lam, mu):
+    """Axisymmetric D-matrix on (eps_rr, eps_zz, eps_tt, gamma_rz)."""
+    d = lam + 2.0 * mu
+    return np.array([[d, lam, lam, 0.0], [lam, d, lam, 0.0], [lam, lam, d, 0.0], [0.0, 0.0, 0.0, mu]])
+
+
+@BilinearForm
+def _stiffness(u, v, w):
+    r = np.asarray(w.x[0])
+    gu, gv = np.asarray(u.grad), np.asarray(v.grad)
+    eu = [gu[0, 0], gu[1, 1], np.asarray(u)[0] / r, gu[0, 1] + gu[1, 0]]
+    ev = [gv[0, 0], gv[1, 1], np.asarray(v)[0] / r, gv[0, 1] + gv[1, 0]]
+    D = w.D
+    out = 0.0
+    for i in range(4):
+        for j in range(4):
+            if D[i, j] != 0.0:
+                out = out + D[i, j] * eu[j] * ev[i]
+    return out * 2.0 * np.pi * r
+
+
+@LinearForm
+def _downward_traction(v, w):
+    return -w.traction * v[1] * 2.0 * np.pi * w.x[0]
+
+
+def _quad_mesh(points: np.ndarray, cells: np.ndarray) -> MeshQuad:
+    """A MeshQuad with counter-clockwise cells."""
+    p, t = points, cells.copy()
+    area2 = ((p[0, t[1]] - p[0, t[0]]) * (p[1, t[3]] - p[1, t[0]])
+             - (p[1, t[1]] - p[1, t[0]]) * (p[0, t[3]] - p[0, t[0]]))
+    flip = area2 < 0
+    t[:, flip] = t[::-1][:, flip]
+    return MeshQuad(p, t)
+
+
+def _grid_cells(index: np.ndarray) -> np.ndarray:
+    """Quad cells of a node-index grid, where every corner index is >= 0."""
+    a, b = index[:-1, :-1], index[1:, :-1]
+    c, d = index[1:, 1:], index[:-1, 1:]
+    keep = (a >= 0) & (b >= 0) & (c >= 0) & (d >= 0)
+    return np.vstack([a[keep], b[keep], c[keep], d[keep]])
+
+
+def _midpoints(x: np.ndarray) -> np.ndarray:
+    out = np.empty(2 * len(x) - 1)
+    out[0::2] = x
+    out[1::2] = 0.5 * (x[:-1] + x[1:])
+    return out
+
+
+@dataclass
+class ReferenceResult:
+    """Sphere-on-flat contact from the second formulation (mm, N, MPa).
+
+    ``contact_radius_mm`` is read from the closing loads of the face nodes;
+    ``bracket_mm`` are the two element vertices whose closing loads bracket the
+    force, ``closing_force_n`` their closing loads.
+    """
+
+    contact_radius_mm: float
+    hertz_radius_mm: float
+    approach_mm: float
+    max_pressure_mpa: float
+    bracket_mm: tuple[float, float]
+    closing_force_n: tuple[float, float]
+    element_size_mm: float
+    film_layers: int
+    n_dofs: int
+    r_mm: np.ndarray
+    pressure_mpa: np.ndarray
+    elapsed_s: float
+
+
+class QuadraticSphereOnFlat:
+    """Sphere on flat with a film, biquadratic elements, closing-load reading.
+
+    Parameters
+    ----------
+    sphere_radius_mm : float
+        Sphere radius R (mm), >= the body size.
+    element_size_mm : float
+        Element size h in the contact zone (isotropic down to `fine_depth_mm`).
+    film_thickness_mm : float
+        Film thickness t (mm).
+    film_layers : int, optional
+        Element layers through the film (default: round(t / h), at least 1,
+        so that refining h refines the film alike).
+    contact_zone_mm : float, optional
+        Radius of the refined zone (default as `MeshSettings`).
+    fine_depth_mm : float
+        Depth of uniform elements of size h below the contact faces.
+    """
+
+    def __init__(self, sphere_radius_mm: float, element_size_mm: float = 0.025, film_thickness_mm: float = 0.09,
+                 film_layers: int | None = None, contact_zone_mm: float | None = None, fine_depth_mm: float = 0.3,
+                 steel_modulus_mpa: float = STEEL_MODULUS_MPA, steel_poisson: float = STEEL_POISSON) -> None:
+        t0 = time.perf_counter()
+        self.sphere_radius_mm = R = check_positive("sphere_radius_mm", sphere_radius_mm)
+        self.element_size_mm = h = check_range("element_size_mm", element_size_mm, 0.0, 0.5, high_open=False)
+        self.film_thickness_mm = t = check_positive("film_thickness_mm", film_thickness_mm)
+        if film_layers is None:  # isotropic elements through the film as well
+            film_layers = max(1, int(round(t / h)))
+        if int(film_layers) != film_layers or film_layers < 1:
+            raise ValueError(f"film_layers must be an integer >= 1, got {film_layers!r}")
+        self.film_layers = int(film_layers)
+        settings = MeshSettings(element_size_mm=h, fine_depth_mm=fine_depth_mm, contact_zone_mm=contact_zone_mm)
+        L = settings.body_size_mm
+        if R < L:
+            raise ValueError(f"sphere_radius_mm must be >= {L:g} mm, got {R:g}")
+        zone = default_contact_zone_mm(R, settings)
+        self._r = graded_coordinates(h, settings.far_element_size_mm, L, zone, settings.growth_ratio)
+        self._depth = graded_coordinates(h, settings.far_element_size_mm, L, fine_depth_mm, settings.growth_ratio)
+        self.n_zone = int(np.searchsorted(self._r, zone + 1e-9))
+        self._steel = _constitutive(*lame_parameters(steel_modulus_mpa, steel_poisson))
+        self.element = ElementVector(ElementQuad2())
+
+        # the sphere: tensor grid in (r, depth), the face morphed onto the exact sphere
+        r, d = self._r, self._depth
+        nr, nd = len(r), len(d)
+        idx = np.arange(nr * nd).reshape(nr, nd)
+        rr, dd = np.meshgrid(r, d, indexing="ij")
+        face = R - np.sqrt(R**2 - rr**2)
+        pts = np.vstack([rr.ravel(), (face + dd * (L - face) / L).ravel()])
+        mesh_s = _quad_mesh(pts, _grid_cells(idx))
+        bs = Basis(mesh_s, self.element)
+        Ks = _stiffness.assemble(bs, D=self._steel)
+        top = mesh_s.facets_satisfying(lambda x: np.isclose(x[1], L))
+        f_top = _downward_traction.assemble(FacetBasis(mesh_s, self.element, facets=top), traction=1.0 / (np.pi * L**2))
+        on_axis = np.isclose(bs.doflocs[0], 0.0)
+        ax_r = np.flatnonzero(on_axis & (np.arange(bs.N) % 2 == 0))
+        top_axis_z = np.flatnonzero(on_axis & np.isclose(bs.doflocs[1], L) & (np.arange(bs.N) % 2 == 1))
+        fixed = np.concatenate([ax_r, top_axis_z])
+        # grid of DOF locations in (r, depth): the face is depth index 0
+        grid = _dof_grid_morphed(bs, _midpoints(r), _midpoints(d), R, L)
+        face_z = grid[: 2 * self.n_zone - 1, 0] + 1
+        self.r_face_mm = bs.doflocs[0, face_z]
+        self._sphere = _condense_grid(Ks, grid, face_z, fixed, f_top)
+        self.gap0_mm = R - np.sqrt(R**2 - self.r_face_mm**2)
+        self._n_dofs_sphere = bs.N
+        self.setup_time_s = time.perf_counter() - t0
+
+    # ------------------------------------------------------------------ lower body
+    def _lower(self, film_modulus_mpa: float | None, film_poisson: float):
+        """The flat (with the film tied on it) condensed onto its top z-DOFs."""
+        r, d = self._r, self._depth
+        nr, nd = len(r), len(d)
+        t = self.film_thickness_mm
+        n_film = self.film_layers if film_modulus_mpa is not None else 0
+        # rows from the top: film layers (only r <= zone), then the flat's depth
+        z_rows = np.concatenate([np.linspace(t, 0.0, n_film + 1)[:-1], -d]) if n_film else -d
+        nz = len(z_rows)
+        idx = -np.ones((nr, nz), int)
+        idx[:, n_film:] = np.arange(nr * nd).reshape(nr, nd)
+        count = nr * nd
+        if n_film:
+            zone = self.n_zone
+            idx[:zone, :n_film] = count + np.arange(zone * n_film).reshape(zone, n_film)
+        pts = np.zeros((2, int(idx.max()) + 1))
+        ii, jj = np.nonzero(idx >= 0)
+        pts[0, idx[ii, jj]] = r[ii]
+        pts[1, idx[ii, jj]] = z_rows[jj]
+        cells = _grid_cells(idx)
+        mesh = _quad_mesh(pts, cells)
+        z_mid = pts[1, cells].mean(axis=0)
+        film_cells = np.flatnonzero(z_mid > 0.0)
+        steel_cells = np.flatnonzero(z_mid < 0.0)
+        K = _stiffness.assemble(Basis(mesh, self.element, elements=steel_cells), D=self._steel)
+        if n_film:
+            film_D = _constitutive(*lame_parameters(film_modulus_mpa, film_poisson))
+            K = K + _stiffness.assemble(Basis(mesh, self.element, elements=film_cells), D=film_D)
+        b = Basis(mesh, self.element)
+        on_axis = np.isclose(b.doflocs[0], 0.0)
+        ax_r = np.flatnonzero(on_axis & (np.arange(b.N) % 2 == 0))
+        bottom_z = np.flatnonzero(np.isclose(b.doflocs[1], -self._depth[-1]) & (np.arange(b.N) % 2 == 1))
+        fixed = np.concatenate([ax_r, bottom_z])
+        top = t if n_film else 0.0
+        # DOF grid from the top surface downwards
+        rg = _midpoints(r)
+        zg = _midpoints(z_rows)
+        grid = -np.ones((len(rg), len(zg)), int)
+        comp0 = np.arange(0, b.N, 2)
+        ri = np.searchsorted(rg, b.doflocs[0, comp0] - 1e-9)
+        zi = np.searchsorted(-zg, -b.doflocs[1, comp0] - 1e-9)
+        grid[ri, zi] = comp0
+        face_z = grid[: 2 * self.n_zone - 1, 0] + 1
+        if not np.allclose(b.doflocs[1, face_z], top) or not np.allclose(b.doflocs[0, face_z], self.r_face_mm):
+            raise RuntimeError("the lower body's face DOFs do not match the sphere's")
+        return _condense_grid(K, grid, face_z, fixed, None), b.N
+
+    # ------------------------------------------------------------------ the solve
+    def solve(self, force_n: float, film_modulus_mpa: float | None = None, film_poisson: float = 0.33
+              ) -> ReferenceResult:
+        """Press with force F (N); `film_modulus_mpa` None solves steel on steel."""
+        t0 = time.perf_counter()
+        F = check_positive("force_n", force_n)
+        if film_modulus_mpa is not None:
+            film_modulus_mpa = check_positive("film_modulus_mpa", film_modulus_mpa)
+            film_poisson = check_poisson("film_poisson", film_poisson)
+        # the lower body depends on the film and the mesh only, not on the sphere
+        key = (self.element_size_mm, self.film_thickness_mm, self.film_layers, len(self._r), self.n_zone,
+               float(self._r[-1]), film_modulus_mpa, film_poisson if film_modulus_mpa is not None else None)
+        if key not in _LOWERS:
+            while len(_LOWERS) >= _LOWERS_KEPT:
+                _LOWERS.pop(next(iter(_LOWERS)))
+            _LOWERS[key] = self._lower(film_modulus_mpa, film_poisson)
+        lower, n_lower = _LOWERS[key]
+        # gap g = g0 - w + F d + C lam  (lam >= 0 pushes the faces apart)
+        C = self._sphere.compliance + lower.compliance
+        d_unit = self._sphere.load_displacement
+        g0 = self.gap0_mm
+
+        def affine(k: int):
+            """With nodes 0..k closed: (lam, w) = s0 + F s1, and the gaps likewise."""
+            A = np.arange(k + 1)
+            M = np.zeros((k + 2, k + 2))
+            M[: k + 1, : k + 1] = C[np.ix_(A, A)]
+            M[: k + 1, k + 1] = -1.0
+            M[k + 1, : k + 1] = 1.0
+            rhs0 = np.concatenate([-g0[A], [0.0]])
+            rhs1 = np.concatenate([-d_unit[A], [1.0]])
+            sol = sla.solve(M, np.column_stack([rhs0, rhs1]))
+            lam0, lam1 = sol[: k + 1, 0], sol[: k + 1, 1]
+            w0, w1 = sol[k + 1, 0], sol[k + 1, 1]
+            gap0 = g0 - w0 + C[:, A] @ lam0
+            gap1 = d_unit - w1 + C[:, A] @ lam1
+            return lam0, lam1, w0, w1, gap0, gap1
+
+        def closing_force(k: int) -> float:
+            """The force at which node k + 1 closes with nodes 0..k closed."""
+            *_, gap0, gap1 = affine(k)
+            return float(-gap0[k + 1] / gap1[k + 1])
+
+        # bracket between vertex nodes (even indices): closing(v) <= F < closing(v + 2),
+        # closing(v) being the force at which vertex v closes with nodes 0..v-1 closed
+        n = len(g0)
+        n_vertex = (n + 1) // 2
+
+        def vertex_closing(j: int) -> float:
+            return 0.0 if j == 0 else closing_force(2 * j - 1)
+
+        lo, hi = 0, n_vertex - 1
+        if vertex_closing(hi) <= F:
+            raise ValueError(f"the contact reaches the refined zone's edge at F = {F:g} N")
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            if vertex_closing(mid) <= F:
+                lo = mid
+            else:
+                hi = mid
+        f_k, f_k1 = vertex_closing(lo), vertex_closing(hi)
+        r0, r1 = self.r_face_mm[2 * lo], self.r_face_mm[2 * hi]
+        s = (F - f_k) / (f_k1 - f_k)
+        a = float(np.cbrt(r0**3 + s * (r1**3 - r0**3)))
+        # the closed set at F itself: nodes 0..k with closing(k - 1) <= F < closing(k)
+        k = 2 * lo if closing_force(2 * lo) > F else 2 * lo + 1
+        lam0, lam1, w0, w1, _, _ = affine(k)
+        lam = lam0 + F * lam1
+        if lam.min() < -1e-9 * F:
+            raise RuntimeError("the closed set has a tensile pair force: the contact set is not contiguous")
+        forces = np.zeros(n)
+        forces[: k + 1] = lam
+        pressure = _nodal_pressure(self.r_face_mm, forces)
+        pmax = float(pressure[0])
+        return ReferenceResult(a, hertz_radius_mm(self.sphere_radius_mm, F), float(w0 + F * w1), pmax,
+                               (float(r0), float(r1)), (float(f_k), float(f_k1)), self.element_size_mm,
+                               self.film_layers if film_modulus_mpa is not None else 0,
+                               int(self._n_dofs_sphere + n_lower), self.r_face_mm.copy(), pressure,
+                               time.perf_counter() - t0)
+
+
+def _dof_grid_morphed(basis: Basis, r_grid: np.ndarray, depth_grid: np.ndarray, R: float, L: float) -> np.ndarray:
+    """DOF-location grid of the sphere body, in (r, depth) with the face at depth 0."""
+    comp0 = np.arange(0, basis.N, 2)
+    r = basis.doflocs[0, comp0]
+    z = basis.doflocs[1, comp0]
+    face = R - np.sqrt(R**2 - r**2)
+    depth = (z - face) * L / (L - face)
+    ri = np.searchsorted(r_grid, r - 1e-9)
+    # midside DOFs of curved edges sit on the chord: match depth to the nearest grid line
+    zi = np.clip(np.searchsorted(depth_grid, depth - 1e-6), 0, len(depth_grid) - 1)
+    near = np.abs(depth_grid[np.maximum(zi - 1, 0)] - depth) < np.abs(depth_grid[zi] - depth)
+    zi = np.where(near, np.maximum(zi - 1, 0), zi)
+    grid = -np.ones((len(r_grid), len(depth_grid)), int)
+    grid[ri, zi] = comp0
+    if (grid < 0).any():
+        raise RuntimeError("the sphere's DOF locations do not form a grid")
+    return grid
+
+
+def _nodal_pressure(r: np.ndarray, forces: np.ndarray) -> np.ndarray:
+    """Nodal pressures p whose quadratic interpolation has the consistent nodal
+    forces `forces` on the face nodes at `r` (vertex, midside, ..., vertex)."""
+    n = len(r)
+    M = np.zeros((n, n))
+    xg, wg = np.polynomial.legendre.leggauss(4)
+    for e in range(0, n - 2, 2):
+        r0, r2 = r[e], r[e + 2]
+        s = 0.5 * (xg + 1.0)
+        shape = np.array([2 * (s - 0.5) * (s - 1.0), -4 * s * (s - 1.0), 2 * s * (s - 0.5)])
+        rr = r0 + s * (r2 - r0)
+        wt = 0.5 * wg * (r2 - r0) * 2.0 * np.pi * rr
+        M[e:e + 3, e:e + 3] += (shape * wt) @ shape.T
+    return np.linalg.solve(M, forces)
+
+
+def _nested_dissection(grid: np.ndarray, leaf_size: int = 64) -> np.ndarray:
+    """Fill-reducing order of a quadratic element's DOF-location grid.
+
+    Like `filmcal.fem.condense.nested_dissection`, but a separator must be a
+    line of element vertices (an even grid index): a line of midside points
+    lies inside elements and separates nothing.
+    """
+    out: list[np.ndarray] = []
+
+    def split(i0: int, i1: int, j0: int, j1: int) -> None:
+        ni, nj = i1 - i0, j1 - j0
+        if ni <= 0 or nj <= 0:
+            return
+        if ni * nj <= leaf_size or (ni < 5 and nj < 5):
+            out.append(grid[i0:i1, j0:j1].ravel())
+            return
+        if ni >= nj and ni >= 5:
+            s = (i0 + i1) // 2
+            s -= s % 2
+            s = s if s > i0 else s + 2
+            split(i0, s, j0, j1)
+            split(s + 1, i1, j0, j1)
+            out.append(grid[s, j0:j1].ravel())
+        else:
+            s = (j0 + j1) // 2
+            s -= s % 2
+            s = s if s > j0 else s + 2
+            split(i0, i1, j0, s)
+            split(i0, i1, s + 1, j1)
+            out.append(grid[i0:i1, s].ravel())
+
+    split(0, grid.shape[0], 0, grid.shape[1])
+    order = np.concatenate(out)
+    return order[order >= 0]
+
+
+def _condense_grid(K, grid: np.ndarray, face_z: np.ndarray, fixed: np.ndarray, load):
+    """Condense onto `face_z`, eliminating in nested-dissection order of the DOF grid."""
+    order_points = _nested_dissection(grid)
+    dofs = np.column_stack([order_points, order_points + 1]).ravel()
+    interior = dofs[~np.isin(dofs, np.concatenate([fixed, face_z]))]
+    return condense(K, interior, face_z, load)
