@@ -18,30 +18,40 @@ import scipy.sparse.linalg as spla
 __all__ = ["CondensedBody", "nested_dissection", "condense"]
 
 
-def nested_dissection(node_at: np.ndarray, leaf_size: int = 64) -> np.ndarray:
+def nested_dissection(node_at: np.ndarray, leaf_size: int = 64, stride: int = 1) -> np.ndarray:
     """Fill-reducing order of the nodes of a tensor grid by recursive bisection.
 
     Each box of grid nodes is split by its middle grid line (the separator),
-    and ordered as: first half, second half, separator.
+    and ordered as: first half, second half, separator. With ``stride`` k a
+    separator is a grid line whose index is a multiple of k: on the grid of a
+    quadratic element's DOF locations (k = 2) only lines of element vertices
+    separate, a line of midside points lies inside elements.
     """
     out: list[np.ndarray] = []
+
+    def middle(lo: int, hi: int) -> int | None:
+        s = (lo + hi) // 2
+        s -= s % stride
+        if s <= lo:
+            s += stride
+        return s if s < hi - 1 else None
 
     def split(i0: int, i1: int, j0: int, j1: int) -> None:
         ni, nj = i1 - i0, j1 - j0
         if ni <= 0 or nj <= 0:
             return
-        if ni * nj <= leaf_size:
+        si = middle(i0, i1) if ni >= nj else None
+        sj = middle(j0, j1) if si is None else None
+        if ni * nj <= leaf_size or (si is None and sj is None):
             out.append(node_at[i0:i1, j0:j1].ravel())
-        elif ni >= nj:
-            s = (i0 + i1) // 2
-            split(i0, s, j0, j1)
-            split(s + 1, i1, j0, j1)
-            out.append(node_at[s, j0:j1].ravel())
+        elif si is not None:
+            split(i0, si, j0, j1)
+            split(si + 1, i1, j0, j1)
+            out.append(node_at[si, j0:j1].ravel())
         else:
-            s = (j0 + j1) // 2
-            split(i0, i1, j0, s)
-            split(i0, i1, s + 1, j1)
-            out.append(node_at[i0:i1, s].ravel())
+            split(i0, i1, j0, sj)
+            split(i0, i1, sj + 1, j1)
+            out.append(node_at[i0:i1, sj].ravel())
 
     split(0, node_at.shape[0], 0, node_at.shape[1])
     return np.concatenate(out) if out else np.zeros(0, dtype=int)

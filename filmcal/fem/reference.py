@@ -21,6 +21,7 @@ the production model against it.
 """
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass
 
@@ -30,7 +31,7 @@ from skfem import Basis, BilinearForm, ElementQuad2, ElementVector, FacetBasis, 
 
 from filmcal._validation import check_poisson, check_positive, check_range
 from filmcal.elastic import lame_parameters
-from filmcal.fem.condense import condense
+from filmcal.fem.condense import condense, nested_dissection
 from filmcal.fem.mesh import MeshSettings, default_contact_zone_mm, graded_coordinates
 from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, hertz_radius_mm
 
@@ -269,6 +270,7 @@ class QuadraticSphereOnFlat:
             gap1 = d_unit - w1 + C[:, A] @ lam1
             return lam0, lam1, w0, w1, gap0, gap1
 
+        @functools.lru_cache(maxsize=None)
         def closing_force(k: int) -> float:
             """The force at which node k + 1 closes with nodes 0..k closed."""
             *_, gap0, gap1 = affine(k)
@@ -347,45 +349,10 @@ def _nodal_pressure(r: np.ndarray, forces: np.ndarray) -> np.ndarray:
     return np.linalg.solve(M, forces)
 
 
-def _nested_dissection(grid: np.ndarray, leaf_size: int = 64) -> np.ndarray:
-    """Fill-reducing order of a quadratic element's DOF-location grid.
-
-    Like `filmcal.fem.condense.nested_dissection`, but a separator must be a
-    line of element vertices (an even grid index): a line of midside points
-    lies inside elements and separates nothing.
-    """
-    out: list[np.ndarray] = []
-
-    def split(i0: int, i1: int, j0: int, j1: int) -> None:
-        ni, nj = i1 - i0, j1 - j0
-        if ni <= 0 or nj <= 0:
-            return
-        if ni * nj <= leaf_size or (ni < 5 and nj < 5):
-            out.append(grid[i0:i1, j0:j1].ravel())
-            return
-        if ni >= nj and ni >= 5:
-            s = (i0 + i1) // 2
-            s -= s % 2
-            s = s if s > i0 else s + 2
-            split(i0, s, j0, j1)
-            split(s + 1, i1, j0, j1)
-            out.append(grid[s, j0:j1].ravel())
-        else:
-            s = (j0 + j1) // 2
-            s -= s % 2
-            s = s if s > j0 else s + 2
-            split(i0, i1, j0, s)
-            split(i0, i1, s + 1, j1)
-            out.append(grid[i0:i1, s].ravel())
-
-    split(0, grid.shape[0], 0, grid.shape[1])
-    order = np.concatenate(out)
-    return order[order >= 0]
-
-
 def _condense_grid(K, grid: np.ndarray, face_z: np.ndarray, fixed: np.ndarray, load):
     """Condense onto `face_z`, eliminating in nested-dissection order of the DOF grid."""
-    order_points = _nested_dissection(grid)
+    order_points = nested_dissection(grid, stride=2)
+    order_points = order_points[order_points >= 0]
     dofs = np.column_stack([order_points, order_points + 1]).ravel()
     interior = dofs[~np.isin(dofs, np.concatenate([fixed, face_z]))]
     return condense(K, interior, face_z, load)
