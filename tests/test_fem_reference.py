@@ -67,3 +67,21 @@ def test_production_fe_reads_the_second_formulations_edge(modulus_mpa, poisson):
     assert abs(a[1].contact_radius_mm - reference) < 0.003  # the reference's own step is small
     production = get_model(R).solve(Film(modulus_mpa, poisson), F).contact_radius_mm
     assert production == pytest.approx(reference, abs=0.005)
+
+
+def test_a_study_ignores_posteriors_of_an_older_fe_revision(tmp_path):
+    """A folder run again after the FE changed keeps the old posteriors on disk; only the current
+    revision's are read (otherwise `correct` would find two posteriors and refuse)."""
+    from filmcal.contact.names import FE_MODEL_REVISION
+    from filmcal.study import Study
+
+    study = Study(tmp_path / "s", create=True)
+    spec = {"film": {"name": "HS"}, "fe": {"kinematics": "small"}, "imprint": "edge"}
+    with study.writing("test"):
+        for revision in (None, FE_MODEL_REVISION):
+            fe = dict(spec["fe"], **({} if revision is None else {"fe_model_revision": revision}))
+            path = study.root / f"p{revision}.json"
+            path.write_text("{}")
+            study.record(path, "posterior", dict(spec, fe=fe))
+    found = study.posteriors("HS")
+    assert [p.name for p, _ in found] == [f"p{FE_MODEL_REVISION}.json"]

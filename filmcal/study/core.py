@@ -672,12 +672,16 @@ class Study:
         and FE fields (``kinematics``, ``sphere_contact``, ``flat_contact``,
         ``friction_coefficient``, ``seed``, ``n_train``, ``n_test``); a value of
         None matches anything, except that without ``loads`` the posteriors of
-        all loads are taken when there are also some of a load range.
+        all loads are taken when there are also some of a load range. Posteriors
+        of an older revision of the in-house FE (`FE_MODEL_REVISION`; a folder
+        run again after an update keeps them) are stale and never returned.
         """
         out = []
         for rel, entry in self.manifest.artefacts("posterior").items():
             spec = entry["spec"]
             if film is not None and spec["film"]["name"] != film:
+                continue
+            if "simulator" not in spec["fe"] and spec["fe"].get("fe_model_revision", 1) != FE_MODEL_REVISION:
                 continue
             if all(v is None or (spec["fe"].get(k, spec.get(k)) if k in spec["fe"] else spec.get(k)) == v
                    for k, v in match.items()):
