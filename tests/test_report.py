@@ -553,6 +553,7 @@ def test_an_unreadable_file_is_reported_and_the_rest_of_the_report_kept(tmp_path
 
 
 def test_preferred_imprint_model_first_and_unused_models_left_out(tmp_path):
+    from filmcal.contact.names import FE_MODEL_REVISION
     from filmcal.report.study_report import _ordered_posteriors
     from filmcal.study import Study
 
@@ -563,7 +564,8 @@ def test_preferred_imprint_model_first_and_unused_models_left_out(tmp_path):
             path = study.layout.posterior(name)
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text("{}")
-            study.record(path, "posterior", {"film": {"name": film}, "model": model, "loads": None, "fe": {}})
+            study.record(path, "posterior", {"film": {"name": film}, "model": model, "loads": None,
+                                                  "fe": {"fe_model_revision": FE_MODEL_REVISION}})
         comparison = study.layout.comparison("HS")
         comparison.write_text(json.dumps({"weights": {"edge/small": 0.3, "activation/small": 0.7, "edge/large": 0.0},
                                           "preferred": "activation/small"}))
