@@ -119,6 +119,10 @@ ACCEPTANCE_TESTS: dict[str, str] = {
         "30 s: a calibration on an external command, killed and resumed",
     "test_simulators.py::test_the_lab_example_runs_end_to_end": "45 s: examples/lab at its fast size",
     "test_pipeline_dask.py::": "55 s: two smoke pipelines, one on a local Dask cluster; an unreachable one",
+    "test_correction_wheelrail.py::test_command_with_a_rough_wheel_widens_the_band_and_reports_the_roughness_share":
+        "117 s: BEM roughness laws over the conditioned draws (the roughness share of a wheel-rail band)",
+    "test_fem_imprint.py::test_film_edge_matches_the_finest_mesh":
+        "20 s: the FE's film edge at its finest meshes",
 }
 
 #: Node ids kept in the fast tier although they take longer, with the reason.
