@@ -45,7 +45,7 @@ TESTS_DIR = Path(__file__).resolve().parent
 #: much work (wall time on the busy machine, as below).
 SLOW_FIXTURES: frozenset[str] = frozenset({
     "quick_study",  # a quick pipeline (HS) in a subprocess: about 25 s, started at collection
-    "printed",      # test_report.py: a synthetic study's report printed by Chromium, 21 s
+    "printed",      # test_report.py: a synthetic study's report written once, 20 s
     "fine_025",     # test_fem_imprint.py: FE solves on a 0.025 mm mesh, 16 s
     "spheres",      # test_fem_reference.py: the second formulation at h = 0.1 and 0.05 mm, 20 s
 })

@@ -1,4 +1,4 @@
-"""The report: read from a study folder, printed to A4 by headless Chromium, checked as a reader would.
+"""The report: read from a study folder, typeset on A4 by Typst, checked as a reader would.
 
 A small synthetic study folder (analytic Hertz radii, a random Latin hypercube,
 made-up correction curves) is written once per module and its report printed
@@ -7,7 +7,6 @@ once; the PDF is then read back with poppler (``pdfinfo``, ``pdftotext``,
 """
 from __future__ import annotations
 
-import base64
 import csv
 import hashlib
 import io
@@ -24,8 +23,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from filmcal.hertz import hertz_pressure_mpa, hertz_radius_mm
-from filmcal.report import FigureBlock, Report, Section, Table, render_html, write_pdf
-from filmcal.report import document
+from filmcal.report import Definitions, FigureBlock, Report, Section, Table, render_html, write_pdf
 from filmcal.report.study_report import answer_table, build_report, film_records_section, summary_section
 
 CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
@@ -41,8 +39,7 @@ CURVE_COLUMNS = ("film", "wheel", "force_kn", "offset_mm", "area_no_film_mm2", "
                  "delta_area_median_mm2", "delta_area_lo_mm2", "delta_area_hi_mm2", "ratio_median", "ratio_lo",
                  "ratio_hi", "interpolation_error_rel")
 # slow tier (python3 -m pytest -m "not slow" leaves these out); measured on a busy 2-core machine
-PRINTED = pytest.mark.slow(reason="uses the synthetic study's report, printed once by Chromium (about 25 s)")
-CHROMIUM = pytest.mark.slow(reason="two Chromium prints, about 5 s")
+PRINTED = pytest.mark.slow(reason="uses the synthetic study's report, written once (about 20 s)")
 MCMC = pytest.mark.slow(reason="a short toy calibration, about 8 s")
 COMMAND = pytest.mark.slow(reason="filmcal report in a subprocess, about 15 s")
 CASES = [(r, f) for f in (25e3, 50e3, 75e3, 100e3) for r in (300.0, 450.0, 600.0)][:10]
@@ -187,7 +184,7 @@ def write_synthetic_study(folder: Path, parts=SYNTHETIC_PARTS) -> Path:
 
 @pytest.fixture(scope="module")
 def printed(tmp_path_factory):
-    """The synthetic study's report (as data) and its HTML and PDF, printed once."""
+    """The synthetic study's report (as data) and its HTML and PDF, written once."""
     from filmcal.report import write_report
 
     study = write_synthetic_study(tmp_path_factory.mktemp("synthetic-study"))
@@ -233,7 +230,7 @@ def test_sections_drawn_in_worker_processes_are_those_drawn_here(printed):
 @PRINTED
 def test_pdf_is_a4_on_every_page(printed):
     _, paths = printed
-    assert paths["pdf_engine"] == "chromium"
+    assert paths["pdf_engine"] == "typst"
     sizes = page_sizes_pt(paths["pdf"])
     assert len(sizes) >= 8
     for w, h in sizes:
@@ -329,30 +326,36 @@ def test_design_pairs_are_in_physical_units(printed):
     assert r_lim[0] > 250 and r_lim[1] < 650
 
 
-def test_a_blank_figure_has_the_pixel_size_of_the_figure():
-    """The first print (page numbers only) lays figures out from white images of the same pixel size."""
-    from PIL import Image
-
-    block = FigureBlock(_sine_figure(), "sine")
-    drawn = Image.open(io.BytesIO(base64.b64decode(block.png_base64())))
-    blank = Image.open(io.BytesIO(base64.b64decode(block.blank_png_base64())))
-    assert blank.size == drawn.size == (600, 450)  # 4 x 3 in at 150 dpi
-    assert np.all(np.asarray(blank.convert("L")) == 255)
-    assert len(block.blank_png_base64()) < len(block.png_base64()) / 5
-
-
-def test_pdf_falls_back_to_figures_without_chromium(tmp_path, monkeypatch):
-    monkeypatch.setattr(document, "find_chromium", lambda: None)
-    report = Report("T", "s", [Section("One").add("text", FigureBlock(_sine_figure(), "sine")),
+def test_pdf_is_typeset_without_a_browser_and_reproducibly(tmp_path, monkeypatch):
+    """No Chromium on PATH: the PDF is typeset all the same, its tables as text, the same bytes twice."""
+    monkeypatch.setenv("PATH", str(tmp_path / "empty-bin"))
+    report = Report("T", "s", [Section("One").add("text", Table(["name", "value (mm)"], [["first", "1.250"]], "cap"),
+                                                  FigureBlock(_sine_figure(), "sine")),
                                Section("Two").add(FigureBlock(_sine_figure(), "cosine"))])
-    result = write_pdf(report, tmp_path / "r.pdf")
-    assert result.engine == "matplotlib" and "Chromium" in result.message
-    sizes = page_sizes_pt(result.path)
-    assert len(sizes) == 3 and all(abs(w - A4_PT[0]) < 1 and abs(h - A4_PT[1]) < 1 for w, h in sizes)
-    assert "Chromium" in page_texts(result.path)[0]
+    first = write_pdf(report, tmp_path / "a.pdf", timestamp=1_700_000_000)
+    second = write_pdf(report, tmp_path / "b.pdf", timestamp=1_700_000_000)
+    assert first.engine == "typst" and first.path.read_bytes() == second.path.read_bytes()
+    monkeypatch.undo()
+    sizes = page_sizes_pt(first.path)
+    assert len(sizes) == 4  # title page, contents, section one, section two (a section with a figure starts a page)
+    assert all(abs(w - A4_PT[0]) < 1 and abs(h - A4_PT[1]) < 1 for w, h in sizes)
+    info = subprocess.run([_tool("pdfinfo"), str(first.path)], capture_output=True, text=True, check=True).stdout
+    assert re.search(r"^Creator:\s+Typst", info, re.MULTILINE) and "Chromium" not in info and "Matplotlib" not in info
+    assert re.search(r"^CreationDate:.*2023", info, re.MULTILINE)  # 1.7e9 s after 1970 is November 2023
+    page = _words(page_texts(first.path)[2])
+    assert "name value (mm)" in page and "first 1.250" in page  # a table of text, not a picture of one
 
 
-@CHROMIUM
+def test_text_that_looks_like_markup_is_printed_as_it_is(tmp_path):
+    """Every text enters the typesetter as data: Typst's markup characters in a study's words stay words."""
+    odd = "a #strong[b] $c$ *d* _e_ <f> @g \\h `i` = j"
+    report = Report(odd, odd, [Section(odd).add(odd, Table([odd], [[odd]], odd), Definitions([(odd, odd)]))],
+                    remarks=[odd])
+    pdf = write_pdf(report, tmp_path / "odd.pdf").path
+    text = _words(" ".join(page_texts(pdf)))
+    assert text.count(_words(odd)) >= 7  # title, subtitle, remark, contents, heading, paragraph, table, terms
+
+
 def test_a_figure_taller_than_a_page_is_scaled_onto_the_page_of_its_caption(tmp_path):
     tall = Figure(figsize=(6.9, 14.0))
     for k, ax in enumerate(tall.subplots(8, 1)):
@@ -366,7 +369,6 @@ def test_a_figure_taller_than_a_page_is_scaled_onto_the_page_of_its_caption(tmp_
     assert "Figure 1. a figure twice as tall as it is wide" in _words(pages[page - 1])
 
 
-@CHROMIUM
 def test_long_table_flows_over_pages_with_its_header_repeated(tmp_path):
     rows = [[f"row {i}", f"{i:.3f}"] for i in range(150)]
     report = Report("Long", "many rows", [Section("Table").add(Table(["name", "value (mm)"], rows, "long"))])
@@ -465,14 +467,14 @@ def test_report_command_rewrites_from_the_study(tmp_path):
                           str(tmp_path / "rep"), "--json"], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr[-2000:]
     answer = json.loads(out.stdout)
-    assert answer["pdf_engine"] == "chromium" and answer["figures"] == 2  # area curves, correction factor
+    assert answer["pdf_engine"] == "typst" and answer["figures"] == 2  # area curves, correction factor
     assert (tmp_path / "rep" / "report.html").stat().st_size > 50_000
     assert "Not available: fe-verification.json missing" in (tmp_path / "rep" / "report.html").read_text()
     assert (tmp_path / "rep" / "report.pdf").read_bytes()[:5] == b"%PDF-"
 
 
 @COMMAND
-def test_report_command_without_chromium_says_so_and_writes_the_figures_pdf(tmp_path):
+def test_report_command_without_chromium_or_git_typesets_the_pdf(tmp_path):
     import os
 
     study = write_synthetic_study(tmp_path / "study", parts=("curves",))
@@ -480,10 +482,9 @@ def test_report_command_without_chromium_says_so_and_writes_the_figures_pdf(tmp_
     out = subprocess.run([sys.executable, "-m", "filmcal.cli", "report", "--study-dir", str(study), "--json"],
                          capture_output=True, text=True, timeout=300, env=env)
     assert out.returncode == 0, out.stderr[-2000:]
-    assert json.loads(out.stdout)["pdf_engine"] == "matplotlib"
-    lines = out.stderr.strip().splitlines()
-    assert len(lines) == 1 and "Chromium was not found" in lines[0] and "Traceback" not in out.stderr
-    assert len(page_sizes_pt(study / "report" / "report.pdf")) == 3  # the cover and the two figures
+    assert json.loads(out.stdout)["pdf_engine"] == "typst" and not out.stderr.strip()
+    texts = page_texts(study / "report" / "report.pdf")
+    assert texts[1].lstrip().startswith("Contents") and "Glossary" in texts[1]
 
 
 @pytest.mark.parametrize("study", ["missing-folder", "empty-folder"])
@@ -529,16 +530,6 @@ def test_calibration_figures_name_parameters_as_an_engineer_reads_them():
     table = next(b for b in section.blocks if isinstance(b, Table))
     assert "film Young's modulus E (MPa)" in [row[0] for row in table.rows]
     assert any(row[0].startswith("model discrepancy at 25 kN") for row in table.rows)
-
-
-def test_pdf_falls_back_when_chromium_fails(tmp_path, monkeypatch):
-    broken = tmp_path / "chromium"
-    broken.write_text("#!/bin/sh\necho 'cannot start' >&2\nexit 1\n")
-    broken.chmod(0o755)
-    monkeypatch.setattr(document, "find_chromium", lambda: str(broken))
-    result = write_pdf(Report("T", "s", [Section("One").add(FigureBlock(_sine_figure(), "sine"))]), tmp_path / "r.pdf")
-    assert result.engine == "matplotlib" and "failed" in result.message and "cannot start" in result.message
-    assert len(page_sizes_pt(result.path)) == 2
 
 
 def test_an_unreadable_file_is_reported_and_the_rest_of_the_report_kept(tmp_path):

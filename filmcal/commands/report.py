@@ -2,8 +2,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
-import warnings
 
 from filmcal.commands._common import print_json
 from filmcal.commands._options import add, local
@@ -17,10 +15,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "validation, posteriors with diagnostics per film type, posterior predictive checks against "
                     "Table 1, wheel-rail correction curves with 90 %% bands, and provenance (versions, seeds, "
                     "settings hash, file checksums), and a glossary. The HTML embeds its figures (one file to "
-                    "share); the PDF is that same page printed on A4 by headless Chromium (a title page with the "
-                    "answer per film, contents with page numbers, each figure with its caption). Without "
-                    "Chromium the PDF holds the figures only, and the command says so. Reads the study's files "
-                    "only; the figures are drawn on every core (docs/pipeline.md gives measured times).")
+                    "share); the PDF is the same report typeset on A4 by Typst (a title page with the answer per "
+                    "film, contents with page numbers, tables as text, each figure with its caption; no browser "
+                    "needed). Reads the study's files only; the figures are drawn on every core "
+                    "(docs/pipeline.md gives measured times).")
     add(p, "study_dir", default="filmcal-study", help="study folder (default ./filmcal-study)")
     local(p, "--out-dir", default=None, help="output folder (default STUDY_DIR/report)")
     add(p, "json", action="store_true", help="print the written paths as one JSON object")
@@ -33,13 +31,9 @@ def run(args: argparse.Namespace) -> int:
     Study(args.study_dir)  # a folder that is not a study is refused before the report's imports
     from filmcal.report import write_report
 
-    with warnings.catch_warnings():  # the fallback is said once, below
-        warnings.simplefilter("ignore", RuntimeWarning)
-        paths = write_report(args.study_dir, args.out_dir)
+    paths = write_report(args.study_dir, args.out_dir)
     out = {"html": str(paths["html"]), "pdf": str(paths["pdf"]), "figures": paths["figures"],
            "pdf_engine": paths["pdf_engine"]}
-    if paths["pdf_message"]:
-        print(f"report: {paths['pdf_message']}", file=sys.stderr)
     if args.json:
         print_json(out)
     else:

@@ -19,7 +19,6 @@ import datetime as _dt
 import json
 import platform
 import subprocess
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from importlib import metadata
@@ -30,7 +29,8 @@ import numpy as np
 from filmcal._io import atomic_write_text
 from filmcal._versions import NUMERIC_PACKAGES, software_versions, version_note
 from filmcal.report import figures as F
-from filmcal.report.document import Definitions, FigureBlock, Report, Section, Table, render_html, write_pdf
+from filmcal.report.document import Definitions, FigureBlock, Report, Section, Table, render_html
+from filmcal.report.typeset import write_pdf
 
 __all__ = ["build_report", "write_report", "read_study", "StudyData", "DesignData", "SECTION_BUILDERS",
            "GLOSSARY", "answer_table", "summary_section", "calibration_sections", "verification_section",
@@ -898,10 +898,26 @@ def build_report(study_dir: str | Path, workers=1) -> Report:
                   lambda job, sections, k: parts.__setitem__(job, sections))
     sections = [section for job in jobs for section in parts[job]]
     answer, remarks = answer_table(data.posteriors, data.curves)
-    stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    stamp = _dt.datetime.fromtimestamp(recorded_epoch(study_dir), _dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     return Report("Film calibration and wheel-rail correction report",
-                  f"Study {data.folder.resolve()}, settings hash {data.settings_hash}, generated {stamp}.",
+                  f"Study {data.folder.resolve()}, settings hash {data.settings_hash}, as recorded {stamp}.",
                   sections, answer=answer, remarks=remarks)
+
+
+def recorded_epoch(study_dir: str | Path) -> int:
+    """When the study's newest artefact was recorded (s since 1970 UTC; the manifest's time without artefacts).
+
+    The report's date: a report of the same study is the same report, byte for byte in its PDF.
+    """
+    from filmcal.study.layout import StudyLayout
+
+    manifest = StudyLayout(Path(study_dir)).manifest
+    try:
+        artefacts = json.loads(manifest.read_text(encoding="utf-8")).get("artefacts", {})
+        return int(max(_dt.datetime.fromisoformat(e["written_utc"].replace("Z", "+00:00")).timestamp()
+                       for e in artefacts.values()))
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return int(manifest.stat().st_mtime)
 
 
 def write_report(study_dir: str | Path, out_dir: str | Path | None = None, workers=None) -> dict:
@@ -913,9 +929,7 @@ def write_report(study_dir: str | Path, out_dir: str | Path | None = None, worke
     Returns
     -------
     dict
-        ``{"html": Path, "pdf": Path, "figures": int, "pdf_engine": "chromium" | "matplotlib",
-        "pdf_message": str}`` (the message says why the PDF fell back, else it is empty; it is
-        also issued as a `RuntimeWarning`, so that callers that do not look still show it).
+        ``{"html": Path, "pdf": Path, "figures": int, "pdf_engine": "typst"}``.
     """
     import matplotlib
 
@@ -925,8 +939,5 @@ def write_report(study_dir: str | Path, out_dir: str | Path | None = None, worke
     html_path = out / "report.html"
     with matplotlib.rc_context(F.REPORT_STYLE):
         atomic_write_text(html_path, render_html(report))
-        pdf = write_pdf(report, out / "report.pdf")
-    if pdf.message:
-        warnings.warn(f"report PDF: {pdf.message}", RuntimeWarning, stacklevel=2)
-    return {"html": html_path, "pdf": pdf.path, "figures": len(report.figures), "pdf_engine": pdf.engine,
-            "pdf_message": pdf.message}
+        pdf = write_pdf(report, out / "report.pdf", timestamp=recorded_epoch(study_dir))
+    return {"html": html_path, "pdf": pdf.path, "figures": len(report.figures), "pdf_engine": pdf.engine}
