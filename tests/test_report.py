@@ -578,3 +578,56 @@ def test_the_report_repeats_the_elastic_limit_warning_of_its_curves():
     hot = elastic_limit_note({"HS": [row, {**row, "offset_mm": 0.0, "max_pressure_no_film_mpa": 1300.0}]})
     assert hot.startswith("Warning") and "100 kN / η = 0 mm" in hot and "-3 mm" not in hot.split("(highest")[0]
     assert "run `filmcal pipeline` again" in elastic_limit_note({"HS": [{"force_kn": 100.0, "offset_mm": 0.0}]})
+
+
+def _mixture_quantile(samples: list[np.ndarray], weights: list[float], q: float) -> float:
+    """The q-quantile of the weighted mixture, by bisection on its CDF (a second method to the report's sort)."""
+    lo = min(float(s.min()) for s in samples)
+    hi = max(float(s.max()) for s in samples)
+    total = sum(weights)
+
+    def cdf(x: float) -> float:
+        return sum(w * float(np.mean(s <= x)) for s, w in zip(samples, weights)) / total
+
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if cdf(mid) < q else (lo, mid)
+    return hi
+
+
+def test_quick_study_pdf_page_one_agrees_with_the_study_files(quick_study):
+    """Page 1 of the typeset PDF, read back as text, against the same numbers recomputed here from the study's
+    posterior files (their samples), its comparison weights and its curves CSV: not from what rendered it."""
+    study, summary, _ = quick_study
+    study = Path(study)
+    page = _words(page_texts(Path(summary["report"]["pdf"]))[0])
+    comparison = json.loads((study / "comparison-HS.json").read_text())
+    weights = {m: w for m, w in comparison["weights"].items() if w > 0}
+    manifest = json.loads((study / "study.json").read_text())
+    samples, medians = {}, {}
+    for rel, entry in manifest["artefacts"].items():
+        spec = entry.get("spec") or {}
+        if entry.get("kind") == "posterior" and spec.get("loads") is None and spec.get("model") in weights:
+            post = json.loads((study / rel).read_text())
+            model = spec["model"]
+            if post["film"] == "HS":
+                samples[model] = np.ravel(post["samples"]["modulus_mpa"])
+                medians[model] = post["modulus_mpa"]["median"]
+    assert set(samples) == set(weights), (sorted(samples), sorted(weights))
+    names = sorted(weights)
+    q = [_mixture_quantile([samples[m] for m in names], [weights[m] for m in names], p) for p in (0.05, 0.5, 0.95)]
+    quoted = [medians[m] for m in names if weights[m] >= 0.1]
+    with (study / "curves" / "curves-HS.csv").open() as f:
+        rows = [r for r in csv.DictReader(f) if r["wheel"] == "smooth"]
+    top = max(float(r["force_kn"]) for r in rows)
+    ref = min((r for r in rows if float(r["force_kn"]) == top), key=lambda r: abs(float(r["offset_mm"])))
+    match = re.search(r"^HS (\d+) \[(\d+), (\d+)\] (\d+)(?: to (\d+))? (\S+) \(([\d.]+)", page[page.index("HS "):])
+    assert match, page
+    e_med, e_lo, e_hi = (float(match.group(k)) for k in (1, 2, 3))
+    assert abs(e_med - q[1]) <= 1 and abs(e_lo - q[0]) <= 1 and abs(e_hi - q[2]) <= 1, (match.group(0), q)
+    span = [float(match.group(4)), float(match.group(5) or match.group(4))]
+    assert abs(span[0] - min(quoted)) <= 0.5 and abs(span[1] - max(quoted)) <= 0.5
+    preferred = max(weights, key=weights.get)
+    assert match.group(6) == preferred and abs(float(match.group(7)) - weights[preferred]) <= 0.005
+    factor = f"{float(ref['ratio_median']):.3f} [{float(ref['ratio_lo']):.3f}, {float(ref['ratio_hi']):.3f}]"
+    assert factor in page and f"F = {top:g} kN" in page

@@ -231,16 +231,64 @@ def _span(values, fmt: str) -> str:
 
 
 # =============================================================== sections
-def answer_table(posteriors: dict, curves: dict) -> tuple[Table, list[str]]:
-    """The title page's answer per film: E (median, 90 % interval) and the correction at a reference case."""
-    rows, ref_case = [], None
+#: Models with at least this weight are quoted by their own median beside the mixture's (the span a user should know).
+QUOTED_WEIGHT = 0.1
+
+
+def mixture_quantiles(samples: list[np.ndarray], weights: list[float], q=(0.05, 0.5, 0.95)) -> list[float]:
+    """Quantiles of the mixture of models' posterior samples, each model carrying its weight.
+
+    Every sample of model m weighs ``w_m / n_m``; the quantile is the smallest
+    sample where the cumulative weight reaches ``q`` (the mixture's inverse CDF).
+    """
+    x = np.concatenate([np.ravel(np.asarray(v, dtype=float)) for v in samples])
+    w = np.concatenate([np.full(np.size(v), wm / np.size(v)) for v, wm in zip(samples, weights)])
+    order = np.argsort(x, kind="stable")
+    cdf = np.cumsum(w[order]) / w.sum()
+    return [float(x[order][min(int(np.searchsorted(cdf, qk)), x.size - 1)]) for qk in q]
+
+
+def _film_models(film: str, posteriors: dict, others: dict, comparison: dict) -> list[tuple[object, str, float]]:
+    """(result, model label, weight) of a film's recorded models; one model without a comparison weighs 1."""
+    chosen = [posteriors[film], *others.get(film, [])]
+    weights = (comparison.get(film) or {}).get("weights") or {}
+    if not weights:
+        return [(chosen[0][0], chosen[0][2], 1.0)]
+    return [(r, model, float(weights.get(model, 0.0))) for r, _, model in chosen if weights.get(model, 0.0) > 0]
+
+
+def _preference(film: str, models: list, comparison: dict) -> str:
+    """Which model the data prefer and by how much: its weight and its ELPD lead over the next best model."""
+    c = comparison.get(film) or {}
+    table = c.get("table") or []
+    if len(table) < 2:
+        return f"{models[0][1]} (the only model)" if models[0][1] else "one model"
+    best, nxt = table[0], table[1]
+    preferred = c.get("preferred") or best["name"]
+    weight = float((c.get("weights") or {}).get(preferred, 0.0))
+    if preferred != best["name"]:
+        return f"{preferred} ({weight:.2f})"
+    return f"{preferred} ({weight:.2f}; {nxt['elpd_diff']:+.1f} ± {nxt['dse']:.1f})"
+
+
+def answer_table(posteriors: dict, curves: dict, others: dict | None = None,
+                 comparison: dict | None = None) -> tuple[Table, list[str]]:
+    """The title page's answer per film: the mixture's E with the weighted models' span, the preferred model
+    and by how much, and the correction factor at the reference case (the curves combine the models)."""
+    others, comparison = others or {}, comparison or {}
+    rows, ref_case, failed = [], None, []
     for film in dict.fromkeys([*posteriors, *curves]):
         cells = [film]
         if film in posteriors:
-            r, _, model = posteriors[film]
-            cells[0] = f"{film} ({model})" if model else film
-            cells += [f"{r.modulus_mpa['median']:.0f}", f"{r.modulus_mpa['ci90'][0]:.0f} to "
-                      f"{r.modulus_mpa['ci90'][1]:.0f}", "pass" if r.diagnostics_ok else "FAILED"]
+            models = _film_models(film, posteriors, others, comparison)
+            lo, med, hi = mixture_quantiles([r.samples["modulus_mpa"] for r, _, _ in models],
+                                            [w for _, _, w in models])
+            quoted = [r.modulus_mpa["median"] for r, _, w in models if w >= QUOTED_WEIGHT] or \
+                [models[0][0].modulus_mpa["median"]]
+            bad = [label or film for r, label, _ in models if not r.diagnostics_ok]
+            failed += [film] if bad else []
+            cells += [f"{med:.0f} [{lo:.0f}, {hi:.0f}]", _span(quoted, "{:.0f}"),
+                      _preference(film, models, comparison)]
         else:
             cells += ["not calibrated", "", ""]
         ref = _reference_row(curves.get(film, []))
@@ -255,18 +303,22 @@ def answer_table(posteriors: dict, curves: dict) -> tuple[Table, list[str]]:
     where = ("the reference case" if ref_case is None else
              f"S1002 wheel ({ref_case['wheel']}) on 60E2 rail, F = {ref_case['force_kn']:g} kN, "
              f"η = {F.signed_offset(ref_case['offset_mm'])} mm")
-    table = Table(["film", "E median (MPa)", "E 90 % credible interval (MPa)", "sampler diagnostics",
-                   "correction factor A(no film)/A(film), median [90 %]", "area added by the film ΔA (mm²), "
-                   "median [90 %]"], rows,
+    table = Table(["film", "E (MPa), models combined: median [90 %]",
+                   f"E medians of the models weighing ≥ {QUOTED_WEIGHT:g} (MPa)",
+                   "preferred imprint model (weight; ELPD lead ± SE)",
+                   "correction factor A(no film)/A(film), median [90 %]",
+                   "area added by the film ΔA (mm²), median [90 %]"], rows,
                   f"The answer per film type: calibrated film modulus E, and the correction at {where}")
     remarks = ["Multiply a measured imprint area by the correction factor to obtain the contact area without "
-               "film; the 90 % credible interval is the posterior uncertainty of E carried through the "
-               "wheel-rail model (section 'Wheel-rail correction curves' gives every offset and load computed)."]
-    if any(len(v) > 2 and v[2] for v in posteriors.values()):
-        remarks.append("Beside each film, in brackets, the imprint model whose posterior of E is quoted: the "
-                       "comparison's preferred one (highest combination weight); where the study compared several imprint models, the "
-                       "correction combines them with their weights (section 'What the film records').")
-    failed = [f for f, (r, *_) in posteriors.items() if not r.diagnostics_ok]
+               "film. Cite the combined E and the correction factor: where the study compared imprint models "
+               "(what the film records), each enters with its weight, and the 90 % interval is the posterior "
+               "uncertainty of E carried through the wheel-rail model (section 'Wheel-rail correction curves' "
+               "gives every offset and load computed). The span of the models' medians shows how much the "
+               "choice of model would move E; the preferred model's weight and its lead in ELPD-LOO over the "
+               "next best model (with the standard error of the difference) say how clearly the data choose it "
+               "(section 'What the film records')."]
+    if posteriors and not failed:
+        remarks.append("The sampler's diagnostics (R-hat, effective sample sizes) passed for every model combined.")
     if failed:
         remarks.append(f"Sampler diagnostics FAILED for {', '.join(failed)}: the chains are too short or not "
                        "mixed (see the calibration sections and the glossary); the numbers are provisional and "
@@ -537,7 +589,8 @@ def film_records_section(comparison: dict | None, curves: dict | None = None) ->
             + (f"; {', '.join(f'{m} ({weights[m]:.2f})' for m in sharing)} keep a share the data cannot take "
                "from them" if sharing else "")
             + (f"; {d['n_refit']} leave-one-out term(s) refitted exactly" if d.get("n_refit") else "")
-            + f". R600/25 kN under {preferred}: standardised residual {_case_verdict(p) or 'n/a'}.")
+            + f". R600/25 kN under {preferred}: standardised residual {_case_verdict(p) or 'n/a'}."
+            + _unused_models(d))
     if rows:
         s.add(Table(["film", "model", "E (MPa) [90 %]", "RMS (mm)", "in 90 % PPI", "ELPD-LOO ± se",
                      "max Pareto k", "weight: stacking / used (pseudo-BMA+)", "R600/25 kN z"], rows,
@@ -583,6 +636,16 @@ def film_records_section(comparison: dict | None, curves: dict | None = None) ->
                                 "correcting factor A(no film)/A(film)"))
             s.add(_rough_flat_table())
     return s
+
+
+def _unused_models(d: dict) -> str:
+    """The sentence that says why the models of zero weight have no calibration section (empty if none)."""
+    weights = d.get("weights") or {}
+    unused = [m for m in (d.get("models") or {}) if not weights.get(m, 0.0) > 0]
+    if not unused:
+        return ""
+    return (f" {', '.join(unused)} {'has' if len(unused) == 1 else 'have'} no calibration section: weight 0 (the "
+            "correction does not use them); their fit is in the table above.")
 
 
 def _rough_flat_table():
@@ -897,7 +960,8 @@ def build_report(study_dir: str | Path, workers=1) -> Report:
         run_tasks({job: (_drawn_sections, (str(study_dir), job)) for job in order}, workers,
                   lambda job, sections, k: parts.__setitem__(job, sections))
     sections = [section for job in jobs for section in parts[job]]
-    answer, remarks = answer_table(data.posteriors, data.curves)
+    answer, remarks = answer_table(data.posteriors, data.curves, data.other_posteriors,
+                                   data.imprint_comparison)
     stamp = _dt.datetime.fromtimestamp(recorded_epoch(study_dir), _dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     return Report("Film calibration and wheel-rail correction report",
                   f"Study {data.folder.resolve()}, settings hash {data.settings_hash}, as recorded {stamp}.",

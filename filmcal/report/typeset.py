@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import base64
 import json
+import re
 import tempfile
 import warnings
 from dataclasses import dataclass
@@ -41,25 +42,49 @@ class PdfResult:
 
 #: Characters of table text that fit across the text width (8.5 pt DejaVu Sans on 175 mm, with cell padding).
 _TABLE_CHARS = 100
+#: Mean width of a character of numbers and intervals in DejaVu Sans (em): such a column is as wide as its text.
+_DIGIT_EM = 0.56
 
 
-def _column_widths(header: list[str], rows: list[list[str]]) -> list[int] | None:
-    """Relative column widths for a table too wide for its natural layout, else None (each column as wide as its text).
+def _column_widths(header: list[str], rows: list[list[str]]) -> list[dict] | None:
+    """Column widths for a table too wide for its natural layout, else None (each column as wide as its text).
 
-    A column is given the width of its longest cell and of its header up to 14 characters: headers wrap,
-    numbers and intervals do not.
+    A column of short cells (numbers, intervals, which do not wrap) gets the width of its longest cell or of
+    the longest word of its header; a column with longer text shares the rest of the line (``fr``). Headers
+    wrap.
     """
     longest = [max([len(r[j]) for r in rows] + [1]) for j in range(len(header))]
     if sum(max(n, len(h)) + 2 for n, h in zip(longest, header)) <= _TABLE_CHARS:
         return None
-    return [max(n, min(len(h), 14)) + 2 for n, h in zip(longest, header)]
+    out = []
+    for j, h in enumerate(header):
+        word = max((len(w) for w in h.split()), default=1)
+        if longest[j] > 24:
+            out.append({"fr": True, "size": min(longest[j], 40)})
+        else:
+            out.append({"fr": False, "size": round(max(longest[j], word) * _DIGIT_EM + 1.0, 2)})
+    if not any(w["fr"] for w in out) and sum(w["size"] for w in out) > _TABLE_CHARS * _DIGIT_EM * 0.85:
+        out = [{"fr": True, "size": w["size"]} for w in out]
+    return out
+
+
+_BRACKETS = re.compile(r"\[[^\]]*\]")
+_RANGE = re.compile(r"(?<=\S) to (?=\S)")
+_NUMBER = re.compile(r"^[-+−]?(\d|\.\d|\[|nan|inf|pass|FAILED|not )")
+
+
+def _cell(text) -> str:
+    """A cell's text with intervals and ranges kept whole: a line may break after a median, not inside [a, b]."""
+    text = _BRACKETS.sub(lambda m: m.group(0).replace(" ", "\u00a0"), str(text))
+    return _RANGE.sub("\u00a0to\u00a0", text) if len(text) <= 24 else text
 
 
 def _table(block: Table) -> dict:
     header = [str(h) for h in block.header]
-    rows = [[str(c) for c in row] + [""] * (len(header) - len(row)) for row in block.rows]
+    rows = [[_cell(c) for c in row] + [""] * (len(header) - len(row)) for row in block.rows]
+    numeric = [j > 0 and all(_NUMBER.match(r[j]) or not r[j] for r in rows) for j in range(len(header))]
     return {"kind": "table", "caption": block.caption, "header": header, "rows": rows,
-            "widths": _column_widths(header, rows)}
+            "widths": _column_widths(header, rows), "right": numeric}
 
 
 def _short_title(block: FigureBlock) -> str:
