@@ -13,6 +13,15 @@ Three modes:
 ``auto`` is ``bar`` on a terminal and ``log`` otherwise. Libraries' own bars
 (emcee's, the campaign's) stay off inside a run: their work reports here.
 Warnings are collected and repeated at the end, in colour on a terminal.
+
+A run of several stages can be given a plan (`Progress.plan`): each stage's
+expected cost in seconds, from a cost model of its settings. The run's
+display then shows the whole run's share done, advancing with every unit of
+inner work a stage reports (`_Stage.update`: FE runs, chains, curve solves,
+report sections), and its estimated time left: the planned cost still to do
+times the run's speed so far (time taken over the planned cost of the work
+done), so the estimate converges as the run proceeds. A stage that found its
+work done already (a resumed run) leaves the plan without counting.
 """
 from __future__ import annotations
 
@@ -44,8 +53,9 @@ class _Stage:
         self.note = ""
         self.started = time.monotonic()
         self._last_line = 0.0
+        self._fraction: float | None = None
         self._bar = None
-        if owner.mode == "bar":
+        if owner.mode == "bar" and owner._run_bar is None:
             from tqdm import tqdm
 
             self._bar = tqdm(total=total, desc=name, unit="unit", file=owner.stream, leave=True,
@@ -58,17 +68,38 @@ class _Stage:
             self._bar.total = self.total
             self._bar.refresh()
 
-    def advance(self, n: int = 1, note: str = "") -> None:
-        """`n` more units finished (`note`: what, shown beside)."""
+    def advance(self, n: int = 1, note: str = "", fraction: float | None = None) -> None:
+        """`n` more units finished (`note`: what, shown beside; `fraction`: the stage's share done, when its
+        units are not of equal cost)."""
         self.done += n
+        if fraction is not None:
+            self._fraction = min(max(float(fraction), 0.0), 1.0)
         if note:
             self.note = note
         if self._bar is not None:
             if note:
                 self._bar.set_postfix_str(note, refresh=False)
             self._bar.update(n)
-        elif self.owner.mode == "log" and time.monotonic() - self._last_line >= 1.0:
-            self.line()
+        else:
+            self.owner._show(self)
+
+    def update(self, fraction: float | None = None, note: str = "") -> None:
+        """Inner work: the stage's share done (0-1; default units done over total) and what is running."""
+        if fraction is not None:
+            self._fraction = min(max(float(fraction), 0.0), 1.0)
+        if note:
+            self.note = note
+        if self._bar is not None:
+            self._bar.set_postfix_str(self.note, refresh=True)
+        else:
+            self.owner._show(self)
+
+    @property
+    def fraction(self) -> float:
+        """Share of the stage's work done (0-1)."""
+        if self._fraction is not None:
+            return self._fraction
+        return self.done / self.total if self.total else 0.0
 
     def status(self) -> str:
         elapsed = time.monotonic() - self.started
@@ -79,7 +110,8 @@ class _Stage:
                 text += f", about {_duration(elapsed / self.done * (self.total - self.done))} left"
         else:
             text += f"{self.done} done, {_duration(elapsed)} elapsed"
-        return text + (f" ({self.note})" if self.note else "")
+        text += f" ({self.note})" if self.note else ""
+        return text + self.owner.run_status()
 
     def log(self, text: str) -> None:
         """A message of this stage."""
@@ -116,6 +148,9 @@ class Progress:
         self.interval_s = float(interval_s)
         self.warnings: list[str] = []
         self._current: _Stage | None = None
+        self._planned: dict[str, float] = {}
+        self._finished: list[tuple[float, float]] = []  # (planned s, taken s) of the stages that did their work
+        self._run_bar = None
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -144,7 +179,10 @@ class Progress:
         self.write(f"warning: {text}")
 
     def summary(self) -> None:
-        """Repeat the warnings at the end, in colour on a terminal (even when quiet)."""
+        """Close the run's bar, and repeat the warnings at the end, in colour on a terminal (even when quiet)."""
+        if self._run_bar is not None:
+            self._run_bar.close()
+            self._run_bar = None
         if not self.warnings:
             return
         colour = getattr(self.stream, "isatty", lambda: False)()
@@ -152,6 +190,63 @@ class Progress:
             line = f"warning: {text}"
             self.stream.write((f"\033[1;33m{line}\033[0m" if colour else line) + "\n")
         self.stream.flush()
+
+    # ------------------------------------------------------------ the run
+    def plan(self, planned_s: dict[str, float]) -> None:
+        """The run's stages in order with their expected cost (s): the display then shows the whole run."""
+        self._planned = {k: max(float(v), 0.0) for k, v in planned_s.items()}
+        if self.mode == "bar" and self._run_bar is None:
+            from tqdm import tqdm
+
+            self._run_bar = tqdm(total=1000, desc="run", file=self.stream, leave=True,
+                                 bar_format="{desc:<13} {percentage:3.0f}%|{bar:24}| [{elapsed}] {postfix}")
+
+    def unplan(self, name: str) -> None:
+        """A stage found its work done (a resumed run): it leaves the plan and the speed estimate."""
+        self._planned[name] = 0.0
+
+    def run_fraction(self) -> float | None:
+        """Share of the planned run done (None without a plan)."""
+        total = sum(self._planned.values())
+        if total <= 0:
+            return None
+        done = sum(p for p, _ in self._finished)
+        stage = self._current
+        if stage is not None:
+            done += self._planned.get(stage.name, 0.0) * stage.fraction
+        return min(done / total, 1.0)
+
+    def run_left_s(self) -> float | None:
+        """Estimated time left in the run (s): planned cost still to do, times the speed so far."""
+        total = sum(self._planned.values())
+        if total <= 0:
+            return None
+        planned_done = sum(p for p, _ in self._finished)
+        taken = sum(t for _, t in self._finished)
+        stage = self._current
+        if stage is not None:
+            planned_done += self._planned.get(stage.name, 0.0) * stage.fraction
+            taken += time.monotonic() - stage.started
+        speed = taken / planned_done if planned_done > 0.02 * total and taken > 0 else 1.0
+        return max(total - planned_done, 0.0) * speed
+
+    def run_status(self) -> str:
+        """``; run 43 % done, about 4.2 min left`` (empty without a plan)."""
+        f, left = self.run_fraction(), self.run_left_s()
+        if f is None:
+            return ""
+        return f"; run {100 * f:.0f} % done, about {_duration(left)} left"
+
+    def _show(self, stage: _Stage) -> None:
+        """Show inner progress: the run's bar, or a log line at most every second."""
+        if self._run_bar is not None:
+            f = self.run_fraction() or 0.0
+            self._run_bar.n = int(round(1000 * f))
+            self._run_bar.set_description_str(stage.name, refresh=False)
+            self._run_bar.set_postfix_str(f"{stage.done}/{stage.total or '?'} {stage.note}".strip()
+                                          + f", about {_duration(self.run_left_s() or 0.0)} left", refresh=True)
+        elif self.mode == "log" and time.monotonic() - stage._last_line >= 1.0:
+            stage.line()
 
     # ------------------------------------------------------------ stages
     @contextlib.contextmanager
@@ -162,10 +257,15 @@ class Progress:
         self._start_heartbeat()
         try:
             yield stage
+            planned = self._planned.get(name, 0.0)
+            if planned > 0:
+                self._finished.append((planned, time.monotonic() - stage.started))
         finally:
             self._current = None
             self._stop_heartbeat()
             stage.close()
+            if self._run_bar is not None:
+                self._show(stage)
 
     def _start_heartbeat(self) -> None:
         if self.mode != "log":

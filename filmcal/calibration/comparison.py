@@ -231,19 +231,27 @@ def _refit_theta(problem: CalibrationProblem, samples) -> np.ndarray:
     return problem.theta_from_named(named).reshape(-1, problem.ndim)
 
 
-def _exact_terms(problems: Mapping[str, CalibrationProblem], high: list[tuple[str, int]], refit, workers) -> dict:
+def _exact_terms(problems: Mapping[str, CalibrationProblem], high: list[tuple[str, int]], refit, workers,
+                 progress=None) -> dict:
     """``{(model, case): exact leave-one-case-out term}`` from refits without the case."""
     if not high:
         return {}
     ref = next(iter(problems.values()))
     tasks = {(name, case): (refit, (name, ref.data.select(ref.case_index != case))) for name, case in high}
     fits: dict = {}
+
+    def done(key, value, k=None) -> None:
+        fits[key] = value
+        if progress is not None:
+            progress(len(fits), len(tasks))
+
     if workers is None:
-        fits = {key: fn(*args) for key, (fn, args) in tasks.items()}
+        for key, (fn, args) in tasks.items():
+            done(key, fn(*args))
     else:
         from filmcal._parallel import run_tasks
 
-        run_tasks(tasks, workers, lambda key, value, k: fits.__setitem__(key, value))
+        run_tasks(tasks, workers, done)
     out = {}
     for (name, case), samples in fits.items():
         theta = _refit_theta(problems[name], samples)
@@ -287,7 +295,8 @@ def stacking_weights(pointwise: np.ndarray) -> np.ndarray:
 
 
 def compare_models(models: Mapping[str, tuple[CalibrationProblem, object]], max_samples: int = 2000,
-                   random_state: int = 0, refit=None, workers=None, n_bootstrap: int = 1000) -> ModelComparison:
+                   random_state: int = 0, refit=None, workers=None, n_bootstrap: int = 1000,
+                   progress=None) -> ModelComparison:
     """Assess every model and weigh them by their leave-one-case-out predictive accuracy (module docstring).
 
     Parameters
@@ -305,6 +314,8 @@ def compare_models(models: Mapping[str, tuple[CalibrationProblem, object]], max_
         Where the refits run (`filmcal._parallel.run_tasks`); None: in this process.
     n_bootstrap : int
         Bayesian-bootstrap draws of the pseudo-BMA+ weights.
+    progress : callable, optional
+        ``progress(done, total)`` after each exact refit.
 
     Raises
     ------
@@ -332,7 +343,8 @@ def compare_models(models: Mapping[str, tuple[CalibrationProblem, object]], max_
                                       dtype=float) for name, (_, idata) in models.items()}
     high = [(name, int(case)) for name in names
             for case in np.flatnonzero(assessments[name].pareto_k > PARETO_K_THRESHOLD)]
-    exact = _exact_terms({n: models[n][0] for n in names}, high, refit, workers) if refit is not None else {}
+    exact = (_exact_terms({n: models[n][0] for n in names}, high, refit, workers, progress)
+             if refit is not None else {})
     for (name, case), term in exact.items():
         pointwise[name][case] = term
     matrix = np.array([pointwise[n] for n in names])

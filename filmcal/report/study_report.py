@@ -930,7 +930,7 @@ def _drawn_sections(study_dir: str, job: tuple[int, str | None]) -> list[Section
     return _build_sections(_study_cache[key], job, draw=True)
 
 
-def build_report(study_dir: str | Path, workers=1) -> Report:
+def build_report(study_dir: str | Path, workers=1, progress: Callable[[int, int], None] | None = None) -> Report:
     """Compose the report of a study folder (reads its files; computes nothing expensive).
 
     Parameters
@@ -941,6 +941,8 @@ def build_report(study_dir: str | Path, workers=1) -> Report:
         Otherwise the sections are built and their figures drawn in worker
         processes (this many, None: all cores, or this pool) and arrive drawn
         (`FigureBlock.drawn`).
+    progress : callable, optional
+        ``progress(done, total)`` after each part of the report is built.
 
     Raises
     ------
@@ -949,16 +951,22 @@ def build_report(study_dir: str | Path, workers=1) -> Report:
     """
     data = read_study(study_dir)
     jobs = _report_jobs(data)
+    parts: dict = {}
+
+    def built(job, sections, k=None) -> None:
+        parts[job] = sections
+        if progress is not None:
+            progress(len(parts), len(jobs))
+
     if workers == 1:
-        parts = {job: _build_sections(data, job) for job in jobs}
+        for job in jobs:
+            built(job, _build_sections(data, job))
     else:
         from filmcal._parallel import run_tasks
 
-        parts = {}
         # the calibration sections (most figures) first, so that the workers end together
         order = sorted(jobs, key=lambda job: job[1] is None)
-        run_tasks({job: (_drawn_sections, (str(study_dir), job)) for job in order}, workers,
-                  lambda job, sections, k: parts.__setitem__(job, sections))
+        run_tasks({job: (_drawn_sections, (str(study_dir), job)) for job in order}, workers, built)
     sections = [section for job in jobs for section in parts[job]]
     answer, remarks = answer_table(data.posteriors, data.curves, data.other_posteriors,
                                    data.imprint_comparison)
@@ -984,11 +992,13 @@ def recorded_epoch(study_dir: str | Path) -> int:
         return int(manifest.stat().st_mtime)
 
 
-def write_report(study_dir: str | Path, out_dir: str | Path | None = None, workers=None) -> dict:
+def write_report(study_dir: str | Path, out_dir: str | Path | None = None, workers=None,
+                 progress: Callable[[int, int], None] | None = None) -> dict:
     """Write ``report.html`` (self-contained) and ``report.pdf`` (A4) into `out_dir` (default ``study_dir/report``).
 
     The figures are drawn in worker processes (`workers`: their number, default
-    all cores, or a pool), or here with ``workers=1``.
+    all cores, or a pool), or here with ``workers=1``; ``progress(done, total)`` is called as each part of the
+    report is built.
 
     Returns
     -------
@@ -997,7 +1007,7 @@ def write_report(study_dir: str | Path, out_dir: str | Path | None = None, worke
     """
     import matplotlib
 
-    report = build_report(study_dir, workers=workers)
+    report = build_report(study_dir, workers=workers, progress=progress)
     out = Path(out_dir) if out_dir is not None else Path(study_dir) / "report"
     out.mkdir(parents=True, exist_ok=True)
     html_path = out / "report.html"

@@ -612,7 +612,7 @@ class Study:
                                                               max_draws=500), label)
 
     def compare(self, film: str, models: dict, *, workers=None, max_steps: int | None = None,
-                seed: int = 0) -> tuple[dict, bool]:
+                seed: int = 0, progress=None) -> tuple[dict, bool]:
         """Compare a film's calibrated models by leave-one-case-out accuracy; reuse the recorded comparison.
 
         Cases whose PSIS estimate is unreliable (Pareto k > 0.7) are refitted
@@ -625,6 +625,8 @@ class Study:
         film : str
         models : dict of label -> (CalibrationResult, path, spec)
             At least two posteriors of the film, on the same data.
+        progress : callable, optional
+            ``progress(done, total)`` after each exact refit.
 
         Returns
         -------
@@ -652,7 +654,7 @@ class Study:
                                                               max_draws=500))
         refit = partial(refit_without_case, {label: problem for label, (problem, _) in pairs.items()}, film,
                         max_steps, seed_for(seed, f"comparison-{film}"))
-        d = compare_models(pairs, refit=refit, workers=workers, random_state=seed).to_dict()
+        d = compare_models(pairs, refit=refit, workers=workers, random_state=seed, progress=progress).to_dict()
         for label, (result, _, _) in models.items():
             p = result.predictive
             d["models"][label].update(

@@ -188,12 +188,17 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
         t0 = time.perf_counter()
         summary: dict = {"study_dir": str(study.root), "films": {}, "stages_s": {}}
 
+        n_specs = sum(len(settings.specs(f, _models_for(study, f, settings), seed)) for f in films)
+        progress.plan(planned_seconds(settings, len(films), n_specs, report is not None))
+
         def stage(name: str, fn, *args):
             t = time.perf_counter()
             with progress.stage(name) as st, warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 out, computed = fn(*args, st)
                 _summarise_warnings(st, name, caught)
+                if not computed:
+                    progress.unplan(name)
             elapsed = time.perf_counter() - t
             summary["stages_s"][name] = elapsed
             if computed:
@@ -247,6 +252,29 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
     return summary
 
 
+#: Cost model of the pipeline's stages on a 2-core machine (s per unit), from the full and the quick run of
+#: 26 Nov 2026 (docs/pipeline.md): the progress display's plan, corrected by the run's own speed as it goes.
+STAGE_COSTS_S = {"design_per_run": 0.02, "fe_run": 0.3, "chain": 2.7, "comparison_per_model": 2.1,
+                 "curve": 2.0, "curve_per_offset": 1.25, "outline_per_offset": 0.4, "crossval_per_model": 1.5,
+                 "report": 4.0, "report_per_model": 1.0, "verification": 1.0}
+
+
+def planned_seconds(settings: PipelineSettings, n_films: int, n_specs: int, report: bool = True) -> dict:
+    """Expected cost of each stage (s) from the settings and `STAGE_COSTS_S`: the progress display's plan."""
+    c = STAGE_COSTS_S
+    runs = settings.train_runs + settings.test_runs
+    curves = n_films * (2 if settings.rough_ra_um else 1) * len(settings.forces_kn)
+    plan = {"design": c["design_per_run"] * runs,
+            "calibration": c["fe_run"] * runs * len(settings.kinematics) + c["chain"] * n_specs,
+            "comparison": c["comparison_per_model"] * n_specs, "verification": c["verification"],
+            "curves": curves * (c["curve"] + c["curve_per_offset"] * len(settings.offsets_mm)),
+            "outlines": c["outline_per_offset"] * len(settings.offsets_mm),
+            "crossval": c["crossval_per_model"] * n_specs}
+    if report:
+        plan["report"] = c["report"] + c["report_per_model"] * n_specs
+    return plan
+
+
 def _summarise_warnings(st, name: str, caught: list) -> None:
     """Libraries' warnings of a stage as one line (numerical notes, e.g. a GP restart that did not converge)."""
     if not caught:
@@ -297,14 +325,17 @@ def _calibration_stage(study: Study, settings: PipelineSettings, films, seed: in
     specs = [spec for film in films for spec in settings.specs(film, _models_for(study, film, settings), seed)]
     before = len(study.manifest.artefacts("posterior"))
     st.set_total(len(specs))
+    plan = planned_seconds(settings, len(films), len(specs))["calibration"]
+    fe_share = STAGE_COSTS_S["fe_run"] * (settings.train_runs + settings.test_runs) * len(settings.kinematics) / plan
 
-    def fe_progress(done, total):
-        st.note = f"FE run {done}/{total}"
+    def fe_progress(done, total):  # the FE runs come first, then the chains
+        st.update(fe_share * done / max(total, 1), note=f"FE run {done}/{total}")
 
     def finished(spec, result):
         st.log(f"[calibration] {spec.film} {spec.model_label}: E = {result.modulus_mpa['median']:.0f} MPa "
                f"[{result.modulus_mpa['ci90'][0]:.0f}, {result.modulus_mpa['ci90'][1]:.0f}]")
-        st.advance(note=f"{spec.film} {spec.model_label}")
+        st.advance(note=f"{spec.film} {spec.model_label}",
+                   fraction=fe_share + (1 - fe_share) * (st.done + 1) / len(specs))
 
     done = study.calibrate_many(specs, dataset=dataset, workers=workers, progress=fe_progress, on_done=finished)
     results: dict = {}
@@ -317,17 +348,18 @@ def _comparison_stage(study: Study, settings: PipelineSettings, results: dict, s
     """Compare each film's models by leave-one-case-out accuracy, exact where PSIS is not, and weigh them by
     pseudo-BMA+ (``comparison-<film>.json``)."""
     out, computed = {}, False
-    st.set_total(sum(len(m) >= 2 for m in results.values()))
-    for film, models in results.items():
-        if len(models) < 2:
-            continue
-        st.note = f"{film}: {len(models)} models"
-        d, now = study.compare(film, models, workers=workers, max_steps=settings.max_steps, seed=seed)
+    compared = [film for film, models in results.items() if len(models) >= 2]
+    st.set_total(len(compared))
+    for k, film in enumerate(compared):
+        models = results[film]
+        d, now = study.compare(film, models, workers=workers, max_steps=settings.max_steps, seed=seed,
+                               progress=lambda done, total, k=k, film=film: st.update(
+                                   (k + done / total) / len(compared), note=f"{film}: exact refit {done}/{total}"))
         computed |= now
         out[film] = d
-        if now:
-            st.log(f"[comparison] {film}: weights " + ", ".join(f"{k} {v:.2f}" for k, v in d["weights"].items()))
-            st.advance(note=film)
+        if now:  # a resumed run that finds the comparison says nothing
+            st.log(f"[comparison] {film}: weights " + ", ".join(f"{m} {w:.2f}" for m, w in d["weights"].items()))
+            st.advance(note=film, fraction=(k + 1) / len(compared))
     return out, computed
 
 
@@ -563,7 +595,8 @@ def _report_stage(study: Study, write_report, workers, st):
     st.log("[report] HTML and PDF")
     study.manifest.data.pop("report", None)
     study.manifest.write()
-    paths = write_report(study.root, out, workers=workers)
+    paths = write_report(study.root, out, workers=workers,
+                         progress=lambda done, total: st.update(0.9 * done / total, note=f"section {done}/{total}"))
     study.manifest.data["report"] = {"inputs": inputs}  # current only once both HTML and PDF are written
     study.manifest.write()
     return {"html": str(paths["html"]), "pdf": str(paths["pdf"]), "figures": paths.get("figures")}, True
