@@ -757,11 +757,13 @@ def wheel_rail_section(curves: dict, outlines: dict | None) -> Section:
     s.add(elastic_limit_note(curves))
     if outlines is None:
         return _missing(s, "wheelrail-outlines.json")
-    for film in outlines["films"]:
+    for film, m in outlines["films"].items():
+        drawn = (f"its posterior median E = {m:.0f} MPa" if not isinstance(m, dict) else
+                 f"the posterior median E = {m['modulus_mpa']:.0f} MPa of its preferred model {m['model']} "
+                 f"({m['kinematics']}-strain film, as calibrated)")
         s.add(FigureBlock(F.plot_outlines(outlines, film), f"The paper's Fig. 7 in kind: contact outlines at "
-                          f"{outlines['force_n'] / 1e3:g} kN without film (solid) and with {film} film at its "
-                          f"posterior median E = {outlines['films'][film]:.0f} MPa (dashed).",
-                          f"Contact outlines without and with {film} film (Fig. 7)"))
+                          f"{outlines['force_n'] / 1e3:g} kN without film (solid) and with {film} film at {drawn} "
+                          "(dashed).", f"Contact outlines without and with {film} film (Fig. 7)"))
     return s
 
 

@@ -392,6 +392,14 @@ class Study:
         runs of the others are run (or resumed) and their surrogates fitted in parallel, each recorded as
         it is done.
 
+        Parameters
+        ----------
+        requests : sequence of (FESettings, str)
+        workers : int or Executor, optional
+        progress : callable, optional
+            ``progress(done, total, what)``: the FE runs of every campaign counted together
+            (``what`` "FE run"), then the surrogate fits ("GP fit").
+
         Returns
         -------
         dict
@@ -405,9 +413,16 @@ class Study:
             recorded = self._recorded_radius_model(fe, column)
             if recorded is not None:
                 out[fe, column] = recorded
+        campaigns = list(dict.fromkeys(fe for fe, column in requests if (fe, column) not in out))
+        total_runs = sum(fe.n_train + fe.n_test for fe in campaigns)
+        for fe, column in dict.fromkeys(requests):
+            if (fe, column) in out:
                 continue
             if fe not in runs:
-                runs[fe] = self.fe_runs(fe, workers, progress)
+                before = sum(f.n_train + f.n_test for f in runs)
+                runs[fe] = self.fe_runs(fe, workers, None if not callable(progress) else (
+                    lambda done, total, before=before: progress(before + done, max(total_runs, before + total),
+                                                                "FE run")))
             r = runs[fe]
             if column not in r["Y_train"] or not np.isfinite(r["Y_train"][column]).any():
                 if fe.simulator is not None:
@@ -421,8 +436,13 @@ class Study:
             test = ({k: v[ok_te] for k, v in r["X_test"].items()}, yte[ok_te])
             tasks[fe, column] = (fit_and_validate, (train, test, fe.domain, seed_for(fe.seed, f"gp-{column}")))
 
+        fitted_now: list = []
+
         def store(request, fitted, k) -> None:
             out[request] = self._store_radius_model(*request, *fitted)
+            fitted_now.append(request)
+            if callable(progress):
+                progress(len(fitted_now), len(tasks), "GP fit")
 
         run_tasks(tasks, workers, store)
         return out

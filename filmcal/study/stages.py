@@ -215,7 +215,9 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
             results = stage("calibration", _calibration_stage, study, settings, films, seed, pool, dataset)
             comparisons = stage("comparison", _comparison_stage, study, settings, results, seed, pool)
             chosen = {film: _preferred(results[film], comparisons.get(film)) for film in films}
-            medians = {film: float(r.modulus_mpa["median"]) for film, (r, _, _) in chosen.items()}
+            # the film each figure draws is the one its posterior was calibrated under: its E and kinematics
+            medians = {film: {"modulus_mpa": float(r.modulus_mpa["median"]), "model": spec["model"],
+                              "kinematics": spec["fe"]["kinematics"]} for film, (r, _, spec) in chosen.items()}
             stage("verification", _verification_stage, study, settings, seed, medians, pool)
             stage("curves", _curves_stage, study, settings, films, pool)
             stage("outlines", _outlines_stage, study, settings, medians)
@@ -254,9 +256,19 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
 
 #: Cost model of the pipeline's stages on a 2-core machine (s per unit), from the full and the quick run of
 #: 26 Nov 2026 (docs/pipeline.md): the progress display's plan, corrected by the run's own speed as it goes.
-STAGE_COSTS_S = {"design_per_run": 0.02, "fe_run": 0.3, "chain": 2.7, "comparison_per_model": 2.1,
-                 "curve": 2.0, "curve_per_offset": 1.25, "outline_per_offset": 0.4, "crossval_per_model": 1.5,
+STAGE_COSTS_S = {"design_per_run": 0.02, "fe_run": 0.25, "gp_fit_per_run2": 5e-4, "chain": 2.7,
+                 "comparison_per_model": 2.1,
+                 "curve": 2.0, "curve_per_offset": 1.4, "outline_per_offset": 0.4, "crossval_per_model": 1.5,
                  "report": 4.0, "report_per_model": 1.0, "verification": 1.0}
+
+
+def _calibration_costs(settings: PipelineSettings, n_specs: int) -> tuple[float, float, float]:
+    """Planned cost of the calibration stage (s), and the shares of its FE runs and its surrogate fits."""
+    c = STAGE_COSTS_S
+    fe = c["fe_run"] * (settings.train_runs + settings.test_runs) * len(settings.kinematics)
+    fits = c["gp_fit_per_run2"] * settings.train_runs ** 2 * len(settings.kinematics)
+    total = fe + fits + c["chain"] * n_specs
+    return total, fe / total, fits / total
 
 
 def planned_seconds(settings: PipelineSettings, n_films: int, n_specs: int, report: bool = True) -> dict:
@@ -265,7 +277,7 @@ def planned_seconds(settings: PipelineSettings, n_films: int, n_specs: int, repo
     runs = settings.train_runs + settings.test_runs
     curves = n_films * (2 if settings.rough_ra_um else 1) * len(settings.forces_kn)
     plan = {"design": c["design_per_run"] * runs,
-            "calibration": c["fe_run"] * runs * len(settings.kinematics) + c["chain"] * n_specs,
+            "calibration": _calibration_costs(settings, n_specs)[0],
             "comparison": c["comparison_per_model"] * n_specs, "verification": c["verification"],
             "curves": curves * (c["curve"] + c["curve_per_offset"] * len(settings.offsets_mm)),
             "outlines": c["outline_per_offset"] * len(settings.offsets_mm),
@@ -325,17 +337,17 @@ def _calibration_stage(study: Study, settings: PipelineSettings, films, seed: in
     specs = [spec for film in films for spec in settings.specs(film, _models_for(study, film, settings), seed)]
     before = len(study.manifest.artefacts("posterior"))
     st.set_total(len(specs))
-    plan = planned_seconds(settings, len(films), len(specs))["calibration"]
-    fe_share = STAGE_COSTS_S["fe_run"] * (settings.train_runs + settings.test_runs) * len(settings.kinematics) / plan
+    _, fe_share, fit_share = _calibration_costs(settings, len(specs))
 
-    def fe_progress(done, total):  # the FE runs come first, then the chains
-        st.update(fe_share * done / max(total, 1), note=f"FE run {done}/{total}")
+    def fe_progress(done, total, what="FE run"):  # the FE runs come first, then the fits, then the chains
+        start, share = (0.0, fe_share) if what == "FE run" else (fe_share, fit_share)
+        st.update(start + share * done / max(total, 1), note=f"{what} {done}/{total}")
 
     def finished(spec, result):
         st.log(f"[calibration] {spec.film} {spec.model_label}: E = {result.modulus_mpa['median']:.0f} MPa "
                f"[{result.modulus_mpa['ci90'][0]:.0f}, {result.modulus_mpa['ci90'][1]:.0f}]")
         st.advance(note=f"{spec.film} {spec.model_label}",
-                   fraction=fe_share + (1 - fe_share) * (st.done + 1) / len(specs))
+                   fraction=fe_share + fit_share + (1 - fe_share - fit_share) * (st.done + 1) / len(specs))
 
     done = study.calibrate_many(specs, dataset=dataset, workers=workers, progress=fe_progress, on_done=finished)
     results: dict = {}
@@ -374,7 +386,7 @@ def _fe_solve(sphere_radius_mm: float, force_n: float, film: tuple[float, float]
 
 def _verification_stage(study: Study, settings: PipelineSettings, seed: int, medians: dict, workers, st):
     path = study.layout.verification
-    if study.verified(path) and set(read_json(path)["films"]) >= set(medians):
+    if _current(study, path, {"films": medians}):
         return None, False
     from filmcal._parallel import run_tasks
     from filmcal.calibration import load_table1
@@ -382,10 +394,10 @@ def _verification_stage(study: Study, settings: PipelineSettings, seed: int, med
     st.log("[verification] FE without film against Hertz; FE against the surrogate at the posterior medians")
     data = load_table1("HS")  # the ten (R, F) cases of Table 1
     cases = [(float(r), float(f)) for r, f in zip(data.sphere_radius_mm, data.force_n)]
-    options = settings.fe(settings.kinematics[0], seed).contact_options()
-    films = {film: (e, study.film(film).poisson) for film, e in medians.items()}
+    films = {film: (m["modulus_mpa"], study.film(film).poisson) for film, m in medians.items()}
+    options = {film: settings.fe(m["kinematics"], seed).contact_options() for film, m in medians.items()}
     tasks = {(None, r, f): (_fe_solve, (r, f, None, None)) for r, f in [*cases, PROFILE_CASE]}
-    tasks.update({(film, r, f): (_fe_solve, (r, f, films[film], options))
+    tasks.update({(film, r, f): (_fe_solve, (r, f, films[film], options[film]))
                   for film in films for r, f in [*cases, PROFILE_CASE]})
     st.set_total(len(tasks))
     solved: dict = {}
@@ -398,9 +410,10 @@ def _verification_stage(study: Study, settings: PipelineSettings, seed: int, med
     run_tasks(tasks, workers, keep)
     hertz = [{"sphere_radius_mm": r, "force_n": f, **{k: v for k, v in solved[None, r, f].items() if k != "profile"}}
              for r, f in cases]
-    model, _, _ = study.radius_model(settings.fe(settings.kinematics[0], seed), "contact_radius_mm", progress=False)
     out_films = {}
     for film, (e, nu) in films.items():
+        kinematics = medians[film]["kinematics"]
+        model, _, _ = study.radius_model(settings.fe(kinematics, seed), "contact_radius_mm", progress=False)
         rows = []
         for r, f in cases:
             mean, std = model.predict(e, nu, r, f)
@@ -408,10 +421,11 @@ def _verification_stage(study: Study, settings: PipelineSettings, seed: int, med
             rows.append({"sphere_radius_mm": r, "force_n": f, "fe_radius_mm": res["fe_radius_mm"],
                          "surrogate_mean_mm": float(mean), "surrogate_std_mm": float(std),
                          "converged": res["converged"]})
-        out_films[film] = {"modulus_mpa": e, "cases": rows}
+        out_films[film] = {"modulus_mpa": e, "kinematics": kinematics, "model": medians[film]["model"], "cases": rows}
     r, f = PROFILE_CASE
     profiles = {"no film": solved[None, r, f]["profile"]}
-    profiles.update({f"{film} film, E = {e:.0f} MPa": solved[film, r, f]["profile"] for film, (e, _) in films.items()})
+    profiles.update({f"{film} film ({medians[film]['model']}), E = {e:.0f} MPa": solved[film, r, f]["profile"]
+                     for film, (e, _) in films.items()})
     atomic_write_json(path, {"hertz": hertz, "films": out_films, "profile_case": {"sphere_radius_mm": r, "force_n": f},
                              "profiles": profiles}, indent=None)
     study.record(path, "verification", {"films": medians})
@@ -427,7 +441,7 @@ def _curves_stage(study: Study, settings: PipelineSettings, films, workers, st):
     """Curves of each film's combined models: one task per film and wheel, each kept as soon as it is done
     (``curves/part-<key>.json``, so an interrupted run resumes with the unfinished wheels only), then the
     film's CSV, recorded with what made it."""
-    from filmcal._io import atomic_write_json, read_json
+    from filmcal._io import atomic_write_json
     from filmcal._parallel import run_tasks
     from filmcal.correction import curve_moduli, curve_rows, wheel_label, write_curves_csv
     from filmcal.study.core import chosen_posteriors, curve_components
@@ -467,23 +481,25 @@ def _curves_stage(study: Study, settings: PipelineSettings, films, workers, st):
         return None, False
     missing = [(film, ra) for ra in reversed(wheels) for film in components if (film, ra) not in rows]
     rough = [film for film, ra in missing if ra is not None]
-    st.set_total(sum(len(curve_moduli(components[film])) for film in rough) + len(missing) * len(settings.forces_kn))
+    points = [(force, eta) for force in settings.forces_kn for eta in settings.offsets_mm]
+    st.set_total(sum(len(curve_moduli(components[film])) for film in rough) + len(missing) * len(points))
     laws = _rough_laws(study, settings, components, rough, workers, st)
-    # one task per film, wheel and load, the rough wheels first: they are the longest, so the workers end together
-    tasks = {(film, ra, force): (curve_rows, (film, components[film], settings.offsets_mm, (force,), ra,
-                                             laws.get(film) if ra is not None else None))
-             for film, ra in missing for force in settings.forces_kn}
+    # one task per film, wheel, load and offset (a few seconds each, so the display moves and the workers end
+    # together), the rough wheels first: they are the longest
+    tasks = {(film, ra, force, eta): (curve_rows, (film, components[film], (eta,), (force,), ra,
+                                                   laws.get(film) if ra is not None else None))
+             for film, ra in missing for force, eta in points}
     st.log(f"[curves] {len(components)} film(s), {len(missing)} film-wheel curve(s) to compute, "
            f"{len(settings.forces_kn)} loads x {len(settings.offsets_mm)} offsets each")
-    by_load: dict = {}
+    by_point: dict = {}
 
     def done(key, result, k):
-        film, ra, force = key
-        by_load.setdefault((film, ra), {})[force] = result
-        st.advance(note=f"{film}, {wheel_label(ra)} wheel, {force:g} kN")
-        if len(by_load[film, ra]) < len(settings.forces_kn):
+        film, ra, force, eta = key
+        by_point.setdefault((film, ra), {})[force, eta] = result
+        st.advance(note=f"{film}, {wheel_label(ra)} wheel, {force:g} kN, eta {eta:+g} mm")
+        if len(by_point[film, ra]) < len(points):
             return
-        rows[film, ra] = [r for f in settings.forces_kn for r in by_load[film, ra][f]]
+        rows[film, ra] = [r for point in points for r in by_point[film, ra][point]]
         part = study.layout.curves_part(spec_key({**specs[film], "film": film, "wheel": ra}))
         atomic_write_json(part, {"film": film, "wheel": wheel_label(ra), "rows": rows[film, ra]}, indent=None)
         study.record(part, "curves-part", {**specs[film], "film": film, "wheel": ra})
@@ -562,9 +578,14 @@ def _crossval_stage(study: Study, settings: PipelineSettings, results: dict, com
 
 def _outlines_stage(study: Study, settings: PipelineSettings, medians: dict, st):
     path = study.layout.outlines
-    if study.verified(path) and set(read_json(path)["films"]) >= set(medians):
+    if _current(study, path, {"films": medians, "force_kn": settings.outline_force_kn}):
         return None, False
-    from filmcal.wheelrail import FilmLayer, solve_wheel_rail
+    from filmcal.contact.film import FilmModel
+    from filmcal.wheelrail import solve_wheel_rail
+
+    # each film as its preferred model was calibrated: small-strain springs or the large-strain film law
+    laws = {film: FilmModel(study.film(film), m["model"].split("/")[0], m["kinematics"]).interface(m["modulus_mpa"])
+            for film, m in medians.items()}
 
     force = settings.outline_force_kn * 1e3
     st.log(f"[outlines] wheel-rail contact outlines at {settings.outline_force_kn:g} kN")
@@ -575,14 +596,19 @@ def _outlines_stage(study: Study, settings: PipelineSettings, medians: dict, st)
         bare = solve_wheel_rail(eta, force)
         case = {"offset_mm": eta, "contact_y_mm": bare.placement.contact.y_mm,
                 "no film": {"area_mm2": bare.area_mm2, "outline_mm": bare.outline_mm}}
-        for film, e in medians.items():
-            ft = study.film(film)
-            res = solve_wheel_rail(eta, force, film=FilmLayer(e, ft.poisson, ft.thickness_mm))
+        for film, (layer, law, _) in laws.items():
+            res = solve_wheel_rail(eta, force, film=layer, roughness=law)
             case[film] = {"area_mm2": res.area_mm2, "outline_mm": res.outline_mm}
         cases.append(case)
     atomic_write_json(path, {"force_n": force, "films": medians, "cases": cases}, indent=None)
     study.record(path, "outlines", {"films": medians, "force_kn": settings.outline_force_kn})
     return None, True
+
+
+def _current(study: Study, path, spec: dict) -> bool:
+    """Whether `path` is recorded, intact, with this spec (else its stage computes it again)."""
+    entry = study.manifest.entry(study.layout.relative(path)) if path.exists() else None
+    return bool(entry and entry["spec"] == spec and study.verified(path))
 
 
 def _report_stage(study: Study, write_report, workers, st):
