@@ -54,6 +54,8 @@ SLOW_FIXTURES: frozenset[str] = frozenset({
 #: (setup + call, wall time on 2 cores shared with other work, so about 2-3x
 #: the idle time) by ``python3 -m pytest -q --durations=60 -p no:cacheprovider``.
 SLOW_TESTS: dict[str, str] = {
+    "test_fem_edge.py::test_closing_load_edge_of_the_large_strain_film_matches_solving_again":
+        "25 s: 26 large-strain solves",
     "test_roughness_no_film.py::test_the_nominal_growth_follows_the_rigid_plastic_bearing_area_law":
         "6 s each: two rough Hertz solves and a boundary-element law",
     "test_rough_imprint.py::test_an_asperity_cannot_stain_a_film_whose_activation_lies_above_the_coating_hardness":

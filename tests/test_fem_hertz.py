@@ -6,7 +6,7 @@ import pytest
 
 from filmcal.fem import get_model, hertz_max_pressure_mpa, hertz_radius_mm
 
-TABLE1_CASES = [(300, 25), (450, 25), (600, 25), (300, 50), (450, 50), (600, 50),
+TABLE1_CASES = [(250, 15), (300, 25), (450, 25), (600, 25), (300, 50), (450, 50), (600, 50),
                 (450, 75), (600, 75), (450, 100), (600, 100)]
 GRID_CASES = [(r, f) for r in (200, 400, 800) for f in (10, 60, 150)]
 
@@ -22,7 +22,8 @@ def test_no_film_radius_matches_hertz(radius_mm, force_kn):
     res = get_model(radius_mm).solve(None, force_kn * 1e3)
     assert res.converged, res.reason
     a_h = hertz_radius_mm(radius_mm, force_kn * 1e3)
-    assert abs(res.contact_radius_mm / a_h - 1.0) <= 1e-3
+    # the closing-load edge within 0.05 % (R 250 mm / 15 kN read 0.11 % low with a fitted profile)
+    assert abs(res.contact_radius_mm / a_h - 1.0) <= 5e-4
     # the pressure at the axis within 1 % of Hertz's p0
     assert res.max_pressure_mpa == pytest.approx(hertz_max_pressure_mpa(radius_mm, force_kn * 1e3), rel=0.01)
 

@@ -47,8 +47,9 @@ def test_pressure_is_minus_the_energy_derivative():
 def test_nominal_stress_of_the_fe_film_element():
     """The FE's large-strain film (filmcal.fem.largestrain) compressed uniaxially by 50 %
     carries the pressure of the law (independent code path: FE assembly of P)."""
-    from skfem import Basis, ElementQuad1, ElementVector, MeshQuad
+    from skfem import ElementQuad1, ElementVector, MeshQuad
 
+    from filmcal.fem.forms import film_bases
     from filmcal.fem.largestrain import film_internal_force_and_tangent
 
     class Material:
@@ -56,13 +57,13 @@ def test_nominal_stress_of_the_fe_film_element():
 
     t = 0.09
     mesh = MeshQuad.init_tensor(np.linspace(1.0, 2.0, 3), np.linspace(0.0, t, 3))
-    basis = Basis(mesh, ElementVector(ElementQuad1()))
+    basis = film_bases(mesh, ElementVector(ElementQuad1()))
     for strain in (0.1, 0.5, 0.7):
-        u = np.zeros(basis.N)
-        u[basis.nodal_dofs[1]] = -strain * (mesh.p[1] - t)
-        force, _ = film_internal_force_and_tangent(basis, Material, u)
+        u = np.zeros(basis[0].N)
+        u[basis[0].nodal_dofs[1]] = -strain * (mesh.p[1] - t)
+        force, _ = film_internal_force_and_tangent(*basis, Material, u)
         top = np.isclose(mesh.p[1], t)
-        stress = -force[basis.nodal_dofs[1]][top].sum() / (math.pi * (2.0 ** 2 - 1.0 ** 2))
+        stress = -force[basis[0].nodal_dofs[1]][top].sum() / (math.pi * (2.0 ** 2 - 1.0 ** 2))
         law = LargeStrainFilm(768.0, 0.33, t).pressure_mpa(np.array([strain * t]))[0]
         assert law == pytest.approx(stress, rel=1e-9)
 
@@ -131,27 +132,29 @@ def test_large_strain_sphere_on_flat_matches_the_fe(modulus, force_kn):
 def test_fe_film_tangent_is_the_derivative_of_its_internal_force():
     """The large-strain film's tangent stiffness equals central differences of its internal force
     at a general (sheared, compressed, radially displaced) state."""
-    from skfem import Basis, ElementQuad1, ElementVector, MeshQuad
+    from skfem import ElementQuad1, ElementVector, MeshQuad
 
+    from filmcal.fem.forms import film_bases
     from filmcal.fem.largestrain import film_internal_force_and_tangent
 
     class Material:
         modulus_mpa, poisson = 2800.0, 0.33
 
     mesh = MeshQuad.init_tensor(np.linspace(0.5, 2.0, 4), np.linspace(0.0, 0.09, 3))
-    basis = Basis(mesh, ElementVector(ElementQuad1()))
+    bases = film_bases(mesh, ElementVector(ElementQuad1()))
+    basis = bases[0]
     rng = np.random.default_rng(2)
     u = np.zeros(basis.N)
     u[basis.nodal_dofs[1]] = -0.3 * (mesh.p[1] - 0.09) + 0.002 * rng.standard_normal(mesh.p.shape[1])
     u[basis.nodal_dofs[0]] = 0.01 * mesh.p[1] + 0.002 * rng.standard_normal(mesh.p.shape[1])
-    _, K = film_internal_force_and_tangent(basis, Material, u)
+    _, K = film_internal_force_and_tangent(*bases, Material, u)
     h = 1e-7
     fd = np.empty_like(K)
     for j in range(basis.N):
         step = np.zeros(basis.N)
         step[j] = h
-        fd[:, j] = (film_internal_force_and_tangent(basis, Material, u + step)[0]
-                    - film_internal_force_and_tangent(basis, Material, u - step)[0]) / (2 * h)
+        fd[:, j] = (film_internal_force_and_tangent(*bases, Material, u + step)[0]
+                    - film_internal_force_and_tangent(*bases, Material, u - step)[0]) / (2 * h)
     assert np.abs(K - fd).max() <= 1e-6 * np.abs(K).max()
     assert np.allclose(K, K.T, rtol=0, atol=1e-9 * np.abs(K).max())
 

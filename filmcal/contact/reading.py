@@ -242,7 +242,8 @@ class RadialProfile:
 
 
 def read_radial_profile(r_mm: np.ndarray, pressure_mpa: np.ndarray, tip_mm: float = math.inf,
-                        window_mm: float | None = None, samples: str = "nodal") -> RadialProfile:
+                        window_mm: float | None = None, samples: str = "nodal",
+                        edge_mm: float | None = None) -> RadialProfile:
     """Read an axisymmetric nodal pressure profile (see the module notes).
 
     Parameters
@@ -263,6 +264,10 @@ def read_radial_profile(r_mm: np.ndarray, pressure_mpa: np.ndarray, tip_mm: floa
         FE model's pressures), fitted through their hat-function integrals;
         ``point``: pressures at the points themselves (e.g. cell centres of a
         grid along a line through the centre of a contact).
+    edge_mm : float, optional
+        The edge when it is known from elsewhere (the FE model's closing-load
+        reading, :mod:`filmcal.fem.model`): only the amplitude ``c`` is then
+        fitted, and the edge is this value.
 
     Returns
     -------
@@ -303,6 +308,14 @@ def read_radial_profile(r_mm: np.ndarray, pressure_mpa: np.ndarray, tip_mm: floa
         c = float(unit @ target) / denom if denom > 0 else 0.0
         res = (c * unit - target) / scale
         return c, float(res @ res)
+
+    if edge_mm is not None:
+        if not (math.isfinite(edge_mm) and edge_mm > r[k - 1]):
+            raise ValueError(f"edge_mm must lie beyond the last loaded node but one ({r[k - 1]:g} mm), got {edge_mm!r}")
+        c, cost = solve_amplitude(float(edge_mm))
+        if not c > 0:
+            return fallback
+        return RadialProfile(r, p, float(edge_mm), c, tip_mm, float(r[nodes[0]]), True, math.sqrt(cost / nodes.size))
 
     from scipy.optimize import minimize_scalar
 

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["PairSystem", "ContactState", "solve_pairs"]
+__all__ = ["PairSystem", "ContactState", "solve_pairs", "load_sensitivity"]
 
 OPEN, CLOSED = 0, 1
 # c_k = COMPLEMENTARITY_SCALE / H_kk. A value well below 1 weights the force side of the
@@ -135,6 +135,51 @@ def solve_pairs(H: np.ndarray, d0: np.ndarray, a: np.ndarray, force: float, pair
     state.converged = False
     state.reason = f"friction bound fixed point not settled after {max_fixed_point} updates"
     return state
+
+
+def load_sensitivity(H: np.ndarray, a: np.ndarray, d_unit: np.ndarray, pairs: PairSystem,
+                     state: ContactState) -> tuple[np.ndarray, float, np.ndarray]:
+    """Rates of the pair forces, the rigid displacement and the relative displacements with the force.
+
+    With every status of `state` held (closed normals, sticking and slipping
+    tangentials), the solution is affine in the force F; this returns its
+    slopes (dLambda/dF, dw/dF, dd/dF). A slipping component's force follows
+    its pair's normal force (mu n sign), a sticking one keeps its relative
+    displacement.
+
+    Parameters
+    ----------
+    H, a : ndarray
+        As in :func:`solve_pairs` (for a nonlinear film, at the converged state).
+    d_unit : ndarray
+        Rate of the relative displacement at zero pair forces with F (the
+        loaded body's displacement per newton).
+    pairs : PairSystem
+    state : ContactState
+        A converged solution.
+    """
+    n = H.shape[0]
+    A = np.zeros((n + 1, n + 1))
+    b = np.zeros(n + 1)
+    A[np.arange(n), np.arange(n)] = 1.0
+    closed = pairs.normal[state.normal_status == CLOSED]
+    A[closed, :n] = H[closed]
+    A[closed, n] = a[closed]
+    b[closed] = -d_unit[closed]
+    if len(pairs.tangential):
+        ts = state.tangential_status
+        stick = pairs.tangential[ts == STICK]
+        A[stick, :n] = H[stick]
+        A[stick, n] = a[stick]
+        b[stick] = -d_unit[stick]
+        slip_k = np.flatnonzero(ts == SLIP)
+        sign = np.sign(state.forces[pairs.tangential[slip_k]])
+        A[pairs.tangential[slip_k], :n] -= (sign * pairs.friction[slip_k])[:, None] * pairs.normal_force_map[slip_k]
+    A[n, pairs.normal] = 1.0
+    b[n] = 1.0
+    sol = np.linalg.solve(A, b)
+    dlam, dw = sol[:n], float(sol[n])
+    return dlam, dw, H @ dlam + d_unit + dw * a
 
 
 def _friction_bound(pairs: PairSystem, finite_mu: np.ndarray, forces: np.ndarray) -> np.ndarray:

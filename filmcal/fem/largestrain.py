@@ -10,6 +10,11 @@ elasticity with the same Lame constants at small strain):
 Axisymmetric deformation gradient in (r, z, theta):
 F = [[1 + du_r/dR, du_r/dZ, 0], [du_z/dR, 1 + du_z/dZ, 0], [0, 0, 1 + u_r/R]].
 The kinematics are evaluated once per assembly and passed to the forms.
+
+As in the small-strain film (`filmcal.fem.forms`), the volumetric energy
+lam/2 (ln J)^2 is integrated at the element centres and the rest,
+mu/2 (tr C - 3) - mu ln J, at the full rule (selective reduced integration);
+at small strain the two integrate the same forms as the linear film.
 """
 from __future__ import annotations
 
@@ -67,21 +72,39 @@ def _tangent(basis: Basis, FinvT: np.ndarray, c2: np.ndarray, lam: float, mu: fl
     return K.reshape(n, n)
 
 
-def film_internal_force_and_tangent(basis: Basis, film, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _kinematics(basis: Basis, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(F, F^-T, ln J) at the basis' points; raises LinAlgError where J <= 0."""
+    uh = basis.interpolate(u)
+    r = basis.global_coordinates()[0]
+    F = _grad3(uh, r) + np.eye(3)[:, :, None, None]
+    Fm = np.moveaxis(F, (0, 1), (-2, -1))
+    J = np.linalg.det(Fm)
+    if np.any(J <= 0.0):
+        raise np.linalg.LinAlgError("film element inverted (J <= 0)")
+    FinvT = np.moveaxis(np.linalg.inv(Fm), (-2, -1), (1, 0))
+    return F, FinvT, np.log(J)
+
+
+def film_internal_force_and_tangent(full: Basis, centre: Basis, film, u: np.ndarray
+                                    ) -> tuple[np.ndarray, np.ndarray]:
     """Internal nodal forces and tangent stiffness (dense) of the film at displacement `u`.
+
+    Parameters
+    ----------
+    full, centre : skfem.Basis
+        The film's bases at the full rule and at one point per element
+        (:func:`filmcal.fem.forms.film_bases`).
+    film : Film
+        Its ``modulus_mpa`` and ``poisson``.
+    u : ndarray
+        Film DOFs.
 
     Raises `numpy.linalg.LinAlgError` when an element is inverted (J <= 0).
     """
     lam, mu = lame_parameters(film.modulus_mpa, film.poisson)
-    uh = basis.interpolate(u)
-    r = basis.global_coordinates()[0]
-    F = _grad3(uh, r) + np.eye(3)[:, :, None, None]
-    J = np.linalg.det(np.moveaxis(F, (0, 1), (-2, -1)))
-    if np.any(J <= 0.0):
-        raise np.linalg.LinAlgError("film element inverted (J <= 0)")
-    FinvT = np.moveaxis(np.linalg.inv(np.moveaxis(F, (0, 1), (-2, -1))), (-2, -1), (1, 0))
-    log_j = np.log(J)
-    P = mu * (F - FinvT) + lam * log_j * FinvT
-    f = _internal_force.assemble(basis, P=P)
-    K = _tangent(basis, FinvT, mu - lam * log_j, lam, mu)
+    F, FinvT, _ = _kinematics(full, u)
+    _, FinvT_c, log_j_c = _kinematics(centre, u)
+    f = (_internal_force.assemble(full, P=mu * (F - FinvT))
+         + _internal_force.assemble(centre, P=lam * log_j_c * FinvT_c))
+    K = _tangent(full, FinvT, mu, 0.0, mu) + _tangent(centre, FinvT_c, -lam * log_j_c, lam, 0.0)
     return f, K

@@ -36,14 +36,22 @@ from filmcal._validation import check_poisson, check_positive, check_range
 from filmcal.contact import DEFAULT_IMPRINT_MODEL, film_tip_length_mm, get_imprint_model
 from filmcal.contact.options import ContactOptions
 from filmcal.fem.condense import CondensedBody, condense, nested_dissection
-from filmcal.fem.contact import CLOSED, FREE, OPEN, ContactState, PairSystem, solve_pairs
-from filmcal.fem.forms import axial_traction, lame_parameters, linear_elasticity, oedometric_modulus_mpa
+from filmcal.fem.contact import CLOSED, FREE, OPEN, ContactState, PairSystem, load_sensitivity, solve_pairs
+from filmcal.fem.forms import (axial_traction, film_bases, film_stiffness_parts, lame_parameters, linear_elasticity,
+                               oedometric_modulus_mpa)
 from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, hertz_radius_mm
 from filmcal.fem.largestrain import film_internal_force_and_tangent
 from filmcal.fem.mesh import FILM_LAYERS, BodyGrid, MeshSettings, film_grid, flat_grid, sphere_grid
 from filmcal.fem.result import FEResult
 
-__all__ = ["Film", "SphereOnFlat"]
+__all__ = ["Film", "SphereOnFlat", "NODE_CLOSING_LEAD", "FILM_EDGE_LEAD_PER_MM"]
+
+#: A node-to-node pair closes when the continuum edge lies this many element
+#: sizes beyond it (measured against Hertz, see `SphereOnFlat._closing_edge_mm`).
+NODE_CLOSING_LEAD = 0.25
+#: The film's elements at the edge move the closing edge out by this times h^2
+#: (h in mm; measured against the second formulation, `bench/fe_reference.py`).
+FILM_EDGE_LEAD_PER_MM = 0.55
 
 
 
@@ -131,6 +139,7 @@ class _StepProblem:
     film: Film | None
     nonlinear: bool
     max_iterations: int
+    solved: tuple | None = None  # (H, pairs) of the last converged load step
 
 
 class SphereOnFlat:
@@ -192,12 +201,11 @@ class SphereOnFlat:
         fixed_f = np.concatenate([fb.nodal_dofs[1, self.flat.node_at[:, -1]], fb.nodal_dofs[0, self.flat.node_at[0, :]]])
         self.flat_body, self._f_z, self._f_r = _condense_body(self.flat, fixed_f, None, fb, Kf)
 
-        # film: stiffness split as lambda * K_lam + mu * K_mu
+        # film: stiffness split as lambda * K_lam + mu * K_mu (volumetric term at the element centres)
         self.r_face_mm = self.sphere.r_face_mm
         self.film = film_grid(self.r_face_mm, self.film_thickness_mm, film_layers)
-        self._film_basis = Basis(self.film.mesh, e)
-        self._K_lam = linear_elasticity.assemble(self._film_basis, lam=1.0, mu=0.0).toarray()
-        self._K_mu = linear_elasticity.assemble(self._film_basis, lam=0.0, mu=1.0).toarray()
+        self._film_basis, self._film_centre_basis = film_bases(self.film.mesh, e)
+        self._K_lam, self._K_mu = film_stiffness_parts(self._film_basis, self._film_centre_basis)
         self.gap0_mm = self.sphere_radius_mm - np.sqrt(self.sphere_radius_mm**2 - self.r_face_mm**2)
         self.face_area_mm2 = self._tributary_areas(self.r_face_mm)
         self._lower_cache: dict[str, _Lower] = {}
@@ -409,8 +417,37 @@ class SphereOnFlat:
             if with_film and np.min(strain) <= -0.95:
                 converged, reason = False, "film collapsed: through-thickness strain beyond -95 %"
                 break
+        edge = self._closing_edge_mm(problem, state, force_n, with_film) if converged else 0.0
         return self._result(film, force_n, opts, state, x, low, converged, reason, total_iterations,
-                            film_type, imprint_model, t0)
+                            film_type, imprint_model, t0, edge)
+
+    def _closing_edge_mm(self, pb: "_StepProblem", state: ContactState, force_n: float, with_film: bool) -> float:
+        """The contact edge from the loads at which its bracketing nodes open and close.
+
+        With the contact statuses held the solution is affine in the force
+        (`load_sensitivity`; for a large-strain film, its tangent at the
+        solution): the last closed node k would open at F_k, the first open
+        node k + 1 close at F_k+1, and the edge lies between them with a^3
+        linear in F (exact for Hertz). A node-to-node pair closes when the
+        continuum edge is already h/4 beyond it (``NODE_CLOSING_LEAD``,
+        measured against Hertz: 0.246-0.253 h for h = 0.05 and 0.1 mm), and a
+        film's elements at the edge add ``FILM_EDGE_LEAD_PER_MM`` h^2; both
+        are subtracted.
+        """
+        n = self.n_face
+        closed = np.flatnonzero(state.normal_status[:n] == CLOSED)
+        k = int(closed[-1])
+        r = self.r_face_mm
+        if k + 1 >= n:
+            return float(r[k])
+        H, pairs = pb.solved
+        dlam, _, dd = load_sensitivity(H, pb.a, pb.d0_unit, pairs, state)
+        f_open = force_n - state.forces[k] / dlam[k] if dlam[k] > 0 else 0.0
+        f_close = force_n - state.relative[k + 1] / dd[k + 1] if dd[k + 1] < 0 else np.inf
+        s = float(np.clip((force_n - f_open) / (f_close - f_open), 0.0, 1.0)) if np.isfinite(f_close) else 0.0
+        edge = float(np.cbrt(r[k] ** 3 + s * (r[k + 1] ** 3 - r[k] ** 3)))
+        h = float(r[k + 1] - r[k])
+        return edge - NODE_CLOSING_LEAD * h - (FILM_EDGE_LEAD_PER_MM * h * h if with_film else 0.0)
 
     def _load_step(self, pb: "_StepProblem", load: float, x: np.ndarray, state: ContactState,
                    d_prev: np.ndarray) -> tuple[bool, str, np.ndarray, ContactState, int]:
@@ -419,7 +456,7 @@ class SphereOnFlat:
         for _ in range(pb.max_iterations if pb.nonlinear else 1):
             if pb.nonlinear:
                 try:
-                    f_int, K_t = film_internal_force_and_tangent(self._film_basis, pb.film, self._film_dofs(pb.low, x))
+                    f_int, K_t = film_internal_force_and_tangent(self._film_basis, self._film_centre_basis, pb.film, self._film_dofs(pb.low, x))
                 except np.linalg.LinAlgError:
                     return False, "film element inverted (film collapsed)", x, state, iterations
                 K_L = self._lower_stiffness(pb.low, K_t)
@@ -441,6 +478,7 @@ class SphereOnFlat:
             iterations += state.iterations
             if not state.converged:
                 return False, state.reason, x, state, iterations
+            pb.solved = (H, pairs)
             x_new = x_hat - Y @ state.forces
             if not pb.nonlinear:
                 return True, "", x_new, state, iterations
@@ -499,7 +537,7 @@ class SphereOnFlat:
         return (top - bottom) / self.film_thickness_mm
 
     def _result(self, film, force_n, opts, state: ContactState, x, low, converged, reason, iterations,
-                film_type, imprint_model, t0) -> FEResult:
+                film_type, imprint_model, t0, edge_mm: float) -> FEResult:
         n = self.n_face
         lam_n = state.forces[:n] if len(state.forces) else np.zeros(n)
         pressure = np.where(state.normal_status == CLOSED, lam_n / self.face_area_mm2, 0.0)
@@ -520,7 +558,7 @@ class SphereOnFlat:
             sphere_contact=opts.sphere_contact, flat_contact=opts.flat_contact if film is not None else "none",
             friction_coefficient=opts.friction_coefficient,
             kinematics="large" if opts.large_strain and film is not None else "small",
-            contact_radius_mm=0.0, contact_area_mm2=0.0,
+            contact_radius_mm=edge_mm, contact_area_mm2=float(np.pi * edge_mm**2),
             max_pressure_mpa=float(np.max(pressure)), hertz_radius_mm=a_h,
             approach_mm=float(-state.rigid_w), film_strain_max=float(-np.min(strain)) if film is not None else 0.0,
             r_mm=self.r_face_mm.copy(), pressure_mpa=pressure, gap_mm=gaps, film_strain=strain,
@@ -531,11 +569,11 @@ class SphereOnFlat:
             converged=bool(converged), reason=reason, iterations=int(iterations),
             elapsed_s=0.0, n_dofs=self.n_dofs, element_size_mm=self.mesh.element_size_mm,
         )
-        profile = result.profile()
-        result.contact_radius_mm = float(profile.edge_mm)
-        result.contact_area_mm2 = float(np.pi * profile.edge_mm**2)
+        if edge_mm <= 0:  # a failed solve: the profile's own reading, for the record
+            result.contact_radius_mm = float(result.profile().edge_mm)
+            result.contact_area_mm2 = float(np.pi * result.contact_radius_mm**2)
         if film_type is not None:
-            imprint = get_imprint_model(imprint_model).radius_from_profile(profile, film_type)
+            imprint = get_imprint_model(imprint_model).radius_from_profile(result.profile(), film_type)
             result.imprint_radius_mm = float(imprint)
             result.imprint_area_mm2 = float(np.pi * imprint**2)
         result.elapsed_s = time.perf_counter() - t0

@@ -18,9 +18,11 @@ class FEResult:
     Lengths in mm, forces in N, pressures in MPa. ``converged = False`` comes
     with a ``reason``; its numbers are then not to be used.
 
-    ``contact_radius_mm`` is the zero-pressure edge read from the nodal
-    pressures with sub-element accuracy (:mod:`filmcal.contact.reading`, tip
-    length ``edge_tip_mm``). ``imprint_radius_mm`` and ``imprint_area_mm2``
+    ``contact_radius_mm`` is the contact edge read from the loads at which
+    the last closed node opens and the first open node closes
+    (:mod:`filmcal.fem.model`, "Reading the edge"); the pressure profile
+    between the nodes (:meth:`profile`, tip length ``edge_tip_mm``) ends
+    there. ``imprint_radius_mm`` and ``imprint_area_mm2``
     are the imprint of film type ``film`` under ``imprint_model``
     (None when no film type was asked for); :meth:`read_imprint` reads any
     other (model, film type) pair from the same solution.
@@ -74,7 +76,8 @@ class FEResult:
         """
         cached = self.__dict__.get("_profile")
         if cached is None or cached.r_mm is not self.r_mm or cached.pressure_mpa is not self.pressure_mpa:
-            cached = read_radial_profile(self.r_mm, self.pressure_mpa, self.edge_tip_mm)
+            edge = self.contact_radius_mm if self.contact_radius_mm > 0 else None
+            cached = read_radial_profile(self.r_mm, self.pressure_mpa, self.edge_tip_mm, edge_mm=edge)
             self.__dict__["_profile"] = cached
         return cached
 
