@@ -1,11 +1,14 @@
 """Each contact model against its independent reference, in one table of differences.
 
-    python bench/verification.py [--points N] [--grid] [--study-dir D] [--json out.json]
+    python bench/verification.py [--points N] [--grid] [--study-dir D] [--json out.json] [--summary]
 
 Rows:
 
 * ``FE / Hertz``: the axisymmetric FE without film against Hertz's radius (Table 1's cases and a small
   patch, R 250 mm / 15 kN);
+* ``FE / second formulation``: the FE at its default mesh with a film against the second formulation
+  (`filmcal.fem.reference`, biquadratic, extrapolated from h = 0.05 and 0.025 mm) at films across nu 0.25-0.45
+  (``bench/fe_reference.py`` runs 84 such cases);
 * ``half-space / Hertz``: the wheel-rail model's half-space solver on a sphere without film (area-equivalent
   radius of its zero-pressure outline);
 * ``half-space / thin-layer BEM``: the half-space with film springs against the axisymmetric ring BEM of the
@@ -14,16 +17,22 @@ Rows:
   series, read by `FilmModel.recorded_area_mm2`, plus the shipped transfer term of
   `filmcal.contact.transfer`) against the film the calibration runs (the continuum FE, read by the same
   imprint model), sphere-on-flat for MS, HS and HHS at N points of a Latin hypercube over the transfer
-  domain that neither of the shipped fit's designs contains (seed 3): without the term (``raw``) and with it.
+  domain that neither of the shipped fit's designs contains (seed 3): without the term (``raw``) and with it;
+* ``wheel-rail / CONTACT``: the wheel-rail model at its default grid against CONTACT's stored numbers
+  (``tests/data/contact``, with the input decks that made them; CONTACT cannot be built everywhere):
+  S1002 on 60E1 at 10 kN over the flange, and S1002 on 60E2 at 50/100 kN with and without MS/HS/HHS layers.
+  Areas in mm^2 (``value_mm``/``reference_mm`` hold areas there), relative differences in per cent.
 
 ``--grid``: each reading of the half-space solution with a film on S1002/60E2 (50/100 kN, eta -5..+2 mm,
 E 800-6300 MPa) at grids 0.2 / 0.1 / 0.05 mm against its Richardson extrapolation, and the observed order.
 ``--study-dir D``: Table 1 through the application model at each film's calibrated median E and preferred
 model (residuals against the calibration's own FE at the same E), and the wheel-rail correction factor
-A_0 / A_f at S1002/60E2, 100 kN, eta 0 per film before (the reading before the transfer term: the ``p**2`` edge,
-no transfer term) and after.
+A_0 / A_f at S1002/60E2, 100 kN, eta 0 per film before (the readings before the transfer term: contours of
+``p**2``, no transfer term) and after.
 
-Figures are differences of radii in mm (and relative), measured in this run.
+Figures are differences of radii in mm (and relative), measured in this run. ``--summary`` also writes the
+per-check summary the report's verification section prints (``filmcal/data/verification.json``, with the FE
+revision it was measured for); run it again whenever a model changes.
 """
 from __future__ import annotations
 
@@ -54,6 +63,69 @@ def fe_against_hertz() -> list[dict]:
     for r, f in HERTZ_CASES:
         res = get_model(r).solve(None, f * 1e3)
         rows.append(_row("FE / Hertz", f"R{r:g} {f:g} kN", res.contact_radius_mm, res.hertz_radius_mm))
+    return rows
+
+
+#: What each check is compared with (the report prints it beside the summary).
+REFERENCES = {
+    "FE / Hertz": "Hertz's closed form, no film (Table 1's cases and R 250 mm / 15 kN)",
+    "FE / second formulation": "biquadratic FE with the closing-load edge, extrapolated to h -> 0, films at nu 0.25-0.45",
+    "half-space / Hertz": "Hertz's closed form, no film",
+    "half-space / thin-layer BEM": "axisymmetric ring BEM of the same spring film",
+    "wheel-rail / CONTACT flange": "CONTACT, refined and extrapolated: S1002 on 60E1, 10 kN, eta -3..+8 mm, an HS layer at +5 mm",
+    "wheel-rail / CONTACT layer": "CONTACT's elastic layer: S1002 on 60E2, 50/100 kN, eta -5..+2 mm, no film and MS/HS/HHS",
+}
+
+
+def summarise(rows: list[dict]) -> dict:
+    """Per check: cases, mean and largest difference (mm or mm2), largest relative difference (%)."""
+    from filmcal.contact.names import FE_MODEL_REVISION
+
+    checks = []
+    for kind in REFERENCES:
+        sel = [r for r in rows if r["check"] == kind]
+        if not sel:
+            continue
+        d = np.array([r["difference_mm"] for r in sel])
+        checks.append({"check": kind, "reference": REFERENCES[kind], "n": len(sel),
+                       "unit": "mm2" if kind.startswith("wheel-rail") else "mm", "mean": float(d.mean()),
+                       "max_abs": float(np.abs(d).max()),
+                       "max_abs_rel_pct": float(100 * max(abs(r["relative"]) for r in sel))})
+    transfer = [{k: r[k] for k in ("check", "n", "raw_mean_mm", "raw_max_mm", "mean_mm", "rms_mm", "max_mm", "std_mm")}
+                for r in rows if r["check"].startswith("transfer ")]
+    return {"made": time.strftime("%Y-%m-%d"), "script": "bench/verification.py --summary",
+            "fe_model_revision": FE_MODEL_REVISION, "checks": checks, "transfer": transfer}
+
+
+#: (R mm, F kN, E MPa, nu): films across the supported nu range, off the fits' designs.
+SECOND_FORMULATION_CASES = [(300.0, 35.0, 1200.0, 0.40), (450.0, 75.0, 2800.0, 0.33), (520.0, 40.0, 3500.0, 0.25),
+                            (350.0, 90.0, 8000.0, 0.45), (600.0, 25.0, 600.0, 0.30)]
+
+
+def fe_against_second_formulation() -> list[dict]:
+    from filmcal.fem import Film, get_model
+    from filmcal.fem.reference import QuadraticSphereOnFlat
+
+    rows = []
+    for r, f, e, nu in SECOND_FORMULATION_CASES:
+        a = [QuadraticSphereOnFlat(r, element_size_mm=h, contact_zone_mm=12.0).solve(f * 1e3, e, nu).contact_radius_mm
+             for h in (0.05, 0.025)]
+        res = get_model(r).solve(Film(e, nu), f * 1e3)
+        rows.append(_row("FE / second formulation", f"R{r:g} {f:g} kN E{e:g} nu{nu:g}", res.contact_radius_mm,
+                         2.0 * a[1] - a[0]))
+    return rows
+
+
+def wheelrail_against_contact() -> list[dict]:
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent / "contact"))
+    from compare import SETS, compare
+
+    rows = []
+    for name in sorted(SETS):
+        for c in compare(name, 0.1):
+            rows.append(_row(f"wheel-rail / CONTACT {name}", c["case"], c["filmcal_area_mm2"], c["contact_area_mm2"]))
     return rows
 
 
@@ -172,8 +244,9 @@ def study_checks(study_dir: str) -> list[dict]:
         after = model.recorded_area_mm2(res)
         term = model.transfer_term(e, res)
         grid = res.contact.grid
-        before = (get_imprint_model("edge").area_mm2(grid.x_mm, grid.y_mm, res.contact.pressure_mpa, film)
-                  if imprint == "edge" else after)
+        # the reading of before: the contour of p**2 (the edge model: its p**2 edge), no transfer term
+        before = get_imprint_model(imprint).area_mm2(grid.x_mm, grid.y_mm, res.contact.pressure_mpa, film,
+                                                     through_film=False)
         out.append({"check": "correction factor S1002/60E2 100 kN eta 0", "case": f"{film_name} {preferred['model']}",
                     "before": a0 / before, "after": a0 / (after + term.shift_mm2),
                     "transfer_shift_mm2": term.shift_mm2, "transfer_std_mm2": term.std_mm2,
@@ -187,16 +260,22 @@ def main(argv=None) -> int:
     ap.add_argument("--grid", action="store_true", help="also the grid convergence of the wheel-rail readings")
     ap.add_argument("--study-dir", metavar="D", help="also Table 1 and the correction factor with D's posteriors")
     ap.add_argument("--json", metavar="FILE", help="also write the rows as JSON")
+    ap.add_argument("--summary", action="store_true",
+                    help="also write the per-check summary the report prints (filmcal/data/verification.json)")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
-    rows = fe_against_hertz() + halfspace_against_hertz() + halfspace_against_thin_layer()
+    rows = (fe_against_hertz() + fe_against_second_formulation() + halfspace_against_hertz()
+            + halfspace_against_thin_layer() + wheelrail_against_contact())
     print(f"{'check':34} {'case':30} {'value mm':>10} {'ref mm':>10} {'diff mm':>9} {'rel %':>8}")
     for row in rows:
-        print(f"{row['check']:34} {row['case']:30} {row['value_mm']:10.4f} {row['reference_mm']:10.4f} "
+        print(f"{row['check']:34} {row['case'][:30]:30} {row['value_mm']:10.4f} {row['reference_mm']:10.4f} "
               f"{row['difference_mm']:+9.4f} {100 * row['relative']:+8.3f}")
     for kind in sorted({r["check"] for r in rows}):
         d = np.array([r["difference_mm"] for r in rows if r["check"] == kind])
-        print(f"summary {kind:34} mean {d.mean():+.4f} mm, range {d.min():+.4f} .. {d.max():+.4f} mm")
+        rel = 100 * np.array([r["relative"] for r in rows if r["check"] == kind])
+        unit = "mm2" if kind.startswith("wheel-rail") else "mm"
+        print(f"summary {kind:34} mean {d.mean():+.4f} {unit}, range {d.min():+.4f} .. {d.max():+.4f} {unit}; "
+              f"largest |rel| {np.abs(rel).max():.3f} %")
     transfer = transfer_check(args.points)
     print(f"\ntransfer: calibrated FE film minus applied springs, sphere-on-flat, MS/HS/HHS at {args.points} points "
           "(seed 3), radius in mm")
@@ -234,6 +313,12 @@ def main(argv=None) -> int:
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(rows, fh, indent=1)
+    if args.summary:
+        from pathlib import Path
+
+        out = Path(__file__).resolve().parent.parent / "filmcal" / "data" / "verification.json"
+        out.write_text(json.dumps(summarise(rows), indent=1) + "\n")
+        print(f"wrote {out}", file=sys.stderr)
     return 0
 
 

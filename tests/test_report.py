@@ -631,3 +631,22 @@ def test_quick_study_pdf_page_one_agrees_with_the_study_files(quick_study):
     assert match.group(6) == preferred and abs(float(match.group(7)) - weights[preferred]) <= 0.005
     factor = f"{float(ref['ratio_median']):.3f} [{float(ref['ratio_lo']):.3f}, {float(ref['ratio_hi']):.3f}]"
     assert factor in page and f"F = {top:g} kN" in page
+
+
+def test_verification_lists_every_shipped_reference_check_and_says_when_it_is_stale(monkeypatch):
+    """The report's table of independent references is the shipped summary of bench/verification.py, row by
+    row, and a summary measured for another FE revision says so instead of passing as current."""
+    import json as _json
+    from importlib import resources
+
+    from filmcal.contact import names
+    from filmcal.report import study_report
+
+    doc = _json.loads((resources.files("filmcal.data") / "verification.json").read_text(encoding="utf-8"))
+    assert {"FE / Hertz", "FE / second formulation", "wheel-rail / CONTACT flange",
+            "wheel-rail / CONTACT layer"} <= {c["check"] for c in doc["checks"]}
+    text, table = study_report._reference_checks()
+    assert [r[0] for r in table.rows] == [c["check"] for c in doc["checks"]] + [t["check"] for t in doc["transfer"]]
+    assert doc["made"] in text and "earlier revision" not in text
+    monkeypatch.setattr(names, "FE_MODEL_REVISION", doc["fe_model_revision"] + 1)
+    assert "earlier revision" in study_report._reference_checks()[0]

@@ -41,7 +41,7 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 
 from filmcal.contact.names import DEFAULT_IMPRINT_MODEL, IMPRINT_MODELS
-from filmcal.contact.reading import GridField, RadialProfile, read_radial_profile
+from filmcal.contact.reading import FILM_CONTOUR_POWER, GridField, RadialProfile, read_radial_profile
 
 if TYPE_CHECKING:  # pragma: no cover
     from filmcal.films import FilmType
@@ -105,7 +105,7 @@ class ImprintModel:
         return self.radius_from_profile(profile, film)
 
     def area_mm2(self, x_mm: np.ndarray, y_mm: np.ndarray, pressure_mpa_2d: np.ndarray,
-                 film: "FilmType | None" = None) -> float:
+                 film: "FilmType | None" = None, through_film: bool = True) -> float:
         """Imprint area of a cell-centred 2D pressure field on a regular grid (mm^2).
 
         Parameters
@@ -115,9 +115,14 @@ class ImprintModel:
         pressure_mpa_2d : ndarray, shape (len(x_mm), len(y_mm))
             Cell pressures (``ContactResult.pressure_mpa``).
         film : FilmType, optional
+        through_film : bool
+            Whether the contact was solved with a film between the bodies (its
+            pressure rises linearly from the edge, `GridField`); False for a
+            contact without film.
         """
         self.check_film(film)
-        return self.area_from_field(GridField(x_mm, y_mm, _pressure(pressure_mpa_2d)), film)
+        power = FILM_CONTOUR_POWER if through_film else 2
+        return self.area_from_field(GridField(x_mm, y_mm, _pressure(pressure_mpa_2d), power), film)
 
 
 @dataclass(frozen=True)

@@ -54,8 +54,11 @@ import numpy as np
 
 from filmcal.contact.geometry import outline_area_mm2
 
-__all__ = ["NOMINAL_LEVEL", "nominal_area_mm2", "EDGE_WINDOW_MM", "HERTZ_WINDOW_MM", "TIP_SCALE", "TIP_STIFFNESS_FACTOR", "film_tip_length_mm", "tributary_areas_mm2",
+__all__ = ["FILM_CONTOUR_POWER", "NOMINAL_LEVEL", "nominal_area_mm2", "EDGE_WINDOW_MM", "HERTZ_WINDOW_MM", "TIP_SCALE", "TIP_STIFFNESS_FACTOR", "film_tip_length_mm", "tributary_areas_mm2",
            "RadialProfile", "read_radial_profile", "GridField"]
+
+#: The contoured power of the pressure through a film (`GridField`): it rises linearly from the edge.
+FILM_CONTOUR_POWER = 1
 
 #: Width of the window of nodes inside the last loaded node fitted for the edge
 #: of a contact through a film (mm): the two-scale shape holds near the edge only.
@@ -338,12 +341,16 @@ def read_radial_profile(r_mm: np.ndarray, pressure_mpa: np.ndarray, tip_mm: floa
 class GridField:
     """A cell-centred pressure field on a regular grid, read with sub-cell accuracy.
 
-    Contours are taken of ``p**2`` (smooth across a Hertzian edge, where ``p``
-    itself has a square-root tip), extended one ring of cells beyond the
+    Contours are taken of ``p**power``, extended one ring of cells beyond the
     loaded region by linear extrapolation along the grid lines, so that the
-    zero level lies where the extrapolated ``p**2`` vanishes (not at the
-    centres of the first unloaded cells) and a level close to the edge is
-    interpolated correctly.
+    zero level lies where the extrapolated field vanishes (not at the centres
+    of the first unloaded cells) and a level close to the edge is interpolated
+    correctly. The power follows the pressure profile near the edge: 2 for a
+    contact without film (``p**2`` is linear across a Hertzian edge, where
+    ``p`` has a square-root tip), 1 through a film (the film's springs make
+    ``p`` rise linearly from the edge; contouring ``p**2`` there moved an
+    activation contour by up to 0.015 mm with the edge's phase within a
+    0.1 mm cell, against 0.004 mm with ``p``).
 
     Parameters
     ----------
@@ -351,11 +358,14 @@ class GridField:
         Cell-centre coordinates along the two grid axes (uniform, ascending).
     pressure_mpa : ndarray, shape (len(x_mm), len(y_mm))
         Cell pressures, indexed ``[ix, iy]``.
+    power : {2, 1}
+        The contoured power of the pressure (:data:`FILM_CONTOUR_POWER` with a film).
     """
 
     x_mm: np.ndarray
     y_mm: np.ndarray
     pressure_mpa: np.ndarray
+    power: float = 2.0
 
     def __post_init__(self) -> None:
         self.x_mm = np.asarray(self.x_mm, dtype=float)
@@ -369,16 +379,18 @@ class GridField:
                 raise ValueError(f"{name} must be ascending with at least 2 cells")
         if not np.all(np.isfinite(self.pressure_mpa)):
             raise ValueError("pressure_mpa must be finite")
+        if self.power not in (1, 2):
+            raise ValueError(f"power must be 1 (through a film) or 2 (without), got {self.power!r}")
 
     @property
     def cell_area_mm2(self) -> float:
         return float((self.x_mm[1] - self.x_mm[0]) * (self.y_mm[1] - self.y_mm[0]))
 
-    def squared_extended(self) -> np.ndarray:
-        """``p**2`` on loaded cells, its linear extrapolation (< 0) on their
-        unloaded 4-neighbours, and ``-max(p**2)`` further out."""
+    def contoured_extended(self) -> np.ndarray:
+        """``p**power`` on loaded cells, its linear extrapolation (< 0) on their
+        unloaded 4-neighbours, and ``-max(p**power)`` further out."""
         p = np.clip(self.pressure_mpa, 0.0, None)
-        f = p * p
+        f = p * p if self.power == 2 else p
         loaded = p > 0
         big = float(f.max()) if f.size else 1.0
         total = np.zeros_like(f)
@@ -415,12 +427,13 @@ class GridField:
 
         if not (math.isfinite(level_mpa) and level_mpa >= 0):
             raise ValueError(f"level_mpa must be finite and >= 0, got {level_mpa!r}")
-        f = self.squared_extended()
+        f = self.contoured_extended()
         top = float(f.max())
-        if top <= level_mpa**2:
+        level = level_mpa**self.power
+        if top <= level:
             return 0.0, []
         gen = contourpy.contour_generator(self.x_mm, self.y_mm, f.T, fill_type=contourpy.FillType.OuterOffset)
-        points, offsets = gen.filled(level_mpa**2, top + 1.0)
+        points, offsets = gen.filled(level, top + 1.0)
         rings = [np.asarray(pts[lo:hi]) for pts, offs in zip(points, offsets)
                  for lo, hi in zip(offs[:-1], offs[1:])]
         return outline_area_mm2(rings), rings

@@ -274,10 +274,11 @@ def rough_recorded_area_mm2(model, result, rough_law, reading_level: float) -> f
     nominal pressure's contour there (sub-cell, `GridField.level_area_mm2`); capsule model: the coverage
     integrated over the nominal field.
     """
-    from filmcal.contact.reading import GridField
+    from filmcal.contact.reading import FILM_CONTOUR_POWER, GridField
 
     contact = getattr(result, "contact", result)
-    field = GridField(contact.grid.x_mm, contact.grid.y_mm, np.clip(contact.pressure_mpa, 0.0, None))
+    field = GridField(contact.grid.x_mm, contact.grid.y_mm, np.clip(contact.pressure_mpa, 0.0, None),
+                      FILM_CONTOUR_POWER)
     if model.imprint == "capsule":  # the coverage tabulated over the field's pressures (smooth in p), then read
         nodes = np.linspace(0.0, float(field.pressure_mpa.max()), 513)
         table = coverage(model, rough_law, nodes)

@@ -367,6 +367,32 @@ def summary_section(posteriors: dict, curves: dict) -> Section:
     return s
 
 
+def _reference_checks() -> list:
+    """The shipped summary of `bench/verification.py`: every model against its independent reference."""
+    from importlib import resources
+
+    from filmcal.contact.names import FE_MODEL_REVISION
+
+    try:
+        doc = json.loads((resources.files("filmcal.data") / "verification.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return ["The summary of the independent references (filmcal/data/verification.json) is missing or "
+                "unreadable: run `python bench/verification.py --summary`."]
+    rows = [[c["check"], c["reference"], str(c["n"]), f"{c['mean']:+.4f} {c['unit']}",
+             f"{c['max_abs']:.4f} {c['unit']}", f"{c['max_abs_rel_pct']:.3f}"] for c in doc["checks"]]
+    rows += [[t["check"], "the calibrated FE film, sphere-on-flat off both fit designs (raw: without the term)",
+              str(t["n"]), f"{t['mean_mm']:+.4f} mm (raw {t['raw_mean_mm']:+.4f})", f"{t['max_mm']:.4f} mm", ""]
+             for t in doc["transfer"]]
+    stale = doc.get("fe_model_revision") != FE_MODEL_REVISION
+    text = (f"Every contact model against an independent reference, as `python bench/verification.py --summary` "
+            f"measured it on {doc['made']}" + (" for an earlier revision of the FE model: run it again." if stale else
+                                               f" (FE revision {FE_MODEL_REVISION}, this report's).")
+            + " Differences are the model's minus the reference's, in radius (mm) or area (mm²); the transfer rows "
+              "are what the wheel-rail answers carry as their transfer term's spread.")
+    return [text, Table(["check", "reference", "cases", "mean difference", "largest |difference|", "largest |rel.| (%)"],
+                        rows, "Every model against its independent reference")]
+
+
 def verification_section(v: dict | None) -> Section:
     """FE without film against Hertz, pressure profiles, and the surrogate against new FE solves."""
     s = Section("FE model verification")
@@ -380,6 +406,7 @@ def verification_section(v: dict | None) -> Section:
           Table(["sphere", "F (kN)", "a Hertz (mm)", "a FE (mm)", "error (%)"], rows, "FE without film against Hertz"),
           FigureBlock(F.plot_hertz_verification(v["hertz"]), "Relative error of the FE contact radius without "
                       "film against Hertz, per Table 1 case.", "FE without film against Hertz"))
+    s.add(*_reference_checks())
     case = v["profile_case"]
     s.add(FigureBlock(F.plot_pressure_profiles(v["profiles"], case["sphere_radius_mm"], case["force_n"]),
                       "Contact pressure without film (against Hertz) and with each film at its posterior median E: "
