@@ -54,8 +54,6 @@ SLOW_FIXTURES: frozenset[str] = frozenset({
 #: (setup + call, wall time on 2 cores shared with other work, so about 2-3x
 #: the idle time) by ``python3 -m pytest -q --durations=60 -p no:cacheprovider``.
 SLOW_TESTS: dict[str, str] = {
-    "test_fem_edge.py::test_closing_load_edge_of_the_large_strain_film_matches_solving_again":
-        "25 s: 26 large-strain solves",
     "test_roughness_no_film.py::test_the_nominal_growth_follows_the_rigid_plastic_bearing_area_law":
         "6 s each: two rough Hertz solves and a boundary-element law",
     "test_rough_imprint.py::test_an_asperity_cannot_stain_a_film_whose_activation_lies_above_the_coating_hardness":
@@ -107,6 +105,8 @@ FAST_TEST_LIMIT_S = 3.0
 #: Node-id prefixes of the acceptance tier (also slow): tests that reproduce an acceptance figure end to end
 #: with many boundary-element laws, solves or calibrations, run by ``.ci/run`` after the rest, with their time.
 ACCEPTANCE_TESTS: dict[str, str] = {
+    "test_fem_edge.py::test_closing_load_edge_of_the_large_strain_film_matches_solving_again":
+        "25-44 s: 26 large-strain solves (the large-strain film's closing-load edge against re-solving)",
     "test_fem_reference.py::test_production_fe_reads_the_second_formulations_edge":
         "17 s each: the second FE formulation at two meshes (the FE's default within 0.005 mm)",
     "test_wheelrail_cli.py::test_rough_wheel_grows_the_imprint_in_the_papers_order":
