@@ -377,14 +377,14 @@ def _reference_checks() -> list:
         doc = json.loads((resources.files("filmcal.data") / "verification.json").read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return ["The summary of the independent references (filmcal/data/verification.json) is missing or "
-                "unreadable: run `python bench/verification.py --summary`."]
+                "unreadable: run python bench/verification.py --summary."]
     rows = [[c["check"], c["reference"], str(c["n"]), f"{c['mean']:+.4f} {c['unit']}",
              f"{c['max_abs']:.4f} {c['unit']}", f"{c['max_abs_rel_pct']:.3f}"] for c in doc["checks"]]
     rows += [[t["check"], "the calibrated FE film, sphere-on-flat off both fit designs (raw: without the term)",
               str(t["n"]), f"{t['mean_mm']:+.4f} mm (raw {t['raw_mean_mm']:+.4f})", f"{t['max_mm']:.4f} mm", ""]
              for t in doc["transfer"]]
     stale = doc.get("fe_model_revision") != FE_MODEL_REVISION
-    text = (f"Every contact model against an independent reference, as `python bench/verification.py --summary` "
+    text = (f"Every contact model against an independent reference, as python bench/verification.py --summary "
             f"measured it on {doc['made']}" + (" for an earlier revision of the FE model: run it again." if stale else
                                                f" (FE revision {FE_MODEL_REVISION}, this report's).")
             + " Differences are the model's minus the reference's, in radius (mm) or area (mm²); the transfer rows "
