@@ -8,8 +8,10 @@ working:
   name, an inconsistent combination. The message names the parameter.
 - `DamagedFileError`: a file that exists but cannot be read as what it should
   be (truncated JSON, a garbled SQLite store, a broken npz, HDF5 or image).
-  The message names the file and, for a file the package made itself, says
-  that deleting it makes the next run recompute it.
+  The message names the file and what to do: for a file the package made
+  itself and can make again, that deleting it makes the next run recompute
+  it; for a record that cannot be recomputed (a study's manifest), its own
+  advice.
 
 The command line (`filmcal.cli.main`) turns both, and the operating-system
 errors of the user's paths, into one line on stderr and exit status 2.
@@ -38,14 +40,18 @@ class DamagedFileError(ValueError):
     recomputable : bool, optional
         True for a file the package wrote itself (a study artefact): the
         message then says that deleting it makes the next run recompute it.
+    advice : str, optional
+        What to do, in place of the advice `recomputable` chooses (for a
+        file whose loss would lose more than itself).
     """
 
-    def __init__(self, path: str | PathLike, reason: str, recomputable: bool = False) -> None:
+    def __init__(self, path: str | PathLike, reason: str, recomputable: bool = False,
+                 advice: str | None = None) -> None:
         self.path = str(path)
         self.reason = " ".join(str(reason).split()) or "unreadable"
         self.recomputable = bool(recomputable)
-        hint = ("delete it and rerun to recompute it" if self.recomputable
-                else "check the file or give another one")
+        hint = advice or ("delete it and rerun to recompute it" if self.recomputable
+                          else "check the file or give another one")
         super().__init__(f"{self.path} is damaged ({self.reason}); {hint}")
 
 

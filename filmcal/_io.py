@@ -7,8 +7,8 @@
 - `read_json`: a JSON file whose damage is reported with the file's name.
 - `sha256_file`: the hash of a file, read in blocks.
 - Path checks to run before any work starts: an output file that is not a
-  folder and whose folder exists and is writable, an input file that exists,
-  an output folder that is not a file.
+  folder and whose folder exists and is writable, an input file that is an
+  existing regular file of bounded size, an output folder that is not a file.
 
 Errors are `filmcal._errors.InputError` (a path option that cannot work) and
 `filmcal._errors.DamagedFileError` (a file that cannot be read as JSON).
@@ -19,6 +19,7 @@ import contextlib
 import hashlib
 import json
 import os
+import stat
 import tempfile
 from pathlib import Path
 from typing import Any, Iterator
@@ -29,8 +30,13 @@ from filmcal._json import json_safe
 __all__ = [
     "atomic_path", "atomic_write_bytes", "atomic_write_text", "atomic_write_json",
     "read_json", "sha256_file", "canonical_json", "json_hash",
-    "check_output_file", "check_output_dir", "check_input_file",
+    "check_output_file", "check_output_dir", "check_input_file", "INPUT_FILE_MAX_MIB",
 ]
+
+#: The largest input file accepted by default, in MiB: far above any dataset, film file, profile or design
+#: a lab writes, and far below what would exhaust memory once read.
+INPUT_FILE_MAX_MIB = 256
+
 
 def _current_umask() -> int:
     mask = os.umask(0o022)
@@ -274,8 +280,32 @@ def check_output_dir(path: str | os.PathLike[str], option: str = "--study-dir",
     return p
 
 
-def check_input_file(path: str | os.PathLike[str], option: str) -> Path:
-    """Check that `path` is an existing, readable file (not a folder).
+def _file_kind(mode: int) -> str:
+    """What a path that is not a regular file is, in words."""
+    kinds = ((stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+             (stat.S_ISFIFO, "a named pipe"), (stat.S_ISSOCK, "a socket"))
+    return next((name for test, name in kinds if test(mode)), "a special file")
+
+
+def check_input_file(path: str | os.PathLike[str], option: str, max_mib: float = INPUT_FILE_MAX_MIB) -> Path:
+    """Check, before any work, that `path` is an existing, readable regular file of at most `max_mib` MiB.
+
+    Links are followed: what counts is the file read. A folder, a device
+    (``/dev/zero``), a named pipe or a socket is refused, as is a file larger
+    than the cap (reading it would exhaust memory or never end).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The input file.
+    option : str
+        The option that gave it, for the message.
+    max_mib : float, optional
+        The largest size accepted, in MiB (default `INPUT_FILE_MAX_MIB`).
+
+    Returns
+    -------
+    pathlib.Path
 
     Raises
     ------
@@ -283,10 +313,19 @@ def check_input_file(path: str | os.PathLike[str], option: str) -> Path:
         Naming `option` and the path.
     """
     p = Path(path)
-    if not p.exists():
-        raise InputError(f"{option} {str(p)!r} does not exist")
-    if p.is_dir():
+    try:
+        info = p.stat()
+    except (FileNotFoundError, NotADirectoryError, ValueError):
+        raise InputError(f"{option} {str(p)!r} does not exist") from None
+    except OSError as exc:
+        raise InputError(f"{option} {str(p)!r} cannot be read ({exc.strerror or exc})") from None
+    if stat.S_ISDIR(info.st_mode):
         raise InputError(f"{option} {str(p)!r} is a folder; give a file")
+    if not stat.S_ISREG(info.st_mode):
+        raise InputError(f"{option} {str(p)!r} is {_file_kind(info.st_mode)}, not a regular file; give a file")
     if not os.access(p, os.R_OK):
         raise InputError(f"{option} {str(p)!r} is not readable")
+    if info.st_size > max_mib * 2**20:
+        raise InputError(f"{option} {str(p)!r} is larger than {max_mib:g} MiB ({info.st_size:,} bytes), the "
+                         "limit for this option; give a smaller file")
     return p

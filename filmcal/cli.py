@@ -10,7 +10,8 @@ This module is the command line's one error boundary:
   options lie in their bounds (`SIZE_BOUNDS`) and lists of loads or offsets
   are not too long (`GRID_BOUNDS`), both stated in ``--help``; output
   files are not folders and their folder exists and is writable, study
-  folders are not files (`preflight`). A bad option ends the command before
+  folders are not files, input files are regular files of bounded size
+  (`preflight`). A bad option ends the command before
   anything is computed or written.
 - A failure that is the user's input or the user's files (`ValueError` and its
   subclasses `filmcal._errors.InputError` and `DamagedFileError`, operating
@@ -31,7 +32,9 @@ import importlib
 import os
 import pkgutil
 import re
+import signal
 import sys
+import threading
 import traceback
 import warnings
 from pathlib import Path
@@ -90,6 +93,13 @@ OUTPUT_DIR_DESTS = ("study_dir", "out_dir", "plots", "work_dir")
 INPUT_FILE_DESTS = ("design", "augment", "scan", "sheet", "batch", "roughness_law", "wheel_roughness_map", "rail_roughness_map",
                     "data", "films_file",
                     "template_file")
+# Options that take a standard profile's name or a profile CSV file: checked as input files when they name a file.
+PROFILE_DESTS = ("name", "wheel", "rail")
+# The largest input file of each option in MiB, where it differs from `filmcal._io.INPUT_FILE_MAX_MIB`
+# (256 MiB: datasets, film files, designs, profiles, laws): measured surfaces and scanned images are larger,
+# a campaign store is read by SQLite a page at a time.
+INPUT_FILE_CAPS_MIB: dict[str, float] = {"wheel_roughness_map": 1024, "rail_roughness_map": 1024, "scan": 1024,
+                                         "sheet": 1024, "store": 4096}
 PLOT_SUFFIXES = (".png", ".pdf", ".svg")
 
 
@@ -191,16 +201,17 @@ def _command_parser(parser: argparse.ArgumentParser, command: list[str]) -> argp
 
 
 def _command_actions(parser: argparse.ArgumentParser, command: list[str]) -> dict[str, argparse.Action]:
-    """Destination -> option action of the (sub)command named by `command`."""
-    return {action.dest: action for action in _command_parser(parser, command)._actions if action.option_strings}
+    """Destination -> option or positional argument of the (sub)command named by `command` (no subcommands)."""
+    return {action.dest: action for action in _command_parser(parser, command)._actions
+            if not isinstance(action, argparse._SubParsersAction)}
 
 
 def _option_strings(actions: dict[str, argparse.Action]) -> dict[str, str]:
-    """Destination -> long option string."""
+    """Destination -> long option string; a positional argument's name as its usage shows it."""
     options: dict[str, str] = {}
     for dest, action in actions.items():
         longs = [s for s in action.option_strings if s.startswith("--")]
-        options[dest] = (longs or action.option_strings)[0]
+        options[dest] = (longs or action.option_strings or [action.metavar or dest])[0]
     return options
 
 
@@ -209,7 +220,9 @@ def preflight(args: argparse.Namespace, actions: dict[str, argparse.Action]) -> 
 
     Output files must not be folders and their folder must exist and be
     writable; plots must end in .png, .pdf or .svg; output folders must not be
-    files; read-only inputs must be existing files.
+    files; read-only inputs (a profile option's only when it names a file)
+    must be existing regular files no larger than their cap
+    (`INPUT_FILE_CAPS_MIB`, else `filmcal._io.INPUT_FILE_MAX_MIB`).
 
     Raises
     ------
@@ -217,7 +230,7 @@ def preflight(args: argparse.Namespace, actions: dict[str, argparse.Action]) -> 
         Naming the option.
     """
     from filmcal._errors import InputError
-    from filmcal._io import check_input_file, check_output_dir, check_output_file
+    from filmcal._io import INPUT_FILE_MAX_MIB, check_input_file, check_output_dir, check_output_file
 
     options = _option_strings(actions)
 
@@ -231,6 +244,15 @@ def preflight(args: argparse.Namespace, actions: dict[str, argparse.Action]) -> 
             return None
         return value
 
+    def path_values(dest: str) -> list[str]:
+        """The paths of an option given once, or of each time a repeatable one was given."""
+        action = actions.get(dest)
+        value = getattr(args, dest, None)
+        if action is not None and action.choices is None and isinstance(value, list):
+            return [v for v in value if isinstance(v, str)]
+        single = path_value(dest)
+        return [] if single is None else [single]
+
     for dest in OUTPUT_FILE_DESTS:
         value = path_value(dest)
         if value is not None:
@@ -243,15 +265,27 @@ def preflight(args: argparse.Namespace, actions: dict[str, argparse.Action]) -> 
             # a study folder may be only read (correct, curves): its writer checks it further
             check_output_dir(value, opt(dest), writable=dest != "study_dir")
     for dest in INPUT_FILE_DESTS:
+        for value in path_values(dest):
+            check_input_file(value, opt(dest), INPUT_FILE_CAPS_MIB.get(dest, INPUT_FILE_MAX_MIB))
+    for dest in PROFILE_DESTS:
         value = path_value(dest)
-        if value is not None:
+        if value is not None and _names_a_profile_file(value):
             check_input_file(value, opt(dest))
     store = path_value("store")
     if store is not None:
         if getattr(args, "action", None) == "run":
             check_output_file(store, opt("store"))
         else:
-            check_input_file(store, opt("store"))
+            check_input_file(store, opt("store"), INPUT_FILE_CAPS_MIB["store"])
+
+
+def _names_a_profile_file(value: str) -> bool:
+    """True if a profile option's value is a file (a CSV, or any existing path) rather than a standard name."""
+    from filmcal.wheelrail.profiles import PROFILE_NAMES
+
+    if value.strip().upper() in {name.upper() for name in PROFILE_NAMES}:
+        return False
+    return value.lower().endswith(".csv") or os.path.lexists(value)
 
 
 # --- the error boundary ---------------------------------------------------------
@@ -447,6 +481,19 @@ def _notes_as_one_line(prog: str) -> None:
     warnings.simplefilter("always", VersionNote)
 
 
+def _restore_ctrl_c() -> None:
+    """Make Ctrl-C interrupt this process even if it was started with SIGINT ignored.
+
+    A parent that ignores SIGINT (a shell's background job, ``nohup``) passes
+    that on, and Python then installs no handler, so Ctrl-C would be ignored.
+    Only this (main) process is restored: the workers of `filmcal._parallel`
+    ignore SIGINT on purpose and leave it to this process. Only the main
+    thread may set a handler.
+    """
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN and threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the `filmcal` command line; return the exit status.
 
@@ -457,6 +504,7 @@ def main(argv: list[str] | None = None) -> int:
         2 a bad option or file (one line on stderr); 70 an internal error
         (traceback on stderr); 130 interrupted.
     """
+    _restore_ctrl_c()
     argv = sys.argv[1:] if argv is None else list(argv)
     try:
         try:

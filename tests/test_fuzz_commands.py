@@ -293,6 +293,80 @@ def test_command_refuses_bad_input_cleanly(capsys, folder, guard, argv, names):
     assert snapshot(folder) == before, "a refused command created, changed or removed a file"
 
 
+MANIFEST_READERS = [["calibrate", "--film", "HS"], ["correct", "--film", "HS", *WHEEL], ["curves", "--film", "HS"],
+                    ["pipeline"], ["report"], ["serve"]]
+
+
+@pytest.mark.parametrize("study", ["badstudy", "binstudy"])
+@pytest.mark.parametrize("command", MANIFEST_READERS, ids=lambda c: c[0])
+def test_a_damaged_manifest_is_not_answered_with_delete(capsys, folder, guard, command, study):
+    """A truncated or garbled study.json was answered "delete it and rerun", which loses the study (and the
+    rerun then refuses the folder): the line names the manifest and says to restore it or use a new folder."""
+    before = snapshot(folder)
+    code, out, err = run(capsys, [*command, "--study-dir", study])
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert code == 2 and len(lines) == 1 and out == "", err
+    assert f"{study}/study.json" in lines[0] and "manifest" in lines[0], lines[0]
+    assert "delete" not in lines[0].lower() and "backup" in lines[0] and "--study-dir" in lines[0], lines[0]
+    assert snapshot(folder) == before
+
+
+# (argv, the option that names the file): a device, a named pipe or a folder is refused before any work (/dev/zero
+# as --data, --films-file or --roughness-law grew to several GB before a refusal)
+SPECIAL_FILE_CASES = [
+    (["calibrate", "--film", "HS", "--data", "/dev/zero", "--study-dir", "emptystudy"], "--data"),
+    (["pipeline", "--films-file", "/dev/zero", "--study-dir", "emptystudy"], "--films-file"),
+    (["calibrate", "--film", "HS", "--films-file", "/dev/zero", "--study-dir", "emptystudy"], "--films-file"),
+    (["wheelrail", *WR, "--no-film", "--wheel-roughness-map", "/dev/zero"], "--wheel-roughness-map"),
+    (["curves", "--film", "HS", "--rail-roughness-map", "/dev/zero", "--study-dir", "emptystudy"],
+     "--rail-roughness-map"),
+    (["curves", "--film", "HS", "--roughness-law", "/dev/zero", "--study-dir", "emptystudy"], "--roughness-law"),
+    (["wheelrail", *WR, "--no-film", "--wheel", "/dev/zero"], "--wheel"),
+    (["profile", "/dev/zero"], "name"),
+    (["scan", "/dev/zero", "--out", "s.csv"], "SHEET"),
+    (["campaign", "run", "--design", "design.csv", "--store", "r.sqlite", "--simulator-command", "true",
+      "--template-file", "/dev/zero"], "--template-file"),
+    (["campaign", "run", "--design", "pipe.csv", "--store", "r.sqlite"], "--design"),
+    (["correct", "--film", "HS", *WHEEL, "--batch", "adir", "--study-dir", "emptystudy"], "--batch"),
+]
+
+
+@pytest.mark.parametrize("argv,option", SPECIAL_FILE_CASES, ids=[_case_id(c) for c in SPECIAL_FILE_CASES])
+def test_an_input_that_is_not_a_regular_file_is_refused_before_work(capsys, folder, guard, argv, option):
+    os.mkfifo(folder / "pipe.csv")
+    path = argv[argv.index(option) + 1] if option.startswith("--") else argv[1]
+    before = snapshot(folder)
+    code, out, err = run(capsys, argv)
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert code == 2 and len(lines) == 1 and out == "", err
+    assert f"{option} {path!r}" in lines[0], lines[0]
+    assert "not a regular file" in lines[0] or "folder" in lines[0], lines[0]
+    assert snapshot(folder) == before
+
+
+@pytest.mark.parametrize("argv,option", [
+    (["calibrate", "--film", "HS", "--data", "big.csv", "--study-dir", "emptystudy"], "--data"),
+    (["wheelrail", *WR, "--no-film", "--rail-roughness-map", "big.csv"], "--rail-roughness-map"),
+], ids=lambda v: v if isinstance(v, str) else None)
+def test_an_input_file_above_its_size_cap_is_refused_before_work(capsys, folder, guard, argv, option):
+    """A file one byte above its option's cap (a sparse file: no disk used) is refused naming the cap."""
+    from filmcal._io import INPUT_FILE_MAX_MIB, check_input_file
+
+    dest = option.lstrip("-").replace("-", "_")
+    cap_mib = cli.INPUT_FILE_CAPS_MIB.get(dest, INPUT_FILE_MAX_MIB)
+    with open(folder / "big.csv", "wb") as stream:
+        stream.truncate(int(cap_mib * 2**20) + 1)
+    before = snapshot(folder)
+    code, out, err = run(capsys, argv)
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert code == 2 and len(lines) == 1 and out == "", err
+    assert f"{option} 'big.csv' is larger than {cap_mib:g} MiB" in lines[0], lines[0]
+    assert snapshot(folder) == before
+    with open(folder / "big.csv", "r+b") as stream:  # at the cap: accepted
+        stream.truncate(int(cap_mib * 2**20))
+    assert check_input_file(folder / "big.csv", option, cap_mib) == folder / "big.csv"
+
+
 def test_campaign_status_leaves_an_empty_file_alone(capsys, folder):
     """A zero-byte file is not turned into a store by reading it."""
     code, _, err = run(capsys, ["campaign", "status", "--store", "empty.sqlite", "--json"])

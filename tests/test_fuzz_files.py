@@ -287,12 +287,11 @@ def test_as_processes(tmp_path):
     assert sorted(os.listdir(tmp_path)) == []
 
 
-@pytest.mark.skipif(not Path("/proc/self/maps").exists(), reason="watches the process through /proc")
-def test_ctrl_c_of_a_running_command_exits_130_with_one_line(tmp_path):
-    out = tmp_path / "d.csv"
+def _interrupt_a_running_doe(out: Path, **popen) -> tuple[subprocess.Popen, str, str, float]:
+    """Start a long `doe`, send SIGINT once it works; return the process, its stdout, stderr and the wait."""
     proc = subprocess.Popen([sys.executable, "-m", "filmcal.cli", "doe", "--samples", "2000", "--iterations",
                              "1000", "--param", "a=0:1", "--param", "b=0:1", "--out", str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **popen)
     # wait until the optimiser's libraries are loaded (the command is working), not a fixed time
     maps = Path(f"/proc/{proc.pid}/maps")
     deadline = time.monotonic() + 60
@@ -303,12 +302,32 @@ def test_ctrl_c_of_a_running_command_exits_130_with_one_line(tmp_path):
     time.sleep(1.0)
     sent = time.monotonic()
     proc.send_signal(signal.SIGINT)
-    stdout, stderr = proc.communicate(timeout=30)
-    waited = time.monotonic() - sent
+    try:
+        stdout, stderr = proc.communicate(timeout=30)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        stdout, stderr = proc.communicate()
+    return proc, stdout, stderr, time.monotonic() - sent
+
+
+@pytest.mark.skipif(not Path("/proc/self/maps").exists(), reason="watches the process through /proc")
+def test_ctrl_c_of_a_running_command_exits_130_with_one_line(tmp_path):
+    proc, stdout, stderr, waited = _interrupt_a_running_doe(tmp_path / "d.csv")
     assert proc.returncode == 130, stderr
     assert stderr.strip() == "filmcal doe: interrupted" and stdout == ""
     assert waited < 2.0, waited
     assert sorted(os.listdir(tmp_path)) == []  # no partial design, no temporary file
+
+
+@pytest.mark.skipif(not Path("/proc/self/maps").exists(), reason="watches the process through /proc")
+def test_ctrl_c_stops_a_command_started_with_sigint_ignored(tmp_path):
+    """Started with SIGINT ignored (a shell's background job, `nohup ... &`), Ctrl-C still ends it: 130, one line."""
+    proc, stdout, stderr, waited = _interrupt_a_running_doe(
+        tmp_path / "d.csv", preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    assert proc.returncode == 130, (proc.returncode, stderr)
+    assert stderr.strip() == "filmcal doe: interrupted" and stdout == ""
+    assert waited < 2.0, waited
+    assert sorted(os.listdir(tmp_path)) == []
 
 
 def test_a_command_that_cannot_register_is_an_internal_error(monkeypatch, capsys):

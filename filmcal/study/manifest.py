@@ -16,13 +16,18 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from filmcal._errors import InputError
+from filmcal._errors import DamagedFileError, InputError
 from filmcal._io import atomic_write_json, read_json, sha256_file
 from filmcal._versions import software_versions
 
 __all__ = ["Manifest", "StudyLock", "FORMAT", "utc_now"]
 
 FORMAT = "filmcal-study/1"
+
+#: What to do with a damaged manifest: it is the study's record of every result and cannot be recomputed, so
+#: it is never to be deleted (a study folder without it is refused as not a study).
+DAMAGED_ADVICE = ("this is the study's manifest, its record of every result, and it cannot be recomputed: "
+                  "restore it from a backup, or use a new --study-dir")
 
 
 def utc_now() -> str:
@@ -43,7 +48,19 @@ class Manifest:
 
     @classmethod
     def read(cls, path: Path) -> "Manifest":
-        data = read_json(path)
+        """Read a study's manifest.
+
+        Raises
+        ------
+        filmcal._errors.DamagedFileError
+            If it cannot be decoded, with advice that keeps the study (`DAMAGED_ADVICE`).
+        filmcal._errors.InputError
+            If it is JSON but not a study manifest of this format.
+        """
+        try:
+            data = read_json(path)
+        except DamagedFileError as exc:
+            raise DamagedFileError(path, exc.reason, advice=DAMAGED_ADVICE) from exc
         if not isinstance(data, dict) or data.get("format") != FORMAT:
             raise InputError(f"{path} is not a filmcal study manifest (format {FORMAT!r} expected)")
         for key in ("films", "artefacts", "stages"):
