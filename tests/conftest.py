@@ -91,6 +91,7 @@ SLOW_TESTS: dict[str, str] = {
     "test_report.py::test_report_of_a_non_study_exits_2": "6 s each: processes",
     "test_fem_film.py::test_mesh_convergence_with_film": "4 s: fine FE meshes",
     "test_fem_film.py::test_paper_friction_configuration_converges": "6 s: friction at both interfaces",
+    "test_fem_film.py::test_a_heavily_compressed_large_strain_film_converges_under_refinement": "8 s: large strain at a fine mesh",
     "test_study.py::": "14 s shared FE campaign and surrogate, 19 s refinement",
     "test_surrogate.py::test_same_random_state_same_fit_serial_or_parallel": "8 s: parallel refits",
     "test_wheelrail_contact.py::test_film_enlarges_the_area_at_every_offset": "11 s: a sweep of solves",
@@ -121,6 +122,8 @@ ACCEPTANCE_TESTS: dict[str, str] = {
         "30 s: a calibration on an external command, killed and resumed",
     "test_simulators.py::test_the_lab_example_runs_end_to_end": "45 s: examples/lab at its fast size",
     "test_pipeline_dask.py::": "55 s: two smoke pipelines, one on a local Dask cluster; an unreachable one",
+    "test_dask_commands.py::test_calibrate_and_curves_on_a_local_dask_cluster_give_the_results_of_a_local_run":
+        "45 s: two smoke-size calibrations and curves, one of each on a local Dask cluster",
     "test_correction_wheelrail.py::test_command_with_a_rough_wheel_widens_the_band_and_reports_the_roughness_share":
         "117 s: BEM roughness laws over the conditioned draws (the roughness share of a wheel-rail band)",
     "test_fem_imprint.py::test_film_edge_matches_the_finest_mesh":

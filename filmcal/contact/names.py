@@ -17,8 +17,9 @@ DEFAULT_KINEMATICS = "small"
 #: Revision of the in-house FE model's numbers: part of every study's FE spec, so
 #: that a change of its default mesh or of a reading recomputes the runs made
 #: before it. 2: two film layers and the edge tip fitted to the second formulation;
-#: 3: the film's volumetric term at the element centres and the closing-load edge.
-FE_MODEL_REVISION = 3
+#: 3: the film's volumetric term at the element centres and the closing-load edge; 4: a large-strain
+#: film's indefinite tangent (heavy compression on fine meshes) solved by LU instead of stopping.
+FE_MODEL_REVISION = 4
 #: Element layers through the film by default. One bilinear layer (the paper's
 #: mesh) reads the edge 0.004 mm inside the converged contact on average and
 #: up to 0.012 mm for nu >= 0.4; two read within 0.0053 mm of the second

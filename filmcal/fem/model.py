@@ -25,6 +25,7 @@ are solved in load increments.
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -119,6 +120,29 @@ class _Lower:
     film_bottom_r: np.ndarray
     flat_r: np.ndarray
     flat_z: np.ndarray
+
+
+def _factorised(K: np.ndarray, nonlinear: bool):
+    """A solver of ``K y = b``: Cholesky, or for a large-strain film's tangent that has lost positive
+    definiteness, LU.
+
+    Under heavy compression (through-thickness strain near -0.5) the film's geometric stiffness makes its
+    tangent indefinite on fine meshes while the equilibrium still exists; Newton on the indefinite but
+    regular tangent still converges. A singular matrix raises `numpy.linalg.LinAlgError`.
+    """
+    try:
+        cho = sla.cho_factor(K)
+        return lambda b: sla.cho_solve(cho, b)
+    except np.linalg.LinAlgError:
+        if not nonlinear:
+            raise
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", sla.LinAlgWarning)
+        try:
+            lu = sla.lu_factor(K)
+        except sla.LinAlgWarning as exc:
+            raise np.linalg.LinAlgError(str(exc)) from None
+    return lambda b: sla.lu_solve(lu, b)
 
 
 @dataclass
@@ -465,11 +489,11 @@ class SphereOnFlat:
                 K_L = self._lower_stiffness(pb.low, pb.K_film)
                 r_x = np.zeros(pb.low.n_x)
             try:
-                cho = sla.cho_factor(K_L)
+                solve = _factorised(K_L, pb.nonlinear)
             except np.linalg.LinAlgError:
-                return False, "film stiffness lost positive definiteness (film collapsed)", x, state, iterations
-            Y = sla.cho_solve(cho, pb.D.T)
-            x_hat = x - sla.cho_solve(cho, r_x) if pb.nonlinear else np.zeros(pb.low.n_x)
+                return False, "film stiffness singular (film collapsed)", x, state, iterations
+            Y = solve(pb.D.T)
+            x_hat = x - solve(r_x) if pb.nonlinear else np.zeros(pb.low.n_x)
             H = pb.H_s + pb.D @ Y
             d0 = pb.g0 + load * pb.d0_unit - pb.D @ x_hat
             pairs = PairSystem(pb.normal, pb.tangential, pb.friction, pb.gate,
