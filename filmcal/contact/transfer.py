@@ -23,9 +23,20 @@ p_max its peak pressure, p_level the film's activation pressure; the edge
 model has no y). c is the film's compressibility: the continuum film's edge
 zone scales with 1 - 2 nu (`filmcal.contact.reading.film_tip_length_mm`),
 and without it soft films near incompressibility (E 450 MPa, nu 0.44) were
-missed by 3-4 held-out standard deviations. The fit lives in ``filmcal/data/film_transfer.json``, written
-by ``scripts/fit-transfer`` (`filmcal.correction.transfer`) with the design,
-the held-out check and the versions that made it.
+missed by 3-4 held-out standard deviations.
+
+The activation and capsule models read a contour near the film's edge zone,
+where the polynomial leaves a smooth residual of a few um that it cannot
+follow (held-out max 0.008-0.012 mm). For them a Gaussian process over
+(nu, x, y) (`ResidualGP`, fitted by scikit-learn's
+`GaussianProcessRegressor` with an anisotropic squared-exponential kernel and
+a white-noise term) carries that residual: its mean is added to the
+polynomial's, and far from its training points it returns to the polynomial.
+The edge model's residual is already at the application grid's own scatter
+(0.0011 mm rms between 0.1 and 0.05 mm cells), so it has none. The fit lives
+in ``filmcal/data/film_transfer.json``, written by ``scripts/fit-transfer``
+(`filmcal.correction.transfer`) with the design, the held-out check and the
+versions that made it.
 
 On a wheel-rail patch the same edge offset is applied along the recorded
 outline: the area shifts by ``d * P`` with P the outline's perimeter, and the
@@ -37,14 +48,14 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["TransferTerm", "TransferFit", "transfer_features", "load_transfer_fit", "TRANSFER_FILE",
+__all__ = ["TransferTerm", "TransferFit", "ResidualGP", "transfer_features", "load_transfer_fit", "TRANSFER_FILE",
            "outline_perimeter_mm"]
 
 #: The shipped fit (package data).
@@ -127,6 +138,70 @@ def outline_perimeter_mm(rings, smoothing: int = 5) -> float:
 
 
 @dataclass(frozen=True)
+class ResidualGP:
+    """The mean of a Gaussian process over some of the fit's features, stored as plain numbers.
+
+    ``predict(F) = offset + variance * exp(-0.5 |(z - Z_i) / l|^2) @ weights`` with
+    ``z = (F[:, inputs] - center) / scale``: the posterior mean of a process with an anisotropic
+    squared-exponential kernel (the white-noise term of its fit has no cross-covariance).
+
+    Attributes
+    ----------
+    inputs : tuple of int
+        Columns of `FEATURES` the process sees.
+    center, scale : ndarray
+        Standardisation of those columns.
+    length_scales : ndarray
+        Kernel length scales (standardised units).
+    variance : float
+        Kernel variance (in the target's units squared, times ``weights``' scale).
+    points : ndarray, shape (n, len(inputs))
+        Standardised training inputs.
+    weights : ndarray, shape (n,)
+        ``K^-1 y`` of the fit, in the target's units.
+    offset : float
+        The process's constant mean.
+    """
+
+    inputs: tuple
+    center: np.ndarray
+    scale: np.ndarray
+    length_scales: np.ndarray
+    variance: float
+    points: np.ndarray
+    weights: np.ndarray
+    offset: float
+
+    def predict(self, features: np.ndarray) -> np.ndarray:
+        """The process's mean at rows of `transfer_features` (broadcast over leading axes)."""
+        f = np.asarray(features, dtype=float)
+        z = (f[..., list(self.inputs)] - self.center) / self.scale
+        d2 = np.sum(((z[..., None, :] - self.points) / self.length_scales) ** 2, axis=-1)
+        return self.offset + self.variance * np.exp(-0.5 * d2) @ self.weights
+
+    def to_dict(self) -> dict:
+        return {"inputs": list(self.inputs), "center": self.center.tolist(), "scale": self.scale.tolist(),
+                "length_scales": self.length_scales.tolist(), "variance": float(self.variance),
+                "points": self.points.tolist(), "weights": self.weights.tolist(), "offset": float(self.offset)}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "ResidualGP":
+        inputs = tuple(int(i) for i in data["inputs"])
+        arrays = {k: np.asarray(data[k], dtype=float) for k in ("center", "scale", "length_scales", "points",
+                                                                "weights")}
+        m = len(inputs)
+        if not (all(0 <= i < len(FEATURES) for i in inputs) and arrays["center"].shape == (m,)
+                and arrays["scale"].shape == (m,) and arrays["length_scales"].shape == (m,)
+                and arrays["points"].ndim == 2 and arrays["points"].shape[1] == m
+                and arrays["weights"].shape == (arrays["points"].shape[0],)
+                and np.all(arrays["scale"] > 0) and np.all(arrays["length_scales"] > 0)
+                and all(np.all(np.isfinite(v)) for v in arrays.values())):
+            raise ValueError("a residual process's arrays do not fit together")
+        return cls(inputs, arrays["center"], arrays["scale"], arrays["length_scales"], float(data["variance"]),
+                   arrays["points"], arrays["weights"], float(data["offset"]))
+
+
+@dataclass(frozen=True)
 class TransferFit:
     """The fitted transfer of every (imprint model, kinematics).
 
@@ -142,6 +217,8 @@ class TransferFit:
         The application's grid the fit was measured on.
     provenance : dict
         How it was made (design, sizes, held-out figures, versions, date).
+    residual_gp : dict
+        The same keys (activation and capsule) -> `ResidualGP` of d / t beyond the polynomial.
     """
 
     coefficients: dict
@@ -149,6 +226,7 @@ class TransferFit:
     domain: dict
     grid_mm: float
     provenance: dict
+    residual_gp: dict = field(default_factory=dict)
 
     @classmethod
     def from_json(cls, path: str | Path) -> "TransferFit":
@@ -158,11 +236,12 @@ class TransferFit:
             coef = {k: [float(c) for c in v] for k, v in data["coefficients"].items()}
             std = {k: float(v) for k, v in data["std_mm"].items()}
             domain = {k: tuple(float(x) for x in v) for k, v in data["domain"].items()}
-            out = cls(coef, std, domain, float(data["grid_mm"]), dict(data.get("provenance", {})))
+            gp = {k: ResidualGP.from_dict(v) for k, v in data.get("residual_gp", {}).items()}
+            out = cls(coef, std, domain, float(data["grid_mm"]), dict(data.get("provenance", {})), gp)
         except (KeyError, TypeError, ValueError) as exc:
             raise ValueError(f"{path}: not a film-transfer fit ({exc})") from None
         if data.get("features") != list(FEATURES) or any(len(c) != len(FEATURES) for c in coef.values()) \
-                or set(coef) != set(std):
+                or set(coef) != set(std) or not set(gp) <= set(coef):
             raise ValueError(f"{path}: the fit's features or keys do not match this version of filmcal")
         return out
 
@@ -170,7 +249,8 @@ class TransferFit:
         from filmcal._io import atomic_path
 
         doc = {"features": list(FEATURES), "coefficients": self.coefficients, "std_mm": self.std_mm,
-               "domain": self.domain, "grid_mm": self.grid_mm, "provenance": self.provenance}
+               "domain": self.domain, "grid_mm": self.grid_mm,
+               "residual_gp": {k: v.to_dict() for k, v in self.residual_gp.items()}, "provenance": self.provenance}
         with atomic_path(Path(path)) as tmp:
             Path(tmp).write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
 
@@ -179,7 +259,18 @@ class TransferFit:
         key = f"{imprint}/{kinematics}"
         if key not in self.coefficients:
             raise KeyError(f"no transfer fit for {key} (have {', '.join(sorted(self.coefficients))})")
-        return np.asarray(features) @ np.asarray(self.coefficients[key]), self.std_mm[key]
+        ratio = np.asarray(features) @ np.asarray(self.coefficients[key])
+        if key in self.residual_gp:
+            ratio = ratio + self.residual_gp[key].predict(features)
+        return ratio, self.std_mm[key]
+
+    def digest(self, key: str) -> str:
+        """SHA-256 of everything that sets one key's term (for the specs of cached solves)."""
+        import hashlib
+
+        doc = {"coefficients": self.coefficients[key], "std_mm": self.std_mm[key],
+               "residual_gp": self.residual_gp[key].to_dict() if key in self.residual_gp else None}
+        return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()
 
 
 @lru_cache(maxsize=None)

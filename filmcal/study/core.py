@@ -952,8 +952,7 @@ class _StudySupports:
         settings = {k: (_profile_spec(v) if k in ("wheel", "rail") else v) for k, v in support.settings.items()}
         transfer = load_transfer_fit()
         return _json_roundtrip({"kind": self.KIND, "film": support.models[0].film.to_dict(),
-                                "transfer": {m.label: [*transfer.coefficients[m.label], transfer.std_mm[m.label]]
-                                             for m in support.models},
+                                "transfer": {m.label: transfer.digest(m.label) for m in support.models},
                                 "kinematics": support.models[0].kinematics,
                                 "posteriors": {m.label: self.posteriors[m.label] for m in support.models},
                                 "wheel_rail": settings, "moduli_mpa": [float(e) for e in support.moduli_mpa],
