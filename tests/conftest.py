@@ -85,13 +85,11 @@ SLOW_TESTS: dict[str, str] = {
     "test_fem_film.py::test_flat_friction_lies_between_frictionless_and_tied": "5 s",
     "test_fuzz_files.py::test_ctrl_c_of_a_running_command_exits_130_with_one_line": "5 s: interrupts a process",
     "test_fuzz_options.py::test_property_any_non_number_is_refused_naming_the_option": "5 s: many examples",
-    "test_report.py::test_report_command_rewrites_from_the_study": "19 s: report of a study in a process",
     "test_report.py::test_calibration_figures_name_parameters_as_an_engineer_reads_them": "8 s",
     "test_report.py::test_long_table_flows_over_pages_with_its_header_repeated": "7 s: a PDF",
     "test_report.py::test_report_of_a_non_study_exits_2": "6 s each: processes",
     "test_fem_film.py::test_mesh_convergence_with_film": "4 s: fine FE meshes",
     "test_fem_film.py::test_paper_friction_configuration_converges": "6 s: friction at both interfaces",
-    "test_fem_film.py::test_a_heavily_compressed_large_strain_film_converges_under_refinement": "8 s: large strain at a fine mesh",
     "test_study.py::": "14 s shared FE campaign and surrogate, 19 s refinement",
     "test_surrogate.py::test_same_random_state_same_fit_serial_or_parallel": "8 s: parallel refits",
     "test_wheelrail_contact.py::test_film_enlarges_the_area_at_every_offset": "11 s: a sweep of solves",
@@ -128,6 +126,9 @@ ACCEPTANCE_TESTS: dict[str, str] = {
         "117 s: BEM roughness laws over the conditioned draws (the roughness share of a wheel-rail band)",
     "test_fem_imprint.py::test_film_edge_matches_the_finest_mesh":
         "20 s: the FE's film edge at its finest meshes",
+    "test_fem_film.py::test_a_heavily_compressed_large_strain_film_converges_under_refinement":
+        "8 s: a large-strain film compressed by half its thickness at a fine mesh",
+    "test_report.py::test_report_command_rewrites_from_the_study": "19 s: report of a study in a process",
 }
 
 #: Node ids kept in the fast tier although they take longer, with the reason.
