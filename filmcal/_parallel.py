@@ -56,6 +56,7 @@ Dask executors: module-level functions, or instances of module-level classes.
 from __future__ import annotations
 
 import abc
+import contextlib
 import ctypes
 import ctypes.util
 import multiprocessing
@@ -87,6 +88,7 @@ __all__ = [
     "DaskExecutor",
     "open_executor",
     "SharedPool",
+    "parallel_work",
     "run_tasks",
     "check_dask_address",
     "call_with_deadline",
@@ -1115,8 +1117,19 @@ def _call_with_probe(probe: Callable[[], bool] | None, fn: Callable[..., Any], a
         _task_context.cancelled = None
 
 
+_dask_worker_ready = False  # set in a Dask worker's process by its first task
+
+
 def _deadline_call(fn: Callable[..., Any], args: tuple, timeout_s: float | None) -> Any:
-    """A Dask task: ``fn(*args)`` with its deadline, able to see its own cancellation."""
+    """A Dask task: ``fn(*args)`` with its deadline, able to see its own cancellation.
+
+    The first task in a worker's process lets glibc keep freed memory, as local workers do
+    (`keep_freed_memory`): Dask's nanny makes glibc return it at once, which made the FE solves about
+    twice as slow as in local workers."""
+    global _dask_worker_ready
+    if not _dask_worker_ready:
+        keep_freed_memory()
+        _dask_worker_ready = True
     return call_with_deadline(_call_with_probe, (_dask_cancel_probe(), fn, args), timeout_s)
 
 
@@ -1286,6 +1299,42 @@ class SharedPool(Executor):
         self._closed = True
         if self._pool is not None:
             self._pool.abort()
+
+
+@contextlib.contextmanager
+def parallel_work(workers: int | None = None, dask: Any = None, *,
+                  shared: bool = False) -> Iterator[int | Executor | None]:
+    """Where a command's parallel work runs (its ``--workers`` or ``--dask``), for as long as the command runs.
+
+    Yields the ``workers`` argument of the library's parallel functions
+    (`run_tasks`, `filmcal.study.Study.calibrate`, ...). With `dask`, the
+    scheduler is reached on entry, so a command that enters this before it
+    writes anything leaves nothing behind when the scheduler cannot be
+    reached; the client is closed on exit.
+
+    Parameters
+    ----------
+    workers : int, optional
+        Local worker processes (default: all cores; 1: everything in the calling process). Unused with `dask`.
+    dask : str or distributed.Client, optional
+        A Dask scheduler's address (or a client): every task runs on that cluster (`DaskExecutor`).
+    shared : bool
+        Without `dask`: one `SharedPool` for every call (a run of several stages) instead of `workers` as
+        given (each call opens and closes its own pool; 1 stays 1 either way).
+
+    Raises
+    ------
+    ValueError
+        If the Dask address is malformed or its scheduler cannot be reached.
+    """
+    if dask is not None:
+        with DaskExecutor(dask) as cluster:
+            yield cluster
+    elif shared and workers != 1:
+        with SharedPool(workers) as pool:
+            yield pool
+    else:
+        yield workers
 
 
 def _call_task(task: tuple) -> tuple[Any, list]:

@@ -43,7 +43,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
               "made with other settings are kept beside, never reused")
     local(p, "--train-runs", type=int, default=200, help="FE runs to train the surrogate (default 200)")
     local(p, "--test-runs", type=int, default=100, help="held-out FE runs to validate it (default 100)")
-    add(p, "workers", extra="(default: all cores)")
+    where = p.add_mutually_exclusive_group()
+    add(where, "workers", extra="(default: all cores)")
+    add(where, "dask", extra="; the command's parallel work runs there (FE or simulator runs, fits, calibrations)")
     add(p, "seed", default=0, extra="(default 0)")
     local(p, "--max-steps", type=int, default=None, help="cap on MCMC steps per walker (default: until converged)")
     local(p, "--plots", metavar="DIR", help="write trace, corner, per-case (Fig. 3) and predictive plots")
@@ -69,6 +71,7 @@ def _spec(args: argparse.Namespace):
 
 
 def run(args: argparse.Namespace) -> int:
+    from filmcal._parallel import parallel_work
     from filmcal.study import Study, output_column
 
     spec = _spec(args)
@@ -79,38 +82,39 @@ def run(args: argparse.Namespace) -> int:
         parse_load_range(args.forces_kn)  # refused before the study folder is written
     if args.data is not None:
         load_dataset(args.data)
-    study = Study(args.study_dir, create=True, films_file=args.films_file)
-    film = study.film(args.film)
-    if args.plots:
-        from filmcal._io import check_output_dir
+    with parallel_work(args.workers, args.dask) as workers:  # a Dask scheduler is reached before anything is written
+        study = Study(args.study_dir, create=True, films_file=args.films_file)
+        film = study.film(args.film)
+        if args.plots:
+            from filmcal._io import check_output_dir
 
-        check_output_dir(args.plots, "--plots")
-    from dataclasses import replace
+            check_output_dir(args.plots, "--plots")
+        from dataclasses import replace
 
-    from filmcal.contact.imprint import imprint_models_for
+        from filmcal.contact.imprint import imprint_models_for
 
-    spec = replace(spec, fe=replace(spec.fe, film_thickness_mm=film.thickness_mm))
-    mixture = args.imprint_model == MIXTURE
-    imprints = list(imprint_models_for(film)) if mixture else [args.imprint_model]
-    study.dataset_rows(film.name, args.forces_kn, args.data)  # enough data? refused before anything is written
-    with study.writing("filmcal calibrate"):
-        calibrated = {}
-        for imprint in imprints:
-            one = replace(spec, imprint=imprint)
-            calibrated[one.model_label] = study.calibrate(one, dataset=args.data, workers=args.workers,
-                                                          progress=False)
-        if mixture and len(calibrated) > 1:
-            comparison, _ = study.compare(film.name, calibrated, workers=args.workers, max_steps=spec.max_steps,
-                                          seed=args.seed)
-            label = comparison["preferred"]
-            assessment = comparison["models"][label]
-        else:
-            comparison = None
-            label = next(iter(calibrated))
-            assessment = study.assess(calibrated[label][1], calibrated[label][0]).to_dict()
-        result, path, full = calibrated[label]
-        _, validation, _ = study.radius_model(spec.fe, output_column(full["imprint"], film.name), args.workers,
-                                              progress=False)
+        spec = replace(spec, fe=replace(spec.fe, film_thickness_mm=film.thickness_mm))
+        mixture = args.imprint_model == MIXTURE
+        imprints = list(imprint_models_for(film)) if mixture else [args.imprint_model]
+        study.dataset_rows(film.name, args.forces_kn, args.data)  # enough data? refused before anything is written
+        with study.writing("filmcal calibrate"):
+            calibrated = {}
+            for imprint in imprints:
+                one = replace(spec, imprint=imprint)
+                calibrated[one.model_label] = study.calibrate(one, dataset=args.data, workers=workers,
+                                                              progress=False)
+            if mixture and len(calibrated) > 1:
+                comparison, _ = study.compare(film.name, calibrated, workers=workers, max_steps=spec.max_steps,
+                                              seed=args.seed)
+                label = comparison["preferred"]
+                assessment = comparison["models"][label]
+            else:
+                comparison = None
+                label = next(iter(calibrated))
+                assessment = study.assess(calibrated[label][1], calibrated[label][0]).to_dict()
+            result, path, full = calibrated[label]
+            _, validation, _ = study.radius_model(spec.fe, output_column(full["imprint"], film.name), workers,
+                                                  progress=False)
     if args.plots:
         _plots(result, Path(args.plots), path.stem)
     out = result.to_dict()

@@ -38,6 +38,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add(p, "kinematics", extra="(default: every kinematics of the chosen posteriors, by their weights)")
     local(p, "--csv", help="write the curves to this CSV file")
     local(p, "--plot", help="write a PNG of the areas with and without film")
+    where = p.add_mutually_exclusive_group()
+    add(where, "workers", extra="(default: all cores)")
+    add(where, "dask", extra="; the command's parallel work runs there (roughness laws, curve solves)")
     add(p, "json", action="store_true", help="print the rows as one JSON object")
     renamed(p, "--rough-ra-um", "--wheel-roughness-ra-um", type=float)
     renamed(p, "--loads", "--calibration-forces-kn", type=force_range)
@@ -63,6 +66,7 @@ def _rough_bodies(args: argparse.Namespace) -> list:
 
 
 def run(args: argparse.Namespace) -> int:
+    from filmcal._parallel import parallel_work
     from filmcal._validation import parse_grid
     from filmcal.study import Study
 
@@ -72,27 +76,26 @@ def run(args: argparse.Namespace) -> int:
     if any(not (lo <= f <= hi) for f in forces):
         raise ValueError(f"--forces-kn must lie in [{lo:g}, {hi:g}] kN (a larger load is a unit error), "
                          f"got {args.forces_kn!r}")
-    study = Study(args.study_dir)
-    ft = study.film(args.film)
     if any(not (-20 <= e <= 10) for e in offsets):
         raise ValueError(f"offsets_mm must lie in [-20, 10] mm, got {args.offsets_mm!r}")
-    from filmcal.correction import CURVE_COLUMNS, curve_rows, wheel_label, write_curves_csv
+    from filmcal.correction import CURVE_COLUMNS, curve_table, wheel_label, write_curves_csv
     from filmcal.study.core import chosen_posteriors, curve_components
 
-    film = ft.name
-    match = {"imprint": None if args.imprint_model == MIXTURE else args.imprint_model,
-             "kinematics": args.kinematics, "loads": args.calibration_forces_kn}
-    chosen = chosen_posteriors(study, film, **match)
-    components = curve_components(study, film, **match)
-    wheels = [None] + _rough_bodies(args)
-    if args.roughness_law:
-        from filmcal.contact.laws import TabularLaw
+    with parallel_work(args.workers, args.dask) as workers:  # a Dask scheduler is reached before anything is written
+        study = Study(args.study_dir)
+        film = study.film(args.film).name
+        match = {"imprint": None if args.imprint_model == MIXTURE else args.imprint_model,
+                 "kinematics": args.kinematics, "loads": args.calibration_forces_kn}
+        chosen = chosen_posteriors(study, film, **match)
+        components = curve_components(study, film, **match)
+        wheels = [None] + _rough_bodies(args)
+        if args.roughness_law:
+            from filmcal.contact.laws import TabularLaw
 
-        wheels.append(TabularLaw.from_csv(args.roughness_law))
-    rows = []
-    for wheel in wheels:
-        sys.stderr.write(f"[curves] {film}, {wheel_label(wheel)}: {len(forces)} loads x {len(offsets)} offsets\n")
-        rows += curve_rows(film, components, offsets, forces, wheel)
+            wheels.append(TabularLaw.from_csv(args.roughness_law))
+        for wheel in wheels:
+            sys.stderr.write(f"[curves] {film}, {wheel_label(wheel)}: {len(forces)} loads x {len(offsets)} offsets\n")
+        rows = curve_table(film, components, offsets, forces, wheels, workers)
     if args.csv:
         write_curves_csv(args.csv, rows)
     if args.plot:

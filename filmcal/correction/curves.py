@@ -34,8 +34,8 @@ from filmcal._io import atomic_path
 from filmcal.correction.moduli import modulus_grid
 from filmcal.wheelrail.wheelrail import get_wheel_rail_model
 
-__all__ = ["CorrectionCurves", "correction_curves", "curve_moduli", "CURVE_COLUMNS", "curve_rows", "write_curves_csv",
-           "read_curves_csv", "rough_bodies", "wheel_label"]
+__all__ = ["CorrectionCurves", "correction_curves", "curve_moduli", "CURVE_COLUMNS", "curve_rows", "curve_table",
+           "rough_law_tasks", "write_curves_csv", "read_curves_csv", "rough_bodies", "wheel_label"]
 
 #: Solver tolerance of the sweeps: areas within 1e-6 (relative) of the default 1e-9, a fifth faster.
 SWEEP_TOL = 1e-6
@@ -272,6 +272,51 @@ def curve_rows(film: str, components, offsets_mm, forces_kn, roughness=None, law
              c.delta_area_median_mm2[i, j], *c.delta_area_ci90_mm2[i, j], c.ratio_median[i, j], *c.ratio_ci90[i, j],
              c.interpolation_error_rel[i, j], c.max_pressure_no_film_mpa[i, j]]
             for i, force in enumerate(c.forces_n) for j, eta in enumerate(c.offsets_mm)]
+
+
+def rough_law_tasks(bodies, film, components) -> dict:
+    """The tasks of rough bodies' laws against a film at the moduli its curves solve at (`curve_moduli`):
+    ``{modulus: (function, args)}`` for `filmcal._parallel.run_tasks`, each a boundary-element law."""
+    return {float(m): (bodies.film_law, (float(m), film.poisson, film.thickness_mm)) for m in curve_moduli(components)}
+
+
+def curve_table(film: str, components, offsets_mm, forces_kn, wheels=(None,), workers=None) -> list[list]:
+    """Correction curves of one film for several wheels as CSV rows (`CURVE_COLUMNS`), solved in parallel.
+
+    The rows are those of `curve_rows` for each wheel in turn (loads, then offsets within a load), wherever
+    the work runs: one task per wheel, load and offset (each cell's band has its own seed), the rough wheels
+    first, after one task per law of a rough wheel at each modulus solved at (`rough_law_tasks`).
+
+    Parameters
+    ----------
+    film, components, offsets_mm, forces_kn
+        As `curve_rows` takes them: the film type, its calibrated models and the grid (mm, kN).
+    wheels : sequence
+        Each a `roughness` of `curve_rows`: None (smooth), a rough wheel's Ra in um, rough bodies
+        (`filmcal.contact.roughness.Roughness`) or a measured film-wheel law.
+    workers : int or filmcal._parallel.Executor, optional
+        Local worker processes (default: all cores; 1: everything in this process), or the executor to run
+        on (a `filmcal._parallel.DaskExecutor`: a Dask cluster).
+    """
+    from filmcal._parallel import run_tasks
+    from filmcal.contact.roughness import Roughness
+
+    wheels = list(wheels)
+    law_tasks = {}
+    for w, wheel in enumerate(wheels):
+        bodies = rough_bodies(wheel) if isinstance(wheel, (int, float)) else wheel
+        if isinstance(bodies, Roughness):
+            law_tasks.update({(w, m): task for m, task in rough_law_tasks(bodies, components[0][0].film,
+                                                                           components).items()})
+    laws: dict = {}
+    run_tasks(law_tasks, workers, lambda key, law, k: laws.setdefault(key[0], {}).update({key[1]: law}))
+    cells = [(w, force, eta) for force in forces_kn for eta in offsets_mm for w in range(len(wheels))]
+    cells.sort(key=lambda cell: wheels[cell[0]] is None)  # the rough wheels first: they are the longest
+    rows: dict = {}
+    run_tasks({(w, force, eta): (curve_rows, (film, components, (eta,), (force,), wheels[w], laws.get(w)))
+               for w, force, eta in cells}, workers, lambda key, value, k: rows.update({key: value}))
+    return [row for w in range(len(wheels)) for force in forces_kn for eta in offsets_mm
+            for row in rows[w, force, eta]]
 
 
 def write_curves_csv(path: str | Path, rows: list[list]) -> Path:

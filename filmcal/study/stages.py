@@ -19,7 +19,6 @@ interrupted run loses no finished work and a second run only reads:
 """
 from __future__ import annotations
 
-import contextlib
 import time
 import warnings
 from dataclasses import asdict, dataclass
@@ -159,7 +158,7 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
         (`filmcal.calibration.load_dataset`) or a packaged dataset's name;
         default the study's dataset, Table 1 for a new study.
     """
-    from filmcal._parallel import SharedPool, keep_freed_memory
+    from filmcal._parallel import keep_freed_memory, parallel_work
     from filmcal._progress import Progress
 
     settings = settings or PipelineSettings()
@@ -167,19 +166,18 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
     keep_freed_memory()  # the stages that run in this process allocate as the workers do
     if seed < 0 or seed >= 2**32:
         raise InputError(f"seed must be in 0..{2**32 - 1}, got {seed}")
-    dask_pool = None
-    if dask is not None:  # the scheduler is reached before anything is written
-        from filmcal._parallel import DaskExecutor
-
-        dask_pool = DaskExecutor(dask)
-    try:
+    # one pool for every stage, started by the first task (a rerun with nothing to do starts none), or the Dask
+    # cluster, whose scheduler is reached before anything is written
+    with parallel_work(workers, dask, shared=True) as pool:
         study = Study(study_dir, create=True, films_file=films_file)
         for f in films:
             study.film(f)  # unknown films are refused before anything is written
-    except BaseException:
-        if dask_pool is not None:
-            dask_pool.shutdown()
-        raise
+        return _run_stages(study, settings, films, seed, pool, progress, report, dataset)
+
+
+def _run_stages(study: Study, settings: PipelineSettings, films, seed: int, pool, progress, report,
+                dataset) -> dict:
+    """The pipeline's stages in an opened study, every stage's parallel work on `pool`; the summary."""
     with study.writing("filmcal pipeline"):
         study.set_settings({"pipeline": settings.record(), "seed": seed})
         known = list(study.manifest.data.get("pipeline_films", []))
@@ -205,25 +203,19 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
                 study.stage_done(name, elapsed)
             return out
 
-        # one pool for every stage, started by the first task (a rerun with nothing to do starts none)
-        with contextlib.ExitStack() as stack:
-            if dask_pool is not None:  # every stage's parallel work on a Dask cluster instead of local processes
-                pool = stack.enter_context(dask_pool)
-            else:
-                pool = 1 if workers == 1 else stack.enter_context(SharedPool(workers))
-            stage("design", _design_stage, study, settings, seed)
-            results = stage("calibration", _calibration_stage, study, settings, films, seed, pool, dataset)
-            comparisons = stage("comparison", _comparison_stage, study, settings, results, seed, pool)
-            chosen = {film: _preferred(results[film], comparisons.get(film)) for film in films}
-            # the film each figure draws is the one its posterior was calibrated under: its E and kinematics
-            medians = {film: {"modulus_mpa": float(r.modulus_mpa["median"]), "model": spec["model"],
-                              "kinematics": spec["fe"]["kinematics"]} for film, (r, _, spec) in chosen.items()}
-            stage("verification", _verification_stage, study, settings, seed, medians, pool)
-            stage("curves", _curves_stage, study, settings, films, pool)
-            stage("outlines", _outlines_stage, study, settings, medians)
-            stage("crossval", _crossval_stage, study, settings, results, comparisons, seed, pool)
-            if report is not None:
-                summary["report"] = stage("report", _report_stage, study, report, pool)
+        stage("design", _design_stage, study, settings, seed)
+        results = stage("calibration", _calibration_stage, study, settings, films, seed, pool, dataset)
+        comparisons = stage("comparison", _comparison_stage, study, settings, results, seed, pool)
+        chosen = {film: _preferred(results[film], comparisons.get(film)) for film in films}
+        # the film each figure draws is the one its posterior was calibrated under: its E and kinematics
+        medians = {film: {"modulus_mpa": float(r.modulus_mpa["median"]), "model": spec["model"],
+                          "kinematics": spec["fe"]["kinematics"]} for film, (r, _, spec) in chosen.items()}
+        stage("verification", _verification_stage, study, settings, seed, medians, pool)
+        stage("curves", _curves_stage, study, settings, films, pool)
+        stage("outlines", _outlines_stage, study, settings, medians)
+        stage("crossval", _crossval_stage, study, settings, results, comparisons, seed, pool)
+        if report is not None:
+            summary["report"] = stage("report", _report_stage, study, report, pool)
         for film in films:
             result, path, spec = chosen[film]
             d = result.to_dict()
@@ -513,16 +505,13 @@ def _rough_laws(study: Study, settings: PipelineSettings, components: dict, film
     """The rough wheel's pressure-closure laws (BEM) at the moduli each film's curves solve at, in parallel:
     ``{film: {modulus: law}}``."""
     from filmcal._parallel import run_tasks
-    from filmcal.correction import curve_moduli, rough_bodies
+    from filmcal.correction import rough_bodies, rough_law_tasks
 
     if not films:
         return {}
     bodies = rough_bodies(settings.rough_ra_um)
-    tasks = {}
-    for film in films:
-        ft = study.film(film)
-        for m in curve_moduli(components[film]):
-            tasks[film, float(m)] = (bodies.film_law, (float(m), ft.poisson, ft.thickness_mm))
+    tasks = {(film, m): task for film in films
+             for m, task in rough_law_tasks(bodies, study.film(film), components[film]).items()}
     st.log(f"[curves] rough wheel (Ra {settings.rough_ra_um:g} um): {len(tasks)} pressure-closure laws (BEM) "
            "at the films' moduli")
     laws: dict = {}
