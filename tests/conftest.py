@@ -64,8 +64,6 @@ SLOW_TESTS: dict[str, str] = {
     "test_calibration_mcmc.py::test_same_seed_same_summary_digit_for_digit": "8 s: two samplings",
     "test_calibration_mcmc.py::test_run_is_extended_until_the_ess_target_or_the_cap": "5 s",
     "test_calibration_mcmc.py::test_backend_resume_continues_the_chain": "5 s",
-    "test_calibration_model.py::test_case_intervals_on_the_fe_model_bracket_its_crossings": "12 s: FE solves",
-    "test_calibration_options.py::": "21 s shared calibration with a load discrepancy, 9 s free Poisson ratio",
     "test_campaign.py::test_failures_are_recorded_with_reasons_and_retried_on_request": "6 s",
     "test_transfer.py::test_the_transfer_term_brings_the_applied_film_to_the_calibrated_one": "3-4 s: FE and half-space at three points",
     "test_roughness_no_film.py::test_rough_hertz_contact_follows_greenwood_tripp": "5 s each: a rough law (BEM)",
@@ -77,7 +75,6 @@ SLOW_TESTS: dict[str, str] = {
     "test_correction_curves.py::test_bands_match_direct_solves_at_their_quantiles": "4 s",
     "test_correction_curves.py::test_a_mixture_band_spans_the_models_it_pools": "7 s",
     "test_correction_imprint.py::test_command_rejects_bad_imprint_input": "9 s: seven processes",
-    "test_correction_outline.py::test_command_reads_an_imprint_and_writes_the_corrected_outline": "10 s",
     "test_correction_wheelrail.py::test_ratio_interpolates_the_film_effect_across_the_posterior": "4 s",
     "test_doe.py::test_cli_as_a_process": "5 s",
     "test_fem_inputs.py::test_cli_json_contract": "6 s: FE solves in processes",
@@ -92,10 +89,8 @@ SLOW_TESTS: dict[str, str] = {
     "test_fem_film.py::test_paper_friction_configuration_converges": "6 s: friction at both interfaces",
     "test_study.py::": "14 s shared FE campaign and surrogate, 19 s refinement",
     "test_surrogate.py::test_same_random_state_same_fit_serial_or_parallel": "8 s: parallel refits",
-    "test_wheelrail_contact.py::test_film_enlarges_the_area_at_every_offset": "11 s: a sweep of solves",
     "test_film_law.py::test_large_strain_sphere_on_flat_matches_the_fe": "5-10 s each: FE large-strain solves",
     "test_roughness.py::test_fully_plastic_limit_is_the_bearing_area_curve": "5 s: slow projected-gradient solves",
-    "test_roughness.py::test_law_lies_above_the_rigid_plastic_bearing_curve_and_tends_to_it": "12 s: three BEM laws",
 }
 
 #: An unmarked test slower than this is named at the end of the run.
@@ -129,6 +124,16 @@ ACCEPTANCE_TESTS: dict[str, str] = {
     "test_fem_film.py::test_a_heavily_compressed_large_strain_film_converges_under_refinement":
         "8 s: a large-strain film compressed by half its thickness at a fine mesh",
     "test_report.py::test_report_command_rewrites_from_the_study": "19 s: report of a study in a process",
+    "test_calibration_options.py::":
+        "30 s: a calibration with a load discrepancy (21 s) and one with a free Poisson ratio (9 s)",
+    "test_calibration_model.py::test_case_intervals_on_the_fe_model_bracket_its_crossings":
+        "12 s: FE solves at every case's interval ends",
+    "test_roughness.py::test_law_lies_above_the_rigid_plastic_bearing_curve_and_tends_to_it":
+        "12 s: three BEM laws",
+    "test_wheelrail_contact.py::test_film_enlarges_the_area_at_every_offset":
+        "11 s: a sweep of wheel-rail solves",
+    "test_correction_outline.py::test_command_reads_an_imprint_and_writes_the_corrected_outline":
+        "10 s: the outline command in a process",
 }
 
 #: Node ids kept in the fast tier although they take longer, with the reason.
