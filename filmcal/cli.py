@@ -26,7 +26,9 @@ This module is the command line's one error boundary:
 """
 from __future__ import annotations
 
+import _thread
 import argparse
+import contextlib
 import errno
 import importlib
 import os
@@ -494,6 +496,37 @@ def _restore_ctrl_c() -> None:
         signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
+@contextlib.contextmanager
+def _swallowed_ctrl_c_redelivered():
+    """Deliver again a Ctrl-C that Python swallowed, for as long as the block runs.
+
+    A SIGINT that arrives while Python runs a weakref callback or a ``__del__``
+    (the import system's module-lock callbacks, for one) raises its
+    `KeyboardInterrupt` there, where Python only prints "Exception ignored"
+    and goes on: the command would run to its end. The unraisable hook
+    catches exactly that case and interrupts the main thread once more, so
+    that the interrupt reaches the command's boundary; any other unraisable
+    exception goes to the hook that was there. The new interrupt comes from a
+    timer thread a moment later: raised in the hook itself, it would be
+    swallowed again.
+    """
+    previous = sys.unraisablehook
+
+    def hook(unraisable):
+        if isinstance(unraisable.exc_value, KeyboardInterrupt):
+            timer = threading.Timer(0.02, _thread.interrupt_main)
+            timer.daemon = True
+            timer.start()
+        else:
+            previous(unraisable)
+
+    sys.unraisablehook = hook
+    try:
+        yield
+    finally:
+        sys.unraisablehook = previous
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the `filmcal` command line; return the exit status.
 
@@ -505,6 +538,11 @@ def main(argv: list[str] | None = None) -> int:
         (traceback on stderr); 130 interrupted.
     """
     _restore_ctrl_c()
+    with _swallowed_ctrl_c_redelivered():
+        return _main(argv)
+
+
+def _main(argv: list[str] | None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     try:
         try:

@@ -330,6 +330,24 @@ def test_ctrl_c_stops_a_command_started_with_sigint_ignored(tmp_path):
     assert sorted(os.listdir(tmp_path)) == []
 
 
+def test_a_ctrl_c_that_python_swallows_is_delivered_again():
+    """A KeyboardInterrupt raised in a ``__del__`` (or an import lock's weakref callback) is only
+    printed by Python; inside the command's boundary it reaches the main thread again."""
+
+    class Finaliser:
+        def __del__(self):
+            raise KeyboardInterrupt
+
+    reached = []
+    with pytest.raises(KeyboardInterrupt):
+        with cli._swallowed_ctrl_c_redelivered():
+            Finaliser()  # its __del__ runs at once and raises where Python cannot propagate it
+            for _ in range(10_000_000):
+                reached.append(1)
+                time.sleep(0.001)
+    assert len(reached) < 100  # the interrupt came at once, not at the loop's end
+
+
 def test_a_command_that_cannot_register_is_an_internal_error(monkeypatch, capsys):
     module = importlib.import_module("filmcal.commands.profile")
 
