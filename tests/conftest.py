@@ -134,6 +134,14 @@ ACCEPTANCE_TESTS: dict[str, str] = {
         "11 s: a sweep of wheel-rail solves",
     "test_correction_outline.py::test_command_reads_an_imprint_and_writes_the_corrected_outline":
         "10 s: the outline command in a process",
+    "test_pipeline.py::test_killed_pipeline_resumes_without_losing_finished_work":
+        "26-75 s: a smoke pipeline killed in each stage and resumed",
+    "test_pipeline.py::test_ctrl_c_in_a_parallel_stage_and_a_second_writer":
+        "12-34 s: a smoke pipeline interrupted in a parallel stage, with a second writer refused",
+    "test_rough_imprint.py::test_a_dataset_with_flat_ra_calibrates_stiffer_as_the_rough_law_says":
+        "13-37 s: two calibrations and the rough law of a roughened flat",
+    "test_domain_follows_data.py::test_a_lab_dataset_at_250_mm_is_calibrated_on_an_extended_design":
+        "9-26 s: an extended design's FE runs and a calibration",
 }
 
 #: Node ids kept in the fast tier although they take longer, with the reason.
