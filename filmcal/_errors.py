@@ -6,6 +6,11 @@ working:
 
 - `InputError`: a parameter or option outside its allowed range, an unknown
   name, an inconsistent combination. The message names the parameter.
+- `UntrustedArtefactError` (an `InputError`): a study artefact that is not
+  the file the study wrote: changed after it was written, of another kind or
+  spec than recorded, unrecorded, or reached through a link out of the study.
+  Every command refuses it, even those that otherwise report what they could
+  read.
 - `DamagedFileError`: a file that exists but cannot be read as what it should
   be (truncated JSON, a garbled SQLite store, a broken npz, HDF5 or image).
   The message names the file and what to do: for a file the package made
@@ -21,11 +26,15 @@ from __future__ import annotations
 
 from os import PathLike
 
-__all__ = ["InputError", "DamagedFileError", "damaged"]
+__all__ = ["InputError", "UntrustedArtefactError", "DamagedFileError", "damaged"]
 
 
 class InputError(ValueError):
     """A user input (parameter, option, combination) outside what is allowed."""
+
+
+class UntrustedArtefactError(InputError):
+    """A study artefact that is not what the study's manifest recorded (see the module's notes)."""
 
 
 class DamagedFileError(ValueError):

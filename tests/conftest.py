@@ -142,6 +142,8 @@ ACCEPTANCE_TESTS: dict[str, str] = {
         "13-37 s: two calibrations and the rough law of a roughened flat",
     "test_domain_follows_data.py::test_a_lab_dataset_at_250_mm_is_calibrated_on_an_extended_design":
         "9-26 s: an extended design's FE runs and a calibration",
+    "test_study_trust.py::": "75-210 s: curves, report and correct on tampered, linked and read-only studies, "
+                             "15 commands in processes",
 }
 
 #: Node ids kept in the fast tier although they take longer, with the reason.

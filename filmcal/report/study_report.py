@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from filmcal._errors import UntrustedArtefactError
 from filmcal._io import atomic_write_text
 from filmcal._versions import NUMERIC_PACKAGES, software_versions, version_note
 from filmcal.report import figures as F
@@ -160,6 +161,8 @@ def read_study(study_dir: str | Path) -> StudyData:
     def attempt(what: str, read: Callable[[], object]):
         try:
             return read()
+        except UntrustedArtefactError:
+            raise  # a changed or foreign file is refused, not reported around
         except Exception as err:  # noqa: BLE001 (one unreadable file must not hide the rest of the report)
             data.problems.append(f"{what}: {err}")
             return None

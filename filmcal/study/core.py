@@ -259,11 +259,21 @@ class Study:
         self.manifest.write()
         return path
 
-    def verified(self, path: Path) -> Path | None:
-        """`path` if it exists and is the file the study recorded; None if missing; refused if changed."""
+    def verified(self, path: Path, kind: str | None = None, spec: dict | None = None) -> Path | None:
+        """`path` if it exists and is the file the study recorded; None if missing.
+
+        The one way a study's artefact is opened: the path must stay inside the
+        study once its links are resolved, and the file must be the one the
+        manifest recorded (its SHA-256, and the `kind` and `spec` when given).
+
+        Raises
+        ------
+        filmcal._errors.UntrustedArtefactError
+            If it is not (`Manifest.verify`, `StudyLayout.relative`).
+        """
         if not path.exists():
             return None
-        self.manifest.verify(self.layout.relative(path), path)
+        self.manifest.verify(self.layout.relative(path), path, kind=kind, spec=spec)
         return path
 
     def film(self, name: str) -> FilmType:
@@ -906,6 +916,7 @@ def curve_components(study: Study, film: str, *, model: str | None = None, **mat
     out = []
     for w, path, spec in chosen_posteriors(study, film, model=model, **match):
         fm = film_model(study, spec)
+        study.verified(path, kind="posterior", spec=spec)
         out.append((fm, nominal_modulus_mpa(load_result(path).samples, fm.film.poisson), w))
     return out
 

@@ -26,6 +26,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from filmcal._errors import UntrustedArtefactError
 from filmcal._io import json_hash
 
 __all__ = ["StudyLayout", "spec_key", "MANIFEST_NAME"]
@@ -102,5 +103,16 @@ class StudyLayout:
         return self.root / "report"
 
     def relative(self, path: Path) -> str:
-        """`path` relative to the study folder, as recorded in the manifest."""
-        return Path(path).resolve().relative_to(self.root.resolve()).as_posix()
+        """`path` relative to the study folder, as recorded in the manifest.
+
+        Raises
+        ------
+        filmcal._errors.UntrustedArtefactError
+            If `path`, its links resolved, lies outside the study folder (a
+            study reads and writes only its own files).
+        """
+        resolved, root = Path(path).resolve(), self.root.resolve()
+        if not resolved.is_relative_to(root):
+            raise UntrustedArtefactError(f"{path} leads to {resolved}, outside the study folder {root}: a study "
+                                         "reads and writes only its own files; put the file itself in its place")
+        return resolved.relative_to(root).as_posix()

@@ -16,7 +16,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from filmcal._errors import DamagedFileError, InputError
+from filmcal._errors import DamagedFileError, InputError, UntrustedArtefactError
 from filmcal._io import atomic_write_json, read_json, sha256_file
 from filmcal._versions import software_versions
 
@@ -105,15 +105,39 @@ class Manifest:
     def forget(self, relpath: str) -> None:
         self.data["artefacts"].pop(relpath, None)
 
-    def verify(self, relpath: str, file: Path) -> None:
-        """Refuse a file whose content differs from what the study wrote."""
+    def verify(self, relpath: str, file: Path, kind: str | None = None, spec: dict | None = None) -> dict:
+        """Refuse a file that is not the one the study wrote; return its manifest entry.
+
+        Parameters
+        ----------
+        relpath : str
+            The file's path in the study, as recorded.
+        file : Path
+            The file.
+        kind, spec : optional
+            The kind (``"posterior"``, ``"radius-surrogate"`` ...) and spec the
+            reader expects; a recorded entry of another kind or spec is refused.
+
+        Raises
+        ------
+        filmcal._errors.UntrustedArtefactError
+            Unrecorded, changed since it was written (SHA-256), or of another
+            kind or spec than expected.
+        """
         entry = self.entry(relpath)
         if entry is None:
-            raise InputError(f"{file}: not recorded in the study's manifest {self.path.name}; delete it and run "
-                             "again to recompute it")
+            raise UntrustedArtefactError(f"{file}: not recorded in the study's manifest {self.path.name}; "
+                                         "delete it and run again to recompute it")
+        if kind is not None and entry.get("kind") != kind:
+            raise UntrustedArtefactError(f"{file} is recorded as a {entry.get('kind')!r}, not the {kind!r} "
+                                         "read here; delete it and run again to recompute it")
+        if spec is not None and entry.get("spec") != spec:
+            raise UntrustedArtefactError(f"{file} was made with other settings than its manifest entry says "
+                                         "are read here; delete it and run again to recompute it")
         if sha256_file(file) != entry["sha256"]:
-            raise InputError(f"{file} was changed after the study wrote it (SHA-256 differs from the manifest); "
-                             "delete it and run again to recompute it")
+            raise UntrustedArtefactError(f"{file} was changed after the study wrote it (SHA-256 differs from the "
+                                         "manifest); delete it and run again to recompute it")
+        return entry
 
     def artefacts(self, kind: str) -> dict[str, dict]:
         return {k: v for k, v in self.data["artefacts"].items() if v["kind"] == kind}

@@ -1,0 +1,120 @@
+"""`curves`, `report` and `correct` on a tampered, a symlinked and a read-only study: refused, refused, answered.
+
+Each runs as the command line in a subprocess; a refusal is exit 2 with one line on stderr that names
+what is wrong, and leaves the study and the folder around it exactly as they were (hash snapshot).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+FILMCAL = [sys.executable, "-m", "filmcal.cli"]
+
+
+def _commands(study: Path, out: Path) -> dict[str, list[str]]:
+    return {
+        "correct": ["correct", "--study-dir", str(study), "--film", "HS", "--force-kn", "100",
+                    "--measured-area-mm2", "150", "--offset-mm", "0", "--json"],
+        "curves": ["curves", "--study-dir", str(study), "--film", "HS", "--forces-kn", "100", "--offsets-mm", "0",
+                   "--json"],
+        "report": ["report", "--study-dir", str(study), "--out-dir", str(out / "report")],
+    }
+
+
+def _snapshot(folder: Path) -> dict[str, str]:
+    """SHA-256 of every file under `folder` (links not followed), by relative path."""
+    out = {}
+    for path in sorted(folder.rglob("*")):
+        if path.is_symlink():
+            out[str(path.relative_to(folder))] = "link:" + os.readlink(path)
+        elif path.is_file():
+            out[str(path.relative_to(folder))] = hashlib.sha256(path.read_bytes()).hexdigest()
+    return out
+
+
+def _run(args: list[str], cwd: Path, read_only: Path | None = None) -> subprocess.CompletedProcess:
+    command = FILMCAL + args
+    if read_only is not None:
+        # a read-only bind mount of the study in a private mount namespace: read-only even for root
+        command = ["unshare", "-m", "sh", "-c", 'mount --bind "$1" "$1" && mount -o remount,bind,ro "$1" && shift '
+                   '&& exec "$@"', "sh", str(read_only)] + command
+    return subprocess.run(command, cwd=cwd, capture_output=True, text=True, timeout=600)
+
+
+def _read_only_mounts() -> bool:
+    if shutil.which("unshare") is None:
+        return False
+    probe = subprocess.run(["unshare", "-m", "sh", "-c", "mount --bind /tmp /tmp && mount -o remount,bind,ro /tmp "
+                            "&& ! touch /tmp/.filmcal-ro-probe"], capture_output=True)
+    return probe.returncode == 0
+
+
+@pytest.fixture(scope="module")
+def studies(quick_study, tmp_path_factory):
+    """Copies of the quick study: intact, one posterior's number changed, one posterior a link out of the study."""
+    study, _, _ = quick_study
+    root = tmp_path_factory.mktemp("trust")
+    intact, tampered, linked = root / "intact", root / "tampered", root / "linked"
+    for folder in (intact, tampered, linked):
+        shutil.copytree(study, folder)
+    for path in sorted((tampered / "posteriors").glob("*.json")):  # E times 10 in every posterior
+        data = json.loads(path.read_text())
+        data["modulus_mpa"]["median"] = 10 * data["modulus_mpa"]["median"]
+        path.write_text(json.dumps(data))
+    outside = root / "elsewhere"
+    outside.mkdir()
+    for path in sorted((linked / "posteriors").glob("*.json")):
+        target = outside / path.name
+        path.rename(target)
+        path.symlink_to(target)
+    return root
+
+
+@pytest.mark.parametrize("command", ["correct", "curves", "report"])
+@pytest.mark.parametrize("state, says", [("tampered", "was changed after the study wrote it"),
+                                         ("linked", "outside the study folder")])
+def test_a_tampered_or_linked_study_is_refused(studies, tmp_path, command, state, says):
+    before = _snapshot(studies)
+    p = _run(_commands(studies / state, tmp_path)[command], cwd=tmp_path)
+    assert p.returncode == 2, p.stderr[-2000:]
+    assert len(p.stderr.strip().splitlines()) == 1 and says in p.stderr, p.stderr
+    assert p.stdout == ""
+    assert _snapshot(studies) == before  # the study and its neighbours unchanged
+    assert list(tmp_path.iterdir()) == []  # no report, no partial file
+
+
+@pytest.mark.parametrize("command", ["correct", "curves", "report"])
+def test_a_read_only_study_is_answered_as_the_writable_one(studies, tmp_path, command):
+    if not _read_only_mounts():  # not root, or no mount namespaces: the folder's permissions make it read-only
+        assert os.geteuid() != 0, "as root a read-only study needs a read-only mount (unshare -m)"
+    study, twin = tmp_path / "ro", tmp_path / "rw"
+    shutil.copytree(studies / "intact", study)
+    shutil.copytree(studies / "intact", twin)
+    (tmp_path / "out").mkdir()
+    writable = _run(_commands(twin, tmp_path / "out")[command], cwd=tmp_path / "out")
+    assert writable.returncode == 0, writable.stderr[-2000:]
+    before = _snapshot(study)
+    if _read_only_mounts():
+        p = _run(_commands(study, tmp_path / "out")[command], cwd=tmp_path / "out", read_only=study)
+    else:
+        for path in [study, *study.rglob("*")]:
+            path.chmod(path.stat().st_mode & ~0o222)
+        p = _run(_commands(study, tmp_path / "out")[command], cwd=tmp_path / "out")
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert _snapshot(study) == before
+    if command == "report":
+        assert (tmp_path / "out" / "report" / "report.html").is_file()
+        assert (tmp_path / "out" / "report" / "report.pdf").is_file()
+    else:  # the same numbers as from the writable copy (whose caches its manifest now records)
+        answer, expected = json.loads(p.stdout), json.loads(writable.stdout)
+        for d in (answer, expected):
+            d.pop("provenance", None)
+            d["posterior_files"] = [Path(f).name for f in d.get("posterior_files", [])]
+        assert answer == expected
