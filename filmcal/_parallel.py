@@ -66,6 +66,7 @@ import re
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from collections import deque
@@ -96,6 +97,7 @@ __all__ = [
     "keep_freed_memory",
     "GuardedRun",
     "run_guarded",
+    "OUTPUT_CAP_BYTES",
     "task_cancelled",
     "NATIVE_THREAD_VARIABLES",
 ]
@@ -114,6 +116,12 @@ _PARENT_POLL_S = 0.25  # how often a worker's watchdog looks at its parent
 _STOP_GRACE_S = 5.0  # a worker asked to stop gets this long before it is killed
 _TERM_GRACE_S = 0.5  # a worker sent SIGTERM (it kills its children) gets this long
 _CONNECT_TIMEOUT_S = 5.0
+
+#: Most bytes of each output stream (stdout, stderr) of a command that `run_guarded` reads back:
+#: the last ones; more is flagged as truncated (`GuardedRun.stdout_truncated`), never held in memory.
+OUTPUT_CAP_BYTES = 16 * 2**20
+_WAIT_POLL_S = 0.05  # longest sleep between two looks at a running child that has a deadline
+_CANCEL_POLL_S = 0.2  # how often a waiting run_guarded asks whether its task was cancelled
 
 
 # -- errors and outcomes -------------------------------------------------------------
@@ -303,11 +311,18 @@ class GuardedRun:
     returncode : int or None
         Exit status (negative: killed by that signal); None if it timed out.
     stdout, stderr : str
-        Its output (decoded as UTF-8 with replacement characters).
+        Its output (decoded as UTF-8 with replacement characters): all of it,
+        or only its last `OUTPUT_CAP_BYTES` bytes when it wrote more (see
+        `stdout_truncated`, `stderr_truncated`).
     timed_out : bool
-        True if it was killed at the deadline.
+        True if it was killed at the deadline (or because its task was cancelled).
     elapsed_s : float
         Wall-clock time.
+    stdout_bytes, stderr_bytes : int
+        How many bytes it wrote on each stream (0 when not measured).
+    stdout_truncated, stderr_truncated : bool
+        True if the stream held more than `OUTPUT_CAP_BYTES` bytes, so that
+        `stdout` (`stderr`) is only its end.
     """
 
     returncode: int | None
@@ -315,6 +330,10 @@ class GuardedRun:
     stderr: str
     timed_out: bool
     elapsed_s: float
+    stdout_bytes: int = 0
+    stderr_bytes: int = 0
+    stdout_truncated: bool = False
+    stderr_truncated: bool = False
 
 
 # A probe set by the executor running the current task: returns True once the
@@ -365,8 +384,26 @@ def run_guarded(argv: Sequence[str] | str, *, cwd: str | os.PathLike | None = No
     Returns
     -------
     GuardedRun
+
+    Notes
+    -----
+    The run ends when the child itself exits, not when its output streams
+    close: stdout and stderr go to unnamed temporary files (in the folder of
+    `tempfile.gettempdir`, ``TMPDIR``), so a background process the command leaves behind (``sleep 60 &``)
+    holds no pipe that would keep the caller waiting. Once the child has
+    exited, its process group is killed, so such leftovers die with it. A
+    descendant that left the group (``setsid``, a daemon) is out of reach:
+    it keeps running, but it does not delay the run either.
+
+    Only the last `OUTPUT_CAP_BYTES` bytes of each stream are read back, so
+    a command that writes gigabytes costs disk space in the temporary
+    folder, not memory; `GuardedRun.stdout_truncated` and
+    `GuardedRun.stderr_truncated` say when a stream was longer. The end is
+    kept because that is where a command prints its answer (a final JSON
+    line) and its error messages.
     """
     timeout_s = _check_timeout(timeout_s)
+    cap = int(OUTPUT_CAP_BYTES)
     in_worker = _worker_parent_pid is not None and threading.current_thread() is threading.main_thread()
     start = time.perf_counter()
     if in_worker:
@@ -376,52 +413,110 @@ def run_guarded(argv: Sequence[str] | str, *, cwd: str | os.PathLike | None = No
         if not _parent_alive():
             _die_with_children(signal.SIGHUP)
     try:
-        process = subprocess.Popen(argv, cwd=cwd, shell=shell, env=env, stdin=subprocess.DEVNULL,
-                                   stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
-        with _child_lock:
-            _child_groups.add(process.pid)
-        try:
-            try:
-                out, err = _communicate(process, timeout_s)
-                timed_out = False
-            except subprocess.TimeoutExpired:
-                timed_out = True
-                _killpg(process.pid)
-                out, err = process.communicate()
-            finally:
-                _killpg(process.pid)  # descendants left behind by a finished shell
-        finally:
+        with tempfile.TemporaryFile() as out_file, tempfile.TemporaryFile() as err_file:
+            process = subprocess.Popen(argv, cwd=cwd, shell=shell, env=env, stdin=subprocess.DEVNULL,
+                                       stdout=out_file, stderr=err_file, start_new_session=True)
             with _child_lock:
-                _child_groups.discard(process.pid)
-            if process.poll() is None:
+                _child_groups.add(process.pid)
+            try:
+                try:
+                    _wait_for_exit(process, timeout_s)
+                    timed_out = False
+                except subprocess.TimeoutExpired:  # the deadline, or _Cancelled
+                    timed_out = True
+            finally:
+                # The child is not reaped yet, so its pid (the group's id) cannot be reused: this kills the
+                # command at its deadline (or on an exception), and else what it left running.
                 _killpg(process.pid)
-                process.wait()
+                process.wait()  # a session leader cannot leave its group: it is dead now
+                with _child_lock:
+                    _child_groups.discard(process.pid)
+            out, out_bytes = _read_tail(out_file, cap)
+            err, err_bytes = _read_tail(err_file, cap)
     finally:
         if in_worker:
             _set_parent_death_signal(signal.SIGKILL)
     return GuardedRun(None if timed_out else process.returncode,
                       out.decode("utf-8", "replace"), err.decode("utf-8", "replace"),
-                      timed_out, time.perf_counter() - start)
+                      timed_out, time.perf_counter() - start,
+                      stdout_bytes=out_bytes, stderr_bytes=err_bytes,
+                      stdout_truncated=out_bytes > cap, stderr_truncated=err_bytes > cap)
 
 
 class _Cancelled(subprocess.TimeoutExpired):
     """The task running the child was cancelled (handled like a deadline)."""
 
 
-def _communicate(process: subprocess.Popen, timeout_s: float | None) -> tuple[bytes, bytes]:
-    """`Popen.communicate` that also gives up when the task is cancelled (polled every 0.2 s)."""
-    if getattr(_task_context, "cancelled", None) is None:
-        return process.communicate(timeout=timeout_s)
-    deadline = None if timeout_s is None else time.monotonic() + timeout_s
-    while True:
-        step = 0.2 if deadline is None else max(0.0, min(0.2, deadline - time.monotonic()))
-        try:
-            return process.communicate(timeout=step)
-        except subprocess.TimeoutExpired:
-            if deadline is not None and time.monotonic() >= deadline:
-                raise
+def _exited(process: subprocess.Popen, block: bool = False) -> bool:
+    """True once `process` has exited, without reaping it where ``waitid`` exists (its pid stays taken).
+
+    With `block`, wait for that.
+    """
+    if not hasattr(os, "waitid"):  # macOS: Popen reaps it
+        if block:
+            process.wait()
+            return True
+        return process.poll() is not None
+    options = os.WEXITED | os.WNOWAIT | (0 if block else os.WNOHANG)
+    try:
+        return os.waitid(os.P_PID, process.pid, options) is not None
+    except ChildProcessError:  # already reaped (SIGCHLD ignored): nothing left to wait for
+        return True
+
+
+def _wait_for_exit(process: subprocess.Popen, timeout_s: float | None) -> None:
+    """Wait until the child has exited (not until its output closes).
+
+    Raises `subprocess.TimeoutExpired` at the deadline, and `_Cancelled` once
+    the task is cancelled (`task_cancelled`, polled every 0.2 s when the
+    executor set a probe).
+    """
+    probe = getattr(_task_context, "cancelled", None) is not None
+    if timeout_s is None and not probe:
+        _exited(process, block=True)
+        return
+    now = time.monotonic()
+    deadline = None if timeout_s is None else now + timeout_s
+    next_probe = now + _CANCEL_POLL_S
+    pause = 0.0005
+    while not _exited(process):
+        now = time.monotonic()
+        if deadline is not None and now >= deadline:
+            raise subprocess.TimeoutExpired(process.args, timeout_s)
+        if probe and now >= next_probe:
             if task_cancelled():
-                raise _Cancelled(process.args, timeout_s or 0.0) from None
+                raise _Cancelled(process.args, timeout_s or 0.0)
+            next_probe = now + _CANCEL_POLL_S
+        pause = min(2 * pause, _WAIT_POLL_S)
+        if deadline is not None:
+            pause = min(pause, max(deadline - now, 0.0))
+        time.sleep(pause)
+
+
+def _read_tail(stream: Any, cap: int) -> tuple[bytes, int]:
+    """The last `cap` bytes of a temporary output file, and its size.
+
+    Read with ``pread``, so that the offset it shares with a process that
+    escaped the group (and may still write) is left alone.
+    """
+    fd = stream.fileno()
+    size = os.fstat(fd).st_size
+    offset = first = max(0, size - cap)
+    chunks = []
+    while cap > 0:
+        chunk = os.pread(fd, min(cap, 1 << 20), offset)
+        if not chunk:
+            break
+        chunks.append(chunk)
+        offset += len(chunk)
+        cap -= len(chunk)
+    data = b"".join(chunks)
+    if first > 0:  # cut: drop the continuation bytes of a UTF-8 character split at the start
+        skip = 0
+        while skip < min(3, len(data)) and data[skip] & 0xC0 == 0x80:
+            skip += 1
+        data = data[skip:]
+    return data, size
 
 
 def _killpg(group: int) -> None:

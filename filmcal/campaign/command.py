@@ -25,6 +25,16 @@ numeric value, or NaN makes a failed run whose reason ends with the tail of
 the command's stderr. stdout and stderr are kept in the folder as
 ``stdout.txt`` and ``stderr.txt``.
 
+The run ends when the command's own process exits: a background process it
+leaves behind is killed then (one that left the process group with
+``setsid`` keeps running, without holding up the campaign). filmcal reads
+only the last 16 MiB (`filmcal._parallel.OUTPUT_CAP_BYTES`) of stdout and of
+stderr: of a longer stream, ``stdout.txt`` or ``stderr.txt`` holds that end,
+after a first line that gives the size written. A command that prints more
+than that on stdout, and writes no ``outputs.json``, makes a failed run (its
+answer is not read from part of its output): write large output to files,
+and the answer to ``outputs.json``.
+
 Placeholders are ``{name}`` with ``name`` a design column; ``{point_id}``
 and ``{work_dir}`` are also available. Other braces (``awk '{print $1}'``)
 are left as they are. Do not put a placeholder inside quotes in the
@@ -46,6 +56,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
 
+from filmcal import _parallel
 from filmcal._errors import InputError
 from filmcal._parallel import run_guarded
 from filmcal.campaign.design import DesignValue
@@ -120,6 +131,22 @@ def _exit_text(code: int) -> str:
     if 128 < code <= 128 + 64:
         return f"exit status {code}: killed by signal {code - 128} ({_signal_name(code - 128)})"
     return f"exit status {code}"
+
+
+def _size_text(n_bytes: int) -> str:
+    """A size in bytes as text: ``1000 bytes``, ``4.9 KiB``, ``400 MiB``, ``1.2 GiB``."""
+    for unit, scale in (("GiB", 2**30), ("MiB", 2**20), ("KiB", 2**10)):
+        if n_bytes >= scale:
+            return f"{n_bytes / scale:.1f}".removesuffix(".0") + " " + unit
+    return f"{n_bytes} bytes"
+
+
+def _kept_output(text: str, truncated: bool, n_bytes: int) -> str:
+    """An output stream as saved in the point's folder: a truncated one says so on its first line."""
+    if not truncated:
+        return text
+    return (f"[filmcal: the command wrote {_size_text(n_bytes)} here; only the last "
+            f"{_size_text(_parallel.OUTPUT_CAP_BYTES)} were read and are kept below]\n{text}")
 
 
 def _tail(text: str) -> str:
@@ -275,8 +302,10 @@ class CommandModel:
         Raises
         ------
         ModelFailure
-            Non-zero exit, timeout, no JSON object or no numeric value; the
-            message ends with the tail of stderr.
+            Non-zero exit, timeout, no JSON object, no numeric value, or
+            more output on stdout than filmcal reads when the answer is to be
+            read from it (no ``outputs.json``); the message ends with the tail
+            of stderr.
         """
         if point_id is None:
             point_id = hashlib.sha256(json.dumps(dict(params), sort_keys=True).encode()).hexdigest()[:16]
@@ -294,8 +323,10 @@ class CommandModel:
         command = render_template(self.template, values, quote=True)
         env = {**os.environ, "FILMCAL_POINT_ID": point_id, "FILMCAL_WORK_DIR": str(work_dir)}
         run = run_guarded(command, shell=True, cwd=work_dir, timeout_s=self.timeout_s, env=env)
-        (work_dir / "stdout.txt").write_text(run.stdout, encoding="utf-8")
-        (work_dir / "stderr.txt").write_text(run.stderr, encoding="utf-8")
+        (work_dir / "stdout.txt").write_text(_kept_output(run.stdout, run.stdout_truncated, run.stdout_bytes),
+                                             encoding="utf-8")
+        (work_dir / "stderr.txt").write_text(_kept_output(run.stderr, run.stderr_truncated, run.stderr_bytes),
+                                             encoding="utf-8")
         stderr = _tail(run.stderr)
         said = f"; stderr: {stderr}" if stderr else ""
         if run.timed_out:
@@ -311,6 +342,10 @@ class CommandModel:
             if not isinstance(obj, dict):
                 raise ModelFailure(f"{OUTPUTS_FILE} holds a {type(obj).__name__}, not a JSON object{said}")
         else:
+            if run.stdout_truncated:  # its JSON object cannot be told from a part of one
+                raise ModelFailure(f"the command wrote {_size_text(run.stdout_bytes)} on stdout, more than the "
+                                   f"{_size_text(_parallel.OUTPUT_CAP_BYTES)} filmcal reads (write the outputs "
+                                   f"to {OUTPUTS_FILE} instead, or print less){said}")
             obj = _json_object(run.stdout)
             if obj is None:
                 shown = _tail(run.stdout) or "nothing"

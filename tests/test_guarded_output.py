@@ -1,0 +1,129 @@
+"""External commands' output: a run ends with the command, not with its leftovers, and reads a bounded amount.
+
+`filmcal._parallel.run_guarded` waits for the command's own process (its
+output goes to temporary files, not pipes that a background child would keep
+open) and reads back at most the last `OUTPUT_CAP_BYTES` of each stream; a
+campaign point whose JSON answer would be read from a truncated stdout fails
+with the size in its reason.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+import filmcal._parallel as parallel
+from filmcal._parallel import SerialExecutor, pid_alive, run_guarded
+from filmcal.campaign import Campaign, CommandModel, RunStore
+from filmcal.campaign.command import ModelFailure
+
+
+def wait_dead(pid: int, within_s: float = 3.0) -> bool:
+    deadline = time.monotonic() + within_s
+    while pid_alive(pid) and time.monotonic() < deadline:
+        time.sleep(0.02)
+    return not pid_alive(pid)
+
+
+def run_point(tmp_path: Path, script: str, timeout_s: float | None = 30) -> tuple:
+    """Run `script` (Python) as a one-point campaign; return its stored record and its work folder."""
+    (tmp_path / "model.py").write_text(script + "\n")
+    model = CommandModel(f"{sys.executable} {tmp_path / 'model.py'} {{x}}", tmp_path / "work", timeout_s=timeout_s)
+    Campaign(model, tmp_path / "runs.sqlite", settings=model.settings(), executor=SerialExecutor(),
+             group_by=()).run([{"x": 1.0}], progress=False)
+    with RunStore(tmp_path / "runs.sqlite", readonly=True) as store:
+        (record,) = store.records()
+    (folder,) = (tmp_path / "work").iterdir()
+    return record, folder
+
+
+@pytest.mark.parametrize("timeout_s", [None, 10.0])
+def test_a_background_child_neither_holds_up_the_point_nor_outlives_it(tmp_path, timeout_s):
+    model = CommandModel("sleep 30 & echo $! > bg.pid; echo '{\"contact_radius_mm\": 1.0}'", tmp_path / "work",
+                         timeout_s=timeout_s)
+    start = time.monotonic()
+    outputs = model({"x": 1.0}, point_id="p1")
+    assert time.monotonic() - start < 8.0  # it used to wait the 30 s of the child (a timeout with a deadline)
+    assert outputs == {"contact_radius_mm": 1.0}
+    background = int((tmp_path / "work" / "p1" / "bg.pid").read_text())
+    assert wait_dead(background)  # killed with the command's process group
+
+
+def test_a_grandchild_that_left_the_group_does_not_hold_up_the_run(tmp_path):
+    escape = "import os, pathlib, time; os.setsid(); pathlib.Path('escaped.pid').write_text(str(os.getpid())); time.sleep(30)"
+    command = (f"{sys.executable} -c \"{escape}\" & "
+               "while [ ! -s escaped.pid ]; do sleep 0.01; done; echo done")
+    start = time.monotonic()
+    try:
+        run = run_guarded(command, shell=True, cwd=tmp_path, timeout_s=10)
+        assert time.monotonic() - start < 8.0
+        assert (run.returncode, run.stdout, run.timed_out) == (0, "done\n", False)
+    finally:
+        pid_file = tmp_path / "escaped.pid"
+        if pid_file.exists() and pid_file.read_text():
+            try:
+                os.kill(int(pid_file.read_text()), signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+
+
+def test_a_cancelled_task_still_stops_its_command(tmp_path):
+    parallel._task_context.cancelled = lambda: True
+    try:
+        start = time.monotonic()
+        run = run_guarded("sleep 30 & echo $! > bg.pid; wait", shell=True, cwd=tmp_path)
+    finally:
+        parallel._task_context.cancelled = None
+    assert run.timed_out and run.returncode is None
+    assert time.monotonic() - start < 5.0
+    assert wait_dead(int((tmp_path / "bg.pid").read_text()))
+
+
+def test_run_guarded_keeps_the_end_of_a_stream_longer_than_the_cap(tmp_path, monkeypatch):
+    monkeypatch.setattr(parallel, "OUTPUT_CAP_BYTES", 1000)
+    run = run_guarded([sys.executable, "-c", "import sys; print('x' * 6000); print('{\"r_mm\": 1.0}'); "
+                       "sys.stderr.write('é' * 1000 + 'a')"])
+    assert (run.stdout_bytes, run.stdout_truncated, len(run.stdout.encode())) == (6015, True, 1000)
+    assert run.stdout.endswith('x\n{"r_mm": 1.0}\n')
+    # 2001 bytes, cut inside a character: the partial character is dropped, not replaced
+    assert (run.stderr_bytes, run.stderr_truncated, run.stderr) == (2001, True, "é" * 499 + "a")
+    small = run_guarded([sys.executable, "-c", "print('x' * 998)"])  # 999 bytes: all of it
+    assert (small.stdout_bytes, small.stdout_truncated, small.stdout) == (999, False, "x" * 998 + "\n")
+
+
+def test_more_stdout_than_filmcal_reads_fails_the_point_with_its_size(tmp_path, monkeypatch):
+    monkeypatch.setattr(parallel, "OUTPUT_CAP_BYTES", 1000)
+    record, folder = run_point(tmp_path, "print('x' * 6000); print('{\"r_mm\": 1.0}')")
+    assert record.status == "failed", record.outputs
+    assert "the command wrote 5.9 KiB on stdout, more than the 1000 bytes filmcal reads" in record.reason
+    saved = (folder / "stdout.txt").read_text()
+    assert saved.startswith("[filmcal: the command wrote 5.9 KiB here; only the last 1000 bytes were read")
+    assert saved.endswith('{"r_mm": 1.0}\n') and len(saved) < 1200
+
+
+def test_long_output_is_fine_when_the_answer_is_in_outputs_json(tmp_path, monkeypatch):
+    monkeypatch.setattr(parallel, "OUTPUT_CAP_BYTES", 1000)
+    record, _ = run_point(tmp_path, "import sys; open('outputs.json', 'w').write('{\"r_mm\": 4.0}'); "
+                                    "print('x' * 6000); sys.stderr.write('y' * 6000)")
+    assert (record.status, record.outputs) == ("ok", {"r_mm": 4.0})
+
+
+def test_a_failure_with_long_stderr_reports_its_end(tmp_path, monkeypatch):
+    monkeypatch.setattr(parallel, "OUTPUT_CAP_BYTES", 1000)
+    record, folder = run_point(tmp_path, "import sys; print('x' * 6000); "
+                                         "sys.stderr.write('\\n'.join(f'line {i}' for i in range(500))); sys.exit(1)")
+    assert record.status == "failed"
+    assert "exit status 1); stderr: line 495 | line 496 | line 497 | line 498 | line 499" in record.reason
+    assert "wrote" not in record.reason  # the exit status is the reason, not the long stdout
+    assert (folder / "stderr.txt").read_text().startswith("[filmcal: the command wrote 4.3 KiB here")
+
+
+def test_a_model_failure_names_the_size_when_called_directly(tmp_path, monkeypatch):
+    monkeypatch.setattr(parallel, "OUTPUT_CAP_BYTES", 2**20)
+    model = CommandModel(f"{sys.executable} -c \"print('x' * (3 * 2**20))\"", tmp_path / "work")
+    with pytest.raises(ModelFailure, match=r"wrote 3 MiB on stdout, more than the 1 MiB filmcal reads"):
+        model({"x": 1.0}, point_id="p1")
