@@ -3,7 +3,10 @@
 - Atomic writes: the data go to a temporary file in the destination's folder,
   are flushed to disk (``fsync``) and then renamed over the destination, so a
   reader sees the old file or the new one, never a truncated one, and a kill
-  in the middle leaves no partial file under the final name.
+  in the middle leaves no partial file under the final name. A failed write
+  (a full disk, say) removes the temporary file, and its `OSError` names the
+  destination, not the temporary file. `atomic_path` yields a path to write
+  to, `atomic_open` an open file, `atomic_savefig` saves a matplotlib figure.
 - `read_json`: a JSON file whose damage is reported with the file's name.
 - `sha256_file`: the hash of a file, read in blocks.
 - Path checks to run before any work starts: an output file that is not a
@@ -16,19 +19,20 @@ Errors are `filmcal._errors.InputError` (a path option that cannot work) and
 from __future__ import annotations
 
 import contextlib
+import errno
 import hashlib
 import json
 import os
 import stat
 import tempfile
 from pathlib import Path
-from typing import Any, Iterator
+from typing import IO, Any, Iterator
 
 from filmcal._errors import InputError, damaged
 from filmcal._json import json_safe
 
 __all__ = [
-    "atomic_path", "atomic_write_bytes", "atomic_write_text", "atomic_write_json",
+    "atomic_path", "atomic_open", "atomic_savefig", "atomic_write_bytes", "atomic_write_text", "atomic_write_json",
     "read_json", "sha256_file", "canonical_json", "json_hash",
     "check_output_file", "check_output_dir", "check_input_file", "INPUT_FILE_MAX_MIB",
 ]
@@ -66,6 +70,25 @@ def _fsync_dir(folder: Path) -> None:
         os.close(fd)
 
 
+#: Errors of a write that found no room: whatever raised them, they are about the file being written.
+_NO_SPACE = tuple(getattr(errno, name) for name in ("ENOSPC", "EDQUOT", "EFBIG") if hasattr(errno, name))
+
+
+def _name_destination(exc: OSError, path: Path, tmp_name: str | None) -> None:
+    """Make `exc` name `path`, the file being written, in place of its temporary file or of nothing.
+
+    A full disk met by ``write`` or ``fsync`` carries no file name, and an
+    error on the temporary file names a file the user never asked for and
+    that no longer exists.
+    """
+    named = exc.filename
+    if tmp_name is not None and isinstance(named, (str, os.PathLike)) \
+            and os.path.normpath(os.fspath(named)) == os.path.normpath(tmp_name):
+        exc.filename, exc.filename2 = str(path), None
+    elif named is None and exc.errno in _NO_SPACE:
+        exc.filename = str(path)
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside `path`; on success move it over `path`.
@@ -74,7 +97,8 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     write to the yielded path inside the ``with`` block. The temporary name
     keeps `path`'s suffix, so libraries that add or check a suffix behave.
     On an exception (or Ctrl-C) the temporary file is removed and `path` is
-    left as it was.
+    left as it was; an `OSError` of the write (no space left, say) is made
+    to name `path`.
 
     Parameters
     ----------
@@ -88,7 +112,11 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{path.suffix}", dir=folder)
+    try:
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{path.suffix}", dir=folder)
+    except OSError as exc:  # the folder refuses, or has no room even for an empty file
+        _name_destination(exc, path, None if exc.filename is None else os.fspath(exc.filename))
+        raise
     os.close(fd)
     tmp = Path(tmp_name)
     try:
@@ -97,19 +125,57 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
             os.fsync(fh.fileno())
         os.chmod(tmp, _final_mode(path))  # mkstemp makes 0600 files
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(OSError):
             tmp.unlink()
+        if isinstance(exc, OSError):
+            _name_destination(exc, path, tmp_name)
         raise
     _fsync_dir(folder)
 
 
+@contextlib.contextmanager
+def atomic_open(path: str | os.PathLike[str], mode: str = "w", **kwargs: Any) -> Iterator[IO[Any]]:
+    """Yield a file open for writing on a temporary path beside `path`; on success move it over `path`.
+
+    For writers that take an open file (``csv.writer``, ``numpy.savez``,
+    ``savefig``). The file is closed, flushed to disk and renamed when the
+    ``with`` block ends; on an exception the temporary file is removed and
+    `path` is left as it was (see `atomic_path`).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The final file name.
+    mode : {"w", "wb"}, optional
+        Text (default) or binary.
+    **kwargs
+        Passed to `open` (``newline``, ``encoding``).
+    """
+    if mode not in ("w", "wb"):
+        raise ValueError(f"atomic_open writes a new file: mode must be 'w' or 'wb', got {mode!r}")
+    with atomic_path(path) as tmp, open(tmp, mode, **kwargs) as fh:
+        yield fh
+
+
+def atomic_savefig(fig: Any, path: str | os.PathLike[str], **kwargs: Any) -> Path:
+    """Save a matplotlib figure to `path` atomically (see `atomic_open`); return the path.
+
+    The format is `path`'s suffix (``.png``, ``.pdf``, ``.svg``), or
+    matplotlib's default (``savefig.format``, PNG) for a name without one,
+    unless ``format`` is given; the file is written under exactly the name
+    given. Other keywords (``dpi``) go to ``Figure.savefig``.
+    """
+    kwargs.setdefault("format", Path(path).suffix[1:] or fig.canvas.get_default_filetype())
+    with atomic_open(path, "wb") as fh:
+        fig.savefig(fh, **kwargs)
+    return Path(path)
+
+
 def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
     """Write `data` to `path` atomically (temporary file, fsync, rename); return the path."""
-    with atomic_path(path) as tmp:
-        with open(tmp, "wb") as fh:
-            fh.write(data)
-            fh.flush()
+    with atomic_open(path, "wb") as fh:
+        fh.write(data)
     return Path(path)
 
 

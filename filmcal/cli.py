@@ -418,14 +418,22 @@ def _os_message(exc: OSError, args: argparse.Namespace, options: dict[str, str])
     return f"{label}: {what}; {advice}"
 
 
-def _full_disk(exc: BaseException) -> str | None:
-    """The one line for a write that found no space (ENOSPC, or a disk quota) anywhere in the error's chain."""
+def _full_disk(exc: BaseException, args: argparse.Namespace | None = None,
+               options: dict[str, str] | None = None) -> str | None:
+    """The one line for a write that found no space (ENOSPC, or a disk quota) anywhere in the error's chain.
+
+    It names the file being written (``filmcal._io``'s atomic writers put it
+    on the error), with the option that gave it, and advises no deletion: an
+    atomic write leaves the old file whole and no temporary file behind.
+    """
     seen: list[BaseException] = []
     current: BaseException | None = exc
     while current is not None and current not in seen:
         seen.append(current)
         if isinstance(current, OSError) and current.errno in (errno.ENOSPC, errno.EDQUOT):
-            where = f" writing {current.filename}" if current.filename else ""
+            name = os.fsdecode(current.filename) if isinstance(current.filename, (str, bytes, os.PathLike)) else ""
+            option = _given_by(name, args, options or {}) if name and args is not None else None
+            where = f" writing {option + ' ' if option else ''}{name!r}" if name else ""
             return (f"no space left on the device{where}: free some space and run again (no file was damaged, "
                     "and a study resumes where it stopped)")
         current = current.__cause__ or current.__context__
@@ -435,7 +443,7 @@ def _full_disk(exc: BaseException) -> str | None:
 def user_error_message(exc: BaseException, args: argparse.Namespace, options: dict[str, str]) -> str | None:
     """One line for a failure that is the user's input or files; None for an internal error."""
     name = type(exc).__name__
-    full = _full_disk(exc)
+    full = _full_disk(exc, args, options)
     if full is not None:  # before any "damaged" reading: a full disk damages nothing, and nothing is to delete
         return full
     if isinstance(exc, DamagedFileError):

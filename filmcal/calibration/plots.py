@@ -19,6 +19,7 @@ from matplotlib.axis import Axis
 from matplotlib.figure import Figure
 from matplotlib.ticker import FixedLocator, FuncFormatter, MaxNLocator, NullFormatter, NullLocator
 
+from filmcal._io import atomic_savefig
 from filmcal.calibration.posterior import CalibrationResult
 
 __all__ = ["plot_trace", "plot_corner", "plot_case_intervals", "plot_predictive", "case_labels", "parameter_label",
@@ -89,9 +90,10 @@ def case_labels(sphere_radius_mm: np.ndarray, force_n: np.ndarray) -> list[str]:
 
 
 def _save(fig: Figure, path: str | Path | None, dpi: int) -> Figure:
-    """Write ``fig`` as PNG when a path is given; return the figure."""
+    """Write ``fig`` (whole or not at all) when a path is given, as PNG unless its suffix says otherwise;
+    return the figure."""
     if path is not None:
-        fig.savefig(Path(path), dpi=dpi)
+        atomic_savefig(fig, path, dpi=dpi)
     return fig
 
 

@@ -125,7 +125,7 @@ def _rough_progress(mode: str, smooth: bool):
 
 def run_batch(args: argparse.Namespace) -> int:
     """Correct every row of --batch into --out; exit 1 when some rows failed."""
-    from filmcal._io import atomic_path, atomic_write_json
+    from filmcal._io import atomic_open, atomic_write_json
     from filmcal.study import Study
     from filmcal.study.batch import OUTPUT_COLUMNS, correct_batch, read_batch
 
@@ -146,7 +146,7 @@ def run_batch(args: argparse.Namespace) -> int:
                                         progress=lambda k, n: stage.advance())
     import csv
 
-    with atomic_path(args.out) as tmp, open(tmp, "w", newline="") as fh:
+    with atomic_open(args.out, "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=header + list(OUTPUT_COLUMNS))
         writer.writeheader()
         writer.writerows(out)

@@ -99,9 +99,10 @@ def run(args: argparse.Namespace) -> int:
     if args.csv:
         write_curves_csv(args.csv, rows)
     if args.plot:
+        from filmcal._io import atomic_savefig
         from filmcal.report.figures import plot_area_curves
 
-        plot_area_curves([dict(zip(CURVE_COLUMNS, r)) for r in rows], film).savefig(args.plot, dpi=120)
+        atomic_savefig(plot_area_curves([dict(zip(CURVE_COLUMNS, r)) for r in rows], film), args.plot, dpi=120)
     rough_note = ("the rough rows use the representative draw of the roughness inputs: their bands do not hold the "
                   "inputs' spread (filmcal correct with the same roughness carries it)") if len(wheels) > 1 else None
     if args.json:

@@ -6,7 +6,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from filmcal._io import atomic_path
 from filmcal._validation import arg_int_in
 from filmcal.commands._common import print_json
 from filmcal.commands._options import add, bounds_text, local
@@ -84,8 +83,7 @@ def run(args: argparse.Namespace) -> int:
                                 seed=args.seed, n_outer=args.iterations)
     else:
         design = latin_design(space, args.samples, seed=args.seed, n_outer=args.iterations)
-    with atomic_path(args.out) as tmp:  # whole or not at all
-        write_design_csv(tmp, space.names, design.points)
+    write_design_csv(args.out, space.names, design.points)  # whole or not at all
     quality = design.quality
     if args.json:
         print_json({**quality.as_dict(), "elapsed_s": design.elapsed_s,

@@ -8,7 +8,7 @@ from typing import TextIO
 
 import numpy as np
 
-from filmcal._io import atomic_path
+from filmcal._io import atomic_open, atomic_savefig
 from filmcal._validation import check_range
 from filmcal.commands._common import print_json
 from filmcal.commands._options import add, local
@@ -78,7 +78,7 @@ def plot_profile(profile: Profile, y_mm: np.ndarray, z_mm: np.ndarray, path: str
     ax.set_title(f"{profile.name} ({profile.kind})")
     ax.grid(True, lw=0.3)
     ax.legend(loc="best", fontsize=8)
-    fig.savefig(path, dpi=150)
+    atomic_savefig(fig, path, dpi=150)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -87,11 +87,10 @@ def run(args: argparse.Namespace) -> int:
     profile = _load(args.name, args.kind)
     y, z = profile.points(step)
     if args.out:
-        with atomic_path(args.out) as tmp, open(tmp, "w", newline="") as fh:
+        with atomic_open(args.out, "w", newline="") as fh:
             write_points_csv(y, z, fh)
     if args.plot:
-        with atomic_path(args.plot) as tmp:
-            plot_profile(profile, y, z, tmp)
+        plot_profile(profile, y, z, args.plot)
     if args.json:
         joints = profile.joints()
         print_json({

@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from filmcal._io import atomic_path
+from filmcal._io import atomic_open
 from filmcal.correction.moduli import modulus_grid
 from filmcal.wheelrail.wheelrail import get_wheel_rail_model
 
@@ -322,7 +322,7 @@ def curve_table(film: str, components, offsets_mm, forces_kn, wheels=(None,), wo
 def write_curves_csv(path: str | Path, rows: list[list]) -> Path:
     """Write curve rows with the `CURVE_COLUMNS` header, whole or not at all."""
     path = Path(path)
-    with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
+    with atomic_open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(CURVE_COLUMNS)
         w.writerows(rows)

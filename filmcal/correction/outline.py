@@ -460,9 +460,11 @@ class CorrectedOutline:
         return out
 
     def write_csv(self, path) -> Path:
-        """Write `rows` as CSV with the header ``part,ring,x_mm,y_mm``; returns the path."""
+        """Write `rows` as CSV with the header ``part,ring,x_mm,y_mm`` (whole or not at all); returns the path."""
+        from filmcal._io import atomic_open
+
         path = Path(path)
-        with open(path, "w", newline="", encoding="utf-8") as fh:
+        with atomic_open(path, "w", newline="", encoding="utf-8") as fh:
             writer = csv.writer(fh)
             writer.writerow(["part", "ring", "x_mm", "y_mm"])
             writer.writerows((p, k, f"{x:.5f}", f"{y:.5f}") for p, k, x, y in self.rows())

@@ -313,10 +313,10 @@ def write_sheet_table(sheet: Sheet, path, *, film: str = "", force_kn: float | N
     """Write `Sheet.rows` as CSV (atomically), with a ``#`` comment line saying what the numbers are."""
     import csv
 
-    from filmcal._io import atomic_path
+    from filmcal._io import atomic_open
     from filmcal._versions import __version__
 
-    with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
+    with atomic_open(path, "w", newline="") as fh:
         fh.write(f"# filmcal {__version__} scan of {sheet.path.name}: {len(sheet.imprints)} imprints, "
                  f"{sheet.pixel_size_mm:.5g} mm per pixel ({sheet.pixel_size_source}), turned {sheet.rotate_deg} "
                  "deg; measured_area_mm2 is the dense core's, the halo is beside it\n")
@@ -333,7 +333,7 @@ def plot_sheet(sheet: Sheet, path) -> None:
     """
     from matplotlib.figure import Figure
 
-    from filmcal._io import atomic_path
+    from filmcal._io import atomic_savefig
 
     pixels, _ = load_scan(sheet.path, MAX_SHEET_PIXELS)
     page = np.rot90(pixels, sheet.rotate_deg // 90)
@@ -380,8 +380,7 @@ def plot_sheet(sheet: Sheet, path) -> None:
                      + ("" if imp.status == "ok" else " (cut off)"), fontsize=9)
         zx.set_xticks([])
         zx.set_yticks([])
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110)
+    atomic_savefig(fig, path, dpi=110)  # the format from path's suffix, not the temporary file's
 
 
 def scan_sheet(path, out, overview, *, dpi: float | None = None, mm_per_pixel: float | None = None,

@@ -12,6 +12,7 @@ from os import PathLike
 
 import numpy as np
 
+from filmcal._io import atomic_open
 from filmcal.doe.lhs import N_OUTER_DEFAULT, OptimalLatinHypercube, SeedLike, _check_count
 from filmcal.doe.metrics import DesignQuality, design_quality
 from filmcal.doe.space import DesignSpace
@@ -127,11 +128,11 @@ def augment_design(space: DesignSpace, existing: np.ndarray, samples: int, *,
 
 def write_design_csv(path: str | PathLike, names: tuple[str, ...] | list[str],
                      points: np.ndarray) -> None:
-    """Write a design as CSV: a header of `names`, one row per point."""
+    """Write a design as CSV: a header of `names`, one row per point (whole or not at all)."""
     points = np.asarray(points, dtype=float)
     if points.ndim != 2 or points.shape[1] != len(names):
         raise ValueError(f"points must have shape (n, {len(names)}), got {points.shape}")
-    with open(path, "w", newline="") as handle:
+    with atomic_open(path, "w", newline="") as handle:
         writer = csv.writer(handle)
         writer.writerow(names)
         writer.writerows([[repr(float(v)) for v in row] for row in points])

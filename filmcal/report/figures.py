@@ -12,6 +12,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.ticker import FuncFormatter, MaxNLocator
 
+from filmcal._io import atomic_savefig
 from filmcal.calibration.plots import readable_log_axis
 
 __all__ = ["plot_pressure_profile", "plot_pressure_profiles", "plot_hertz_verification",
@@ -64,7 +65,7 @@ def plot_pressure_profile(result, path: str) -> None:
     ax.set_title(f"Sphere R{result.sphere_radius_mm:g} on flat, F = {result.force_n / 1e3:g} kN")
     ax.legend(fontsize=8)
     ax.grid(lw=0.3)
-    fig.savefig(path, dpi=120)
+    atomic_savefig(fig, path, dpi=120)
 
 
 def plot_pressure_profiles(profiles: dict, radius_mm: float, force_n: float) -> Figure:

@@ -27,7 +27,7 @@ import numpy as np
 import sklearn
 from sklearn.utils.validation import check_is_fitted
 
-from filmcal._io import atomic_write_text
+from filmcal._io import atomic_open, atomic_write_text
 from filmcal._versions import __version__
 from filmcal.surrogate.gp import GPSurrogate
 from filmcal.surrogate.kernels import kernel_from_dict, kernel_to_dict
@@ -107,8 +107,9 @@ def save_surrogate(surrogate: GPSurrogate, path: str | Path) -> tuple[Path, Path
         "restart_log_marginal_likelihoods": [float(v) if math.isfinite(v) else None for v in restarts],
     }
     json_path.parent.mkdir(parents=True, exist_ok=True)
-    np.savez(npz_path, X_train=np.asarray(surrogate.X_train_, dtype=np.float64),
-             y_train=np.asarray(surrogate.y_train_, dtype=np.float64))
+    with atomic_open(npz_path, "wb") as fh:  # an open file: savez adds no ".npz" to the temporary name
+        np.savez(fh, X_train=np.asarray(surrogate.X_train_, dtype=np.float64),
+                 y_train=np.asarray(surrogate.y_train_, dtype=np.float64))
     # the JSON last and whole: its presence means both files are complete
     atomic_write_text(json_path, json.dumps(meta, indent=2, allow_nan=False) + "\n")
     return json_path, npz_path

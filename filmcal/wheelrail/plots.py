@@ -11,6 +11,8 @@ def plot_pressure_map(result, path: str | Path) -> None:
     import numpy as np
     from matplotlib.figure import Figure
 
+    from filmcal._io import atomic_savefig
+
     grid = result.grid
     x = grid.x_mm
     y = result.grid_track_y_mm
@@ -31,4 +33,4 @@ def plot_pressure_map(result, path: str | Path) -> None:
                  f"A = {result.area_mm2:.1f} mm2, p_max = {result.max_pressure_mpa:.0f} MPa",
                  fontsize=9)
     ax.legend(loc="upper right", fontsize=7, framealpha=0.6)
-    fig.savefig(path, dpi=150)
+    atomic_savefig(fig, path, dpi=150)
