@@ -23,7 +23,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add(film, "film_modulus_mpa")
     local(film, "--no-film", action="store_true", help="steel on steel, no film")
     add(p, "film_poisson", extra=f"(default: the film type's, else {FILM_POISSON:g})")
-    add(p, "film_thickness_mm", extra=f"(default: the film type's, else {FILM_THICKNESS_MM:g} mm)")
+    add(p, "film_thickness_mm", extra=f"(default: the film type's, else {FILM_THICKNESS_MM:g} mm); the FE resolves "
+        "a film at least element size / 10 thick (0.01 mm at the default mesh)")
     local(p, "--film-layers", type=int, default=FILM_LAYERS,
           help=f"element layers through the film (default {FILM_LAYERS}; the paper used 1)")
     add_contact_options(p)
@@ -72,12 +73,17 @@ def run(args: argparse.Namespace) -> int:
     film = None if args.no_film else Film(args.film_modulus_mpa, poisson)
     options = contact_options(args)
     mesh = MeshSettings() if args.element_size_mm is None else MeshSettings(element_size_mm=args.element_size_mm)
+    if film is not None:  # a film thinner than the mesh resolves: refused before the model is built
+        from filmcal.fem.model import check_film_thickness
+        check_film_thickness(thickness, mesh.element_size_mm, args.film_layers)
     res = solve_sphere_on_flat(args.sphere_radius_mm, args.force_kn * 1e3, film, options, mesh,
                                thickness, args.film_layers, film_type=film_type, imprint_model=args.imprint_model)
     if args.pressure_csv:
         import numpy as np
-        np.savetxt(args.pressure_csv, np.column_stack([res.r_mm, res.pressure_mpa, res.film_strain]),
-                   delimiter=",", header="r_mm,pressure_mpa,film_strain", comments="", fmt="%.8g")
+        from filmcal._io import atomic_open
+        with atomic_open(args.pressure_csv, "w") as fh:
+            np.savetxt(fh, np.column_stack([res.r_mm, res.pressure_mpa, res.film_strain]),
+                       delimiter=",", header="r_mm,pressure_mpa,film_strain", comments="", fmt="%.8g")
     if args.plot:
         from filmcal.report.figures import plot_pressure_profile
         plot_pressure_profile(res, args.plot)
