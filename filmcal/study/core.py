@@ -527,6 +527,7 @@ class Study:
             path = self.layout.posterior(spec_key(full))
             if self.verified(path):
                 results[i] = (load_result(path), path, full)
+                self._heal_surrogate(spec, film, path, workers)
             else:
                 todo.append((i, spec, film, data, full, path))
         if not todo:
@@ -561,6 +562,41 @@ class Study:
 
         run_tasks(tasks, workers, record)
         return [results[i] for i in range(len(specs))]
+
+    def _heal_surrogate(self, spec: CalibrationSpec, film: FilmType, posterior: Path, workers) -> None:
+        """Refit the surrogate a reused posterior was calibrated with when its files are missing.
+
+        The surrogate is fitted again from the study's recorded FE runs, with
+        its seed, so that the sphere corrections and the report, which read it,
+        work again; said in one line (`RebuiltNote`) and recorded in the
+        manifest's ``rebuilt`` list. A reader (no writer lock) leaves it.
+        """
+        if not self._lock.held:
+            return
+        key = (self.manifest.entry(self.layout.relative(posterior)) or {}).get("surrogate")
+        if key is None:
+            return
+        stem = self.layout.surrogate(key)
+        files = (stem.with_name(stem.name + ".json"), stem.with_name(stem.name + ".npz"),
+                 self.layout.surrogate_validation(key))
+        missing = [p for p in files if not p.exists()]
+        if not missing:
+            return
+        column = output_column(spec.imprint, film.name)
+        if spec_key(self._radius_spec(spec.fe, column)) != key:
+            return  # made under settings that no longer give this key: not this study's to remake
+        for p in files:  # the set is remade whole: its other files (checked to be the study's own) go first
+            if p.exists():
+                self.verified(p)
+                p.unlink()
+            self.manifest.forget(self.layout.relative(p))
+        self.radius_models([(spec.fe, column)], workers)
+        self.manifest.data.setdefault("rebuilt", []).append(
+            {"artefact": f"surrogates/{key}", "missing": [p.name for p in missing], "when_utc": utc_now()})
+        self.manifest.write()
+        warnings.warn(RebuiltNote(f"{', '.join(p.name for p in missing)} of surrogate {key} (used by "
+                                  f"{posterior.name}) was missing: refitted from the study's recorded FE runs"),
+                      stacklevel=2)
 
     def spec_like_pipeline(self, film: str, model: str = "edge/small", loads: str | None = None) -> CalibrationSpec:
         """The calibration of `film` under `model` ("imprint/kinematics") with the study's own sizes.
@@ -745,6 +781,10 @@ class Study:
         path, spec = found[0]
         self.verified(path)
         return load_result(path), path, spec
+
+
+class RebuiltNote(UserWarning):
+    """A missing artefact was made again by the stage that makes it (what, and from what)."""
 
 
 class DomainNote(UserWarning):

@@ -280,7 +280,14 @@ def planned_seconds(settings: PipelineSettings, n_films: int, n_specs: int, repo
 
 
 def _summarise_warnings(st, name: str, caught: list) -> None:
-    """Libraries' warnings of a stage as one line (numerical notes, e.g. a GP restart that did not converge)."""
+    """A stage's own notes (a missing artefact made again, a design extended) one line each, then the
+    libraries' warnings as one line (numerical notes, e.g. a GP restart that did not converge)."""
+    from filmcal.study.core import DomainNote, RebuiltNote
+
+    for w in caught:
+        if isinstance(w.message, (RebuiltNote, DomainNote)):
+            st.log(f"[{name}] note: {w.message}")
+    caught = [w for w in caught if not isinstance(w.message, (RebuiltNote, DomainNote))]
     if not caught:
         return
     kinds = sorted({type(w.message).__name__ if isinstance(w.message, Warning) else w.category.__name__
