@@ -4,6 +4,7 @@ from __future__ import annotations
 import hashlib
 import json
 import shutil
+from pathlib import Path
 
 from filmcal import cli
 
@@ -43,3 +44,24 @@ def test_a_deleted_surrogate_is_refitted_the_same_and_said(quick_study, tmp_path
     assert rebuilt[-1]["artefact"] == f"surrogates/{key}" and rebuilt[-1]["missing"] == [f"{key}.npz"]
     assert _sphere_correction(capsys, copy) == _sphere_correction(capsys, study) | {
         "provenance": _sphere_correction(capsys, copy)["provenance"]}
+
+
+def test_rough_laws_are_artefacts_that_a_rerun_reads_instead_of_recomputing(quick_study, tmp_path, capsys):
+    """The rough wheel's boundary-element laws are kept as they are computed: a curves stage run again (after
+    an interrupt, or its curves lost) reads them and gives the same curves to the last digit."""
+    study, _, _ = quick_study
+    copy = tmp_path / "s"
+    shutil.copytree(study, copy)
+    laws = {p.name: (_sha(p), p.stat().st_mtime_ns) for p in (copy / "roughlaws").glob("*.npz")}
+    assert laws  # the quick pipeline has a rough wheel
+    manifest = json.loads((copy / "study.json").read_text())
+    kinds = {Path(rel).name: e["kind"] for rel, e in manifest["artefacts"].items() if rel.startswith("roughlaws/")}
+    assert set(kinds) == set(laws) and set(kinds.values()) == {"rough-law"}
+    before = (copy / "curves" / "curves-HS.csv").read_bytes()
+    shutil.rmtree(copy / "curves")
+    assert cli.main(["pipeline", "--quick", "--films", "HS", "--study-dir", str(copy), "--no-report",
+                     "--progress", "log"]) == 0
+    err = capsys.readouterr().err
+    assert "pressure-closure laws (BEM)" not in err  # none computed
+    assert {p.name: (_sha(p), p.stat().st_mtime_ns) for p in (copy / "roughlaws").glob("*.npz")} == laws
+    assert (copy / "curves" / "curves-HS.csv").read_bytes() == before

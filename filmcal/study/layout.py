@@ -87,6 +87,10 @@ class StudyLayout:
     def curves(self, film: str) -> Path:
         return self.root / "curves" / f"curves-{film}.csv"
 
+    def rough_law(self, key: str) -> Path:
+        """A rough body's boundary-element law against a film at one modulus (`filmcal.contact.rough_law_file`)."""
+        return self.root / "roughlaws" / f"{key}.npz"
+
     def curves_part(self, key: str) -> Path:
         """One film and wheel's finished curve rows, kept until the film's CSV is complete."""
         return self.root / "curves" / f"part-{key}.json"

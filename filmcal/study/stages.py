@@ -509,22 +509,47 @@ def _curves_stage(study: Study, settings: PipelineSettings, films, workers, st):
 
 
 def _rough_laws(study: Study, settings: PipelineSettings, components: dict, films: list, workers, st) -> dict:
-    """The rough wheel's pressure-closure laws (BEM) at the moduli each film's curves solve at, in parallel:
-    ``{film: {modulus: law}}``."""
+    """The rough wheel's pressure-closure laws (BEM) at the moduli each film's curves solve at:
+    ``{film: {modulus: law}}``. Each law is a study artefact (``roughlaws/<key>.npz``, kind ``rough-law``),
+    kept as soon as it is computed, so an interrupted run resumes with the missing laws only; the laws are
+    computed in parallel, and every law used is the one read back from its file (the same law to the bit)."""
+    import hashlib
+
     from filmcal._parallel import run_tasks
+    from filmcal.contact.rough_imprint import representative_roughness_inputs
+    from filmcal.contact.rough_law_file import load_rough_law, save_rough_law
     from filmcal.correction import rough_bodies, rough_law_tasks
+    from filmcal.study.layout import spec_key
 
     if not films:
         return {}
     bodies = rough_bodies(settings.rough_ra_um)
-    tasks = {(film, m): task for film in films
-             for m, task in rough_law_tasks(bodies, study.film(film), components[film]).items()}
-    st.log(f"[curves] rough wheel (Ra {settings.rough_ra_um:g} um): {len(tasks)} pressure-closure laws (BEM) "
-           "at the films' moduli")
+    # what makes a law: the film, the modulus, the bodies' inputs and the wheel's very heights
+    surface = hashlib.sha256(np.ascontiguousarray(bodies.wheel.heights_um).tobytes()).hexdigest()
+    inputs = representative_roughness_inputs().to_dict()
     laws: dict = {}
+    tasks, paths = {}, {}
+    for film in films:
+        for m, task in rough_law_tasks(bodies, study.film(film), components[film]).items():
+            spec = {"film": study.film(film).to_dict(), "modulus_mpa": m, "rough_ra_um": settings.rough_ra_um,
+                    "rough_inputs": inputs, "wheel_surface_sha256": surface}
+            path = study.layout.rough_law(spec_key(spec))
+            paths[film, m] = (path, spec)
+            if study.verified(path, kind="rough-law", spec=spec):
+                laws.setdefault(film, {})[m] = load_rough_law(path)
+                st.advance(note=f"rough law, {film} at {m:.0f} MPa (kept)")
+            else:
+                tasks[film, m] = task
+    if tasks:
+        st.log(f"[curves] rough wheel (Ra {settings.rough_ra_um:g} um): {len(tasks)} pressure-closure laws (BEM) "
+               f"at the films' moduli ({sum(len(v) for v in laws.values())} kept from an earlier run)")
 
     def keep(key, law, k):
-        laws.setdefault(key[0], {})[key[1]] = law
+        path, spec = paths[key]
+        path.parent.mkdir(parents=True, exist_ok=True)
+        save_rough_law(law, path)
+        study.record(path, "rough-law", spec)
+        laws.setdefault(key[0], {})[key[1]] = load_rough_law(path)
         st.advance(note=f"rough law, {key[0]} at {key[1]:.0f} MPa")
 
     run_tasks(tasks, workers, keep)
