@@ -142,6 +142,8 @@ ACCEPTANCE_TESTS: dict[str, str] = {
         "13-37 s: two calibrations and the rough law of a roughened flat",
     "test_domain_follows_data.py::test_a_lab_dataset_at_250_mm_is_calibrated_on_an_extended_design":
         "9-26 s: an extended design's FE runs and a calibration",
+    "test_study_order.py::test_two_studies_from_empty_folders_with_one_seed_agree_to_the_last_digit":
+        "30-80 s: a second quick pipeline from an empty folder",
     "test_study_trust.py::": "75-210 s: curves, report and correct on tampered, linked and read-only studies, "
                              "15 commands in processes",
 }
