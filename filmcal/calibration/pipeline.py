@@ -13,6 +13,7 @@ fixed thread count keeps floating-point sums, hence the chains, reproducible.
 from __future__ import annotations
 
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -25,7 +26,7 @@ from filmcal.calibration.likelihood import CalibrationProblem, Priors, RadiusMod
 from filmcal.calibration.posterior import CalibrationResult, summarize
 from filmcal.calibration.sampling import SamplerSettings, run_chain
 
-__all__ = ["calibrate", "calibrate_film"]
+__all__ = ["calibrate", "calibrate_film", "scatter_warning", "ScatterWarning", "SCATTER_BEYOND_FILMS_MM"]
 
 
 def _notes(problem: CalibrationProblem) -> list[str]:
@@ -50,6 +51,27 @@ def _notes(problem: CalibrationProblem) -> list[str]:
         notes.append("no model discrepancy: systematic misfit (e.g. the paper's 25 kN curvature effect) "
                      "inflates sigma; check the posterior predictive residuals by load level.")
     return notes
+
+
+#: The largest scatter of one imprint's radius (mm) that a film's data can have: Table 1's films give a
+#: posterior median sigma of 0.10-0.13 mm (MS, HS, HHS under the edge model), so a sigma beyond 0.5 mm
+#: (about 7 % of Table 1's 5-8 mm radii) says that the data or the model are wrong, not that the film scatters.
+SCATTER_BEYOND_FILMS_MM = 0.5
+
+
+class ScatterWarning(UserWarning):
+    """A calibration whose inferred scatter lies beyond any film's (`SCATTER_BEYOND_FILMS_MM`)."""
+
+
+def scatter_warning(sigma_median_mm: float, n_data: int) -> str | None:
+    """The warning of a calibration whose scatter lies beyond any film's (`SCATTER_BEYOND_FILMS_MM`), or None."""
+    if not sigma_median_mm > SCATTER_BEYOND_FILMS_MM:
+        return None
+    return (f"the inferred scatter of one imprint's radius, sigma = {sigma_median_mm:.3g} mm (median), is beyond "
+            f"any film's (Table 1's films: 0.10-0.13 mm; the limit is {SCATTER_BEYOND_FILMS_MM:g} mm): the "
+            f"{n_data} measured radii do not fit the model (a unit or transcription error in the data, rows of "
+            "another film or set-up, or a model that cannot follow them); the modulus is not a finding about "
+            "the film until that is resolved")
 
 
 def calibrate(data: RadiusErrorData, model: RadiusModel, *, film: str | None = None, loads: str | None = None,
@@ -92,6 +114,9 @@ def calibrate(data: RadiusErrorData, model: RadiusModel, *, film: str | None = N
                         else float(np.median(named["poisson"])))
         predictive = predictive_check(problem, flat)
         cases = case_modulus_intervals(problem, sigma_median, nu_for_cases)
+    scatter = scatter_warning(sigma_median, len(data))
+    if scatter:
+        warnings.warn(ScatterWarning(scatter), stacklevel=2)
     poisson_summary = ({"fixed": float(problem.priors.poisson)} if problem.poisson_mode == "fixed"
                        else summarize(named["poisson"]))
     return CalibrationResult(
@@ -107,7 +132,7 @@ def calibrate(data: RadiusErrorData, model: RadiusModel, *, film: str | None = N
         n_steps_new=run.n_steps_new, acceptance_fraction=float(np.mean(run.acceptance_fraction)),
         seed=run.seed, elapsed_s=time.perf_counter() - t0, samples=named, predictive=predictive,
         case_intervals=cases, priors=problem.priors, settings=settings, backend_path=run.backend_path,
-        notes=_notes(problem))
+        notes=_notes(problem) + ([scatter] if scatter else []))
 
 
 def calibrate_film(film: str, model: RadiusModel, loads: str | None = None, *, poisson: str = "fixed",

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from filmcal.commands._common import print_json, simulator_from_args
@@ -117,7 +118,14 @@ def run(args: argparse.Namespace) -> int:
                                                   progress=False)
     if args.plots:
         _plots(result, Path(args.plots), path.stem)
+    from filmcal.calibration.pipeline import scatter_warning
+
+    said = [f"{label}: {w}" for label, (r, _, _) in calibrated.items()
+            if (w := scatter_warning(r.sigma_mm["median"], r.n_data))]
+    for line in said:  # beside a number that is not a finding: said on stderr, kept in --json
+        sys.stderr.write(f"filmcal calibrate: warning: {line}\n")
     out = result.to_dict()
+    out["warnings"] = said
     out.update(rms_residual_mm=assessment["rms_residual_mm"], ppc_inside_90=assessment["ppc_inside_90"],
                elpd_loo=assessment["elpd_loo"], elpd_loo_se=assessment["elpd_loo_se"])
     out["imprint_model"] = MIXTURE if mixture and comparison is not None else full["imprint"]

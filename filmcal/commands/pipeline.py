@@ -92,7 +92,12 @@ def run(args: argparse.Namespace) -> int:
     summary = run_pipeline(study_dir, settings, films, args.seed, args.workers, progress,
                            report=None if args.no_report else write_report,
                            films_file=args.films_file, dataset=args.data, dask=args.dask)
+    from filmcal.calibration.pipeline import scatter_warning
+
     for film, s in summary["films"].items():
+        scatter = scatter_warning(s["sigma_mm"]["median"], s["n_data"])
+        if scatter:
+            progress.warnings.append(f"{film}: {scatter}")
         if not s["diagnostics_ok"]:
             why = "; ".join(s.get("diagnostics_messages") or []) or "see the report's diagnostics"
             progress.warnings.append(f"{film} ({s.get('preferred_model', {}).get('model', s['model'])}): the sampler's checks did not all pass ({why}; "
