@@ -37,7 +37,8 @@ def test_the_command_refuses_an_unsupported_dataset_before_any_fe_work(tmp_path)
     data = tmp_path / "lot.csv"
     data.write_text("film,sphere_radius_mm,force_kn,measured_radius_mm\nHS,150,150,6.0\nHS,450,50,7.0\n")
     p = subprocess.run([sys.executable, "-m", "filmcal.cli", "calibrate", "--data", str(data), "--film", "HS",
-                        "--study-dir", str(tmp_path / "st"), "--json"], capture_output=True, text=True, timeout=60)
+                        "--imprint-model", "edge", "--study-dir", str(tmp_path / "st"), "--json"],
+                       capture_output=True, text=True, timeout=60)
     assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and "elastic limit" in p.stderr
     assert not (tmp_path / "st" / "runs").exists() and not list((tmp_path / "st").glob("**/*.sqlite"))
 

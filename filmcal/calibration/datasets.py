@@ -48,6 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
+from filmcal._validation import FORCE_KN_BOUNDS, SPHERE_RADIUS_MM_BOUNDS
 from filmcal.calibration.data import _FIELDS, RadiusErrorData, parse_load_range
 from filmcal.films import FILM_TYPES, FilmType
 from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, hertz_radius_mm, plausible_imprint_radius_mm
@@ -58,6 +59,8 @@ __all__ = ["Dataset", "load_dataset", "load_table1", "PACKAGED_DATASETS", "REQUI
 #: Packaged datasets by name: resource path inside the package.
 PACKAGED_DATASETS: dict[str, str] = {"table1": "data/table1_radius_errors.csv"}
 REQUIRED_COLUMNS = ("film", "sphere_radius_mm", "force_kn")
+#: The largest repeat number a row may give (a lab's repeats of one case number in the tens).
+MAX_REPEAT = 10**6
 MEASURED_COLUMNS = ("measured_radius_mm", "measured_area_mm2", "radius_error_mm")
 OPTIONAL_COLUMNS = ("repeat", "measurement_std_mm", "flat_ra_um", "sphere_modulus_mpa", "sphere_poisson",
                     "flat_modulus_mpa", "flat_poisson")
@@ -247,10 +250,13 @@ def _parse(raw: bytes, name: str, source: str) -> Dataset:
         except ValueError as exc:
             raise where.error(str(exc), line, "film") from None
         cols["film"].append(film)
-        cols["sphere_radius_mm"].append(_number(where, line, "sphere_radius_mm", cell["sphere_radius_mm"], 0.0,
-                                                what="finite and > 0 mm"))
-        cols["force_n"].append(1000.0 * _number(where, line, "force_kn", cell["force_kn"], 0.0,
-                                                what="finite and > 0 kN"))
+        # the command line's bounds: a sphere of 1 mm to 100 m, 1 N to 2 MN (beyond them a unit error)
+        cols["sphere_radius_mm"].append(_number(where, line, "sphere_radius_mm", cell["sphere_radius_mm"],
+                                                SPHERE_RADIUS_MM_BOUNDS[0], SPHERE_RADIUS_MM_BOUNDS[1], False, True,
+                                                f"in {SPHERE_RADIUS_MM_BOUNDS[0]:g}-{SPHERE_RADIUS_MM_BOUNDS[1]:g} mm"))
+        cols["force_n"].append(1000.0 * _number(where, line, "force_kn", cell["force_kn"], FORCE_KN_BOUNDS[0],
+                                                FORCE_KN_BOUNDS[1], False, True,
+                                                f"in {FORCE_KN_BOUNDS[0]:g}-{FORCE_KN_BOUNDS[1]:g} kN"))
         if measured_column == "radius_error_mm":
             value = _number(where, line, measured_column, cell[measured_column])
         else:
@@ -263,8 +269,8 @@ def _parse(raw: bytes, name: str, source: str) -> Dataset:
                 rep_value = int(rep)
             except ValueError:
                 raise where.error(f"must be an integer >= 1, got {rep!r}", line, "repeat") from None
-            if rep_value < 1:
-                raise where.error(f"must be an integer >= 1, got {rep!r}", line, "repeat")
+            if not 1 <= rep_value <= MAX_REPEAT:
+                raise where.error(f"must be an integer in 1-{MAX_REPEAT}, got {rep!r}", line, "repeat")
             cols["repeat"].append(rep_value)
         else:
             cols["repeat"].append(None)

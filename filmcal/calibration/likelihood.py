@@ -42,7 +42,10 @@ Priors (stated in `Priors`):
   mass at the scatter seen between Table 1 repeats while letting the data
   decide larger values, as recommended for scale parameters estimated from few
   groups by Gelman, Bayesian Analysis 1(3), 2006), or log-uniform over
-  0.001-2 mm. The sampler works in ``log sigma``.
+  0.001-2 mm. The sampler works in ``log sigma``. Below `SIGMA_FLOOR_MM`
+  (0.1 um, finer than any reading of an imprint) the half-Cauchy is cut: with
+  repeats that read alike (a ruler's 0.1 mm steps) the likelihood no longer
+  falls as sigma -> 0, and the posterior would be improper there.
 - tau (case-level scatter): half-Cauchy with scale 0.1 mm, sampled in ``log tau``.
 - delta_F (discrepancy option ``"load"``): independent N(0, 0.2 mm) per load
   level. A Kennedy-O'Hagan Gaussian-process discrepancy over (R, F) is not
@@ -481,7 +484,8 @@ class CalibrationProblem:
         if self.priors.sigma_prior == "log-uniform":
             lo, hi = (math.log(v) for v in self.priors.sigma_range_mm)
             return np.where((log_sigma >= lo) & (log_sigma <= hi), -math.log(hi - lo), -np.inf)
-        return _log_half_cauchy_log(log_sigma, self.priors.sigma_scale_mm)
+        return np.where(log_sigma >= math.log(SIGMA_FLOOR_MM),
+                        _log_half_cauchy_log(log_sigma, self.priors.sigma_scale_mm), -np.inf)
 
     def _moments(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Mean of each imprint, its own variance and the variance its case shares, shape (k, n)."""
@@ -539,9 +543,18 @@ class CalibrationProblem:
             cases = self.case_index[rows]
             c = shared[:, rows]
             a = acc_precision[:, cases]
-            # the shared effect given the earlier repeats: mean c B / (1 + c A), variance c / (1 + c A)
-            cond_mean = c * acc_weighted[:, cases] / (1.0 + c * a)
-            var = own[:, rows] + c / (1.0 + c * a)
+            # the shared effect given the earlier repeats: mean c B / (1 + c A), variance c / (1 + c A); where
+            # c A overflows (a scatter far below the case's), as B / (1/c + A) and 1 / (1/c + A)
+            b = acc_weighted[:, cases]
+            with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+                denom = 1.0 + c * a
+                gain = c / denom
+                cond_mean = c * b / denom
+                bad = ~(np.isfinite(gain) & np.isfinite(cond_mean))
+                if np.any(bad):
+                    gain[bad] = 1.0 / (1.0 / c[bad] + a[bad])
+                    cond_mean[bad] = gain[bad] * b[bad]
+            var = own[:, rows] + gain
             r = resid[:, rows]
             out[:, rows] = -0.5 * ((r - cond_mean) ** 2 / var + np.log(2.0 * math.pi * var))
             acc_precision[:, cases] += 1.0 / own[:, rows]
@@ -615,6 +628,10 @@ class CalibrationProblem:
         if self.data.has_repeats:
             d["case_index"] = self.case_index.tolist()
         return d
+
+
+#: The smallest scatter of one imprint's radius (mm) the half-Cauchy prior allows (module notes).
+SIGMA_FLOOR_MM = 1e-4
 
 
 def _log_half_cauchy_log(log_scale: np.ndarray, g: float) -> np.ndarray:

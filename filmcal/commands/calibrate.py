@@ -97,7 +97,8 @@ def run(args: argparse.Namespace) -> int:
         spec = replace(spec, fe=replace(spec.fe, film_thickness_mm=film.thickness_mm))
         mixture = args.imprint_model == MIXTURE
         imprints = list(imprint_models_for(film)) if mixture else [args.imprint_model]
-        study.dataset_rows(film.name, args.forces_kn, args.data)  # enough data? refused before anything is written
+        # enough data? refused before anything is written
+        study.dataset_rows(film.name, args.forces_kn, args.data, compared=mixture and len(imprints) > 1)
         with study.writing("filmcal calibrate"):
             calibrated = {}
             for imprint in imprints:

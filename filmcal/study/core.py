@@ -613,7 +613,7 @@ class Study:
                         film_thickness_mm=self.film(film).thickness_mm)
         return CalibrationSpec(film, imprint=imprint, fe=fe, loads=loads, max_steps=pipeline.get("max_steps"))
 
-    def dataset_rows(self, film: str, loads: str | None, dataset=None):
+    def dataset_rows(self, film: str, loads: str | None, dataset=None, *, compared: bool = False):
         """The calibration data of one film and the record of their dataset.
 
         Parameters
@@ -625,6 +625,14 @@ class Study:
             A CSV file of the documented dataset format, or a packaged dataset's
             name; default the study's dataset (recorded at its first use), else
             ``table1``.
+        compared : bool
+            The film's imprint models are to be compared (leave one case out):
+            at least 3 cases are needed, not 2.
+
+        Raises
+        ------
+        filmcal._errors.InputError
+            Too few rows or cases, or a dataset other than the study's.
         """
         from filmcal.calibration import load_dataset
 
@@ -640,10 +648,18 @@ class Study:
             raise InputError(f"dataset {ds.source} differs from the one this study was made with "
                              f"({recorded['source']}, sha256 {recorded['sha256'][:12]}...); use another --study-dir")
         rows = ds.select(film, loads)
+        where = f" with forces in {loads} kN" if loads else ""
         if len(rows) < 2:
-            where = f" with forces in {loads} kN" if loads else ""
             raise InputError(f"dataset {ds.name} has {len(rows)} row(s) of film {film}{where}; a calibration needs "
                              "at least 2 (check --film and --forces-kn)")
+        if int(np.unique(rows.case_index).size) < 2:
+            raise InputError(f"dataset {ds.name} has {len(rows)} rows of film {film}{where}, all of one case "
+                             f"(R {rows.sphere_radius_mm[0]:g} mm, F {rows.force_kn[0]:g} kN): a calibration needs "
+                             "at least 2 cases (sphere radius and force) to tell the film's modulus from its scatter")
+        if compared and int(np.unique(rows.case_index).size) < 3:
+            raise InputError(f"dataset {ds.name} has {int(np.unique(rows.case_index).size)} cases (sphere radius and "
+                             f"force) of film {film}{where}: comparing its imprint models leaves one case out at a "
+                             "time and needs at least 3; calibrate one imprint model (edge, say) or add cases")
         if recorded is None and self._lock.held:
             self.manifest.data["dataset"] = meta
         return rows, meta

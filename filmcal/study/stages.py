@@ -171,7 +171,8 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
     with parallel_work(workers, dask, shared=True) as pool:
         study = Study(study_dir, create=True, films_file=films_file)
         for f in films:
-            study.film(f)  # unknown films are refused before anything is written
+            study.film(f)  # unknown films, and data too few to calibrate or compare, are refused before any work
+            study.dataset_rows(f, None, dataset, compared=len(_models_for(study, f, settings)) > 1)
         return _run_stages(study, settings, films, seed, pool, progress, report, dataset)
 
 

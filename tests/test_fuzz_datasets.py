@@ -1,0 +1,53 @@
+"""Datasets that load but cannot be calibrated are refused by the command before any work: exit 2, one line on
+stderr, nothing written (the folder's files hashed before and after); the likelihood never gives NaN."""
+from __future__ import annotations
+
+import hashlib
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+HEADER = "film,sphere_radius_mm,force_kn,radius_error_mm\n"
+
+
+def _snapshot(folder) -> dict:
+    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.mark.parametrize("command, rows, says", [
+    (["calibrate", "--film", "HS"], "HS,450,75,1.1\nHS,450,75,1.1\n", "all of one case"),
+    (["calibrate", "--film", "HS"], "HS,450,75,1.1\nHS,450,75,1.1\nHS,450,50,1.0\n",
+     "comparing its imprint models leaves one case out at a time and needs at least 3"),
+    (["pipeline", "--films", "HS", "--smoke"], "HS,450,75,1.1\nHS,450,50,1.0\n", "needs at least 3"),
+    (["calibrate", "--film", "HS", "--forces-kn", "1000-2000"], "HS,450,75,1.1\nHS,450,50,1.0\n", "0 row(s)"),
+    (["calibrate", "--film", "HS", "--imprint-model", "edge"], "HS,450,75,1.1\n", "1 row(s)"),
+])
+def test_data_that_cannot_be_calibrated_are_refused_before_any_work(tmp_path, command, rows, says):
+    (tmp_path / "lab.csv").write_text(HEADER + rows)
+    before = _snapshot(tmp_path)
+    p = subprocess.run([sys.executable, "-m", "filmcal.cli", *command, "--data", "lab.csv", "--study-dir", "study"],
+                       cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2, p.stderr[-2000:]
+    assert len(p.stderr.strip().splitlines()) == 1 and says in p.stderr, p.stderr
+    assert _snapshot(tmp_path) == before and not (tmp_path / "study").exists()
+
+
+def test_repeats_that_read_alike_never_make_the_likelihood_nan():
+    """Two imprints of one case read alike: as sigma -> 0 the case's variance terms overflowed into NaN (which
+    stopped the sampler); the sigma floor and the overflow-safe form give finite values or -inf."""
+    from filmcal.calibration.datasets import _parse
+    from filmcal.calibration.likelihood import CalibrationProblem
+    from toymodels import ToyRadiusModel
+
+    data = _parse((HEADER + "HS,450,75,1.1\nHS,450,75,1.1\nHS,450,50,1.0\n").encode(), "x", "x.csv").select("HS")
+    problem = CalibrationProblem(data, ToyRadiusModel())
+    rng = np.random.default_rng(0)
+    n = 50_000
+    theta = np.column_stack([rng.uniform(5, 10, n), rng.uniform(-300, 300, n), rng.uniform(-300, 300, n)])
+    with np.errstate(all="ignore"):
+        lp = problem.log_posterior(theta)
+    assert not np.isnan(lp).any()
+    assert np.isfinite(lp).sum() > n // 10  # the support is not empty
