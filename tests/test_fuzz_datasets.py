@@ -51,3 +51,39 @@ def test_repeats_that_read_alike_never_make_the_likelihood_nan():
         lp = problem.log_posterior(theta)
     assert not np.isnan(lp).any()
     assert np.isfinite(lp).sum() > n // 10  # the support is not empty
+
+
+def _repeats_problem():
+    from filmcal.calibration.datasets import _parse
+    from filmcal.calibration.likelihood import CalibrationProblem
+    from toymodels import ToyRadiusModel
+
+    cases = [(450, 75)] * 4 + [(300, 50)] * 2 + [(600, 100)]
+    text = HEADER + "".join(f"HS,{r},{f},{1.0 + 0.05 * np.sin(i):.4f}\n" for i, (r, f) in enumerate(cases))
+    return CalibrationProblem(_parse(text.encode(), "x", "x.csv").select("HS"), ToyRadiusModel())
+
+
+def test_the_closed_form_likelihood_of_repeats_equals_the_sequential_one():
+    """The sampler's per-case closed form (determinant lemma, Sherman-Morrison: linear in the rows) against
+    the chain of conditional densities that `pointwise_log_likelihood` sums (a second formulation)."""
+    problem = _repeats_problem()
+    rng = np.random.default_rng(1)
+    theta = np.column_stack([rng.uniform(6, 9, 500), rng.uniform(-6, 0, 500), rng.uniform(-8, 1, 500)])
+    sequential = problem.pointwise_log_likelihood(theta).sum(axis=1)
+    closed = problem.log_likelihood(theta)
+    assert np.allclose(closed, sequential, rtol=1e-10, atol=1e-9)
+
+
+def test_repeats_that_read_alike_share_their_predictive_interval_and_case_interval():
+    from filmcal.calibration.checks import case_modulus_intervals, predictive_check
+
+    problem = _repeats_problem()
+    y = problem.target_radius_mm.copy()
+    problem.target_radius_mm[1] = y[0]  # two repeats of the first case read alike
+    theta = np.column_stack([np.full(50, np.log(2800.0)), np.full(50, np.log(0.1)), np.full(50, np.log(0.05))])
+    check = predictive_check(problem, theta)
+    assert check.lower_mm[0] == check.lower_mm[1] and check.upper_mm[0] == check.upper_mm[1]
+    assert check.lower_mm[0] == check.lower_mm[2]  # same case, another reading: same predictive interval
+    assert check.lower_mm[4] < check.lower_mm[0]  # another case: its own interval (R 300 mm, 50 kN reads smaller)
+    cases = case_modulus_intervals(problem, 0.1)
+    assert cases.modulus_mpa[0] == cases.modulus_mpa[1] and cases.modulus_mpa[0] != cases.modulus_mpa[2]

@@ -108,6 +108,13 @@ def _mixture_quantile(p: float, mu: np.ndarray, sd: np.ndarray) -> float:
     return brentq(lambda q: float(np.mean(ndtr((q - mu) / sd))) - p, lo, hi, xtol=1e-10)
 
 
+def _first_of_equal_columns(*arrays: np.ndarray) -> np.ndarray:
+    """For each column i, the first column j <= i whose values in every array equal column i's."""
+    stacked = np.ascontiguousarray(np.concatenate(arrays, axis=0).T)
+    seen: dict[bytes, int] = {}
+    return np.array([seen.setdefault(row.tobytes(), i) for i, row in enumerate(stacked)], dtype=int)
+
+
 def predictive_check(problem: CalibrationProblem, theta: np.ndarray, level: float = 0.9,
                      max_samples: int = 2000) -> PredictiveCheck:
     """Posterior predictive distribution of every measured radius.
@@ -135,8 +142,13 @@ def predictive_check(problem: CalibrationProblem, theta: np.ndarray, level: floa
     std = np.sqrt(np.mean(sd**2 + mu**2, axis=0) - mean**2)
     pit = np.mean(ndtr((y[None, :] - mu) / sd), axis=0)
     tail = 0.5 * (1.0 - level)
-    lower = np.array([_mixture_quantile(tail, mu[:, i], sd[:, i]) for i in range(y.size)])
-    upper = np.array([_mixture_quantile(1.0 - tail, mu[:, i], sd[:, i]) for i in range(y.size)])
+    # rows whose predictive samples are equal (repeats of a case, same measurement uncertainty) share their
+    # interval: each distinct one is solved once, so a case of many repeats costs one root-find, not one per row
+    first = _first_of_equal_columns(mu, sd)
+    lower = np.array([_mixture_quantile(tail, mu[:, i], sd[:, i]) if first[i] == i else np.nan
+                      for i in range(y.size)])[first]
+    upper = np.array([_mixture_quantile(1.0 - tail, mu[:, i], sd[:, i]) if first[i] == i else np.nan
+                      for i in range(y.size)])[first]
     return PredictiveCheck(
         sphere_radius_mm=problem.data.sphere_radius_mm.copy(), force_n=problem.data.force_n.copy(),
         measured_radius_mm=y.copy(), hertz_radius_mm=problem.data.steel_hertz_radius_mm.copy(),
@@ -290,13 +302,16 @@ def case_modulus_intervals(problem: CalibrationProblem, tolerance_mm: float, poi
     data = problem.data
     table, _ = problem.model_radius(np.exp(x), np.full(x.size, nu))
     out = []
+    solved: dict[tuple[float, float, float], tuple] = {}  # repeats that read alike are inverted once
     for i in range(len(data)):
         R, F = data.sphere_radius_mm[i:i + 1], data.force_n[i:i + 1]
+        key = (float(R[0]), float(F[0]), float(problem.target_radius_mm[i]))
+        if key not in solved:
+            def radius_at(t: float, R=R, F=F) -> float:
+                return float(problem.model_radius(np.array([math.exp(t)]), np.array([nu]), R, F)[0][0, 0])
 
-        def radius_at(t: float, R=R, F=F) -> float:
-            return float(problem.model_radius(np.array([math.exp(t)]), np.array([nu]), R, F)[0][0, 0])
-
-        out.append(_invert_case(radius_at, x, table[:, i], float(problem.target_radius_mm[i]), tolerance_mm))
+            solved[key] = _invert_case(radius_at, x, table[:, i], key[2], tolerance_mm)
+        out.append(solved[key])
     point, lower, upper, status = zip(*out)
     return CaseIntervals(sphere_radius_mm=data.sphere_radius_mm.copy(), force_n=data.force_n.copy(),
                          measured_radius_mm=problem.target_radius_mm.copy(), modulus_mpa=np.array(point),

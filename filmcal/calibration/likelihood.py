@@ -582,7 +582,39 @@ class CalibrationProblem:
         -------
         ndarray of shape (k,)
         """
-        return self.pointwise_log_likelihood(theta).sum(axis=1)
+        if not self.data.has_repeats:
+            return self.pointwise_log_likelihood(theta).sum(axis=1)
+        return self._case_closed_form(theta).sum(axis=1)
+
+    def _case_closed_form(self, theta: np.ndarray) -> np.ndarray:
+        """Each case's joint log density in closed form, shape (k, n_cases): linear in the rows.
+
+        The case's covariance is ``D + c 1 1^T`` (own variances D, shared c), so with
+        ``A = sum 1/d``, ``B = sum r/d``, ``Q = sum r^2/d`` its log density is
+        ``-(n log 2 pi + sum log d + log(1 + c A) + Q - c B^2 / (1 + c A)) / 2`` (matrix
+        determinant lemma and Sherman-Morrison): the same as the sequential terms of
+        `pointwise_log_likelihood` summed, without their loop over the repeats (a case of
+        many repeats costs one pass, not one pass per repeat).
+        """
+        theta = np.atleast_2d(np.asarray(theta, dtype=float))
+        mu, own, shared = self._moments(theta)
+        resid = self.target_radius_mm[None, :] - mu
+        k = theta.shape[0]
+
+        def per_case(x: np.ndarray) -> np.ndarray:
+            out = np.zeros((self.n_cases, k))
+            np.add.at(out, self.case_index, x.T)
+            return out.T
+
+        a, b, q = per_case(1.0 / own), per_case(resid / own), per_case(resid**2 / own)
+        log_d = per_case(np.log(2.0 * math.pi * own))
+        c = np.empty((k, self.n_cases))
+        c[:, self.case_index] = shared  # one value per case: its rows share their (R, F)
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            ca = c * a
+            gain = np.where(np.isfinite(ca), c / (1.0 + ca), 1.0 / a)  # c / (1 + c A), also as c -> inf
+            log_det = np.where(np.isfinite(ca), np.log1p(ca), np.log(c) + np.log(a))
+        return -0.5 * (log_d + log_det + q - gain * b**2)
 
     def log_posterior(self, theta: np.ndarray) -> np.ndarray:
         """Unnormalised log posterior; the model is only called inside the prior support.
