@@ -338,3 +338,19 @@ def test_cli_unknown_profile_exits_2(capsys):
     with pytest.raises(SystemExit) as refused:  # refused by the parser, with the bound it states in --help
         main(["profile", "60E1", "--step-mm", "-1"])
     assert refused.value.code == 2 and "--step-mm" in capsys.readouterr().err
+
+
+def test_a_dense_measured_profile_is_averaged_in_bins_before_its_spline(tmp_path, monkeypatch):
+    """10^6 points of an optical profile took 20 s and ended 'ill-posed' in the spline's cross-validation;
+    above MAX_PROFILE_POINTS the points are averaged in equal-width bins, and the curve is still the curve."""
+    import filmcal.wheelrail.profiles as profiles
+
+    monkeypatch.setattr(profiles, "MAX_PROFILE_POINTS", 2000)
+    y = np.linspace(-30.0, 30.0, 20_001)
+    z = y**2 / (2 * 300.0)  # a 300 mm circle's parabola (closed form)
+    path = tmp_path / "dense.csv"
+    path.write_text("y_mm,z_mm\n" + "\n".join(f"{a:.6f},{b:.7f}" for a, b in zip(y, z)) + "\n")
+    profile = profiles.load_profile_csv(path, kind="rail")
+    assert "2000 bin means of 20001 points" in profile.source
+    t = np.linspace(-29.0, 29.0, 301)
+    assert np.max(np.abs(profile.z(t) - t**2 / 600.0)) < 2e-5  # bin means of a parabola: a 0.03 um shift
