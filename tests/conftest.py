@@ -281,6 +281,18 @@ def _start_quick_study(config: pytest.Config) -> dict:
     return started
 
 
+def pytest_configure(config: pytest.Config) -> None:
+    """Ctrl-C as a terminal's, even when the suite was started with SIGINT ignored (``nohup ... &``, a shell's
+    background job): the processes that the tests interrupt inherit the disposition, and a Python started with
+    SIGINT ignored never raises KeyboardInterrupt. With this process's handler restored, they start with the
+    default disposition, as from a terminal."""
+    import signal
+    import threading
+
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN and threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 def pytest_collection_finish(session: pytest.Session) -> None:
     """Start the quick study as soon as a selected test needs it: it then runs beside the first tests, which
     mostly use one core of two, instead of holding up the first test that asks for it."""
