@@ -91,7 +91,7 @@ GRID_BOUNDS: dict[str, int] = {"forces_kn": 50, "offsets_mm": 200}
 # Path options by destination: files that a command writes, folders it
 # writes into, and files it only reads. Checked before any work.
 OUTPUT_FILE_DESTS = ("out", "csv", "plot", "overview", "pressure_csv", "outline_out")
-OUTPUT_DIR_DESTS = ("study_dir", "out_dir", "plots", "work_dir")
+OUTPUT_DIR_DESTS = ("study_dir", "out_dir", "plots", "work_dir", "run_store")
 INPUT_FILE_DESTS = ("design", "augment", "scan", "sheet", "batch", "roughness_law", "wheel_roughness_map", "rail_roughness_map",
                     "data", "films_file",
                     "template_file")

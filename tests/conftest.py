@@ -54,6 +54,10 @@ SLOW_FIXTURES: frozenset[str] = frozenset({
 #: (setup + call, wall time on 2 cores shared with other work, so about 2-3x
 #: the idle time) by ``python3 -m pytest -q --durations=60 -p no:cacheprovider``.
 SLOW_TESTS: dict[str, str] = {
+    "test_run_store.py::": "3-6 s each: calibrations on 32 FE runs, two of them sharing a run store",
+    "test_study_heal.py::": "10-20 s each: a quick study rerun after losing a surrogate or its curves",
+    "test_fuzz_datasets.py::test_data_that_cannot_be_calibrated_are_refused_before_any_work":
+        "1-2 s each: the command in a process",
     "test_roughness_no_film.py::test_the_nominal_growth_follows_the_rigid_plastic_bearing_area_law":
         "6 s each: two rough Hertz solves and a boundary-element law",
     "test_rough_imprint.py::test_an_asperity_cannot_stain_a_film_whose_activation_lies_above_the_coating_hardness":

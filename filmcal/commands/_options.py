@@ -109,6 +109,9 @@ VOCABULARY: dict[str, Concept] = _concepts(
             "least every 10 s), quiet, or auto (bar on a terminal, log otherwise)", type=lambda t: progress_mode(t),
             metavar="{" + ",".join(PROGRESS_MODES) + "}"),
     Concept("study_dir", "study folder", metavar="DIR"),
+    Concept("run_store", "folder of FE (or simulator) run stores shared by studies: a study given it reuses every "
+            "run of the same settings that another study made there, and records the SHA-256 of the runs it used "
+            "(default: the study's own runs/ folder, or the store it was first given)", metavar="DIR"),
     Concept("workers", "worker processes (1: everything in this process)", int, (1, 256)),
     Concept("seed", "seed of every random step", int, (0, 2**32 - 1)),
     Concept("json", "print one JSON object on stdout"),

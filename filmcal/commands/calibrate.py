@@ -42,6 +42,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add(p, "study_dir", default="filmcal-study",
         extra="of the FE runs, surrogates and chains (default ./filmcal-study; created when missing); artefacts "
               "made with other settings are kept beside, never reused")
+    add(p, "run_store")
     local(p, "--train-runs", type=int, default=200, help="FE runs to train the surrogate (default 200)")
     local(p, "--test-runs", type=int, default=100, help="held-out FE runs to validate it (default 100)")
     where = p.add_mutually_exclusive_group()
@@ -84,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
     if args.data is not None:
         load_dataset(args.data)
     with parallel_work(args.workers, args.dask) as workers:  # a Dask scheduler is reached before anything is written
-        study = Study(args.study_dir, create=True, films_file=args.films_file)
+        study = Study(args.study_dir, create=True, films_file=args.films_file, run_store=args.run_store)
         film = study.film(args.film)
         if args.plots:
             from filmcal._io import check_output_dir

@@ -22,6 +22,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "the settings it was made with; other settings need another folder.")
     add(p, "study_dir", extra="(default ./filmcal-study, or ./filmcal-study-quick with --quick, "
                              "./filmcal-study-smoke with --smoke)")
+    add(p, "run_store")
     local(p, "--quick", action="store_true",
           help="a small version for checks (40+12 FE runs, short chains, 3 offsets at 50 kN; "
                "./filmcal-study-quick)")
@@ -91,7 +92,8 @@ def run(args: argparse.Namespace) -> int:
                                  "fitted to filmcal's FE): valid where your model and filmcal's agree")
     summary = run_pipeline(study_dir, settings, films, args.seed, args.workers, progress,
                            report=None if args.no_report else write_report,
-                           films_file=args.films_file, dataset=args.data, dask=args.dask)
+                           films_file=args.films_file, dataset=args.data, dask=args.dask,
+                           run_store=args.run_store)
     from filmcal.calibration.pipeline import scatter_warning
 
     for film, s in summary["films"].items():

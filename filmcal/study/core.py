@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any, Iterator
 
 import numpy as np
 
-from filmcal._errors import InputError
+from filmcal._errors import InputError, UntrustedArtefactError
 from filmcal._io import canonical_json, check_output_dir
 from filmcal._versions import VersionNote, version_note
 from filmcal.contact.names import DEFAULT_KINEMATICS, FE_MODEL_REVISION, IMPRINT_MODELS, KINEMATICS
@@ -184,10 +184,11 @@ class Study:
     """
 
     def __init__(self, root: str | Path, *, create: bool = False, films_file: str | Path | None = None,
-                 read_only: bool = False) -> None:
+                 read_only: bool = False, run_store: str | Path | None = None) -> None:
         if create and read_only:
             raise ValueError("a study cannot be both created and read-only")
         self.read_only = read_only
+        self._run_store = None if run_store is None else Path(run_store).resolve()
         self.layout = StudyLayout(root)
         self.root = self.layout.root
         # a study that is only read (correct, curves, report) may be read-only: a colleague's, an archive
@@ -240,6 +241,8 @@ class Study:
                 self.manifest = Manifest.read(self.layout.manifest)
             for name, film in self._new_films.items():
                 self.manifest.data["films"][name] = film.to_dict()
+            if self._run_store is not None:
+                self.manifest.data["run_store"] = str(self._run_store)
             self.manifest.note_writer_software()
             self.manifest.write()
             yield self
@@ -342,7 +345,7 @@ class Study:
         for p in train + test:
             p["film_thickness_mm"] = fe.film_thickness_mm
         store_spec = self._store_spec(fe)
-        store = self.layout.runs_store(spec_key(store_spec))
+        store = self.runs_store(spec_key(store_spec))
         store.parent.mkdir(parents=True, exist_ok=True)
         if fe.simulator is not None:
             from filmcal.fem import imprint_columns
@@ -368,7 +371,40 @@ class Study:
         out["X_test"] = {k: v[n:] for k, v in X.items()}
         out["Y_train"] = {c: v[:n] for c, v in Y.items()}
         out["Y_test"] = {c: v[n:] for c, v in Y.items()}
+        self._check_runs(fe, store, X, Y)
         return out
+
+    def runs_store(self, key: str) -> Path:
+        """The SQLite store of the FE (or simulator) runs of one spec: in the shared run store the study
+        was given (``--run-store``, recorded in its manifest), else in its own ``runs/`` folder."""
+        shared = self._run_store or (Path(self.manifest.data["run_store"]) if self.manifest.data.get("run_store")
+                                     else None)
+        return self.layout.runs_store(key) if shared is None else shared / f"runs-{key}.sqlite"
+
+    def _check_runs(self, fe: FESettings, store: Path, X: dict, Y: dict) -> None:
+        """Record the content hash of the runs this study used; refuse runs that differ from those recorded.
+
+        A run store may be shared by several studies (and written by them): what each study fitted is pinned
+        by the SHA-256 of its runs' inputs and outputs, checked whenever they are read again.
+        """
+        import hashlib
+
+        digest = hashlib.sha256(canonical_json({
+            "X": {k: v.tolist() for k, v in sorted(X.items())},
+            "Y": {k: [None if not np.isfinite(x) else float(x) for x in v] for k, v in sorted(Y.items())}}
+        ).encode()).hexdigest()
+        key = spec_key({"store": self._store_spec(fe), "n_train": fe.n_train, "n_test": fe.n_test, "seed": fe.seed,
+                        "domain": fe.as_spec().get("domain")})
+        used = self.manifest.data.setdefault("fe_runs", {})
+        entry = used.get(key)
+        if entry is not None and entry["sha256"] != digest:
+            raise UntrustedArtefactError(
+                f"the FE runs read from {store} differ from those this study used (SHA-256 of their inputs and "
+                f"outputs {digest[:12]}..., recorded {entry['sha256'][:12]}... from {entry['store']}): the store "
+                "was changed or replaced; give the study its own store back, or use a new --study-dir")
+        if entry is None or entry["store"] != str(store):
+            used[key] = {"store": str(store), "sha256": digest, "n_runs": int(next(iter(X.values())).size)}
+            self.manifest.write()
 
     def radius_model(self, fe: FESettings, column: str, workers: int | Executor | None = None, progress=None):
         """The validated radius surrogate of one FE reading (`column`) under `fe`.

@@ -127,7 +127,7 @@ def _models_for(study: Study, film: str, settings: PipelineSettings) -> tuple[st
 
 def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM_TYPES, seed: int = 0,
                  workers: int | None = None, progress=None, report=None, films_file=None, dataset=None,
-                 dask: str | None = None) -> dict:
+                 dask: str | None = None, run_store=None) -> dict:
     """Run (or resume) the pipeline in a study folder; return the summary also written to ``summary.json``.
 
     Parameters
@@ -157,6 +157,9 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
         The calibration data: a CSV file of the documented format
         (`filmcal.calibration.load_dataset`) or a packaged dataset's name;
         default the study's dataset, Table 1 for a new study.
+    run_store : str or Path, optional
+        A folder of FE run stores shared with other studies (`Study`): runs of
+        the same settings made there are reused, not run again.
     """
     from filmcal._parallel import keep_freed_memory, parallel_work
     from filmcal._progress import Progress
@@ -169,7 +172,7 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
     # one pool for every stage, started by the first task (a rerun with nothing to do starts none), or the Dask
     # cluster, whose scheduler is reached before anything is written
     with parallel_work(workers, dask, shared=True) as pool:
-        study = Study(study_dir, create=True, films_file=films_file)
+        study = Study(study_dir, create=True, films_file=films_file, run_store=run_store)
         for f in films:
             study.film(f)  # unknown films, and data too few to calibrate or compare, are refused before any work
             study.dataset_rows(f, None, dataset, compared=len(_models_for(study, f, settings)) > 1)

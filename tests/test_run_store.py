@@ -1,0 +1,63 @@
+"""Runs are shared: a second dataset in another study, given the same --run-store, runs no FE run again;
+each study pins the runs it used by their SHA-256 and refuses a store whose runs were changed."""
+from __future__ import annotations
+
+import json
+import shutil
+import sqlite3
+
+import pytest
+
+from filmcal import cli
+
+HEADER = "film,sphere_radius_mm,force_kn,radius_error_mm\n"
+SMALL = ["--film", "HS", "--imprint-model", "edge", "--train-runs", "24", "--test-runs", "8", "--max-steps", "1500",
+         "--workers", "1"]
+
+
+def _calibrate(tmp_path, study: str, data: str, capsys) -> int:
+    status = cli.main(["calibrate", "--data", str(tmp_path / data), "--study-dir", str(tmp_path / study),
+                       "--run-store", str(tmp_path / "store"), *SMALL])
+    err = capsys.readouterr().err
+    assert status == 0, err
+    return status
+
+
+@pytest.fixture
+def two_labs(tmp_path):
+    (tmp_path / "a.csv").write_text(HEADER + "HS,450,75,1.2\nHS,300,50,1.1\nHS,600,100,1.3\n")
+    (tmp_path / "b.csv").write_text(HEADER + "HS,375,75,1.15\nHS,525,50,1.05\nHS,450,100,1.25\n")
+    return tmp_path
+
+
+def _runs(tmp_path) -> list[tuple]:
+    (store,) = (tmp_path / "store").glob("runs-*.sqlite")
+    with sqlite3.connect(store) as db:
+        return db.execute("select point_id, status, attempts, finished_at from runs order by point_id").fetchall()
+
+
+def test_a_second_dataset_runs_no_fe_run_again(two_labs, capsys):
+    assert _calibrate(two_labs, "first", "a.csv", capsys) == 0
+    runs = _runs(two_labs)
+    assert len(runs) == 32 and {r[1] for r in runs} == {"ok"}  # the design's 24 + 8 runs
+    assert _calibrate(two_labs, "second", "b.csv", capsys) == 0
+    assert _runs(two_labs) == runs  # not one run again: same runs, attempts and finishing times
+    first, second = (json.loads((two_labs / s / "study.json").read_text()) for s in ("first", "second"))
+    assert first["run_store"] == second["run_store"] == str((two_labs / "store").resolve())
+    assert first["fe_runs"] == second["fe_runs"] and len(first["fe_runs"]) == 1
+    assert not (two_labs / "first" / "runs").exists()  # the runs live in the shared store only
+    assert first["dataset"]["sha256"] != second["dataset"]["sha256"]  # two datasets indeed
+
+
+def test_a_study_refuses_runs_changed_in_the_shared_store(two_labs, capsys):
+    assert _calibrate(two_labs, "first", "a.csv", capsys) == 0
+    (store,) = (two_labs / "store").glob("runs-*.sqlite")
+    with sqlite3.connect(store) as db:  # one run's answer edited after the study used it
+        point, outputs = db.execute("select point_id, outputs_json from runs where status = 'ok' limit 1").fetchone()
+        changed = {k: (v * 1.01 if isinstance(v, float) else v) for k, v in json.loads(outputs).items()}
+        db.execute("update runs set outputs_json = ? where point_id = ?", (json.dumps(changed), point))
+    shutil.rmtree(two_labs / "first" / "surrogates")  # the surrogate is refitted, so the runs are read again
+    assert cli.main(["calibrate", "--data", str(two_labs / "a.csv"), "--study-dir", str(two_labs / "first"),
+                     *SMALL]) == 2  # the recorded store, without --run-store
+    err = capsys.readouterr().err
+    assert "differ from those this study used" in err and len(err.strip().splitlines()) == 1
