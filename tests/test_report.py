@@ -533,8 +533,19 @@ def test_calibration_figures_name_parameters_as_an_engineer_reads_them():
 
 
 def test_an_unreadable_file_is_reported_and_the_rest_of_the_report_kept(tmp_path):
+    """A file the study recorded as it is but cannot read is reported, the rest kept; one changed after it was
+    recorded is refused (a tampered study is never reported around)."""
+    from filmcal._errors import UntrustedArtefactError
+    from filmcal.study import Study
+
     study = write_synthetic_study(tmp_path / "study", parts=("verification", "design"))
     (study / "design.json").write_text('{"names": ["modulus_mpa"], "train": ')  # cut short after it was recorded
+    with pytest.raises(UntrustedArtefactError, match="design.json was changed after the study wrote it"):
+        build_report(study)
+    s = Study(study)
+    with s.writing():  # as if written short and recorded so (a file the study itself cannot read back)
+        entry = s.manifest.entry("design.json")
+        s.record(study / "design.json", entry["kind"], entry["spec"])
     report = build_report(study)
     sections = {s.title: s for s in report.sections}
     assert "Not available" in sections["Design of the FE campaign"].blocks[0]
