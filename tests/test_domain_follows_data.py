@@ -19,8 +19,30 @@ def test_a_dataset_inside_the_domain_keeps_it_and_one_outside_extends_it():
     assert min(wide.radius_levels_mm) == 200 and max(wide.radius_levels_mm) == 900
     assert wide.force_kn[0] <= 10 / 1.1 + 1e-9 and wide.force_kn[1] >= 150 * 1.1 - 1e-9
     ratios = np.diff(np.log(wide.radius_levels_mm))
-    assert ratios.max() <= np.log(2.0) / 4 + 1e-9  # the levels as dense as Table 1's five over 300-600 mm
+    assert ratios.max() <= np.log(1.25) + 1e-9  # the levels as dense as Table 1's (300, 375 ... 600 mm)
     assert wide.contains(2800.0, 0.33, 250.0, 20.0) and not default.contains(2800.0, 0.33, 250.0, 20.0)
+    assert set(default.radius_levels_mm) <= set(wide.radius_levels_mm) and wide.includes(default)
+
+
+def test_an_extended_domain_augments_the_design_and_keeps_every_run_of_the_one_it_extends():
+    from filmcal.contact.options import ContactOptions
+    from filmcal.surrogate.radius import augmented_samples, design_points
+
+    base = SurrogateDomain()
+    wide = base.covering([250.0, 350.0, 500.0], [20.0, 60.0, 90.0])
+    # the base's share of the extended space, by hand: 5 of 7 radius levels (250 and 274 mm added) times
+    # its 20-110 kN of 18.2-110 kN
+    share = 5 / 7 * (110 - 20) / (110 - 20 / 1.1)
+    assert abs(wide.share_of(base) - share) < 1e-12 and len(wide.radius_levels_mm) == 7
+    assert augmented_samples(wide, base, 30) == round(30 * (1 / share - 1)) == 13
+    points = design_points(wide, 30, 7, ContactOptions(), base)
+    assert points[:30] == design_points(base, 30, 7, ContactOptions())  # the base design, unchanged
+    new = points[30:]
+    assert len(new) == 13 and all(wide.contains(p["modulus_mpa"], p["poisson"], p["sphere_radius_mm"],
+                                                 p["force_kn"]) for p in new)
+    # they go where the base design left the extended space empty: the new radius levels, the low forces
+    assert all(p["sphere_radius_mm"] < 300 or p["force_kn"] < 20 for p in new)
+    assert {p["sphere_radius_mm"] for p in new} >= {250.0, 273.861}  # both new levels sampled
 
 
 def test_cases_outside_the_supported_domain_are_refused_with_what_to_change():
@@ -46,16 +68,30 @@ def test_the_command_refuses_an_unsupported_dataset_before_any_fe_work(tmp_path)
 @pytest.mark.slow
 def test_a_lab_dataset_at_250_mm_is_calibrated_on_an_extended_design(tmp_path):
     """R 250 mm lay outside Table 1's radius levels: the calibration ended in an internal error. The design is
-    extended (said first, with its number of FE runs) and the calibration runs."""
-    data = tmp_path / "lot.csv"
-    data.write_text("film,sphere_radius_mm,force_kn,measured_radius_mm,repeat\nHS,250,20,3.9,1\nHS,250,20,3.95,2\n"
-                    "HS,350,60,6.3,1\nHS,500,90,8.3,1\n")
-    p = subprocess.run([sys.executable, "-m", "filmcal.cli", "calibrate", "--data", str(data), "--film", "HS",
-                        "--imprint-model", "edge", "--kinematics", "small", "--study-dir", str(tmp_path / "st"),
-                        "--train-runs", "30", "--test-runs", "10", "--max-steps", "2000", "--json"],
-                       capture_output=True, text=True, timeout=600)
+    augmented (said first, with its number of new FE runs), every run of the design it extends is reused, and
+    the calibration runs."""
+    import sqlite3
+
+    def calibrate(rows: str, study: str):  # two datasets, two studies, one run store
+        data = tmp_path / f"{study}.csv"
+        data.write_text("film,sphere_radius_mm,force_kn,measured_radius_mm,repeat\n" + rows)
+        return subprocess.run([sys.executable, "-m", "filmcal.cli", "calibrate", "--data", str(data), "--film", "HS",
+                               "--imprint-model", "edge", "--kinematics", "small", "--study-dir",
+                               str(tmp_path / study), "--run-store", str(tmp_path / "runs"), "--train-runs", "30",
+                               "--test-runs", "10", "--max-steps", "2000", "--json"],
+                              capture_output=True, text=True, timeout=600)
+
+    def runs() -> int:
+        (store,) = (tmp_path / "runs").glob("runs-*.sqlite")
+        return sqlite3.connect(store).execute("select count(*) from runs").fetchone()[0]
+
+    inside = "HS,350,60,6.3,1\nHS,500,90,8.3,1\nHS,450,40,6.0,1\n"
+    assert calibrate(inside, "first").returncode == 0 and runs() == 40  # cases inside Table 1's domain first
+    p = calibrate("HS,250,20,3.9,1\nHS,250,20,3.95,2\n" + inside, "second")
     assert p.returncode == 0, p.stderr[-2000:]
-    assert "extended to sphere radii 250" in p.stderr and "40 FE runs" in p.stderr
+    # 5 of 7 radius levels (250 and 274 mm added) and 20-110 of 18.2-110 kN: 30 and 10 runs become 43 and 14
+    assert "extended to sphere radii 250, 273.861, 300" in p.stderr and "17 new FE runs" in p.stderr
+    assert runs() == 57  # the 40 runs reused, 17 new
     out = json.loads(p.stdout)
     lo, hi = out["modulus_mpa"]["ci90"]
     assert np.isfinite([lo, hi]).all() and 400 <= lo < hi <= 20000

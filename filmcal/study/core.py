@@ -68,6 +68,9 @@ class FESettings:
         The study's seed (designs and GP restarts draw from their own streams).
     domain : SurrogateDomain, optional
         Where the surrogates are trained (default: Table 1's experiments with margins).
+    base_domain : SurrogateDomain, optional
+        The domain that `domain` extends to cover a dataset (`_covering_spec`): the designs are then that
+        domain's, augmented (`filmcal.surrogate.radius.design_points`), so that its runs are reused.
     simulator : filmcal.campaign.simulator.Simulator, optional
         A lab's own simulator in place of the in-house FE (its runs then make the surrogates; the contact
         options and kinematics above are the in-house FE's and do not reach it).
@@ -83,6 +86,7 @@ class FESettings:
     seed: int = 0
     domain: Any = None
     simulator: Any = None
+    base_domain: Any = None
 
     def __post_init__(self) -> None:
         from filmcal.surrogate.radius import SurrogateDomain
@@ -96,7 +100,8 @@ class FESettings:
 
     def as_spec(self) -> dict:
         """The settings as a spec: the in-house FE's as before, a lab's simulator by its own spec."""
-        out = {k: v for k, v in asdict(self).items() if k != "simulator"}
+        out = {k: v for k, v in asdict(self).items()
+               if k != "simulator" and not (k == "base_domain" and v is None)}
         if self.simulator is not None:
             out["simulator"] = self.simulator.spec()
         else:
@@ -317,7 +322,7 @@ class Study:
     def _store_spec(self, fe: FESettings) -> dict:
         films = self._fe_films(fe.film_thickness_mm)
         return {"kind": "fe-runs", "options": {k: v for k, v in fe.as_spec().items()
-                                              if k not in ("n_train", "n_test", "seed", "domain")},
+                                              if k not in ("n_train", "n_test", "seed", "domain", "base_domain")},
                 "films": [f.to_dict() for f in films]}
 
     def fe_runs(self, fe: FESettings, workers: int | Executor | None = None, progress=None) -> dict:
@@ -339,8 +344,8 @@ class Study:
         self._require_writer()
         domain = fe.domain
         options = fe.contact_options()
-        train = design_points(domain, fe.n_train, seed_for(fe.seed, "design-train"), options)
-        test = design_points(domain, fe.n_test, seed_for(fe.seed, "design-test"), options)
+        train = design_points(domain, fe.n_train, seed_for(fe.seed, "design-train"), options, fe.base_domain)
+        test = design_points(domain, fe.n_test, seed_for(fe.seed, "design-test"), options, fe.base_domain)
         films = self._fe_films(fe.film_thickness_mm)
         for p in train + test:
             p["film_thickness_mm"] = fe.film_thickness_mm
@@ -394,7 +399,7 @@ class Study:
             "Y": {k: [None if not np.isfinite(x) else float(x) for x in v] for k, v in sorted(Y.items())}}
         ).encode()).hexdigest()
         key = spec_key({"store": self._store_spec(fe), "n_train": fe.n_train, "n_test": fe.n_test, "seed": fe.seed,
-                        "domain": fe.as_spec().get("domain")})
+                        "domain": fe.as_spec().get("domain"), "base_domain": fe.as_spec().get("base_domain")})
         used = self.manifest.data.setdefault("fe_runs", {})
         entry = used.get(key)
         if entry is not None and entry["sha256"] != digest:
@@ -854,12 +859,17 @@ def _covering_spec(spec: "CalibrationSpec", data) -> "CalibrationSpec":
         raise InputError(f"the dataset is outside the supported domain: {exc}") from None
     if domain is spec.fe.domain:
         return spec
+    from filmcal.surrogate.radius import augmented_samples
+
     levels = ", ".join(f"{r:g}" for r in domain.radius_levels_mm)
+    base = spec.fe.domain
+    new = augmented_samples(domain, base, spec.fe.n_train) + augmented_samples(domain, base, spec.fe.n_test)
     warnings.warn(DomainNote(
         f"the dataset's cases lie outside the design's domain: it is extended to sphere radii {levels} mm and "
-        f"forces {domain.force_kn[0]:.3g}-{domain.force_kn[1]:.3g} kN, {spec.fe.n_train + spec.fe.n_test} FE runs "
-        "per film kinematics (a new design)"), stacklevel=3)
-    return replace(spec, fe=replace(spec.fe, domain=domain))
+        f"forces {domain.force_kn[0]:.3g}-{domain.force_kn[1]:.3g} kN, {new} new FE runs per film kinematics "
+        f"(the design is augmented: the {spec.fe.n_train + spec.fe.n_test} runs over the domain it extends are "
+        "reused)"), stacklevel=3)
+    return replace(spec, fe=replace(spec.fe, domain=domain, base_domain=base))
 
 
 def _rough_flat(data, film, imprint: str, kinematics: str, modulus_range_mpa):

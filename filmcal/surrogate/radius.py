@@ -85,10 +85,12 @@ class SurrogateDomain:
     def covering(self, sphere_radius_mm, force_kn) -> "SurrogateDomain":
         """This domain, or one extended to cover the data's cases (radii and forces) with margins.
 
-        Inside this domain it is returned unchanged (its runs are reused). Otherwise the radius levels span
-        the data's and this domain's radii at the same density (about 1.19 between neighbours, as Table 1's
-        300-600 mm in five levels) and the force range the data's with 10 % margins; the modulus and Poisson
-        ranges stay. Cases outside the supported domain (`check_supported`) are refused first.
+        Inside this domain it is returned unchanged (its runs are reused). Otherwise this domain's radius
+        levels stay and new ones continue them to the data's extreme radii at about the same density (1.19
+        between neighbours, as Table 1's 300-600 mm in five levels), so that a design augmented from this
+        domain's keeps its runs (`design_points` with ``base``); the force range becomes the data's with 10 %
+        margins where it reaches beyond; the modulus and Poisson ranges stay. Cases outside the supported
+        domain (`check_supported`) are refused first.
         """
         radii = np.asarray(sphere_radius_mm, dtype=float).ravel()
         forces = np.asarray(force_kn, dtype=float).ravel()
@@ -97,14 +99,32 @@ class SurrogateDomain:
         lo_f, hi_f = self.force_kn
         if radii.min() >= lo_r and radii.max() <= hi_r and forces.min() >= lo_f and forces.max() <= hi_f:
             return self
-        new_lo, new_hi = min(lo_r, float(radii.min())), max(hi_r, float(radii.max()))
-        levels = self.radius_levels_mm
-        if (new_lo, new_hi) != (lo_r, hi_r):
-            step = (hi_r / lo_r) ** (1.0 / max(len(levels) - 1, 1))
-            n = int(math.ceil(math.log(new_hi / new_lo) / math.log(step))) + 1
-            levels = tuple(float(round(v, 3)) for v in np.geomspace(new_lo, new_hi, max(n, 2)))
+        levels = list(self.radius_levels_mm)
+        # this domain's levels stay (its runs are reused by an augmented design); new ones continue them at
+        # the same geometric step or finer, out to the data's extreme radius
+        step = (hi_r / lo_r) ** (1.0 / max(len(levels) - 1, 1)) if len(levels) > 1 else 1.19
+        if radii.min() < lo_r:
+            n = max(1, math.ceil(math.log(lo_r / radii.min()) / math.log(step) - 1e-9))
+            levels = [float(round(v, 3)) for v in np.geomspace(radii.min(), lo_r, n + 1)[:-1]] + levels
+        if radii.max() > hi_r:
+            n = max(1, math.ceil(math.log(radii.max() / hi_r) / math.log(step) - 1e-9))
+            levels = levels + [float(round(v, 3)) for v in np.geomspace(hi_r, radii.max(), n + 1)[1:]]
         force = (min(lo_f, float(forces.min()) / 1.1), max(hi_f, float(forces.max()) * 1.1))
-        return SurrogateDomain(self.modulus_mpa, self.poisson, levels, force)
+        return SurrogateDomain(self.modulus_mpa, self.poisson, tuple(levels), force)
+
+    def includes(self, other: "SurrogateDomain") -> bool:
+        """True if `other` lies inside this domain with every radius level of its own (its design's points
+        are points of this domain's design space)."""
+        return (self.modulus_mpa == other.modulus_mpa and self.poisson == other.poisson
+                and set(other.radius_levels_mm) <= set(self.radius_levels_mm)
+                and self.force_kn[0] <= other.force_kn[0] and other.force_kn[1] <= self.force_kn[1])
+
+    def share_of(self, other: "SurrogateDomain") -> float:
+        """The share of this domain's design space that `other` (inside it) covers: its radius levels' share
+        times its force range's (E and nu are common)."""
+        levels = len(other.radius_levels_mm) / len(self.radius_levels_mm)
+        forces = (other.force_kn[1] - other.force_kn[0]) / (self.force_kn[1] - self.force_kn[0])
+        return levels * forces
 
 
 #: The supported domain's physical limits: the steel stays elastic (the Hertz peak pressure without film, as
@@ -143,13 +163,72 @@ def option_columns(options: "ContactOptions") -> dict:
     return options.as_columns()
 
 
-def design_points(domain: SurrogateDomain, samples: int, seed: int, options: "ContactOptions") -> list[dict]:
-    """An optimal Latin hypercube over the domain as FE campaign points (inputs + FE options)."""
+def design_points(domain: SurrogateDomain, samples: int, seed: int, options: "ContactOptions",
+                  base: SurrogateDomain | None = None) -> list[dict]:
+    """An optimal Latin hypercube over the domain as FE campaign points (inputs + FE options).
+
+    With `base` (a domain that `domain` extends, `SurrogateDomain.includes`), the design is the base
+    domain's design of `samples` points, unchanged (its runs are reused), followed by
+    `augmented_samples` points in the extension: each new radius level gets as many as a base level
+    holds, the rest go to forces beyond the base range; each point is chosen in turn as the farthest, in
+    the extended space's unit cube, from every point so far (greedy maximin over 200 random candidates
+    per point), so the extension is sampled about as densely as the base domain.
+    """
     from filmcal.doe import latin_design
 
-    design = latin_design(domain.space(), samples, seed=seed)
     cols = option_columns(options)
-    return [dict(zip(INPUTS, map(float, row)), **cols) for row in design.points]
+    points = latin_design((base or domain).space(), samples, seed=seed).points
+    if base is not None:
+        if not domain.includes(base):
+            raise ValueError("design_points: the base domain must lie inside the domain, with its radius levels")
+        points = np.vstack([points, _fill_extension(domain, base, points, augmented_samples(domain, base, samples),
+                                                    seed)])
+    return [dict(zip(INPUTS, map(float, row)), **cols) for row in points]
+
+
+def _fill_extension(domain: SurrogateDomain, base: SurrogateDomain, existing: np.ndarray, k: int,
+                    seed: int) -> np.ndarray:
+    """`k` points of `domain` outside `base` (physical): each new radius level gets as many as a base level
+    holds, the rest go to the base levels' forces beyond the base range; within each group every point is
+    the farthest, in the unit cube, from all points so far (greedy maximin over random candidates)."""
+    space = domain.space()
+    rng = np.random.default_rng([seed, 0x5eed])
+    new_levels = [r for r in domain.radius_levels_mm if r not in base.radius_levels_mm]
+    per_level = len(existing) / len(base.radius_levels_mm)
+    counts = {r: int(round(per_level)) for r in new_levels}
+    while sum(counts.values()) > k:  # fewer points than levels want: the levels farthest out first
+        counts[min(counts, key=lambda r: (counts[r] == 0, -abs(math.log(r / 450.0))))] -= 1
+    groups = [(r, n) for r, n in counts.items() if n > 0] + [(None, k - sum(counts.values()))]
+    chosen_all = [np.asarray(existing, dtype=float)]
+    for level, n in groups:
+        if n <= 0:
+            continue
+        candidates = space.to_physical(rng.random((200 * n, space.d)))
+        if level is not None:
+            candidates[:, 2] = level
+        else:
+            candidates = candidates[np.isin(candidates[:, 2], base.radius_levels_mm)
+                                    & ((candidates[:, 3] < base.force_kn[0]) | (candidates[:, 3] > base.force_kn[1]))]
+            if len(candidates) < n:  # no force extension: the rest go to the new levels too
+                candidates = space.to_physical(rng.random((200 * n, space.d)))
+                candidates = candidates[~np.isin(candidates[:, 2], base.radius_levels_mm)]
+        unit = space.to_unit(candidates)
+        nearest = np.min(np.linalg.norm(unit[:, None, :] - space.to_unit(np.vstack(chosen_all))[None, :, :], axis=2),
+                         axis=1)
+        picked = []
+        for _ in range(n):
+            i = int(np.argmax(nearest))
+            picked.append(i)
+            nearest = np.minimum(nearest, np.linalg.norm(unit - unit[i], axis=1))
+            nearest[picked] = -1.0
+        chosen_all.append(candidates[picked])
+    return np.vstack(chosen_all[1:])
+
+
+def augmented_samples(domain: SurrogateDomain, base: SurrogateDomain, samples: int) -> int:
+    """Points added to a base design of `samples` points so that the extended domain is as densely sampled:
+    ``samples * (1 / share - 1)`` (`SurrogateDomain.share_of`), at least one."""
+    return max(1, int(round(samples * (1.0 / domain.share_of(base) - 1.0))))
 
 
 def radius_excess_mm(X: dict, radius_mm: np.ndarray) -> np.ndarray:
