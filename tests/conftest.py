@@ -148,6 +148,8 @@ ACCEPTANCE_TESTS: dict[str, str] = {
         "9-26 s: an extended design's FE runs and a calibration",
     "test_study_order.py::test_two_studies_from_empty_folders_with_one_seed_agree_to_the_last_digit":
         "30-80 s: a second quick pipeline from an empty folder",
+    "test_domain_follows_data.py::test_a_known_modulus_is_recovered_from_data_at_200_to_900_mm_and_10_to_150_kN":
+        "22-60 s: 14 FE imprints and a calibration on an augmented design of about 180 FE runs",
     "test_study_trust.py::": "75-210 s: curves, report and correct on tampered, linked and read-only studies, "
                              "15 commands in processes",
 }

@@ -95,3 +95,34 @@ def test_a_lab_dataset_at_250_mm_is_calibrated_on_an_extended_design(tmp_path):
     out = json.loads(p.stdout)
     lo, hi = out["modulus_mpa"]["ci90"]
     assert np.isfinite([lo, hi]).all() and 400 <= lo < hi <= 20000
+
+
+@pytest.mark.slow
+def test_a_known_modulus_is_recovered_from_data_at_200_to_900_mm_and_10_to_150_kN(tmp_path):
+    """Imprints made by the FE at E = 1800 MPa (HS's nu, edge reading) on spheres of 200-900 mm at 10-150 kN,
+    far outside Table 1's 300-600 mm and 25-100 kN, calibrated through the command on the study's augmented
+    design: the known E lies inside the 90 % interval."""
+    from filmcal.fem import Film, solve_sphere_on_flat
+    from filmcal.films import FilmType
+
+    E_true, hs = 1800.0, FilmType("HS")
+    cases = [(200.0, 10.0), (200.0, 25.0), (350.0, 40.0), (500.0, 80.0), (700.0, 120.0), (900.0, 150.0),
+             (900.0, 60.0)]
+    rng = np.random.default_rng(5)
+    lines = ["film,sphere_radius_mm,force_kn,measured_radius_mm,repeat"]
+    for R, F in cases:
+        result = solve_sphere_on_flat(R, F * 1e3, Film(E_true, hs.poisson), film_thickness_mm=hs.thickness_mm)
+        assert result.converged
+        for repeat in (1, 2):
+            lines.append(f"HS,{R:g},{F:g},{result.contact_radius_mm + 0.02 * rng.standard_normal():.4f},{repeat}")
+    (tmp_path / "wide.csv").write_text("\n".join(lines) + "\n")
+    p = subprocess.run([sys.executable, "-m", "filmcal.cli", "calibrate", "--data", str(tmp_path / "wide.csv"),
+                        "--film", "HS", "--imprint-model", "edge", "--kinematics", "small", "--study-dir",
+                        str(tmp_path / "st"), "--train-runs", "40", "--test-runs", "10", "--max-steps", "4000",
+                        "--json"], capture_output=True, text=True, timeout=1200)
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert "extended to sphere radii 200" in p.stderr and "new FE runs" in p.stderr
+    out = json.loads(p.stdout)
+    lo, hi = out["modulus_mpa"]["ci90"]
+    assert lo <= E_true <= hi, (lo, out["modulus_mpa"]["median"], hi)
+    assert abs(out["modulus_mpa"]["median"] / E_true - 1) < 0.1
