@@ -118,6 +118,8 @@ ACCEPTANCE_TESTS: dict[str, str] = {
     "test_simulators.py::test_a_command_simulator_fails_on_some_points_and_resumes_without_running_any_twice":
         "30 s: a calibration on an external command, killed and resumed",
     "test_simulators.py::test_the_lab_example_runs_end_to_end": "45 s: examples/lab at its fast size",
+    "test_simulators.py::test_the_in_house_fe_as_an_external_command_gives_the_in_house_posterior":
+        "25-60 s: two calibrations, one running `filmcal fem` as an external command 32 times",
     "test_pipeline_dask.py::": "55 s: two smoke pipelines, one on a local Dask cluster; an unreachable one",
     "test_dask_commands.py::test_calibrate_and_curves_on_a_local_dask_cluster_give_the_results_of_a_local_run":
         "45 s: two smoke-size calibrations and curves, one of each on a local Dask cluster",

@@ -208,3 +208,32 @@ def test_the_lab_example_runs_end_to_end(tmp_path):
         rows = list(csv.DictReader(line for line in fh if not line.startswith("#")))
     assert len(rows) == 4 and all(r["status"].startswith("ok") for r in rows)
     assert all(float(r["area_mm2"]) < float(r["measured_area_mm2"]) for r in rows)  # the film enlarges
+
+
+def test_the_in_house_fe_as_an_external_command_gives_the_in_house_posterior(tmp_path):
+    """`filmcal fem --json` wrapped as `--simulator-command`: its runs are the in-house FE's (the JSON keeps every
+    digit), so the calibration's posterior is the in-house one to the last digit."""
+    import json
+    import shlex
+    import subprocess
+    import sys
+
+    (tmp_path / "lab.csv").write_text("film,sphere_radius_mm,force_kn,radius_error_mm\nHS,450,75,1.2\n"
+                                      "HS,300,50,1.1\nHS,600,100,1.3\nHS,375,25,0.9\n")
+    fem = " ".join(map(shlex.quote, [sys.executable, "-m", "filmcal.cli", "fem"]))
+    template = (f"{fem} --sphere-radius-mm {{sphere_radius_mm}} --force-kn {{force_kn}} --film-modulus-mpa "
+                "{modulus_mpa} --film-poisson {poisson} --film-thickness-mm {film_thickness_mm} --json")
+
+    def calibrate(study: str, *simulator: str) -> dict:
+        p = subprocess.run([sys.executable, "-m", "filmcal.cli", "calibrate", "--data", str(tmp_path / "lab.csv"),
+                            "--film", "HS", "--imprint-model", "edge", "--study-dir", str(tmp_path / study),
+                            "--train-runs", "24", "--test-runs", "8", "--max-steps", "2000", "--json", *simulator],
+                           capture_output=True, text=True, timeout=900)
+        assert p.returncode == 0, p.stderr[-2000:]
+        return json.loads(p.stdout)
+
+    in_house = calibrate("in-house")
+    wrapped = calibrate("wrapped", "--simulator-command", template)
+    assert wrapped["modulus_mpa"] == in_house["modulus_mpa"]
+    assert wrapped["sigma_mm"] == in_house["sigma_mm"]
+    assert "simulator" in wrapped["fe_options"] and "simulator" not in in_house["fe_options"]
