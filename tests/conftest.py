@@ -152,6 +152,8 @@ ACCEPTANCE_TESTS: dict[str, str] = {
         "30-80 s: a second quick pipeline from an empty folder",
     "test_domain_follows_data.py::test_a_known_modulus_is_recovered_from_data_at_200_to_900_mm_and_10_to_150_kN":
         "22-60 s: 14 FE imprints and a calibration on an augmented design of about 180 FE runs",
+    "test_no_space.py::test_a_study_on_a_full_small_filesystem_stops_in_one_line_and_resumes_when_there_is_room":
+        "40-100 s: three smoke pipelines, two on a small real filesystem",
     "test_study_trust.py::": "75-210 s: curves, report and correct on tampered, linked and read-only studies, "
                              "15 commands in processes",
 }

@@ -11,7 +11,9 @@ each of them.
 from __future__ import annotations
 
 import errno
+import json
 import os
+import sys
 import tempfile
 from types import SimpleNamespace
 
@@ -281,3 +283,55 @@ def test_a_figure_is_written_in_the_format_of_its_name_under_exactly_that_name(n
     filmcal._io.atomic_savefig(fig, tmp_path / name, dpi=30)
     assert os.listdir(tmp_path) == [name]
     assert (tmp_path / name).read_bytes().startswith(magic)
+
+
+def _small_filesystems() -> bool:
+    """True where a private mount namespace can mount a small tmpfs (root with CAP_SYS_ADMIN)."""
+    import shutil as _shutil
+    import subprocess as _subprocess
+
+    if _shutil.which("unshare") is None:
+        return False
+    probe = _subprocess.run(["unshare", "-m", "sh", "-c", "mount -t tmpfs -o size=64k tmpfs /mnt"],
+                            capture_output=True)
+    return probe.returncode == 0
+
+
+def test_a_study_on_a_full_small_filesystem_stops_in_one_line_and_resumes_when_there_is_room(tmp_path):
+    """A smoke pipeline on a real 600 KiB tmpfs (its chains need more): one line naming 'no space', no
+    temporary file left; after the filesystem grows, the rerun completes with the posterior of a clean run.
+    HDF5 met the full disk inside its buffers and printed finaliser tracebacks; the chain's writer now refuses
+    a write that cannot fit first. Where mounts are not allowed, the same refusal is shown with the free
+    space the chain's writer reads made small."""
+    import subprocess as _subprocess
+
+    clean = _subprocess.run([sys.executable, "-m", "filmcal.cli", "pipeline", "--smoke", "--films", "HS",
+                             "--study-dir", str(tmp_path / "clean"), "--no-report", "--json", "--progress", "quiet"],
+                            capture_output=True, text=True, timeout=900)
+    assert clean.returncode == 0, clean.stderr[-2000:]
+    small = tmp_path / "small"
+    small.mkdir()
+    pipeline = (f"{sys.executable} -m filmcal.cli pipeline --smoke --films HS --study-dir {small}/st --no-report "
+                "--json --progress quiet")
+    if _small_filesystems():
+        script = (f"mount -t tmpfs -o size=600k tmpfs {small} && {{ {pipeline} > {tmp_path}/1.out 2> {tmp_path}/1.err;"
+                  f" echo $? > {tmp_path}/1.rc; find {small} -name '*.tmp*' > {tmp_path}/1.tmp; "
+                  f"mount -o remount,size=100m {small} && {pipeline} > {tmp_path}/2.out 2> {tmp_path}/2.err; "
+                  f"echo $? > {tmp_path}/2.rc; }}")
+        _subprocess.run(["unshare", "-m", "sh", "-c", script], check=True, timeout=1800)
+        first_rc, first_err = int((tmp_path / "1.rc").read_text()), (tmp_path / "1.err").read_text()
+        assert (tmp_path / "1.tmp").read_text() == ""
+        second_rc, second_out = int((tmp_path / "2.rc").read_text()), (tmp_path / "2.out").read_text()
+    else:
+        low = ("import shutil, sys; from filmcal.cli import main; real = shutil.disk_usage; "
+               "shutil.disk_usage = lambda p: real(p)._replace(free=1000); sys.exit(main(sys.argv[1:]))")
+        args = pipeline.split()[3:] + ["--workers", "1"]  # the chains written in this process, as patched
+        first = _subprocess.run([sys.executable, "-c", low, *args], capture_output=True, text=True, timeout=900)
+        first_rc, first_err = first.returncode, first.stderr
+        assert not list(small.rglob("*.tmp*"))
+        second = _subprocess.run(pipeline.split(), capture_output=True, text=True, timeout=900)
+        second_rc, second_out = second.returncode, second.stdout
+    assert first_rc == 2 and len(first_err.strip().splitlines()) == 1, first_err[-3000:]
+    assert "no space left on the device" in first_err and "delete" not in first_err
+    assert second_rc == 0
+    assert json.loads(second_out)["films"]["HS"]["modulus_mpa"] == json.loads(clean.stdout)["films"]["HS"]["modulus_mpa"]

@@ -23,8 +23,10 @@ and checked before continuing. Nothing in the file is pickled.
 """
 from __future__ import annotations
 
+import errno
 import json
 import math
+import shutil
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -249,6 +251,12 @@ class _ChunkedHDFBackend(emcee.backends.HDFBackend):
         if not self._pending:
             return
         coords, log_prob, accepted, random_states = zip(*self._pending)
+        # HDF5 meets a full disk inside its own buffers and reports it from object finalisers, as tracebacks
+        # that nothing can catch: a write that cannot fit is refused here first, as an error naming the file
+        needed = 2 * sum(np.asarray(c).nbytes + np.asarray(p).nbytes for c, p in zip(coords, log_prob)) + 2**16
+        free = shutil.disk_usage(Path(self.filename).resolve().parent).free
+        if free < needed:
+            raise OSError(errno.ENOSPC, "No space left on device", self.filename)
         with self.open("a") as f:
             g = f[self.name]
             it = int(g.attrs["iteration"])
