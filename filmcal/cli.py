@@ -8,7 +8,10 @@ This module is the command line's one error boundary:
 
 - Before any work, every option is checked: numbers are finite, size
   options lie in their bounds (`SIZE_BOUNDS`) and lists of loads or offsets
-  are not too long (`GRID_BOUNDS`), both stated in ``--help``; output
+  are not too long (`GRID_BOUNDS`), both stated in ``--help``; ``--workers``
+  is at most 4 per core and its processes fit in the memory available now
+  (`check_workers_option`; the commands check their own sizes against it
+  too: the FE mesh, roughness maps, `filmcal._memory`); output
   files are not folders and their folder exists and is writable, study
   folders are not files, input files are regular files of bounded size
   (`preflight`). A bad option ends the command before
@@ -279,6 +282,33 @@ def preflight(args: argparse.Namespace, actions: dict[str, argparse.Action]) -> 
             check_output_file(store, opt("store"))
         else:
             check_input_file(store, opt("store"), INPUT_FILE_CAPS_MIB["store"])
+
+
+#: Commands whose --workers are threads of the command's own process, not worker processes.
+THREAD_WORKERS = ("serve",)
+#: Commands that check their worker processes' memory themselves, from what the workers will run (a campaign's
+#: FE design: `filmcal.commands.campaign.check_design_memory`); here only the cap of 4 per core.
+OWN_WORKER_CHECK = ("campaign",)
+
+
+def check_workers_option(args: argparse.Namespace, actions: dict[str, argparse.Action], command: str) -> None:
+    """Check ``--workers`` before any work: at most 4 per core (`filmcal._memory.max_workers`), and, for
+    worker processes, their measured memory (`filmcal._memory.worker_memory`) within the memory available
+    now. A command whose workers hold more (a campaign's finer FE meshes, the curves' roughness maps) checks
+    that itself.
+
+    Raises
+    ------
+    filmcal._errors.InputError
+        Naming --workers, the limit and why.
+    """
+    if "workers" not in actions or getattr(args, "dask", None) is not None:
+        return
+    from filmcal._memory import check_workers
+
+    option = _option_strings({"workers": actions["workers"]})["workers"]
+    check_workers(getattr(args, "workers", None), option, command, processes=command not in THREAD_WORKERS,
+                  memory=command not in OWN_WORKER_CHECK)
 
 
 def _names_a_profile_file(value: str) -> bool:
@@ -582,6 +612,7 @@ def _main(argv: list[str] | None) -> int:
     options = _option_strings(actions)
     try:
         preflight(args, actions)
+        check_workers_option(args, actions, path[0])
         with warnings.catch_warnings():
             _notes_as_one_line(prog)
             # an image above Pillow's pixel limit is refused, not decoded with a warning

@@ -330,8 +330,10 @@ def test_workers_never_exceed_the_pending_points(tmp_path):
         wait_until(lambda: len(executor.worker_pids()) == 2, 30)
         assert len(executor.worker_pids()) == 2
     case = make_case(tmp_path, ["ok", "ok"], sleep_s=0.0)
-    run = subprocess.Popen(cli(case, "--workers", "12", "--json"), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                           text=True)
+    from filmcal._memory import max_workers  # more workers than points, within the cap of 4 per core
+
+    run = subprocess.Popen(cli(case, "--workers", str(max_workers()), "--json"), stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True)
     seen: dict[int, str] = {}
     while run.poll() is None:
         # the campaign's own children: its workers and the resource tracker (commands are grandchildren)

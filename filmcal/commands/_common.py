@@ -35,3 +35,48 @@ def simulator_from_args(args):
         return Simulator(umbridge=umbridge, umbridge_model=args.umbridge_model, timeout_s=args.timeout_s)
     files = CommandModel.from_files(command, ".", args.template_file or ()).template_files
     return Simulator(command=command, template_files=files, timeout_s=args.timeout_s)
+
+
+#: Peak memory of the commands that build roughness laws, besides the laws (bytes; measured: wheelrail 101 MiB
+#: without a map, curves' parent 294 MiB and workers 273 MiB with a synthetic rough wheel, correct 106 MiB without
+#: roughness and 216 MiB with a 256 x 256 map and 3 draws, of which its 4 laws 100 MiB).
+ROUGH_COMMAND_BASE_BYTES = {"wheelrail": 110 * 2**20, "curves": 300 * 2**20, "correct": 120 * 2**20}
+
+
+def check_roughness_maps(args, command: str, film_laws_per_map: int, steel_laws_per_map: int = 1,
+                         copies: int = 1, advice: str = "crop the map") -> None:
+    """Check the roughness maps a command was given before any work: each at most
+    `filmcal.contact.surface_files.MAX_MAP_PIXELS` pixels (read from its header), and the boundary-element laws
+    the command builds on them (`filmcal.contact.roughness.rough_law_cost`: `film_laws_per_map` against the
+    film and `steel_laws_per_map` steel on steel per map, held in `copies` processes) within the memory
+    available now.
+
+    Raises
+    ------
+    filmcal._errors.InputError, ValueError
+        Naming the option and the file, the limit and why.
+    """
+    given = [(option, getattr(args, dest, None)) for option, dest in (
+        ("--wheel-roughness-map", "wheel_roughness_map"), ("--rail-roughness-map", "rail_roughness_map"))]
+    if all(path is None for _, path in given):
+        return  # nothing to read: nothing imported (a correction without maps starts fast)
+    from filmcal._memory import check_memory
+    from filmcal.contact.roughness import rough_law_cost
+    from filmcal.contact.surface_files import check_map_pixels, surface_file_shape
+
+    maps = []
+    for option, path in given:
+        if path is None:
+            continue
+        shape = surface_file_shape(path)
+        check_map_pixels(path, option, shape)
+        if shape is not None:
+            maps.append((option, path, shape))
+    if not maps:
+        return
+    pixels = max(rows * cols for _, _, (rows, cols) in maps)
+    n = len(maps)
+    cost = rough_law_cost(pixels, film_laws_per_map * n, steel_laws_per_map * n, copies,
+                          ROUGH_COMMAND_BASE_BYTES.get(command, 0.0))
+    names = " and ".join(f"{option} ({rows} x {cols} pixels)" for option, _, (rows, cols) in maps)
+    check_memory(cost, names, advice)

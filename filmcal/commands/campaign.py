@@ -88,6 +88,75 @@ def check_fe_design(points: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return checked
 
 
+def design_memory(points: list[dict[str, Any]], workers: int | None):
+    """The FE design's memory: ``(largest point's estimate, its row, (radius, element size), workers' estimate,
+    number of worker processes)``.
+
+    Each point's FE model is estimated from its mesh settings (`filmcal.fem.memory.fe_memory`: the finest
+    ``element_size_mm`` at the largest ``sphere_radius_mm`` of each kind of point); a worker process runs
+    ``points / workers`` of them and keeps what `filmcal.fem.memory.fe_worker_memory` says; the workers (at most
+    one per point) and the parent (`filmcal._memory.WORKER_BYTES`) together give the workers' estimate.
+    """
+    from filmcal._memory import MemoryEstimate, cpu_count, format_bytes, worker_memory
+    from filmcal.fem import MeshSettings
+    from filmcal.fem.memory import fe_memory, fe_sizes, fe_worker_memory
+    from filmcal.fem.mesh import FILM_LAYERS
+
+    worst: dict[tuple, tuple[float, int]] = {}  # kind of point -> (largest radius, its row)
+    setups = set()
+    for row, point in enumerate(points, start=1):
+        h = float(point.get("element_size_mm") or 0.1)
+        kind = (h, not point.get("no_film", False), str(point.get("kinematics") or "small"),
+                str(point.get("sphere_contact") or "frictionless"), str(point.get("flat_contact") or "tied"))
+        radius = float(point["sphere_radius_mm"])
+        setups.add((radius, h, point.get("film_thickness_mm")))
+        if kind not in worst or radius > worst[kind][0]:
+            worst[kind] = (radius, row)
+    largest = None
+    for kind, (radius, row) in worst.items():
+        estimate = fe_memory(radius, MeshSettings(element_size_mm=kind[0]), FILM_LAYERS, *kind[1:])
+        if largest is None or estimate.bytes > largest[0].bytes:
+            largest = (estimate, row, (radius, kind[0]))
+    estimate, row, key = largest
+    n = max(1, min(cpu_count() if workers is None else int(workers), len(points)))
+    each = fe_worker_memory(-(-len(points) // n), estimate, fe_sizes(key[0], MeshSettings(element_size_mm=key[1]),
+                                                                      FILM_LAYERS), len(setups))
+    parent = worker_memory("campaign")[1]
+    total = MemoryEstimate(n * each + parent, f"{n} worker processes with FE models of up to {format_bytes(each)} "
+                                              "each", "filmcal.fem.memory.fe_worker_memory")
+    return estimate, row, key, total, n
+
+
+def check_design_memory(points: list[dict[str, Any]], workers: int | None) -> None:
+    """Refuse, before any work, an FE design whose points, or whose worker processes, do not fit in the memory
+    available now (`design_memory`).
+
+    Raises
+    ------
+    filmcal._errors.InputError
+        Naming the design row or --workers, the estimate and what to change.
+    """
+    from filmcal._memory import check_memory, usable_bytes
+
+    if not points:
+        return
+    estimate, row, key, total, n = design_memory(points, workers)
+    check_memory(estimate, f"--design row {row} (element_size_mm {key[1]:g}, sphere_radius_mm {key[0]:g})",
+                 "use a coarser element_size_mm (a larger element size) in the design")
+    usable = usable_bytes()
+    if n > 1 and usable is not None and total.bytes > usable:
+        each = (total.bytes - _parent_bytes()) / n
+        fits = max(1, int((usable - _parent_bytes()) // each))
+        given = "--workers " + (str(workers) if workers is not None else f"{n} (the default: one per core)")
+        check_memory(total, given, f"use at most --workers {fits}, or a coarser element_size_mm in the design")
+
+
+def _parent_bytes() -> float:
+    from filmcal._memory import worker_memory
+
+    return worker_memory("campaign")[1]
+
+
 def default_work_dir(store: str | Path) -> Path:
     """Working folders of an external command: ``<store stem>.work`` beside the store."""
     store = Path(store)
@@ -151,6 +220,8 @@ def _run(args: argparse.Namespace) -> int:
         if args.simulator_python == DEFAULT_MODEL:
             points = check_fe_design(points)
             group_by = FE_SETUP_COLUMNS
+            if args.dask is None:
+                check_design_memory(points, args.workers)
         model = import_model(args.simulator_python)
         settings, model_name = None, args.simulator_python
     executor = DaskExecutor(args.dask) if args.dask is not None else None

@@ -162,6 +162,12 @@ def run(args: argparse.Namespace) -> int:
     from filmcal.study.correct import (BodyRoughness, ScanReading, SphereMeasurement, WheelRailMeasurement,
                                        correct_measurement)
 
+    from filmcal.commands._common import check_roughness_maps
+
+    # one law against the film per draw and map, one steel law per map: refused before any work if they do
+    # not fit in the memory available now
+    check_roughness_maps(args, "correct", args.roughness_draws, 1,
+                         advice="use fewer --roughness-draws, or crop the map or bin its pixels")
     if args.batch is not None:
         return run_batch(args)
     if args.out is not None:

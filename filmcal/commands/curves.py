@@ -65,6 +65,21 @@ def _rough_bodies(args: argparse.Namespace) -> list:
     return [] if bodies.smooth else [bodies]
 
 
+def _check_map_memory(args: argparse.Namespace) -> None:
+    """Roughness maps refused before any work when their laws do not fit: one law against the film at each
+    modulus the curves solve at (at most `filmcal.correction.moduli.N_NODES` + 1) and one steel law, per map,
+    held by this process and by every worker process (each cell's task receives the wheel's laws)."""
+    from filmcal._memory import cpu_count
+    from filmcal.commands._common import check_roughness_maps
+    from filmcal.correction.moduli import N_NODES
+
+    workers = cpu_count() if args.workers is None else args.workers
+    copies = 1 if args.dask is not None or workers <= 1 else 1 + workers
+    check_roughness_maps(args, "curves", N_NODES + 1, 1, copies,
+                         advice="crop the map or bin its pixels" + (", or use fewer --workers (each holds the laws)"
+                                                                    if copies > 1 else ""))
+
+
 def run(args: argparse.Namespace) -> int:
     from filmcal._parallel import parallel_work
     from filmcal._validation import parse_grid
@@ -78,6 +93,7 @@ def run(args: argparse.Namespace) -> int:
                          f"got {args.forces_kn!r}")
     if any(not (-20 <= e <= 10) for e in offsets):
         raise ValueError(f"offsets_mm must lie in [-20, 10] mm, got {args.offsets_mm!r}")
+    _check_map_memory(args)
     from filmcal.correction import CURVE_COLUMNS, curve_table, wheel_label, write_curves_csv
     from filmcal.study.core import chosen_posteriors, curve_components
 

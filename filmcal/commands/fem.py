@@ -76,6 +76,14 @@ def run(args: argparse.Namespace) -> int:
     if film is not None:  # a film thinner than the mesh resolves: refused before the model is built
         from filmcal.fem.model import check_film_thickness
         check_film_thickness(thickness, mesh.element_size_mm, args.film_layers)
+    from filmcal.fem.memory import check_fe_memory  # a mesh that does not fit in memory: refused before any work
+
+    size = (f"--element-size-mm {args.element_size_mm:g}" if args.element_size_mm is not None
+            else f"the default --element-size-mm {mesh.element_size_mm:g}")
+    check_fe_memory(args.sphere_radius_mm, mesh, args.film_layers, film is not None, options.kinematics,
+                    options.sphere_contact, options.flat_contact,
+                    options=f"{size} with --film-layers {args.film_layers} at --sphere-radius-mm "
+                            f"{args.sphere_radius_mm:g}")
     res = solve_sphere_on_flat(args.sphere_radius_mm, args.force_kn * 1e3, film, options, mesh,
                                thickness, args.film_layers, film_type=film_type, imprint_model=args.imprint_model)
     if args.pressure_csv:

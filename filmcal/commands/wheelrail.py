@@ -74,7 +74,12 @@ def add_parser(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Solve the case and print the result."""
+    from filmcal.commands._common import check_roughness_maps
     from filmcal.wheelrail.film_contact import FilmContactCase, WheelRoughness, solve_film_contact
+
+    # maps too large for the time or the memory of their boundary-element laws: refused before any work
+    check_roughness_maps(args, "wheelrail", 0 if args.no_film else 1, 1 if args.no_film else 0,
+                         advice="crop the map or bin its pixels")
 
     inclination = args.rail_inclination
     case = FilmContactCase(None if args.no_film else args.film_modulus_mpa, args.film_poisson,

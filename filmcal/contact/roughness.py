@@ -114,6 +114,8 @@ __all__ = [
     "solve_periodic_contact",
     "PeriodicContact",
     "WHEEL_SURFACE_DEFAULTS",
+    "rough_law_cost",
+    "LAW_BYTES_PER_PIXEL",
 ]
 
 #: Indentation hardness of the PET carrier (MPa): Tabor's 3 Y with Y ~ 100 MPa (BOPET).
@@ -810,6 +812,52 @@ class RoughContactLaw(TabularLaw):
 
 _CACHE: "OrderedDict[tuple, RoughContactLaw]" = OrderedDict()
 _CACHE_SIZE = 32
+
+#: What a finished law keeps per pixel of its surface (bytes): each of its (at most 32) load steps' local
+#: pressures as float32 and, sorted, as float64 (`RoughContactLaw.steps`, `fraction_above`).
+LAW_BYTES_PER_PIXEL = 32 * (4 + 8)
+#: The solver's work arrays per pixel while a law is built (bytes; measured, see `rough_law_cost`).
+LAW_WORK_BYTES_PER_PIXEL = 60
+#: Seconds per pixel and iteration of the boundary-element solve (FFT convolutions; one BLAS thread on an
+#: idle core of the reference machine: 0.025-0.032 s per million pixels and iteration), and the iterations
+#: a law takes over its 32 load steps (measured on self-affine maps of 128-1024 pixels a side: 2200-3600
+#: against a film, 470-610 steel on steel). A lower bound on a busy machine: the solver's vector products
+#: run on every BLAS thread, and with the cores shared they were up to 60 times slower (a 128 x 128 law
+#: against a film 1.4 s with one BLAS thread, 92 s with the default threads beside other work).
+LAW_SECONDS_PER_PIXEL_ITERATION = 3.0e-8
+LAW_ITERATIONS = {"film": 3000, "steel": 600}
+
+
+def rough_law_cost(pixels: int, film_laws: int = 1, steel_laws: int = 0, copies: int = 1,
+                   base_bytes: float = 0.0):
+    """Estimated peak memory and time of building rough-contact laws on a map of `pixels` pixels.
+
+    Model: each finished law keeps `LAW_BYTES_PER_PIXEL` (384 B) per pixel, the one being built adds
+    `LAW_WORK_BYTES_PER_PIXEL` (60 B); a process holding ``film_laws + steel_laws`` laws (at most the cache's 32)
+    peaks at ``base + pixels (60 + 384 laws)``, and ``copies`` processes that each hold them (worker processes
+    that receive the laws) multiply it. Time: ``pixels x iterations x 3e-8 s`` per law, 3000 iterations
+    against a film, 600 steel on steel (one process, an idle core: a lower bound, see
+    `LAW_SECONDS_PER_PIXEL_ITERATION`). Measured (peak RSS in a subprocess, ``python bench/memory.py --only
+    maps``): ``filmcal wheelrail`` with a film on a 1024 x 1024 map 510 MiB (101 MiB without the map), one
+    steel law on 2048 x 2048 pixels 1.6 GiB, four laws on 512 x 512 pixels 412 MiB above the base: 398-428 B
+    per pixel and law; estimate/measured 0.92 for both ``wheelrail`` cases.
+
+    Returns
+    -------
+    filmcal._memory.MemoryEstimate
+        With ``seconds``: the laws' build time in one process.
+    """
+    from filmcal._memory import MemoryEstimate
+
+    laws = max(1, min(_CACHE_SIZE, int(film_laws) + int(steel_laws)))
+    per_process = pixels * (LAW_WORK_BYTES_PER_PIXEL + LAW_BYTES_PER_PIXEL * laws)
+    seconds = pixels * LAW_SECONDS_PER_PIXEL_ITERATION * (
+        LAW_ITERATIONS["film"] * film_laws + LAW_ITERATIONS["steel"] * steel_laws)
+    what = (f"{laws} boundary-element law{'s' if laws > 1 else ''} on {pixels / 1e6:.3g} million pixels"
+            + (f" in each of {copies} processes" if copies > 1 else ""))
+    return MemoryEstimate(base_bytes + max(1, int(copies)) * per_process, what,
+                          "base + copies x pixels x (60 + 384 laws) B; pixels x 3e-8 s x (3000 film + 600 steel "
+                          "laws)", seconds)
 
 
 def rough_contact_law(surface: RoughSurface, film_modulus_mpa: float, film_poisson: float,

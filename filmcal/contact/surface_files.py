@@ -26,7 +26,7 @@ from xml.etree import ElementTree
 import numpy as np
 
 __all__ = ["read_surface_file", "read_x3p", "read_line_profile", "profile_surface", "MAX_PIXEL_UM",
-           "MIN_PIXELS", "MIN_SIDE_UM"]
+           "MIN_PIXELS", "MIN_SIDE_UM", "MAX_MAP_PIXELS", "surface_file_shape", "check_map_pixels"]
 
 #: The coarsest pixel (um) at which the asperities that carry the film's contact are resolved.
 MAX_PIXEL_UM = 5.0
@@ -39,6 +39,11 @@ MAX_X3P_BYTES = 64 * 2**20
 _TYPES = {"D": "<f8", "F": "<f4", "L": "<i4", "I": "<i2"}
 #: The rows a line profile's ridged map gets (the profile repeated along the lay).
 PROFILE_ROWS = 8
+#: The most pixels of a map the boundary-element law is solved on (2048 x 2048): a law's time grows with its
+#: pixels (about 90 s per million pixels against a film, `filmcal.contact.roughness.rough_law_cost`), so a larger
+#: map is refused before it is read; crop it (the law is converged in the grid on 256-512 pixels of a
+#: 200 um surface, `filmcal.contact.roughness`) or bin it to coarser pixels (at most `MAX_PIXEL_UM`) first.
+MAX_MAP_PIXELS = 2048 * 2048
 
 
 def _child(node, path: str, where: str):
@@ -220,24 +225,112 @@ def read_line_profile(path: str | Path):
     return profile_surface(np.interp(grid, x, z), spacing, f"line profile {path.name}")
 
 
+def _is_line_profile_csv(path: Path) -> bool:
+    with open(path, errors="replace") as fh:
+        first = fh.readline(4096).lower()
+    return any(name in first for name in ("x_um", "x_mm"))
+
+
+def surface_file_shape(path: str | Path) -> tuple[int, int] | None:
+    """The shape (pixels) of the map `read_surface_file` makes of a file, read from its header without
+    decoding the heights (milliseconds); None when the file does not say (its reader then reports it).
+
+    Images: the header's size. x3p: the matrix size (a profile: its points x `PROFILE_ROWS`). CSV: the first
+    line's values times the lines, counted from the file's size and its first 64 KiB (an estimate for a
+    height map; a line profile's points likewise, times `PROFILE_ROWS`).
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    try:
+        if suffix in (".png", ".tif", ".tiff"):
+            import warnings
+
+            from PIL import Image
+
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                with Image.open(path) as img:
+                    width, height = img.size
+            return int(height), int(width)
+        if suffix == ".x3p":
+            with zipfile.ZipFile(path) as archive:
+                root = ElementTree.fromstring(archive.read("main.xml"))
+            dims = root.find("Record3/MatrixDimension")
+            nx, ny = (int(float(dims.findtext(k))) for k in ("SizeX", "SizeY"))
+            feature = (root.findtext("Record1/FeatureType") or "").strip()
+            return (nx, PROFILE_ROWS) if feature == "PRF" or ny == 1 else (nx, ny)
+        size = path.stat().st_size
+        with open(path, "rb") as fh:
+            head = fh.read(65536)
+        lines = head.split(b"\n")
+        if len(head) < size and len(lines) > 1:
+            lines = lines[:-1]  # the last line read is cut
+        lines = [line for line in lines if line.strip()]
+        data = [line for line in lines if line[:1].strip(b" \t+-.0123456789eE,;") == b""]
+        if not data:
+            return None
+        per_line = sum(len(line) + 1 for line in data) / len(data)
+        rows = max(len(data), int(round(size / per_line)))
+        profile = suffix == ".csv" and _is_line_profile_csv(path)
+        cols = PROFILE_ROWS if profile else len(data[0].replace(b",", b" ").replace(b";", b" ").split())
+        if len(head) < size and 0.75 * MAX_MAP_PIXELS < rows * cols < 1.33 * MAX_MAP_PIXELS:
+            rows = _count_lines(path) - (len(lines) - len(data))  # near the cap: count (header lines off)
+        return rows, cols
+    except Exception:  # noqa: BLE001 - an unreadable header is the reader's to report
+        return None
+
+
+def _count_lines(path: Path) -> int:
+    """Non-empty lines of a text file, read in 1 MiB blocks."""
+    count, last = 0, b"\n"
+    with open(path, "rb") as fh:
+        while block := fh.read(2**20):
+            count += block.count(b"\n") - block.count(b"\n\n")
+            last = block[-1:]
+    return count + (last != b"\n")
+
+
+def check_map_pixels(path: str | Path, option: str = "roughness map", shape: tuple[int, int] | None = None) -> None:
+    """Refuse a map of more than `MAX_MAP_PIXELS` pixels before it is read (`surface_file_shape`).
+
+    Raises
+    ------
+    ValueError
+        Naming `option`, the file, its size, the cap and the time a law on it would take.
+    """
+    from filmcal._memory import format_bytes, format_seconds
+    from filmcal.contact.roughness import rough_law_cost
+
+    shape = surface_file_shape(path) if shape is None else shape
+    if shape is None or shape[0] * shape[1] <= MAX_MAP_PIXELS:
+        return
+    pixels = shape[0] * shape[1]
+    cost = rough_law_cost(pixels)
+    side = int(math.isqrt(MAX_MAP_PIXELS))
+    raise ValueError(
+        f"{option} {str(path)!r}: {shape[0]} x {shape[1]} = {pixels / 1e6:.3g} million pixels, more than the "
+        f"{MAX_MAP_PIXELS / 1e6:.3g} million ({side} x {side}) the roughness law is solved on: one law on it "
+        f"would take about {format_seconds(cost.seconds)} and {format_bytes(cost.bytes)}; crop it (e.g. to {side} x "
+        f"{side}) or bin it to coarser pixels (at most {MAX_PIXEL_UM:g} um) first")
+
+
 def read_surface_file(path: str | Path, pixel_um: float | None = None, height_scale: float = 1.0,
                       height_range_um: float | None = None):
     """A measured surface by its file: x3p (map or profile), a CSV line profile (a header with x_um/x_mm and
     z_um/z_nm), a CSV height map (``pixel_um``, ``height_scale``) or a greyscale image (``pixel_um``,
-    ``height_range_um``); levelled and checked (module notes)."""
+    ``height_range_um``); levelled and checked (module notes). A map of more than `MAX_MAP_PIXELS` pixels is
+    refused before it is decoded (`check_map_pixels`)."""
     from filmcal.contact.roughness import RoughSurface
 
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"roughness map {path}: not found")
+    check_map_pixels(path)
     suffix = path.suffix.lower()
     if suffix == ".x3p":
         return read_x3p(path)
-    if suffix == ".csv":
-        with open(path, errors="replace") as fh:
-            first = fh.readline().lower()
-        if any(name in first for name in ("x_um", "x_mm")):
-            return read_line_profile(path)
+    if suffix == ".csv" and _is_line_profile_csv(path):
+        return read_line_profile(path)
     if pixel_um is None:
         raise ValueError(f"roughness map {path}: a height map needs its pixel size (--roughness-pixel-um)")
     if suffix in (".png", ".tif", ".tiff"):
