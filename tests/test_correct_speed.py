@@ -74,7 +74,9 @@ def test_numpy_prediction_equals_the_fitted_surrogate(fitted, saved):
     np.testing.assert_allclose(fast.predict(X), fitted.predict(X), rtol=1e-10)
     train = dict(zip(NAMES, fitted.X_train_.T))
     np.testing.assert_allclose(fast.predict(train), fitted.predict(train), rtol=1e-10)
-    assert fast.log_marginal_likelihood_value_ == pytest.approx(fitted.log_marginal_likelihood_value_, rel=1e-10)
+    # the log marginal likelihood is recomputed from a kernel matrix of condition ~1e8: two BLAS builds agree to
+    # about cond * eps = 1e-8 (numpy 2.4 on Python 3.13 differed from scikit-learn's value by 3e-10)
+    assert fast.log_marginal_likelihood_value_ == pytest.approx(fitted.log_marginal_likelihood_value_, rel=1e-8)
     assert fast.input_names_ == fitted.input_names_
 
 
