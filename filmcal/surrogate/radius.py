@@ -196,8 +196,9 @@ def _fill_extension(domain: SurrogateDomain, base: SurrogateDomain, existing: np
     new_levels = [r for r in domain.radius_levels_mm if r not in base.radius_levels_mm]
     per_level = len(existing) / len(base.radius_levels_mm)
     counts = {r: int(round(per_level)) for r in new_levels}
-    while sum(counts.values()) > k:  # fewer points than levels want: the levels farthest out first
-        counts[min(counts, key=lambda r: (counts[r] == 0, -abs(math.log(r / 450.0))))] -= 1
+    centre = math.exp(np.mean(np.log(base.radius_levels_mm)))
+    while sum(counts.values()) > k:  # fewer points than the levels want: those nearest the base give up first
+        counts[min(counts, key=lambda r: (counts[r] == 0, abs(math.log(r / centre))))] -= 1
     groups = [(r, n) for r, n in counts.items() if n > 0] + [(None, k - sum(counts.values()))]
     chosen_all = [np.asarray(existing, dtype=float)]
     for level, n in groups:
