@@ -10,10 +10,10 @@ study's compared models are used instead, weighted as `filmcal pipeline`
 weighed them (read only: run the pipeline first). The posterior is propagated
 through the wheel-rail model (`filmcal.correction.correction_curves`, the area
 each model records): Delta A = A_film - A_no_film and the correction factor
-A_no_film / A_film, medians and 90 % credible bands, smooth wheel (and the
-synthetic rough wheel of `filmcal.correction.rough_surface` with
---rough-ra-um). The interpolation error of the propagation is printed beside
-the bands.
+A_no_film / A_film, medians and 90 % credible bands, smooth wheel (and a
+rough wheel of --rough-ra-um, its bands over 8 conditioned draws of the
+roughness inputs, `filmcal.correction.RoughConfiguration`). The interpolation
+error of the propagation is printed beside the bands.
 
     python examples/correction_curves.py [--films HS] [--model edge/small|mixture] [--study-dir filmcal-study]
         [--out-dir out/curves] [--loads 50-100] [--rough-ra-um 1.5] [--offsets-mm -7,-6,...,2] [--forces-kn 50,100]
@@ -26,7 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from filmcal.correction import correction_curves, rough_surface
+from filmcal.contact.rough_imprint import load_roughness_inputs
+from filmcal.correction import CURVE_COLUMNS, RoughConfiguration, curve_table
 from filmcal.correction.wheelrail import nominal_modulus_mpa
 from filmcal.study import Study
 from filmcal.study.core import curve_components, film_model
@@ -55,7 +56,8 @@ def main() -> None:
     ap.add_argument("--out-dir", default="out/curves")
     ap.add_argument("--loads", default=None, help="calibration data: load range in kN, e.g. 50-100 (default all)")
     ap.add_argument("--rough-ra-um", type=float, default=None,
-                    help="also a rough wheel of this Ra (um), the synthetic surface of filmcal.correction.rough_surface")
+                    help="also a rough wheel of this Ra (um): synthetic surfaces of 8 conditioned draws of the "
+                         "roughness inputs")
     ap.add_argument("--offsets-mm", default=",".join(f"{x:g}" for x in OFFSETS_MM),
                     help="lateral offsets eta in mm, comma-separated (default -7 to 2 in steps of 1)")
     ap.add_argument("--forces-kn", default=",".join(f"{x:g}" for x in FORCES_KN),
@@ -73,36 +75,33 @@ def main() -> None:
 
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    variants = [("smooth wheel", None)]
+    rough = []
     if args.rough_ra_um:
-        variants.append((f"rough wheel, Ra {args.rough_ra_um:g} um", rough_surface(args.rough_ra_um)))
+        rough.append(RoughConfiguration(args.rough_ra_um, None, tuple(load_roughness_inputs()[:8])))
     rows = []
     for film in args.films.split(","):
         components = components_of(study, film, args.loads, args.model)
+        table = [dict(zip(CURVE_COLUMNS, r)) for r in curve_table(film, components, offsets_mm, forces_n / 1e3, rough)]
+        rows += table
         fig = Figure(figsize=(max(8.0, 5.5 * len(forces_n)), 7.5), layout="constrained")
         axes = fig.subplots(2, len(forces_n), sharex=True, squeeze=False)
-        for label, law in variants:
-            c = correction_curves(components, offsets_mm, forces_n, roughness=law)
+        for label in dict.fromkeys(r["wheel"] for r in table):
             for k, force in enumerate(forces_n):
-                line = axes[0, k].plot(c.offsets_mm, c.delta_area_median_mm2[k], "o-", label=label)[0]
-                axes[0, k].fill_between(c.offsets_mm, *c.delta_area_ci90_mm2[k].T, color=line.get_color(), alpha=0.25)
-                axes[1, k].plot(c.offsets_mm, c.ratio_median[k], "o-", color=line.get_color(), label=label)
-                axes[1, k].fill_between(c.offsets_mm, *c.ratio_ci90[k].T, color=line.get_color(), alpha=0.25)
-                axes[0, k].set_title(f"{film}, F = {force / 1e3:g} kN (max interpolation error "
-                                     f"{100 * c.interpolation_error_rel[k].max():.3f} %)", fontsize=10)
-                for j, eta in enumerate(c.offsets_mm):
-                    rows.append({"film": film, "wheel": label, "force_kn": force / 1e3, "offset_mm": eta,
-                                 "area_no_film_mm2": c.area_no_film_mm2[k, j],
-                                 "delta_area_median_mm2": c.delta_area_median_mm2[k, j],
-                                 "delta_area_lo_mm2": c.delta_area_ci90_mm2[k, j, 0],
-                                 "delta_area_hi_mm2": c.delta_area_ci90_mm2[k, j, 1],
-                                 "ratio_median": c.ratio_median[k, j], "ratio_lo": c.ratio_ci90[k, j, 0],
-                                 "ratio_hi": c.ratio_ci90[k, j, 1],
-                                 "interpolation_error_rel": c.interpolation_error_rel[k, j]})
-                print(f"{film} {label} F={force / 1e3:g} kN: Delta A {c.delta_area_median_mm2[k].min():.1f}-"
-                      f"{c.delta_area_median_mm2[k].max():.1f} mm2, ratio {c.ratio_median[k].min():.3f}-"
-                      f"{c.ratio_median[k].max():.3f}, interpolation error <= "
-                      f"{100 * c.interpolation_error_rel[k].max():.3f} %", flush=True)
+                c = [r for r in table if r["wheel"] == label and r["force_kn"] == force / 1e3]
+                eta = [r["offset_mm"] for r in c]
+                line = axes[0, k].plot(eta, [r["delta_area_median_mm2"] for r in c], "o-", label=label)[0]
+                axes[0, k].fill_between(eta, [r["delta_area_lo_mm2"] for r in c], [r["delta_area_hi_mm2"] for r in c],
+                                        color=line.get_color(), alpha=0.25)
+                axes[1, k].plot(eta, [r["ratio_median"] for r in c], "o-", color=line.get_color(), label=label)
+                axes[1, k].fill_between(eta, [r["ratio_lo"] for r in c], [r["ratio_hi"] for r in c],
+                                        color=line.get_color(), alpha=0.25)
+                err = max(r["interpolation_error_rel"] for r in c)
+                axes[0, k].set_title(f"{film}, F = {force / 1e3:g} kN (max interpolation error {100 * err:.3f} %)",
+                                     fontsize=10)
+                print(f"{film} {label} F={force / 1e3:g} kN: Delta A "
+                      f"{min(r['delta_area_median_mm2'] for r in c):.1f}-{max(r['delta_area_median_mm2'] for r in c):.1f}"
+                      f" mm2, ratio {min(r['ratio_median'] for r in c):.3f}-{max(r['ratio_median'] for r in c):.3f}, "
+                      f"interpolation error <= {100 * err:.3f} %", flush=True)
         for ax in axes[0]:
             ax.set_ylabel("Delta A = A(film) - A(no film) (mm$^2$)")
             ax.grid(lw=0.3)

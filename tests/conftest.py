@@ -72,7 +72,7 @@ SLOW_TESTS: dict[str, str] = {
     "test_transfer.py::test_the_transfer_term_brings_the_applied_film_to_the_calibrated_one": "3-4 s: FE and half-space at three points",
     "test_roughness_no_film.py::test_rough_hertz_contact_follows_greenwood_tripp": "5 s each: a rough law (BEM)",
     "test_roughness_no_film.py::test_the_nominal_area_of_rough_bodies_tends_to_the_smooth_area": "8 s: two rough laws",
-    "test_correction_curves.py::test_rough_bodies_give_their_nominal_area_without_film": "5 s: a rough law (BEM)",
+    "test_correction_curves.py::test_growth_task_matches_direct_solves": "16 s: four rough laws (BEM), cold solves",
     "test_wheelrail_cli.py::test_options_rail_inclination_radius_roughness_plot": "6 s: the rough bodies' law (BEM)",
     "test_campaign.py::test_dask_cluster_gives_the_same_results_as_the_local_pool": "5 s: a Dask cluster",
     "test_campaign.py::test_killed_campaign_resumes_without_recomputing_finished_points": "4 s: kills a process",

@@ -56,20 +56,78 @@ def test_a_mixture_band_spans_the_models_it_pools():
     assert hi - lo > edge_only.delta_area_ci90_mm2[0, 0, 1] - edge_only.delta_area_ci90_mm2[0, 0, 0]
 
 
-def test_rough_bodies_give_their_nominal_area_without_film():
-    """With the rough bodies' law the area without film is their nominal area: larger than the smooth one,
-    and the correction factor A0 / A grows with it (the film's areas are the smooth film's here)."""
-    from filmcal.contact.roughness import WHEEL_SURFACE_DEFAULTS, RoughSurface, steel_contact_law
+def test_rough_curves_pair_each_sample_with_one_draw_of_the_growths():
+    """Rough curves are the smooth samples times one draw's growths each: with a single draw the rough
+    median and band are the smooth ones scaled exactly (a monotone map of the same samples), the area
+    without film is A0 g_0, and the roughness adds no variance; with two draws the factor's band widens and
+    the Monte-Carlo error is the draws' standard error."""
+    from filmcal.correction.roughness import RoughGrowth
 
-    d = WHEEL_SURFACE_DEFAULTS
-    surface = RoughSurface.synthetic(ra_um=1.5, hurst=d["hurst"], rolloff_wavelength_um=d["rolloff_wavelength_um"],
-                                     size_um=d["size_um"], n=d["n"], seed=0)
-    samples = np.full(50, 2800.0)
-    smooth = correction_curves([(HS_EDGE, samples, 1.0)], [-4.0], [50e3])
-    rough = correction_curves([(HS_EDGE, samples, 1.0)], [-4.0], [50e3], no_film_law=steel_contact_law(surface))
-    assert 1.03 < rough.area_no_film_mm2[0, 0] / smooth.area_no_film_mm2[0, 0] < 1.3
-    assert rough.area_film_median_mm2[0, 0] == pytest.approx(smooth.area_film_median_mm2[0, 0], rel=1e-9)
-    assert rough.ratio_median[0, 0] > smooth.ratio_median[0, 0]
+    rng = np.random.default_rng(3)
+    samples = np.exp(rng.normal(np.log(2800.0), 0.04, 2000))
+    cell = (50e3, -4.0)
+    one = {cell: {HS_EDGE.label: RoughGrowth(np.array([1.10]), np.array([1.20]), np.array([1.0]))}}
+    g0, gf = np.array([1.20, 1.10]), np.array([1.05, 1.10])
+    two = {cell: {HS_EDGE.label: RoughGrowth(gf, g0, np.array([0.5, 0.5]))}}
+    c = correction_curves([(HS_EDGE, samples, 1.0)], [-4.0], [50e3], rough=[one, two])
+    r1, r2 = c.rough
+    assert r1.area_no_film_mm2[0, 0] == pytest.approx(1.20 * c.area_no_film_mm2[0, 0], rel=1e-12)
+    assert r1.area_film_median_mm2[0, 0] == pytest.approx(1.10 * c.area_film_median_mm2[0, 0], rel=1e-12)
+    assert r1.ratio_median[0, 0] == pytest.approx(c.ratio_median[0, 0] * 1.20 / 1.10, rel=1e-12)
+    np.testing.assert_allclose(r1.ratio_ci90[0, 0], c.ratio_ci90[0, 0] * 1.20 / 1.10, rtol=1e-12)
+    assert r1.roughness_share[0, 0] < 1e-9 and r1.roughness_mc_error_rel[0, 0] == 0.0
+    # two draws, factors 1.20/1.05 and 1.0: the band reaches both scaled smooth medians
+    assert r2.area_no_film_mm2[0, 0] == pytest.approx(1.15 * c.area_no_film_mm2[0, 0], rel=1e-12)
+    lo, hi = r2.ratio_ci90[0, 0]
+    assert lo < c.ratio_median[0, 0] * 1.0 * 1.01 and hi > c.ratio_median[0, 0] * (1.20 / 1.05) * 0.99
+    assert r2.roughness_share[0, 0] > 0.9
+    h = g0 / gf
+    assert r2.roughness_mc_error_rel[0, 0] == pytest.approx(np.std(h) / np.sqrt(2) / np.mean(h), rel=1e-9)
+    # the smooth curves are those without rough configurations, to the bit
+    alone = correction_curves([(HS_EDGE, samples, 1.0)], [-4.0], [50e3])
+    assert alone.ratio_median[0, 0] == c.ratio_median[0, 0] and np.all(alone.ratio_ci90 == c.ratio_ci90)
+
+
+def test_growth_task_matches_direct_solves():
+    """One cell's growths from `growth_task` (smooth solves shared by the draws, warm starts, the sweep's
+    tolerance) against direct, cold solves of each draw at the default tolerance: the film's rough reading
+    over its smooth one, and the rough bodies' nominal area without film over the smooth one."""
+    from filmcal.contact.reading import nominal_area_mm2
+    from filmcal.contact.rough_imprint import load_roughness_inputs, rough_recorded_area_mm2
+    from filmcal.correction import growth_task
+    from filmcal.correction.roughness import draw_laws
+
+    draws = list(dict.fromkeys(load_roughness_inputs()))[:2]
+    film, e = HS_EDGE.film, 2800.0
+    laws = {d: draw_laws(d, {"HS": (film, e)}, wheel=1.5) for d in draws}
+    got = growth_task([("HS", HS_EDGE, e)], draws, laws, -4.0, 50e3, {})
+
+    def level(result):
+        return nominal_area_mm2(result.contact.grid.x_mm, result.contact.grid.y_mm, result.contact.pressure_mpa)
+
+    bare = solve_wheel_rail(-4.0, 50e3)
+    layer = FilmLayer(e, film.poisson, film.thickness_mm)
+    smooth = solve_wheel_rail(-4.0, 50e3, film=layer)
+    for d in draws:
+        bodies = d.bodies(1.5)
+        film_law = bodies.film_law(e, film.poisson, film.thickness_mm)
+        solver_film, solver_law, _ = HS_EDGE.interface(e, film_law)
+        rough = solve_wheel_rail(-4.0, 50e3, film=solver_film, roughness=solver_law)
+        g_f = rough_recorded_area_mm2(HS_EDGE, rough, film_law, d.reading_level) / smooth.area_mm2
+        g_0 = level(solve_wheel_rail(-4.0, 50e3, roughness=bodies.steel_law())) / level(bare)
+        assert got[d][0] == pytest.approx(g_0, rel=1e-4) and got[d][1][0] == pytest.approx(g_f, rel=1e-4)
+        assert got[d][0] > 1.02 and got[d][1][0] > 1.0
+
+
+def test_zero_roughness_gives_the_smooth_curves_to_the_last_digit():
+    from filmcal.contact.rough_imprint import load_roughness_inputs
+    from filmcal.correction import RoughConfiguration, curve_table
+
+    samples = np.exp(np.random.default_rng(4).normal(np.log(2800.0), 0.04, 500))
+    flat = RoughConfiguration(0.0, None, tuple(load_roughness_inputs()[:2]))
+    rows = curve_table("HS", [(HS_EDGE, samples, 1.0)], [-4.0], [50.0], [flat], workers=1)
+    assert len(rows) == 2 and rows[0][1] == "smooth"
+    assert rows[0][2:14] == rows[1][2:14] and rows[1][14] == 0.0
 
 
 def test_curve_rows_label_rough_bodies_by_their_measured_ra():

@@ -152,12 +152,14 @@ def _start_until(cmd, log, marker: str, timeout_s: float = 900):
 
 
 def _without_curves(quick_study, tmp_path):
-    """A copy of the quick study without its curves: a rerun goes straight to the curves stage."""
+    """A copy of the quick study without its curves and rough laws: a rerun goes straight to the curves stage,
+    which starts with the rough laws on the workers."""
     import shutil
 
     study = tmp_path / "study"
     shutil.copytree(quick_study[0], study)
     shutil.rmtree(study / "curves")
+    shutil.rmtree(study / "roughlaws")
     return study
 
 
@@ -171,7 +173,7 @@ def test_killed_pipeline_resumes_without_losing_finished_work(quick_study, tmp_p
     study = _without_curves(quick_study, tmp_path)
     cmd = [sys.executable, "-m", "filmcal.cli", "pipeline", "--quick", "--films", "HS", "--workers", "2",
            "--study-dir", str(study), "--no-report", "--progress", "log"]
-    first = _start_until(cmd, tmp_path / "first.err", "[curves] 1 film(s)")
+    first = _start_until(cmd, tmp_path / "first.err", "[curves] rough wheel:")
     time.sleep(1.0)
     family = descendant_pids(first.pid)
     assert family, "the curves stage runs on worker processes"
@@ -207,7 +209,7 @@ def test_ctrl_c_in_a_parallel_stage_and_a_second_writer(quick_study, tmp_path):
     study = _without_curves(quick_study, tmp_path)
     cmd = [sys.executable, "-m", "filmcal.cli", "pipeline", "--quick", "--films", "HS", "--workers", "2",
            "--study-dir", str(study), "--no-report", "--progress", "log"]
-    first = _start_until(cmd, tmp_path / "first.err", "[curves] 1 film(s)")
+    first = _start_until(cmd, tmp_path / "first.err", "[curves] rough wheel:")
     t0 = time.monotonic()
     second = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
     assert second.returncode == 2 and len(second.stderr.strip().splitlines()) == 1, second.stderr

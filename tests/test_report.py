@@ -105,7 +105,8 @@ def _curve_rows(film: str) -> list[dict]:
                 dm = 0.3 * a0 + (1.0 if wheel != "smooth" else 0.0)
                 rows.append(dict(zip(CURVE_COLUMNS, (film, wheel, force, eta, a0, a0 + dm, dm, dm - 2.0, dm + 2.0,
                                                      a0 / (a0 + dm), a0 / (a0 + dm + 2.0), a0 / (a0 + dm - 2.0),
-                                                     0.001))))
+                                                     0.001, 900.0, 0.0 if wheel == "smooth" else 0.6,
+                                                     0.0 if wheel == "smooth" else 0.004))))
     return rows
 
 

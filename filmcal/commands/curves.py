@@ -16,18 +16,25 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         description="Propagate a film type's calibrated posterior (from the study folder) through the S1002/60E2 "
                     "wheel-rail model: contact area without film, with film (posterior median and 90 %% band), "
                     "Delta A = A_film - A_0 and the correction factor A_0 / A_film at each (load, offset), smooth "
-                    "and optionally rough wheel. The film area is interpolated in log E from solves at three "
+                    "and optionally on rough bodies. The film area is interpolated in log E from solves at three "
                     "posterior quantiles; the interpolation error, checked at one more, is a column beside the "
-                    "bands. About a second per (load, offset) with the smooth wheel; a rough wheel adds its law.")
+                    "bands. Rough bodies multiply each sample by one draw's rough/smooth growths (with and "
+                    "without film), so their bands hold the roughness law's uncertainty. About a second per (load, "
+                    "offset) with smooth bodies; rough bodies add a few seconds per draw and (load, offset).")
     add(p, "film", required=True)
     add(p, "forces_kn", default="50,100", extra="(default 50,100)")
     add(p, "offsets_mm", default="-7:2:1", extra="(default -7:2:1)")
-    add(p, "wheel_roughness_ra_um", extra="; also a rough wheel of this Ra: its boundary-element law against each "
-                                          "film modulus, and against the steel rail for the area without film")
+    add(p, "wheel_roughness_ra_um", extra="; also curves on the rough bodies: each posterior sample's areas times "
+                                          "the rough/smooth growths of one draw of the roughness inputs, with "
+                                          "and without film")
     add(p, "rail_roughness_ra_um", extra="; with the wheel's, or alone")
     add(p, "wheel_roughness_map", extra="(instead of --wheel-roughness-ra-um)")
     add(p, "rail_roughness_map", extra="(instead of --rail-roughness-ra-um)")
     local(p, "--roughness-pixel-um", type=float, help="pixel size in um of a CSV or image roughness map")
+    local(p, "--roughness-draws", type=int, default=8,
+          help="rough bodies: draws of the roughness law's conditioned inputs (coating hardness, the scan's "
+               "reading level, the surface's spectrum) that the rough bands take, 1-16 (default 8); the "
+               "roughness share of each band's variance and the Monte-Carlo error are columns")
     local(p, "--roughness-law", metavar="CSV",
           help="also a rough wheel with this measured film-wheel pressure-overclosure law: a CSV with "
                "columns closure_um,pressure_mpa, both strictly increasing from pressure 0")
@@ -48,36 +55,45 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _rough_bodies(args: argparse.Namespace) -> list:
-    """The rough bodies asked for (none, a rough wheel's Ra, or `Roughness` of Ra values and measured maps)."""
+def _rough_configurations(args: argparse.Namespace) -> list:
+    """The rough bodies asked for (`filmcal.correction.RoughConfiguration`): the bodies' Ra values and measured
+    maps with the first --roughness-draws conditioned draws of the roughness inputs, and a measured law."""
+    from filmcal.correction import RoughConfiguration
+
     if args.wheel_roughness_ra_um and args.wheel_roughness_map or args.rail_roughness_ra_um and args.rail_roughness_map:
         raise ValueError("give each body's roughness as an Ra or as a map, not both")
-    if not (args.rail_roughness_ra_um or args.wheel_roughness_map or args.rail_roughness_map):
-        return [args.wheel_roughness_ra_um] if args.wheel_roughness_ra_um else []
-    from filmcal.contact.rough_imprint import representative_roughness_inputs
-    from filmcal.contact.surface_files import read_surface_file
+    out = []
+    if args.wheel_roughness_ra_um or args.rail_roughness_ra_um or args.wheel_roughness_map or args.rail_roughness_map:
+        from filmcal.contact.rough_imprint import load_roughness_inputs
+        from filmcal.contact.surface_files import read_surface_file
 
-    def body(ra, path):
-        return read_surface_file(path, args.roughness_pixel_um) if path else ra
+        def body(ra, path):
+            return read_surface_file(path, args.roughness_pixel_um) if path else (ra or None)
 
-    bodies = representative_roughness_inputs().bodies(body(args.wheel_roughness_ra_um, args.wheel_roughness_map),
-                                                      body(args.rail_roughness_ra_um, args.rail_roughness_map))
-    return [] if bodies.smooth else [bodies]
+        draws = load_roughness_inputs()
+        if isinstance(args.roughness_draws, bool) or not 1 <= args.roughness_draws <= len(draws):
+            raise ValueError(f"--roughness-draws must be an integer in [1, {len(draws)}], got {args.roughness_draws!r}")
+        out.append(RoughConfiguration(body(args.wheel_roughness_ra_um, args.wheel_roughness_map),
+                                      body(args.rail_roughness_ra_um, args.rail_roughness_map),
+                                      tuple(draws[:args.roughness_draws])))
+    if args.roughness_law:
+        from filmcal.contact.laws import TabularLaw
+
+        out.append(RoughConfiguration(law=TabularLaw.from_csv(args.roughness_law)))
+    return out
 
 
 def _check_map_memory(args: argparse.Namespace) -> None:
-    """Roughness maps refused before any work when their laws do not fit: one law against the film at each
-    modulus the curves solve at (at most `filmcal.correction.moduli.N_NODES` + 1) and one steel law, per map,
-    held by this process and by every worker process (each cell's task receives the wheel's laws)."""
+    """Roughness maps refused before any work when their laws do not fit: one law against the film per draw
+    and one steel law, per map, held by every worker process (each draw's task builds its laws)."""
     from filmcal._memory import cpu_count
     from filmcal.commands._common import check_roughness_maps
-    from filmcal.correction.moduli import N_NODES
 
     workers = cpu_count() if args.workers is None else args.workers
-    copies = 1 if args.dask is not None or workers <= 1 else 1 + workers
-    check_roughness_maps(args, "curves", N_NODES + 1, 1, copies,
-                         advice="crop the map or bin its pixels" + (", or use fewer --workers (each holds the laws)"
-                                                                    if copies > 1 else ""))
+    copies = 1 if args.dask is not None or workers <= 1 else workers
+    check_roughness_maps(args, "curves", args.roughness_draws, 1, copies,
+                         advice="use fewer --roughness-draws, or crop the map or bin its pixels"
+                                + (", or use fewer --workers (each holds the laws)" if copies > 1 else ""))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -94,7 +110,7 @@ def run(args: argparse.Namespace) -> int:
     if any(not (-20 <= e <= 10) for e in offsets):
         raise ValueError(f"offsets_mm must lie in [-20, 10] mm, got {args.offsets_mm!r}")
     _check_map_memory(args)
-    from filmcal.correction import CURVE_COLUMNS, curve_table, wheel_label, write_curves_csv
+    from filmcal.correction import CURVE_COLUMNS, curve_table, write_curves_csv
     from filmcal.study.core import chosen_posteriors, curve_components
 
     with parallel_work(args.workers, args.dask) as workers:  # a Dask scheduler is reached before anything is written
@@ -104,14 +120,10 @@ def run(args: argparse.Namespace) -> int:
                  "kinematics": args.kinematics, "loads": args.calibration_forces_kn}
         chosen = chosen_posteriors(study, film, **match)
         components = curve_components(study, film, **match)
-        wheels = [None] + _rough_bodies(args)
-        if args.roughness_law:
-            from filmcal.contact.laws import TabularLaw
-
-            wheels.append(TabularLaw.from_csv(args.roughness_law))
-        for wheel in wheels:
-            sys.stderr.write(f"[curves] {film}, {wheel_label(wheel)}: {len(forces)} loads x {len(offsets)} offsets\n")
-        rows = curve_table(film, components, offsets, forces, wheels, workers)
+        rough = _rough_configurations(args)
+        for label in ["smooth"] + [c.label for c in rough]:
+            sys.stderr.write(f"[curves] {film}, {label}: {len(forces)} loads x {len(offsets)} offsets\n")
+        rows = curve_table(film, components, offsets, forces, rough, workers)
     if args.csv:
         write_curves_csv(args.csv, rows)
     if args.plot:
@@ -119,18 +131,13 @@ def run(args: argparse.Namespace) -> int:
         from filmcal.report.figures import plot_area_curves
 
         atomic_savefig(plot_area_curves([dict(zip(CURVE_COLUMNS, r)) for r in rows], film), args.plot, dpi=120)
-    rough_note = ("the rough rows use the representative draw of the roughness inputs: their bands do not hold the "
-                  "inputs' spread (filmcal correct with the same roughness carries it)") if len(wheels) > 1 else None
     if args.json:
         print_json({"film": film, "models": {s["model"]: w for w, _, s in chosen},
-                    "posterior_files": [str(p) for _, p, _ in chosen], "columns": list(CURVE_COLUMNS), "rows": rows,
-                    **({"not_included": [rough_note]} if rough_note else {})})
+                    "posterior_files": [str(p) for _, p, _ in chosen], "columns": list(CURVE_COLUMNS), "rows": rows})
     else:
         print(f"{'wheel':>16} {'F kN':>6} {'eta mm':>7} {'A0 mm2':>8} {'dA median':>9} {'dA 90 %':>17} "
-              f"{'A0/A':>7} {'A0/A 90 %':>17} {'interp %':>8}")
+              f"{'A0/A':>7} {'A0/A 90 %':>17} {'interp %':>8} {'rough share':>11} {'MC err %':>8}")
         for r in rows:
             print(f"{r[1]:>16} {r[2]:6g} {r[3]:+7g} {r[4]:8.1f} {r[6]:9.1f} [{r[7]:6.1f}, {r[8]:6.1f}] "
-                  f"{r[9]:7.4f} [{r[10]:.4f}, {r[11]:.4f}] {100 * r[12]:8.3f}")
-        if rough_note:
-            print(f"not included: {rough_note}")
+                  f"{r[9]:7.4f} [{r[10]:.4f}, {r[11]:.4f}] {100 * r[12]:8.3f} {r[14]:11.2f} {100 * r[15]:8.3f}")
     return 0

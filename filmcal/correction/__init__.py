@@ -10,9 +10,9 @@ from filmcal._lazy import lazy_exports
 __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "filmcal.correction.crossval": ["CaseCrossValidation", "cross_validate_case", "leave_one_case_out",
                                     "psis_leave_one_case_out"],
-    "filmcal.correction.curves": ["CURVE_COLUMNS", "CorrectionCurves", "correction_curves", "curve_moduli", "curve_rows",
-                                  "curve_table", "read_curves_csv", "rough_bodies", "rough_law_tasks", "wheel_label",
-                                  "write_curves_csv"],
+    "filmcal.correction.curves": ["CURVE_COLUMNS", "CorrectionCurves", "RoughConfiguration", "correction_curves",
+                                  "curve_growths", "curve_rows", "curve_table", "growth_task", "read_curves_csv",
+                                  "wheel_label", "write_curves_csv"],
     "filmcal.correction.imprint": ["Imprint", "measure_imprint", "otsu_threshold", "read_imprint",
                                    "stain_intensity"],
     "filmcal.correction.outline": ["CorrectedOutline", "ModelOutlines", "correct_outline", "hausdorff_distance_mm",

@@ -20,12 +20,21 @@ reported beside the bands: the error of a quadratic through three points is
 odd about the middle one to leading order, so one check measures both halves.
 (Over today's posteriors that error is about 1e-3, the size of the cell-count
 noise of the areas themselves.)
+
+Rough bodies enter as growth ratios on these smooth samples, as in a
+correction (`filmcal.correction.roughness`): at each cell every draw of the
+roughness inputs gives the contact without film's growth g_0 and each model's
+g_f (`solve_growths`, at the film's one growth modulus); each posterior sample
+is paired with one draw (by the draws' weights), so A_0 becomes A_0 g_0 and
+A_film becomes A_film g_f. The rough bands thus hold the roughness law's
+uncertainty; the roughness share of the variance of log(A_0 / A_film) and the
+Monte-Carlo error of the factor's mean change over the draws are columns
+beside them.
 """
 from __future__ import annotations
 
 import csv
-from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -34,8 +43,8 @@ from filmcal._io import atomic_open
 from filmcal.correction.moduli import modulus_grid
 from filmcal.wheelrail.wheelrail import get_wheel_rail_model
 
-__all__ = ["CorrectionCurves", "correction_curves", "curve_moduli", "CURVE_COLUMNS", "curve_rows", "curve_table",
-           "rough_law_tasks", "write_curves_csv", "read_curves_csv", "rough_bodies", "wheel_label"]
+__all__ = ["CorrectionCurves", "correction_curves", "CURVE_COLUMNS", "curve_rows", "curve_table", "curve_growths",
+           "growth_task", "RoughConfiguration", "write_curves_csv", "read_curves_csv", "wheel_label"]
 
 #: Solver tolerance of the sweeps: areas within 1e-6 (relative) of the default 1e-9, a fifth faster.
 SWEEP_TOL = 1e-6
@@ -49,6 +58,7 @@ class CorrectionCurves:
     ----------
     offsets_mm, forces_n : ndarray
     area_no_film_mm2 : ndarray
+        The contact without film (rough bodies: the smooth area times the draws' mean growth g_0).
     area_film_median_mm2 : ndarray
     delta_area_median_mm2, delta_area_ci90_mm2 : ndarray (ci90 has a last axis of 2)
         A_film - A_0.
@@ -59,6 +69,12 @@ class CorrectionCurves:
     max_pressure_no_film_mpa : ndarray
         Peak pressure of the smooth contact without film: above the steel's elastic limit the elastic model is
         outside its validity.
+    roughness_share : ndarray
+        Share of the variance of log(A_0 / A_film) that the roughness draws add (0 for smooth bodies).
+    roughness_mc_error_rel : ndarray
+        Monte-Carlo standard error of the draws' mean change of the factor, relative (0 for smooth bodies).
+    rough : list of CorrectionCurves
+        The same curves on each rough configuration asked for (`correction_curves`' ``rough``).
     """
 
     offsets_mm: np.ndarray
@@ -71,6 +87,24 @@ class CorrectionCurves:
     ratio_ci90: np.ndarray
     interpolation_error_rel: np.ndarray
     max_pressure_no_film_mpa: np.ndarray
+    roughness_share: np.ndarray
+    roughness_mc_error_rel: np.ndarray
+    rough: list = field(default_factory=list)
+
+    @classmethod
+    def empty(cls, offsets: np.ndarray, forces: np.ndarray) -> "CorrectionCurves":
+        shape = (len(forces), len(offsets))
+        return cls(offsets, forces, *(np.zeros(shape) for _ in range(3)), np.zeros(shape + (2,)), np.zeros(shape),
+                   np.zeros(shape + (2,)), *(np.zeros(shape) for _ in range(4)))
+
+    def summarise(self, i: int, j: int, a0, area: np.ndarray) -> None:
+        """Fill cell (i, j) from the area without film (per sample or one number) and the film's samples."""
+        delta, ratio = area - a0, a0 / area
+        self.area_no_film_mm2[i, j] = float(np.mean(a0))
+        self.area_film_median_mm2[i, j] = np.median(area)
+        self.delta_area_median_mm2[i, j], self.ratio_median[i, j] = np.median(delta), np.median(ratio)
+        self.delta_area_ci90_mm2[i, j] = np.quantile(delta, [0.05, 0.95])
+        self.ratio_ci90[i, j] = np.quantile(ratio, [0.05, 0.95])
 
 
 def _thinned(samples, max_samples: int) -> np.ndarray:
@@ -95,19 +129,8 @@ def _pooled(components, max_samples: int) -> tuple[list, np.ndarray]:
     return parts, counts
 
 
-def curve_moduli(components, max_samples: int = 4000) -> np.ndarray:
-    """The film moduli (MPa) at which `correction_curves` solves for these components (sorted).
-
-    A rough wheel's laws can be computed at them beforehand (in parallel) and
-    handed to `correction_curves` as ``roughness={modulus: law}``.
-    """
-    parts, counts = _pooled(components, max_samples)
-    nodes, checks = modulus_grid([e for (_, e, _), n in zip(parts, counts) if n > 0])
-    return np.sort(np.concatenate([nodes, checks]))
-
-
-def correction_curves(components, offsets_mm, forces_n, *, roughness=None, no_film_law=None,
-                      max_samples: int = 4000, **wheel_rail) -> CorrectionCurves:
+def correction_curves(components, offsets_mm, forces_n, *, rough=(), max_samples: int = 4000,
+                      **wheel_rail) -> CorrectionCurves:
     """Posterior correction curves over offsets and forces, of one film model or a mixture of models.
 
     Parameters
@@ -121,15 +144,10 @@ def correction_curves(components, offsets_mm, forces_n, *, roughness=None, no_fi
         between models that the data cannot tell apart.
     offsets_mm, forces_n : array_like
         The grid (lateral offsets eta in mm, forces in N).
-    roughness : None, Roughness, RoughSurface, InterfaceLaw or mapping
-        The bodies: smooth, rough (`filmcal.contact.roughness.Roughness`, or one rough surface; laws computed
-        against each film modulus), a measured film-wheel law, or the laws of rough bodies computed
-        beforehand at each modulus of `curve_moduli` (``{modulus: law}``). The film's rough reading
-        (`FilmModel.recorded_area_mm2` with the law) uses the representative conditioned draw's reading level.
-    no_film_law : InterfaceLaw, optional
-        The rough bodies' law without film (`filmcal.contact.roughness.steel_contact_law`): the area without
-        film is then their nominal area (`filmcal.wheelrail.film_contact.nominal_rough_area_mm2`); without
-        it, the smooth bodies' area.
+    rough : sequence of mappings
+        Rough configurations, each the growths of its draws at every cell: ``{(force_n, offset_mm):
+        {model label: RoughGrowth}}`` (`curve_growths`); the result's ``rough`` holds their curves, made from
+        the same posterior samples as the smooth ones.
     max_samples : int
         Posterior samples used per model.
     **wheel_rail
@@ -140,13 +158,8 @@ def correction_curves(components, offsets_mm, forces_n, *, roughness=None, no_fi
     parts, counts = _pooled(components, max_samples)
     offsets = np.atleast_1d(np.asarray(offsets_mm, dtype=float))
     forces = np.atleast_1d(np.asarray(forces_n, dtype=float))
-    shape = (len(forces), len(offsets))
-    a0 = np.empty(shape)
-    a_med = np.empty(shape)
-    d_med, r_med = np.empty(shape), np.empty(shape)
-    d_ci, r_ci = np.empty(shape + (2,)), np.empty(shape + (2,))
-    err = np.zeros(shape)
-    peak = np.empty(shape)
+    out = CorrectionCurves.empty(offsets, forces)
+    out.rough = [CorrectionCurves.empty(offsets, forces) for _ in rough]
 
     # Models of one film type and kinematics read the same contact: one solve per modulus serves them all.
     groups: dict = {}
@@ -154,10 +167,9 @@ def correction_curves(components, offsets_mm, forces_n, *, roughness=None, no_fi
         if counts[k] > 0:
             groups.setdefault((model.film, model.kinematics), []).append(k)
     nodes, checks = modulus_grid([parts[k][1] for members in groups.values() for k in members])
-    moduli = np.sort(np.concatenate([nodes, checks]))  # as `curve_moduli` gives them
+    moduli = np.sort(np.concatenate([nodes, checks]))
     wheel_rail_model = get_wheel_rail_model(**wheel_rail, tol=SWEEP_TOL)
-    law_at = roughness if isinstance(roughness, Mapping) else {m: roughness for m in moduli}
-    interfaces = {(key, m): parts[members[0]][0].interface(float(m), law_at[m])
+    interfaces = {(key, m): parts[members[0]][0].interface(float(m))
                   for key, members in groups.items() for m in moduli}
 
     for i, force in enumerate(forces):
@@ -165,57 +177,76 @@ def correction_curves(components, offsets_mm, forces_n, *, roughness=None, no_fi
             # the transfer spread's draws: seeded by the cell, so a cell's band does not depend on the others
             rng = np.random.default_rng([int(round(force)), int(round(1e3 * eta)) + 10**7])
             bare = wheel_rail_model.solve(eta, force)
-            a0[i, j] = bare.area_mm2
-            peak[i, j] = bare.max_pressure_mpa
-            if no_film_law is not None:
-                from filmcal.wheelrail.film_contact import nominal_rough_area_mm2
-
-                a0[i, j] = nominal_rough_area_mm2(wheel_rail_model.solve(eta, force, roughness=no_film_law,
-                                                                         initial=bare), bare)
-            pooled = []
+            a0 = float(bare.area_mm2)
+            out.max_pressure_no_film_mpa[i, j] = bare.max_pressure_mpa
+            pooled, labels = [], []
             for key, members in groups.items():
                 recorded, spread, previous = {}, {}, bare
                 for m in moduli:  # each solve starts from its neighbour's pressure
-                    film, law, rough_law = interfaces[key, m]
+                    film, law, _ = interfaces[key, m]
                     previous = wheel_rail_model.solve(eta, force, film=film, roughness=law, initial=previous)
                     terms = [parts[k][0].transfer_term(float(m), previous) for k in members]
-                    recorded[m] = [parts[k][0].recorded_area_mm2(previous, rough_law) + t.shift_mm2
+                    recorded[m] = [parts[k][0].recorded_area_mm2(previous) + t.shift_mm2
                                    for k, t in zip(members, terms)]
                     spread[m] = [t.std_mm2 / r for t, r in zip(terms, recorded[m])]
-                at_nodes = np.log(np.array([recorded[m] for m in nodes]) / a0[i, j])
-                at_checks = np.log(np.array([recorded[m] for m in checks]) / a0[i, j]) if len(checks) else None
+                at_nodes = np.log(np.array([recorded[m] for m in nodes]) / a0)
+                at_checks = np.log(np.array([recorded[m] for m in checks]) / a0) if len(checks) else None
                 degree = min(2, len(nodes) - 1)
                 for col, k in enumerate(members):
                     e = parts[k][1]
                     coef = np.polyfit(np.log(nodes), at_nodes[:, col], degree) if degree else at_nodes[:1, col]
-                    area = a0[i, j] * np.exp(np.polyval(coef, np.log(e)))
+                    area = a0 * np.exp(np.polyval(coef, np.log(e)))
                     rel_std = np.interp(np.log(e), np.log(moduli), [spread[m][col] for m in moduli])
                     area = area * (1.0 + rel_std * rng.standard_normal(len(area)))
                     if len(nodes) > 1:
-                        err[i, j] = max(err[i, j], float(np.max(np.abs(
-                            np.exp(np.polyval(coef, np.log(checks)) - at_checks[:, col]) - 1.0))))
+                        out.interpolation_error_rel[i, j] = max(out.interpolation_error_rel[i, j], float(np.max(
+                            np.abs(np.exp(np.polyval(coef, np.log(checks)) - at_checks[:, col]) - 1.0))))
                     pooled.append(area[np.linspace(0, len(area) - 1, counts[k]).round().astype(int)])
+                    labels.append(parts[k][0].label)
             area = np.concatenate(pooled)
-            delta, ratio = area - a0[i, j], a0[i, j] / area
-            a_med[i, j] = np.median(area)
-            d_med[i, j], r_med[i, j] = np.median(delta), np.median(ratio)
-            d_ci[i, j] = np.quantile(delta, [0.05, 0.95])
-            r_ci[i, j] = np.quantile(ratio, [0.05, 0.95])
-    return CorrectionCurves(offsets, forces, a0, a_med, d_med, d_ci, r_med, r_ci, err, peak)
+            out.summarise(i, j, a0, area)
+            for r, growths in enumerate(rough):
+                _rough_cell(out.rough[r], i, j, a0, pooled, labels, growths[float(force), float(eta)], force, eta)
+            for curves in out.rough:
+                curves.interpolation_error_rel[i, j] = out.interpolation_error_rel[i, j]
+                curves.max_pressure_no_film_mpa[i, j] = out.max_pressure_no_film_mpa[i, j]
+    return out
+
+
+def _rough_cell(curves: CorrectionCurves, i: int, j: int, a0: float, pooled: list, labels: list,
+                growths: dict, force: float, eta: float) -> None:
+    """One cell of a rough configuration: each smooth sample paired with one draw's growths."""
+    first = growths[labels[0]]
+    n = len(first.weights)
+    # the draws' pairing: its own seed of the cell, so the smooth samples (and bands) stay those of the smooth curves
+    rng = np.random.default_rng([int(round(force)), int(round(1e3 * eta)) + 10**7, 1])
+    areas, nominal, factors = [], [], []
+    for area, label in zip(pooled, labels):
+        g = growths[label]
+        d = rng.choice(n, size=len(area), p=g.weights)
+        areas.append(area * g.film[d])
+        nominal.append(a0 * g.no_film[d])
+        factors.append(g.factor)
+    area, rough_a0 = np.concatenate(areas), np.concatenate(nominal)
+    curves.summarise(i, j, rough_a0, area)
+    curves.area_no_film_mm2[i, j] = a0 * float(np.sum(first.weights * first.no_film))
+    # shares of the relative spread: the variance of log(A0 / A), which a common scale factor leaves alone
+    var_rough = float(np.var(np.log(rough_a0 / area)))
+    var_smooth = float(np.var(np.log(a0 / np.concatenate(pooled))))
+    curves.roughness_share[i, j] = max(0.0, 1.0 - var_smooth / var_rough) if var_rough > 0 else 0.0
+    # the Monte-Carlo error of the draws' mean factor change, the models mixed by their shares of the pool
+    shares = np.array([len(a) for a in pooled], dtype=float)
+    h = np.sum(shares[:, None] * np.array(factors), axis=0) / shares.sum()
+    w = first.weights / first.weights.sum()
+    mean = float(np.sum(w * h))
+    sd = float(np.sqrt(np.sum(w * (h - mean) ** 2)))
+    curves.roughness_mc_error_rel[i, j] = sd * float(np.sqrt(np.sum(w * w))) / mean
 
 
 CURVE_COLUMNS = ("film", "wheel", "force_kn", "offset_mm", "area_no_film_mm2", "area_film_median_mm2",
                  "delta_area_median_mm2", "delta_area_lo_mm2", "delta_area_hi_mm2", "ratio_median", "ratio_lo",
-                 "ratio_hi", "interpolation_error_rel", "max_pressure_no_film_mpa")
-
-
-def rough_bodies(ra_um: float):
-    """A rough wheel of roughness Ra (um) on a smooth rail: `filmcal.contact.roughness.Roughness` of the
-    representative conditioned draw of the roughness inputs (spectrum, coating hardness;
-    `filmcal.contact.rough_imprint.representative_roughness_inputs`)."""
-    from filmcal.contact.rough_imprint import representative_roughness_inputs
-
-    return representative_roughness_inputs().bodies(float(ra_um))
+                 "ratio_hi", "interpolation_error_rel", "max_pressure_no_film_mpa", "roughness_share",
+                 "roughness_mc_error_rel")
 
 
 def wheel_label(roughness=None) -> str:
@@ -234,8 +265,16 @@ def wheel_label(roughness=None) -> str:
     return "rough, measured law"
 
 
-def curve_rows(film: str, components, offsets_mm, forces_kn, roughness=None, laws=None, **wheel_rail) -> list[list]:
-    """Correction curves of one film as CSV rows (`CURVE_COLUMNS`), for one wheel.
+def _rows(film: str, wheel: str, c: CorrectionCurves) -> list[list]:
+    return [[film, wheel, force / 1e3, eta, c.area_no_film_mm2[i, j], c.area_film_median_mm2[i, j],
+             c.delta_area_median_mm2[i, j], *c.delta_area_ci90_mm2[i, j], c.ratio_median[i, j], *c.ratio_ci90[i, j],
+             c.interpolation_error_rel[i, j], c.max_pressure_no_film_mpa[i, j], c.roughness_share[i, j],
+             c.roughness_mc_error_rel[i, j]]
+            for i, force in enumerate(c.forces_n) for j, eta in enumerate(c.offsets_mm)]
+
+
+def curve_rows(film: str, components, offsets_mm, forces_kn, rough=(), **wheel_rail) -> list[list]:
+    """Correction curves of one film as CSV rows (`CURVE_COLUMNS`): the smooth wheel's, then each rough one's.
 
     Parameters
     ----------
@@ -245,78 +284,153 @@ def curve_rows(film: str, components, offsets_mm, forces_kn, roughness=None, law
         The film's calibrated models, as `correction_curves` takes them.
     offsets_mm, forces_kn : sequence of float
         The grid: lateral offsets eta (mm) and loads (kN).
-    roughness : None, float, Roughness or InterfaceLaw
-        The bodies: smooth (None), a rough wheel with this Ra in um (`rough_bodies`: laws computed against each
-        film modulus, and against the steel rail for the area without film), rough bodies
-        (`filmcal.contact.roughness.Roughness`, e.g. measured surfaces), or a measured
-        film-wheel pressure-closure law (e.g. `filmcal.wheelrail.TabularLaw`;
-        the area without film is then the smooth one).
-    laws : mapping, optional
-        With a rough wheel of Ra `roughness`: its laws already computed at each
-        modulus of `curve_moduli` (``{modulus: rough_law(modulus)}``).
+    rough : sequence of (label, growths)
+        Rough configurations: the rows' ``wheel`` label (`wheel_label`) and the growths of its draws at each
+        cell, keyed by (force in N, offset) (`curve_growths`).
     **wheel_rail
         Passed on to `correction_curves` (profiles, inclination, ...).
     """
-    from filmcal.contact.roughness import Roughness
-
-    law = rough_bodies(float(roughness)) if isinstance(roughness, (int, float)) else roughness
-    no_film_law = None
-    if isinstance(law, Roughness):  # the same surfaces against each other: the area without film is rough too
-        no_film_law = law.steel_law()
-    if laws is not None:
-        law = laws
-    c = correction_curves(components, offsets_mm, np.asarray(forces_kn, dtype=float) * 1e3, roughness=law,
-                          no_film_law=no_film_law, **wheel_rail)
-    wheel = wheel_label(roughness)
-    return [[film, wheel, force / 1e3, eta, c.area_no_film_mm2[i, j], c.area_film_median_mm2[i, j],
-             c.delta_area_median_mm2[i, j], *c.delta_area_ci90_mm2[i, j], c.ratio_median[i, j], *c.ratio_ci90[i, j],
-             c.interpolation_error_rel[i, j], c.max_pressure_no_film_mpa[i, j]]
-            for i, force in enumerate(c.forces_n) for j, eta in enumerate(c.offsets_mm)]
+    c = correction_curves(components, offsets_mm, np.asarray(forces_kn, dtype=float) * 1e3,
+                          rough=[g for _, g in rough], **wheel_rail)
+    return _rows(film, "smooth", c) + [row for (label, _), r in zip(rough, c.rough) for row in _rows(film, label, r)]
 
 
-def rough_law_tasks(bodies, film, components) -> dict:
-    """The tasks of rough bodies' laws against a film at the moduli its curves solve at (`curve_moduli`):
-    ``{modulus: (function, args)}`` for `filmcal._parallel.run_tasks`, each a boundary-element law."""
-    return {float(m): (bodies.film_law, (float(m), film.poisson, film.thickness_mm)) for m in curve_moduli(components)}
+@dataclass(frozen=True)
+class RoughConfiguration:
+    """Rough bodies of a set of curves: each body's Ra (a draw's synthetic surface) or measured surface, and
+    the draws of the roughness inputs; or a measured film-wheel law (``law``: taken as it is, one draw, the
+    contact without film smooth).
+
+    Attributes
+    ----------
+    wheel, rail : float, RoughSurface or None
+    draws : tuple of RoughnessInputs
+        The draws (repeats of a resampled set count as their weight; each distinct draw is solved once).
+    law : InterfaceLaw or None
+    """
+
+    wheel: object = None
+    rail: object = None
+    draws: tuple = ()
+    law: object = None
+
+    @property
+    def label(self) -> str:
+        if self.law is not None:
+            return wheel_label(self.law)
+        if not isinstance(self.wheel, (int, float)) or self.rail is not None:
+            return wheel_label(self.draws[0].bodies(self.wheel, self.rail))
+        return wheel_label(float(self.wheel))
+
+    def distinct(self) -> list:
+        return [None] if self.law is not None else list(dict.fromkeys(self.draws))
+
+    def laws(self, draw, films: dict) -> dict:
+        """`filmcal.correction.roughness.draw_laws` of one distinct draw for these films."""
+        from filmcal.correction.roughness import draw_laws
+
+        return draw_laws(draw, films, wheel=self.wheel, rail=self.rail, law=self.law)
 
 
-def curve_table(film: str, components, offsets_mm, forces_kn, wheels=(None,), workers=None) -> list[list]:
-    """Correction curves of one film for several wheels as CSV rows (`CURVE_COLUMNS`), solved in parallel.
+def growth_task(models, draws, laws, offset_mm: float, force_n: float, wheel_rail: dict) -> dict:
+    """The growths of every distinct draw at one cell (a task for `filmcal._parallel.run_tasks`).
 
-    The rows are those of `curve_rows` for each wheel in turn (loads, then offsets within a load), wherever
-    the work runs: one task per wheel, load and offset (each cell's band has its own seed), the rough wheels
-    first, after one task per law of a rough wheel at each modulus solved at (`rough_law_tasks`).
+    ``models``: ``[(film name, FilmModel, modulus_mpa)]``; ``draws``: the distinct draws (None: a measured
+    law); ``laws``: each draw's laws (`filmcal.correction.roughness.draw_laws`), each given as the law or as
+    the path of its file (`filmcal.contact.rough_law_file`; read once per process). The smooth solves are
+    shared by the draws (`filmcal.correction.roughness.solve_growths`). Returns ``{draw: (g_0, [g_f per
+    model])}``.
+    """
+    from filmcal.correction.roughness import solve_growths
+
+    solver = get_wheel_rail_model(**wheel_rail, tol=SWEEP_TOL)
+    given = [(None if d is None else d.reading_level, {k: _law(v) for k, v in laws[d].items()}) for d in draws]
+    return dict(zip(draws, solve_growths(models, given, offset_mm, force_n, solver)))
+
+
+_LOADED: dict = {}
+
+
+def _law(law):
+    """A law, or the law read from its file (kept: a worker reads each file once)."""
+    if not isinstance(law, (str, Path)):
+        return law
+    from filmcal.contact.rough_law_file import load_rough_law
+
+    key = str(law)
+    if key not in _LOADED:
+        _LOADED[key] = load_rough_law(key)
+        while len(_LOADED) > 64:
+            _LOADED.pop(next(iter(_LOADED)))
+    return _LOADED[key]
+
+
+def curve_growths(models, configuration: RoughConfiguration, solved: dict) -> dict:
+    """The growths of every cell as `correction_curves` takes them, for one film's ``models`` (``[(position,
+    (film name, FilmModel, modulus_mpa))]``, each position into the solved lists), from ``solved``
+    (``{cell: output of `growth_task`}``, cells keyed by (force_n, offset_mm), over all films' models)."""
+    from filmcal.correction.roughness import RoughGrowth
+
+    draws = [None] if configuration.law is not None else list(configuration.draws)
+    w = np.full(len(draws), 1.0 / len(draws))
+    return {cell: {model.label: RoughGrowth(np.array([by_draw[d][1][k] for d in draws]),
+                                            np.array([by_draw[d][0] for d in draws]), w, draws)
+                   for k, (_, model, _) in models}
+            for cell, by_draw in solved.items()}
+
+
+def curve_table(film: str, components, offsets_mm, forces_kn, rough=(), workers=None) -> list[list]:
+    """Correction curves of one film, smooth and on rough bodies, as CSV rows (`CURVE_COLUMNS`), in parallel.
+
+    The rows are those of `curve_rows` (loads, then offsets within a load; the smooth wheel, then each rough
+    configuration) wherever the work runs: for each rough configuration one task per distinct draw (its laws,
+    kept in files) and one per load and offset (`growth_task`: every draw's rough solves there), then one task
+    per load and offset (the curves).
 
     Parameters
     ----------
     film, components, offsets_mm, forces_kn
         As `curve_rows` takes them: the film type, its calibrated models and the grid (mm, kN).
-    wheels : sequence
-        Each a `roughness` of `curve_rows`: None (smooth), a rough wheel's Ra in um, rough bodies
-        (`filmcal.contact.roughness.Roughness`) or a measured film-wheel law.
+    rough : sequence of RoughConfiguration
     workers : int or filmcal._parallel.Executor, optional
         Local worker processes (default: all cores; 1: everything in this process), or the executor to run
         on (a `filmcal._parallel.DaskExecutor`: a Dask cluster).
     """
-    from filmcal._parallel import run_tasks
-    from filmcal.contact.roughness import Roughness
+    import tempfile
 
-    wheels = list(wheels)
-    law_tasks = {}
-    for w, wheel in enumerate(wheels):
-        bodies = rough_bodies(wheel) if isinstance(wheel, (int, float)) else wheel
-        if isinstance(bodies, Roughness):
-            law_tasks.update({(w, m): task for m, task in rough_law_tasks(bodies, components[0][0].film,
-                                                                           components).items()})
-    laws: dict = {}
-    run_tasks(law_tasks, workers, lambda key, law, k: laws.setdefault(key[0], {}).update({key[1]: law}))
-    cells = [(w, force, eta) for force in forces_kn for eta in offsets_mm for w in range(len(wheels))]
-    cells.sort(key=lambda cell: wheels[cell[0]] is None)  # the rough wheels first: they are the longest
+    from filmcal._parallel import run_tasks
+    from filmcal.contact.rough_law_file import save_rough_law
+    from filmcal.correction.roughness import growth_modulus_mpa
+
+    modulus = growth_modulus_mpa(components)
+    models = [(film, model, modulus) for model, _, _ in components]
+    films = {film: (components[0][0].film, modulus)}
+    cells = [(1e3 * float(force), float(eta)) for force in forces_kn for eta in offsets_mm]
+    growths = []
+    with tempfile.TemporaryDirectory(prefix="filmcal-laws-") as tmp:
+        for r, configuration in enumerate(rough):
+            # the draws' laws, each kept in a file that the cells' tasks read (not sent to every task)
+            draws = configuration.distinct()
+            paths: dict = {}
+
+            def keep(key, laws, k, r=r, paths=paths, draws=draws):
+                paths[draws[key]] = {name: str(save_rough_law(law, Path(tmp) / f"{r}-{key}-{name}.npz"))
+                                     if hasattr(law, "fraction_above") else law for name, law in laws.items()}
+
+            run_tasks({k: (configuration.laws, (d, films)) for k, d in enumerate(draws)}, workers, keep)
+            solved: dict = {}
+            run_tasks({cell: (growth_task, (models, draws, paths, cell[1], cell[0], {})) for cell in cells}, workers,
+                      lambda key, value, k, solved=solved: solved.update({key: value}))
+            growths.append(curve_growths(list(enumerate(models)), configuration, solved))
     rows: dict = {}
-    run_tasks({(w, force, eta): (curve_rows, (film, components, (eta,), (force,), wheels[w], laws.get(w)))
-               for w, force, eta in cells}, workers, lambda key, value, k: rows.update({key: value}))
-    return [row for w in range(len(wheels)) for force in forces_kn for eta in offsets_mm
-            for row in rows[w, force, eta]]
+    run_tasks({(force, eta): (curve_rows, (film, components, (eta,), (force,),
+                                           [(c.label, {(1e3 * float(force), float(eta)):
+                                                       growths[r][1e3 * float(force), float(eta)]})
+                                            for r, c in enumerate(rough)]))
+               for force in forces_kn for eta in offsets_mm}, workers, lambda key, value, k: rows.update({key: value}))
+    n = len(rough) + 1
+    return [row for w in range(n) for force in forces_kn for eta in offsets_mm
+            for row in rows[force, eta][w::n]]
 
 
 def write_curves_csv(path: str | Path, rows: list[list]) -> Path:

@@ -22,10 +22,11 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from filmcal.contact.rough_imprint import RoughnessInputs, rough_recorded_area_mm2
-from filmcal.wheelrail.rough_growth import film_growth, no_film_growth, sphere_growth
+from filmcal.contact.rough_imprint import RoughnessInputs
+from filmcal.wheelrail.rough_growth import sphere_growth
 
-__all__ = ["RoughGrowth", "sphere_growths", "wheel_rail_growth", "corrector_growths", "weighted_quantiles"]
+__all__ = ["RoughGrowth", "sphere_growths", "wheel_rail_growth", "corrector_growths", "weighted_quantiles",
+           "growth_modulus_mpa", "draw_laws", "solve_growths"]
 
 
 def weighted_quantiles(values: np.ndarray, weights: np.ndarray, q: Sequence[float]) -> np.ndarray:
@@ -83,28 +84,28 @@ def wheel_rail_growth(model, modulus_mpa: float, draws: Sequence[RoughnessInputs
                       force_n: float, settings: dict, *, wheel=None,
                       rail=None, weights: Sequence[float] | None = None,
                       progress: Callable[[int, int], None] | None = None) -> RoughGrowth:
-    """`RoughGrowth` of a wheel-rail configuration over ``draws`` (``settings``: `solve_wheel_rail`'s keywords).
+    """`RoughGrowth` of one film model at one modulus in a wheel-rail configuration over ``draws``
+    (``settings``: `get_wheel_rail_model`'s keywords; `solve_growths` per draw). Draws that repeat (a
+    resampled set) are solved once."""
+    from filmcal.wheelrail import get_wheel_rail_model
 
-    Draws that repeat (a resampled set) are solved once.
-    """
-    from filmcal.wheelrail import solve_wheel_rail
-
-    def solve(film, law):
-        return solve_wheel_rail(offset_mm, force_n, film=film, roughness=law, **settings)
-
-    film0, law0, _ = model.interface(float(modulus_mpa))
-    smooth_film = solve(film0, law0)
-    smooth_bare = solve(None, None)
+    solver = get_wheel_rail_model(**settings)
     draws = list(draws)
-    done: dict[RoughnessInputs, tuple[float, float]] = {}
-    g_f, g_0 = np.ones(len(draws)), np.ones(len(draws))
-    for i, d in enumerate(draws):
-        if d not in done:
-            done[d] = (film_growth(model, modulus_mpa, d, solve, smooth_film, wheel, rail),
-                       no_film_growth(d, solve, smooth_bare, wheel, rail))
-        g_f[i], g_0[i] = done[d]
+    unique = list(dict.fromkeys(draws))
+    films = {model.film.name: (model.film, float(modulus_mpa))}
+    laws = [(d.reading_level, draw_laws(d, films, wheel=wheel, rail=rail)) for d in unique]
+    done = 0
+
+    def step() -> None:
+        nonlocal done
+        done += 1
         if progress is not None:
-            progress(i + 1, len(draws))
+            progress(done, len(unique))
+
+    solved = dict(zip(unique, solve_growths([(model.film.name, model, float(modulus_mpa))], laws, offset_mm,
+                                            force_n, solver, step)))
+    g_0 = np.array([solved[d][0] for d in draws])
+    g_f = np.array([solved[d][1][0] for d in draws])
     w = np.ones(len(draws)) if weights is None else np.asarray(weights, dtype=float)
     return RoughGrowth(g_f, g_0, w / w.sum(), draws)
 
@@ -122,68 +123,121 @@ def sphere_growths(inputs: dict, ra_um: float, films: Sequence[tuple[str, float,
             for name, modulus, imprint, kinematics in films}
 
 
+def growth_modulus_mpa(components) -> float:
+    """The one modulus (MPa) at which a film's rough growths are solved: the weighted median of its models'
+    posterior samples (``components``: ``(FilmModel, samples, weight)``). A growth ratio varies little across
+    a posterior, and one modulus lets one rough law per draw serve every model of the film."""
+    parts = [(np.asarray(e, dtype=float).ravel(), float(w)) for _, e, w in components]
+    e = np.concatenate([v for v, _ in parts])
+    w = np.concatenate([np.full(len(v), w / len(v)) for v, w in parts])
+    return float(weighted_quantiles(e, w if w.sum() > 0 else np.ones_like(w), [0.5])[0])
+
+
+def draw_laws(draw: RoughnessInputs | None, films: dict, *, wheel=None, rail=None, law=None) -> dict:
+    """The rough laws of one draw: ``{film name: its law against the film, None: the law without film}``.
+
+    ``films`` maps each film's name to ``(FilmType, modulus_mpa)``. With ``draw`` None, ``law`` is a measured
+    film-wheel law taken as it is for every film, and the contact without film stays smooth (None).
+    """
+    if draw is None:
+        return {**{name: law for name in films}, None: None}
+    bodies = draw.bodies(wheel, rail)
+    if bodies.smooth:
+        return {**{name: None for name in films}, None: None}
+    return {**{name: bodies.film_law(float(m), f.poisson, f.thickness_mm) for name, (f, m) in films.items()},
+            None: bodies.steel_law()}
+
+
+def solve_growths(models, draws: Sequence[tuple[float | None, dict]], offset_mm: float, force_n: float, solver,
+                  progress: Callable[[], None] | None = None) -> list[tuple[float, list[float]]]:
+    """``g_0`` and each model's ``g_f`` at one offset and force, for each draw's laws (`draw_laws`).
+
+    Parameters
+    ----------
+    models : sequence of (film name, FilmModel, modulus_mpa)
+        Models of one film and kinematics share their solves (at one modulus).
+    draws : sequence of (reading level, laws)
+        Per draw: its scan reading level (None: a measured law, read like a smooth contact) and its laws
+        ``{film name: law against the film, None: law without film}`` (None: smooth).
+    solver
+        A wheel-rail model (`filmcal.wheelrail.get_wheel_rail_model`). The smooth solves are made once for all
+        draws; each rough solve starts from its smooth one.
+    progress : callable, optional
+        Called after each draw.
+
+    Returns
+    -------
+    list of (g_0, [g_f per model]), one per draw
+    """
+    from filmcal.wheelrail.film_contact import nominal_rough_area_mm2
+
+    bare = solver.solve(offset_mm, force_n)
+    groups: dict = {}
+    for k, (name, model, modulus) in enumerate(models):
+        groups.setdefault((name, model.kinematics, float(modulus)), []).append(k)
+    smooth, base = {}, {}
+    for key, members in groups.items():
+        if any(laws.get(key[0]) is not None for _, laws in draws):
+            film0, law0, _ = models[members[0]][1].interface(key[2])
+            smooth[key] = solver.solve(offset_mm, force_n, film=film0, roughness=law0, initial=bare)
+            base.update({k: models[k][1].recorded_area_mm2(smooth[key]) for k in members})
+    out = []
+    for level, laws in draws:
+        g0 = 1.0
+        if laws.get(None) is not None:
+            g0 = nominal_rough_area_mm2(solver.solve(offset_mm, force_n, roughness=laws[None], initial=bare),
+                                        bare) / float(bare.area_mm2)
+        gf = [1.0] * len(models)
+        for key, members in groups.items():
+            law = laws.get(key[0])
+            if law is None:
+                continue
+            film, solver_law, rough_law = models[members[0]][1].interface(key[2], law)
+            rough = solver.solve(offset_mm, force_n, film=film, roughness=solver_law, initial=smooth[key])
+            for k in members:
+                if base[k] > 0.0:
+                    gf[k] = models[k][1].recorded_area_mm2(rough, rough_law, level) / base[k]
+        out.append((g0, gf))
+        if progress is not None:
+            progress()
+    return out
+
+
 def corrector_growths(correctors: Sequence, weights: Sequence[float], offset_mm: float, force_n: float,
                       draws: Sequence[RoughnessInputs], *, wheel=None,
                       rail=None,
                       progress: Callable[[int, int], None] | None = None) -> dict[str, RoughGrowth]:
     """`RoughGrowth` of each wheel-rail corrector's film model (by its label) at one offset and force.
 
-    Models of one kinematics share their rough solves (one per draw) and read them each with its own imprint
-    model; every model is solved at one modulus, the weighted median of all the posteriors' moduli (a growth
-    ratio varies little across a posterior), so that one rough law per draw serves all. The contact without
-    film is solved once per draw for all. Repeated draws are solved once.
+    Every model is solved at one modulus, the weighted median of all the posteriors' moduli
+    (`growth_modulus_mpa`), so that one rough law per draw serves all; models of one kinematics share their
+    rough solves and read them each with its own imprint model (`solve_growths`, as the correction curves
+    do). Repeated draws are solved once.
     """
-    from filmcal.wheelrail import solve_wheel_rail
+    from filmcal.wheelrail import get_wheel_rail_model
 
     correctors = list(correctors)
-    settings = correctors[0].settings
-
-    def solve(film, law):
-        return solve_wheel_rail(offset_mm, force_n, film=film, roughness=law, **settings)
-
-    groups: dict[str, list[int]] = {}
-    for k, c in enumerate(correctors):
-        groups.setdefault(c.film.kinematics, []).append(k)
+    solver = get_wheel_rail_model(**correctors[0].settings)
+    modulus = growth_modulus_mpa([(c.film, c.modulus_mpa_, w) for c, w in zip(correctors, weights)])
+    film = correctors[0].film.film
+    models = [(film.name, c.film, modulus) for c in correctors]
     unique = list(dict.fromkeys(draws))
-    total = len(unique) * (len(groups) + 1)
     done = 0
 
     def step() -> None:
         nonlocal done
         done += 1
         if progress is not None:
-            progress(done, total)
+            progress(done, 2 * len(unique))
 
-    smooth_bare = solve(None, None)
-    g0 = {}
-    for d in unique:
-        g0[d] = no_film_growth(d, solve, smooth_bare, wheel, rail)
+    laws = []
+    for d in unique:  # the laws (boundary elements) first, then the solves: each half of the work
+        laws.append((d.reading_level, draw_laws(d, {film.name: (film, modulus)}, wheel=wheel, rail=rail)))
         step()
-    gf: dict[int, dict] = {k: {} for k in range(len(correctors))}
-    # one modulus for all: the models' weighted median (one rough law per draw, shared by the kinematics)
-    e = np.concatenate([c.modulus_mpa_ for c in correctors])
-    w = np.concatenate([np.full(len(c.modulus_mpa_), weights[k] / len(c.modulus_mpa_))
-                        for k, c in enumerate(correctors)])
-    modulus = float(weighted_quantiles(e, w if w.sum() > 0 else np.ones_like(w), [0.5])[0])
-    for members in groups.values():
-        lead = correctors[members[0]].film
-        film0, law0, _ = lead.interface(modulus)
-        smooth = solve(film0, law0)
-        base = {k: correctors[k].film.recorded_area_mm2(smooth) for k in members}
-        for d in unique:
-            bodies = d.bodies(wheel, rail)
-            if bodies.smooth:
-                for k in members:
-                    gf[k][d] = 1.0
-            else:
-                film, law, rough_law = lead.interface(modulus, bodies)
-                rough = solve(film, law)
-                for k in members:
-                    area = rough_recorded_area_mm2(correctors[k].film, rough, rough_law, d.reading_level)
-                    gf[k][d] = area / base[k] if base[k] > 0 else 1.0
-            step()
+    solved = dict(zip(unique, solve_growths(models, laws, offset_mm, force_n, solver, step)))
     out = {}
     for k, c in enumerate(correctors):
-        out[c.film.label] = RoughGrowth(np.array([gf[k][d] for d in draws]), np.array([g0[d] for d in draws]),
+        out[c.film.label] = RoughGrowth(np.array([solved[d][1][k] for d in draws]),
+                                        np.array([solved[d][0] for d in draws]),
                                         np.full(len(draws), 1.0 / len(draws)), list(draws))
     return out

@@ -656,9 +656,11 @@ def film_records_section(comparison: dict | None, curves: dict | None = None) ->
                   "A coating softer than a film's activation pressure cannot be stained by single asperities, so "
                   "HHS barely grows while MS and HS do, as the paper observed on its roughened flat. The "
                   "inputs (hardness, reading level, spectrum) are drawn from stated priors and conditioned on "
-                  "that observation (filmcal/data/roughness_inputs.json); these curves use the representative "
-                  "conditioned draw, and `filmcal correct --wheel-roughness-ra-um` carries the draws' spread in "
-                  "its band. The table gives the growth the curves show.")
+                  "that observation (filmcal/data/roughness_inputs.json); each posterior sample of the rough "
+                  "curves is paired with one conditioned draw (its growths with and without film, solved at the "
+                  "film's posterior median modulus), so their bands carry the draws' spread, as "
+                  "`filmcal correct --wheel-roughness-ra-um` does. The table gives the growth of the medians "
+                  "the curves show.")
             s.add(Table(["film", "wheel", "F (kN)", "eta (mm)", "recorded area, smooth (mm²)", "rough (mm²)",
                          "imprint growth (%)", "growth without film (%)", "correction factor change (%)"],
                         growth, "Recorded (imprint) area with film, posterior medians, smooth against rough wheel; "
@@ -666,6 +668,13 @@ def film_records_section(comparison: dict | None, curves: dict | None = None) ->
                                 "correcting factor A(no film)/A(film)"))
             s.add(_rough_flat_table())
     return s
+
+
+def _share(row: dict, key: str, scale: float, digits: int) -> str:
+    """A roughness column of a curve row ('-' on smooth bodies, or in curves written before the column)."""
+    if row.get("wheel") == "smooth" or key not in row:
+        return "-"
+    return f"{scale * float(row[key]):.{digits}f}"
 
 
 def _unused_models(d: dict) -> str:
@@ -766,9 +775,11 @@ def wheel_rail_section(curves: dict, outlines: dict | None) -> Section:
           "smaller imprint: that transfer term, an edge offset fitted over (E, ν, R, F) and checked on held-out "
           "sphere-on-flat points (FE model verification), shifts every film area by its signed size (a few tenths "
           "of a percent smaller) and widens every band by its spread. Rough wheel: the boundary-element pressure-closure law "
-          "of the film-wheel interface (What the film records), computed from a synthetic surface of the stated "
-          "Ra with the representative draw of the inputs conditioned on the paper's roughened flat; the "
-          "spread over those inputs is not in these bands (filmcal correct carries it, draw by draw).")
+          "of the film-wheel interface (What the film records) and the rough contact without film, computed "
+          "from synthetic surfaces of the stated Ra for each of the draws of the inputs conditioned on the "
+          "paper's roughened flat; each posterior sample is multiplied by one draw's rough/smooth growths, so "
+          "the rough bands hold the inputs' spread. The tables give the share of the correction factor's "
+          "variance that the roughness adds and the Monte-Carlo error of the draws' mean.")
     for film, rows in curves.items():
         s.add(FigureBlock(F.plot_area_curves(rows, film), f"{film}: contact area over the lateral offset without "
                           "film and with film (posterior median, 90 % band), smooth and rough wheel.",
@@ -778,12 +789,14 @@ def wheel_rail_section(curves: dict, outlines: dict | None) -> Section:
                       "Correction factor over the offset"))
     for film, rows in curves.items():
         s.add(Table(["wheel", "F (kN)", "η (mm)", "A0 (mm²)", "ΔA median (mm²)", "ΔA 90 % (mm²)", "A0/A median",
-                     "A0/A 90 %", "prop. error (%)"],
+                     "A0/A 90 %", "prop. error (%)", "roughness share", "MC error (%)"],
                     [[r["wheel"], f"{r['force_kn']:g}", f"{F.signed_offset(r['offset_mm'])}", f"{r['area_no_film_mm2']:.1f}",
                       f"{r['delta_area_median_mm2']:.1f}", f"[{r['delta_area_lo_mm2']:.1f}, {r['delta_area_hi_mm2']:.1f}]",
                       f"{r['ratio_median']:.4f}", f"[{r['ratio_lo']:.4f}, {r['ratio_hi']:.4f}]",
-                      f"{100 * r['interpolation_error_rel']:.3f}"] for r in rows],
-                    f"{film}: correction curves (A0: area without film; ΔA: area added by the film)"))
+                      f"{100 * r['interpolation_error_rel']:.3f}", _share(r, "roughness_share", 1.0, 2),
+                      _share(r, "roughness_mc_error_rel", 100.0, 2)] for r in rows],
+                    f"{film}: correction curves (A0: area without film; ΔA: area added by the film; roughness "
+                    "share: of the factor's variance; MC error: of the draws' mean change of the factor)"))
     s.add(elastic_limit_note(curves))
     if outlines is None:
         return _missing(s, "wheelrail-outlines.json")

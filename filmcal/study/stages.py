@@ -55,6 +55,9 @@ class PipelineSettings:
         Grid of the wheel-rail correction curves.
     rough_ra_um : float or None
         Roughness Ra of the rough-wheel curves (None: smooth wheel only).
+    rough_draws : int
+        Draws of the roughness inputs (the first of the shipped conditioned set) that the rough curves' bands
+        take.
     outline_force_kn : float
         Load of the contact outlines (the paper's Fig. 7 uses 50 kN).
     crossval_films : tuple of str or None
@@ -74,6 +77,7 @@ class PipelineSettings:
     offsets_mm: tuple[float, ...] = tuple(float(x) for x in np.arange(-7.0, 2.01, 1.0))
     forces_kn: tuple[float, ...] = (50.0, 100.0)
     rough_ra_um: float | None = 1.5
+    rough_draws: int = 8
     outline_force_kn: float = 50.0
     crossval_films: tuple[str, ...] | None = None
     max_steps: int | None = None
@@ -88,12 +92,15 @@ class PipelineSettings:
                 raise InputError(f"kinematics must be one of {', '.join(KINEMATICS)}, got {k!r}")
         if not self.imprint_models or not self.kinematics:
             raise InputError("at least one imprint model and one film kinematics are needed")
+        if isinstance(self.rough_draws, bool) or not isinstance(self.rough_draws, int) or self.rough_draws < 1:
+            raise InputError(f"rough_draws must be an integer >= 1, got {self.rough_draws!r}")
 
     @classmethod
     def quick(cls) -> "PipelineSettings":
         """Few FE runs, two imprint models, three offsets at 50 kN, short chains: a minute or two."""
         return cls(train_runs=40, test_runs=12, imprint_models=("edge", "activation"), kinematics=("small",),
-                   offsets_mm=(-6.0, -3.0, 0.0), forces_kn=(50.0,), crossval_films=("HS",), max_steps=10000)
+                   offsets_mm=(-6.0, -3.0, 0.0), forces_kn=(50.0,), rough_draws=4, crossval_films=("HS",),
+                   max_steps=10000)
 
     @classmethod
     def smoke(cls) -> "PipelineSettings":
@@ -109,6 +116,8 @@ class PipelineSettings:
     def record(self) -> dict:
         """The settings as the study records them (a lab's simulator by its spec; none: as before)."""
         out = {k: v for k, v in asdict(self).items() if k != "simulator"}
+        if self.rough_draws == PipelineSettings.rough_draws:  # as before the setting existed
+            del out["rough_draws"]
         if self.simulator is not None:
             out["simulator"] = self.simulator.spec()
         return out
@@ -271,7 +280,7 @@ def planned_seconds(settings: PipelineSettings, n_films: int, n_specs: int, repo
     """Expected cost of each stage (s) from the settings and `STAGE_COSTS_S`: the progress display's plan."""
     c = STAGE_COSTS_S
     runs = settings.train_runs + settings.test_runs
-    curves = n_films * (2 if settings.rough_ra_um else 1) * len(settings.forces_kn)
+    curves = n_films * (1 + (settings.rough_draws if settings.rough_ra_um else 0)) * len(settings.forces_kn)
     plan = {"design": c["design_per_run"] * runs,
             "calibration": _calibration_costs(settings, n_specs)[0],
             "comparison": c["comparison_per_model"] * n_specs, "verification": c["verification"],
@@ -441,123 +450,183 @@ def _profile(res) -> dict:
 
 
 def _curves_stage(study: Study, settings: PipelineSettings, films, workers, st):
-    """Curves of each film's combined models: one task per film and wheel, each kept as soon as it is done
-    (``curves/part-<key>.json``, so an interrupted run resumes with the unfinished wheels only), then the
-    film's CSV, recorded with what made it."""
+    """Curves of each film's combined models, smooth and on the rough wheel (``curves/curves-<film>.csv``).
+
+    The rough wheel's growths come first: its laws (`_rough_laws`, each a study artefact), then one task per
+    distinct draw and load solving every film's growths at every offset (``curves/part-<key>.json``, kind
+    ``curves-growth``); then one task per film, load and offset (smooth and rough rows from the same
+    posterior samples; a film's rows kept as ``curves/part-<key>.json`` as soon as they are all done). An
+    interrupted run resumes with what is missing."""
     from filmcal._io import atomic_write_json
     from filmcal._parallel import run_tasks
-    from filmcal.correction import curve_moduli, curve_rows, wheel_label, write_curves_csv
+    from filmcal.correction import RoughConfiguration, curve_rows, write_curves_csv
+    from filmcal.correction.roughness import growth_modulus_mpa
     from filmcal.study.core import chosen_posteriors, curve_components
     from filmcal.study.layout import spec_key
 
-    wheels = [None] + ([settings.rough_ra_um] if settings.rough_ra_um else [])
+    rough = None
+    if settings.rough_ra_um:
+        from filmcal.contact.rough_imprint import load_roughness_inputs
+
+        rough = RoughConfiguration(float(settings.rough_ra_um), None,
+                                   tuple(load_roughness_inputs()[:settings.rough_draws]))
     specs, components, rows = {}, {}, {}
     for film in films:
         chosen = chosen_posteriors(study, film)
         specs[film] = {"posteriors": sorted(p.name for _, p, _ in chosen),
                        "weights": {s["model"]: w for w, _, s in chosen}, "offsets_mm": list(settings.offsets_mm),
                        "forces_kn": list(settings.forces_kn), "rough_ra_um": settings.rough_ra_um}
-        if settings.rough_ra_um:  # the rough bodies' inputs (their spectrum, hardness and reading level)
-            from filmcal.contact.rough_imprint import representative_roughness_inputs
-
-            specs[film]["rough_inputs"] = representative_roughness_inputs().to_dict()
+        if rough is not None:  # the rough bodies' inputs (their spectra, hardnesses and reading levels)
+            specs[film]["rough_draws"] = [d.to_dict() for d in rough.draws]
         path = study.layout.curves(film)
         entry = study.manifest.entry(study.layout.relative(path)) if path.exists() else None
         if entry and entry["spec"] == specs[film] and study.verified(path):
             continue
-        for ra in wheels:
-            part = study.layout.curves_part(spec_key({**specs[film], "film": film, "wheel": ra}))
-            if study.verified(part):
-                rows[film, ra] = read_json(part)["rows"]
+        part = study.layout.curves_part(spec_key({**specs[film], "film": film}))
+        if study.verified(part):
+            rows[film] = read_json(part)["rows"]
         components[film] = curve_components(study, film)
 
     def finish(film: str) -> None:
-        if all((film, w) in rows for w in wheels):
-            path = study.layout.curves(film)
-            write_curves_csv(path, [r for w in wheels for r in rows[film, w]])
-            study.record(path, "curves", specs[film])
+        path = study.layout.curves(film)
+        write_curves_csv(path, rows[film])
+        study.record(path, "curves", specs[film])
 
     for film in components:
         study.layout.curves(film).parent.mkdir(parents=True, exist_ok=True)
-        finish(film)
-    if not components:
-        return None, False
-    missing = [(film, ra) for ra in reversed(wheels) for film in components if (film, ra) not in rows]
-    rough = [film for film, ra in missing if ra is not None]
+        if film in rows:
+            finish(film)
+    missing = [film for film in components if film not in rows]
+    if not missing:
+        return None, bool(components)
     points = [(force, eta) for force in settings.forces_kn for eta in settings.offsets_mm]
-    st.set_total(sum(len(curve_moduli(components[film])) for film in rough) + len(missing) * len(points))
-    laws = _rough_laws(study, settings, components, rough, workers, st)
-    # one task per film, wheel, load and offset (a few seconds each, so the display moves and the workers end
-    # together), the rough wheels first: they are the longest
-    tasks = {(film, ra, force, eta): (curve_rows, (film, components[film], (eta,), (force,), ra,
-                                                   laws.get(film) if ra is not None else None))
-             for film, ra in missing for force, eta in points}
-    st.log(f"[curves] {len(components)} film(s), {len(missing)} film-wheel curve(s) to compute, "
-           f"{len(settings.forces_kn)} loads x {len(settings.offsets_mm)} offsets each")
+    growths: dict = {}
+    if rough is not None:
+        moduli = {film: growth_modulus_mpa(components[film]) for film in missing}
+        models = [(film, model, moduli[film]) for film in missing for model, _, _ in components[film]]
+        growths = _rough_growths(study, settings, rough, models, moduli, workers, st, len(missing) * len(points))
+    else:
+        st.set_total(len(missing) * len(points))
+    # one task per film, load and offset (a few seconds each, so the display moves and the workers end together)
+    tasks = {}
+    for film in missing:
+        for force, eta in points:
+            cell = (1e3 * float(force), float(eta))
+            wheels = [] if rough is None else [(rough.label, {cell: growths[film][cell]})]
+            tasks[film, force, eta] = (curve_rows, (film, components[film], (eta,), (force,), wheels))
+    st.log(f"[curves] {len(missing)} film(s), {len(settings.forces_kn)} loads x {len(settings.offsets_mm)} offsets "
+           f"each, smooth{' and ' + rough.label if rough else ''}")
     by_point: dict = {}
 
     def done(key, result, k):
-        film, ra, force, eta = key
-        by_point.setdefault((film, ra), {})[force, eta] = result
-        st.advance(note=f"{film}, {wheel_label(ra)} wheel, {force:g} kN, eta {eta:+g} mm")
-        if len(by_point[film, ra]) < len(points):
+        film, force, eta = key
+        by_point.setdefault(film, {})[force, eta] = result
+        st.advance(note=f"{film}, {force:g} kN, eta {eta:+g} mm")
+        if len(by_point[film]) < len(points):
             return
-        rows[film, ra] = [r for point in points for r in by_point[film, ra][point]]
-        part = study.layout.curves_part(spec_key({**specs[film], "film": film, "wheel": ra}))
-        atomic_write_json(part, {"film": film, "wheel": wheel_label(ra), "rows": rows[film, ra]}, indent=None)
-        study.record(part, "curves-part", {**specs[film], "film": film, "wheel": ra})
+        n = 1 if rough is None else 2
+        rows[film] = [r for w in range(n) for point in points for r in by_point[film][point][w::n]]
+        part = study.layout.curves_part(spec_key({**specs[film], "film": film}))
+        atomic_write_json(part, {"film": film, "rows": rows[film]}, indent=None)
+        study.record(part, "curves-part", {**specs[film], "film": film})
         finish(film)
 
     run_tasks(tasks, workers, done)
     return None, True
 
 
-def _rough_laws(study: Study, settings: PipelineSettings, components: dict, films: list, workers, st) -> dict:
-    """The rough wheel's pressure-closure laws (BEM) at the moduli each film's curves solve at:
-    ``{film: {modulus: law}}``. Each law is a study artefact (``roughlaws/<key>.npz``, kind ``rough-law``),
-    kept as soon as it is computed, so an interrupted run resumes with the missing laws only; the laws are
-    computed in parallel, and every law used is the one read back from its file (the same law to the bit)."""
+def _rough_growths(study: Study, settings: PipelineSettings, rough, models: list, moduli: dict, workers, st,
+                   cells: int) -> dict:
+    """The rough wheel's growths of every film at every curve cell: ``{film: {(force_n, offset): {model label:
+    RoughGrowth}}}``. First each distinct draw's laws (`_rough_laws`), then one task per load and offset
+    solving every film's growths there for every draw, each kept as soon as it is done
+    (``curves/part-<key>.json``, kind ``curves-growth``) so that an interrupted run resumes with the missing
+    ones."""
+    from filmcal._io import atomic_write_json
+    from filmcal._parallel import run_tasks
+    from filmcal.correction import curve_growths, growth_task
+    from filmcal.study.layout import spec_key
+
+    draws = rough.distinct()
+    films = {film: (study.film(film), m) for film, m in moduli.items()}
+    keys = [[film, model.label, m] for film, model, m in models]
+    specs, solved, tasks = {}, {}, {}
+    for force in settings.forces_kn:
+        for eta in settings.offsets_mm:
+            cell = (1e3 * float(force), float(eta))
+            specs[cell] = {"models": keys, "films": {f: t.to_dict() for f, (t, _) in films.items()},
+                           "draws": [d.to_dict() for d in draws], "rough_ra_um": settings.rough_ra_um,
+                           "force_kn": force, "offset_mm": eta}
+            part = study.layout.curves_part(spec_key(specs[cell]))
+            if study.verified(part, kind="curves-growth", spec=specs[cell]):
+                solved[cell] = dict(zip(draws, (tuple(g) for g in read_json(part)["growths"])))
+    todo = [cell for cell in specs if cell not in solved]
+    laws = _rough_laws(study, settings, rough, films, draws if todo else [], workers, st, len(todo) + cells)
+    for cell in todo:
+        tasks[cell] = (growth_task, (models, draws, laws, cell[1], cell[0], {}))
+    if tasks:
+        st.log(f"[curves] rough wheel ({rough.label}): growths of {len(draws)} distinct draws of the roughness "
+               f"inputs at {len(tasks)} loads and offsets")
+
+    def keep(cell, result, k):
+        part = study.layout.curves_part(spec_key(specs[cell]))
+        atomic_write_json(part, {"growths": [list(result[d]) for d in draws]}, indent=None)
+        study.record(part, "curves-growth", specs[cell])
+        solved[cell] = result
+        st.advance(note=f"rough growths, {cell[0] / 1e3:g} kN, eta {cell[1]:+g} mm")
+
+    run_tasks(tasks, workers, keep)
+    out = {}
+    for film in moduli:
+        mine = [(k, entry) for k, entry in enumerate(models) if entry[0] == film]
+        out[film] = curve_growths(mine, rough, solved)
+    return out
+
+
+def _rough_laws(study: Study, settings: PipelineSettings, rough, films: dict, draws: list, workers, st,
+                after: int) -> dict:
+    """The rough wheel's pressure-closure laws (BEM) of each draw: against each film at its growth modulus
+    and steel on steel, ``{draw: {film name or None: path}}``. Each law is a study artefact
+    (``roughlaws/<key>.npz``, kind ``rough-law``), kept as soon as it is computed, so an interrupted run resumes
+    with the missing laws only; the laws are computed in parallel and read back from their files by the tasks
+    that use them (the same law to the bit)."""
     import hashlib
 
     from filmcal._parallel import run_tasks
-    from filmcal.contact.rough_imprint import representative_roughness_inputs
-    from filmcal.contact.rough_law_file import load_rough_law, save_rough_law
-    from filmcal.correction import rough_bodies, rough_law_tasks
+    from filmcal.contact.rough_law_file import save_rough_law
     from filmcal.study.layout import spec_key
 
-    if not films:
-        return {}
-    bodies = rough_bodies(settings.rough_ra_um)
-    # what makes a law: the film, the modulus, the bodies' inputs and the wheel's very heights
-    surface = hashlib.sha256(np.ascontiguousarray(bodies.wheel.heights_um).tobytes()).hexdigest()
-    inputs = representative_roughness_inputs().to_dict()
-    laws: dict = {}
-    tasks, paths = {}, {}
-    for film in films:
-        for m, task in rough_law_tasks(bodies, study.film(film), components[film]).items():
-            spec = {"film": study.film(film).to_dict(), "modulus_mpa": m, "rough_ra_um": settings.rough_ra_um,
-                    "rough_inputs": inputs, "wheel_surface_sha256": surface}
+    paths, specs, tasks = {}, {}, {}
+    for d in draws:
+        bodies = d.bodies(rough.wheel, rough.rail)
+        # what makes a law: the film and its modulus (or steel), the draw's inputs and the wheel's very heights
+        surface = hashlib.sha256(np.ascontiguousarray(bodies.wheel.heights_um).tobytes()).hexdigest()
+        for name in [*films, None]:
+            spec = {"film": None if name is None else films[name][0].to_dict(),
+                    "modulus_mpa": None if name is None else films[name][1], "rough_ra_um": settings.rough_ra_um,
+                    "rough_inputs": d.to_dict(), "wheel_surface_sha256": surface}
             path = study.layout.rough_law(spec_key(spec))
-            paths[film, m] = (path, spec)
-            if study.verified(path, kind="rough-law", spec=spec):
-                laws.setdefault(film, {})[m] = load_rough_law(path)
-                st.advance(note=f"rough law, {film} at {m:.0f} MPa (kept)")
-            else:
-                tasks[film, m] = task
+            paths.setdefault(d, {})[name] = path
+            specs[d, name] = spec
+            if not study.verified(path, kind="rough-law", spec=spec):
+                f = films.get(name)
+                tasks[d, name] = ((bodies.steel_law, ()) if name is None else
+                                  (bodies.film_law, (f[1], f[0].poisson, f[0].thickness_mm)))
+    st.set_total(len(tasks) + after)
     if tasks:
-        st.log(f"[curves] rough wheel (Ra {settings.rough_ra_um:g} um): {len(tasks)} pressure-closure laws (BEM) "
-               f"at the films' moduli ({sum(len(v) for v in laws.values())} kept from an earlier run)")
+        st.log(f"[curves] rough wheel: {len(tasks)} pressure-closure laws (BEM) of {len(draws)} draws "
+               f"({len(draws) * (len(films) + 1) - len(tasks)} kept from an earlier run)")
 
     def keep(key, law, k):
-        path, spec = paths[key]
+        path = paths[key[0]][key[1]]
         path.parent.mkdir(parents=True, exist_ok=True)
         save_rough_law(law, path)
-        study.record(path, "rough-law", spec)
-        laws.setdefault(key[0], {})[key[1]] = load_rough_law(path)
-        st.advance(note=f"rough law, {key[0]} at {key[1]:.0f} MPa")
+        study.record(path, "rough-law", specs[key])
+        st.advance(note=f"rough law, {key[1] or 'without film'}")
 
     run_tasks(tasks, workers, keep)
-    return laws
+    return {d: {name: str(p) for name, p in v.items()} for d, v in paths.items()}
+
 
 
 def _crossval_stage(study: Study, settings: PipelineSettings, results: dict, comparisons: dict, seed: int, workers,

@@ -1,9 +1,9 @@
-"""Growth of an imprint and of the contact without film on rough bodies, from pairs of solves.
+"""Growth of an imprint on rough bodies, from pairs of solves.
 
 ``g_f``: a film model's rough reading of the solve with the rough laws in series over its smooth reading
-(`filmcal.contact.rough_imprint`); ``g_0``: the rough bodies' nominal area against steel over the smooth area.
-A body is given by its Ra (a draw's synthetic surface) or as a measured `RoughSurface`; Ra = 0 gives 1 exactly.
-The corrections' use of them (bands over draws) is `filmcal.correction.roughness`.
+(`filmcal.contact.rough_imprint`). A body is given by its Ra (a draw's synthetic surface) or as a measured
+`RoughSurface`; Ra = 0 gives 1 exactly. The wheel-rail growths of the corrections and curves, with the
+contact without film's, are `filmcal.correction.roughness.solve_growths`.
 """
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from typing import Callable
 
 from filmcal.contact.rough_imprint import RoughnessInputs, rough_recorded_area_mm2
 
-__all__ = ["film_growth", "no_film_growth", "sphere_growth"]
+__all__ = ["film_growth", "sphere_growth"]
 
 
 def film_growth(model, modulus_mpa: float, inputs: RoughnessInputs, solve: Callable, smooth,
@@ -26,23 +26,6 @@ def film_growth(model, modulus_mpa: float, inputs: RoughnessInputs, solve: Calla
     if base <= 0.0:
         return 1.0
     return rough_recorded_area_mm2(model, rough, rough_law, inputs.reading_level) / base
-
-
-def no_film_growth(inputs: RoughnessInputs, solve: Callable, smooth, wheel=None,
-                   rail=None) -> float:
-    """``g_0`` of one draw: the rough bodies' nominal area against steel over the smooth area."""
-    from filmcal.contact.reading import nominal_area_mm2
-
-    bodies = inputs.bodies(wheel, rail)
-    if bodies.smooth:
-        return 1.0
-    rough = solve(None, bodies.steel_law())
-
-    def level(result) -> float:
-        c = getattr(result, "contact", result)
-        return nominal_area_mm2(c.grid.x_mm, c.grid.y_mm, c.pressure_mpa)
-
-    return level(rough) / level(smooth)
 
 
 def sphere_growth(model, modulus_mpa: float, inputs: RoughnessInputs, ra_um: float, *,
