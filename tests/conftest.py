@@ -103,6 +103,8 @@ FAST_TEST_LIMIT_S = 3.0
 #: Node-id prefixes of the acceptance tier (also slow): tests that reproduce an acceptance figure end to end
 #: with many boundary-element laws, solves or calibrations, run by ``.ci/run`` after the rest, with their time.
 ACCEPTANCE_TESTS: dict[str, str] = {
+    "test_study_roughness.py::test_a_study_with_roughened_flat_data_uses_its_own_draws":
+        "100 s: a smoke pipeline on a dataset with roughened-flat rows, then a rough correction of it",
     "test_fem_edge.py::test_closing_load_edge_of_the_large_strain_film_matches_solving_again":
         "25-44 s: 26 large-strain solves (the large-strain film's closing-load edge against re-solving)",
     "test_fem_reference.py::test_production_fe_reads_the_second_formulations_edge":

@@ -13,6 +13,10 @@ the observed growth exceeded that scatter, ``P = Phi((g - s) / s)``; "not sensit
 it, ``P = Phi((s - g) / s) - Phi((-s - g) / s)``. Prior draws of the inputs (`sample_roughness_prior`) are
 weighted by the product over observations (importance sampling) and resampled to an equal-weight set: the
 conditioned inputs.
+
+A study whose dataset measured the same cases on smooth and roughened flats conditions the shipped draws
+again (`dataset_rough_flat_observations`: each rough case's growth over its smooth twin, model-free;
+`reweighted_inputs`): its corrections and curves then use its own draws.
 """
 from __future__ import annotations
 
@@ -24,7 +28,8 @@ import numpy as np
 from scipy.stats import norm
 
 __all__ = ["RoughFlatObservation", "PAPER_ROUGH_FLAT", "DETECTION_SCATTER", "observation_likelihood",
-           "condition_weights", "resample", "RoughFlatGrowth"]
+           "condition_weights", "resample", "RoughFlatGrowth", "RADIUS_SCATTER_MM", "dataset_rough_flat_observations",
+           "reweighted_inputs"]
 
 #: Relative area scatter of one imprint (2 sigma / r with sigma ~ 0.075 mm, r ~ 7 mm).
 DETECTION_SCATTER = 0.02
@@ -178,3 +183,68 @@ class RoughFlatGrowth:
                 raise ValueError(f"the rough case R {case[0]:g} mm, F {case[1] / 1e3:g} kN, flat Ra {case[2]:g} um "
                                  "was not prepared")
         return out
+
+
+#: Scatter of one imprint's radius (mm) where a case has no repeats to measure it: the calibration's noise
+#: level of Table 1 (0.07-0.08 mm for MS and HS).
+RADIUS_SCATTER_MM = 0.075
+
+
+def dataset_rough_flat_observations(data, film: str) -> list[RoughFlatObservation]:
+    """A lab's roughened-flat observations in its dataset: one per rough case (R, F, flat Ra) of ``film``
+    that the dataset also measured on a smooth flat.
+
+    The observed growth is model-free, ``(mean rough radius / mean smooth radius)^2 - 1``, and its scatter
+    ``2 sqrt(s_r^2 / n_r / r_r^2 + s_s^2 / n_s / r_s^2)`` (relative area), with ``s`` the radii's pooled
+    within-case standard deviation where cases repeat, else `RADIUS_SCATTER_MM`. Rough cases without a
+    smooth twin are not observations of the growth (they still calibrate the modulus).
+    """
+    rows = np.asarray(data.film) == film
+    r = np.asarray(data.sphere_radius_mm, float)[rows]
+    f = np.asarray(data.force_n, float)[rows]
+    y = np.asarray(data.measured_radius_mm, float)[rows]
+    ra = (np.full(rows.sum(), np.nan) if data.flat_ra_um is None
+          else np.asarray(data.flat_ra_um, float)[rows])
+    ra = np.where(np.isfinite(ra) & (ra > 0), ra, 0.0)
+    groups: dict = {}
+    for key, value in zip(zip(r, f, ra), y):
+        groups.setdefault(tuple(float(v) for v in key), []).append(float(value))
+    spread = [np.var(v, ddof=1) * (len(v) - 1) for v in groups.values() if len(v) > 1]
+    dof = sum(len(v) - 1 for v in groups.values() if len(v) > 1)
+    s = math.sqrt(sum(spread) / dof) if dof else RADIUS_SCATTER_MM
+    out = []
+    for (radius, force, flat_ra), values in sorted(groups.items()):
+        smooth = groups.get((radius, force, 0.0))
+        if flat_ra == 0.0 or smooth is None:
+            continue
+        r_rough, r_smooth = float(np.mean(values)), float(np.mean(smooth))
+        scatter = 2.0 * math.hypot(s / math.sqrt(len(values)) / r_rough, s / math.sqrt(len(smooth)) / r_smooth)
+        out.append(RoughFlatObservation(film, flat_ra, radius, force / 1e3, growth=(r_rough / r_smooth) ** 2 - 1.0,
+                                        scatter=max(scatter, 1e-4),
+                                        source=f"dataset: {len(values)} rough and {len(smooth)} smooth imprints"))
+    return out
+
+
+def reweighted_inputs(draws: Sequence, growths: dict, observations: Sequence[RoughFlatObservation],
+                      random_state: int = 0) -> dict:
+    """Condition equal-weight draws of the roughness inputs again on more observations (a study's own).
+
+    Parameters
+    ----------
+    draws : sequence of RoughnessInputs
+        The draws (the shipped conditioned set: already conditioned on the paper's observation).
+    growths : dict
+        Per observation index: each draw's predicted growth (``g_f - 1``) for it.
+    observations : sequence of RoughFlatObservation
+
+    Returns
+    -------
+    dict
+        ``weights`` (normalised importance weights of the draws), ``effective_draws`` and ``conditioned``:
+        as many draws again, resampled by the weights (systematic) and put in a seeded random order, so that
+        the first N of them are a fair subset.
+    """
+    w, n_eff = condition_weights(growths, observations)
+    picked = resample(w, len(draws), random_state)
+    order = np.random.default_rng(random_state).permutation(len(picked))
+    return {"weights": w.tolist(), "effective_draws": n_eff, "conditioned": [draws[int(picked[k])] for k in order]}

@@ -55,22 +55,21 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _rough_configurations(args: argparse.Namespace) -> list:
+def _rough_configurations(args: argparse.Namespace, draws: list) -> list:
     """The rough bodies asked for (`filmcal.correction.RoughConfiguration`): the bodies' Ra values and measured
-    maps with the first --roughness-draws conditioned draws of the roughness inputs, and a measured law."""
+    maps with the first --roughness-draws of ``draws`` (the study's conditioned draws of the roughness
+    inputs), and a measured law."""
     from filmcal.correction import RoughConfiguration
 
     if args.wheel_roughness_ra_um and args.wheel_roughness_map or args.rail_roughness_ra_um and args.rail_roughness_map:
         raise ValueError("give each body's roughness as an Ra or as a map, not both")
     out = []
     if args.wheel_roughness_ra_um or args.rail_roughness_ra_um or args.wheel_roughness_map or args.rail_roughness_map:
-        from filmcal.contact.rough_imprint import load_roughness_inputs
         from filmcal.contact.surface_files import read_surface_file
 
         def body(ra, path):
             return read_surface_file(path, args.roughness_pixel_um) if path else (ra or None)
 
-        draws = load_roughness_inputs()
         if isinstance(args.roughness_draws, bool) or not 1 <= args.roughness_draws <= len(draws):
             raise ValueError(f"--roughness-draws must be an integer in [1, {len(draws)}], got {args.roughness_draws!r}")
         out.append(RoughConfiguration(body(args.wheel_roughness_ra_um, args.wheel_roughness_map),
@@ -120,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
                  "kinematics": args.kinematics, "loads": args.calibration_forces_kn}
         chosen = chosen_posteriors(study, film, **match)
         components = curve_components(study, film, **match)
-        rough = _rough_configurations(args)
+        rough = _rough_configurations(args, study.roughness_inputs()[0])
         for label in ["smooth"] + [c.label for c in rough]:
             sys.stderr.write(f"[curves] {film}, {label}: {len(forces)} loads x {len(offsets)} offsets\n")
         rows = curve_table(film, components, offsets, forces, rough, workers)

@@ -284,6 +284,25 @@ class Study:
         self.manifest.verify(self.layout.relative(path), path, kind=kind, spec=spec)
         return path
 
+    def roughness_inputs(self) -> tuple[list, str]:
+        """The draws of the roughness inputs the study's corrections and curves use, and where they come from.
+
+        The draws conditioned again on the study's own roughened-flat data (``roughness-inputs.json``, made
+        by the pipeline's roughness stage) when the study has them, else the shipped conditioned draws
+        (`filmcal.contact.rough_imprint.load_roughness_inputs`).
+        """
+        from filmcal.contact.rough_imprint import RoughnessInputs, load_roughness_inputs
+
+        path = self.layout.roughness_inputs
+        if self.verified(path, kind="roughness-inputs") is None:
+            return load_roughness_inputs(), "conditioned draws shipped with filmcal (filmcal/data/roughness_inputs.json)"
+        from filmcal._io import read_json
+
+        data = read_json(path)
+        return ([RoughnessInputs.from_dict(d) for d in data["conditioned"]],
+                f"the shipped draws conditioned again on this study's roughened-flat data ({path.name}: "
+                f"{len(data['observations'])} observations, {data['effective_draws']:.1f} effective draws)")
+
     def film(self, name: str) -> FilmType:
         """A film type known to the study (built in, from the manifest or the films file)."""
         return self.films.get(name)
@@ -1092,7 +1111,7 @@ class StudyGrowths:
 
     ``posteriors/<key>-roughness.json``, ``<key>`` the hash of its spec: the posteriors (SHA-256), the
     wheel-rail settings, the offset and force, the bodies (each Ra, a measured surface by its fingerprint),
-    the shipped roughness inputs (their file's SHA-256) and the number of draws. Recorded under the manifest's
+    the draws of the roughness inputs (shipped, or the study's own). Recorded under the manifest's
     ``caches`` and verified like `_StudySupports`; written only when the writer lock is free.
     """
 
@@ -1102,20 +1121,13 @@ class StudyGrowths:
         self.study = study
         self.parts = parts
 
-    def spec(self, offset_mm: float, force_n: float, bodies: dict, n_draws: int) -> dict:
-        import hashlib
-        from importlib import resources
-
-        from filmcal.contact.rough_imprint import ROUGHNESS_INPUTS_FILE
-
-        shipped = resources.files("filmcal.data").joinpath(ROUGHNESS_INPUTS_FILE).read_bytes()
+    def spec(self, offset_mm: float, force_n: float, bodies: dict, draws: list) -> dict:
         settings = {k: (_profile_spec(v) if k in ("wheel", "rail") else v)
                     for k, v in self.parts[0][1].settings.items()}
         return _json_roundtrip({"kind": self.KIND, "posteriors": {s["model"]: s.get("posterior_sha256")
                                                                   for _, _, s in self.parts},
                                 "wheel_rail": settings, "offset_mm": float(offset_mm), "force_n": float(force_n),
-                                "bodies": bodies, "inputs_sha256": hashlib.sha256(shipped).hexdigest(),
-                                "n_draws": int(n_draws)})
+                                "bodies": bodies, "draws": [d.to_dict() for d in draws]})
 
     def _path(self, spec: dict) -> Path:
         key = spec_key(spec)

@@ -283,15 +283,13 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
     result = _pool(results, parts, seed)
     rough_out = None
     if not sphere and roughness is not None and not roughness.smooth:
-        from filmcal.contact.rough_imprint import load_roughness_inputs
-        from filmcal.correction.roughness import corrector_growths
-
-        from filmcal.correction.roughness import RoughGrowth
+        from filmcal.correction.roughness import RoughGrowth, corrector_growths
         from filmcal.study.core import StudyGrowths
 
-        draws = load_roughness_inputs()[:roughness.n_draws]
+        inputs, inputs_source = study.roughness_inputs()
+        draws = inputs[:roughness.n_draws]
         kept = StudyGrowths(study, parts)
-        spec = kept.spec(m.offset_mm, force_n, roughness.fingerprint(), len(draws))
+        spec = kept.spec(m.offset_mm, force_n, roughness.fingerprint(), draws)
         stored = kept.get(spec)
         if stored is not None:  # solved before for these posteriors, bodies and draws
             w = np.full(len(draws), 1.0 / len(draws))
@@ -311,7 +309,7 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
         var_rough, var_smooth = float(result.area_std_mm2) ** 2, float(smooth.area_std_mm2) ** 2
         rough_out = {
             **roughness.describe(),
-            "inputs": "conditioned draws shipped with filmcal (filmcal/data/roughness_inputs.json)",
+            "inputs": inputs_source,
             "n_draws": len(draws), "smooth_area_mm2": float(smooth.area_mm2),
             "smooth_area_std_mm2": float(smooth.area_std_mm2),
             "smooth_area_ci90_mm2": [float(v) for v in smooth.area_ci90_mm2],

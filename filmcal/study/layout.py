@@ -87,6 +87,11 @@ class StudyLayout:
     def curves(self, film: str) -> Path:
         return self.root / "curves" / f"curves-{film}.csv"
 
+    @property
+    def roughness_inputs(self) -> Path:
+        """The roughness inputs conditioned again on the study's own roughened-flat data (when it has some)."""
+        return self.root / "roughness-inputs.json"
+
     def rough_law(self, key: str) -> Path:
         """A rough body's boundary-element law against a film at one modulus (`filmcal.contact.rough_law_file`)."""
         return self.root / "roughlaws" / f"{key}.npz"

@@ -223,6 +223,7 @@ def _run_stages(study: Study, settings: PipelineSettings, films, seed: int, pool
         # the film each figure draws is the one its posterior was calibrated under: its E and kinematics
         medians = {film: {"modulus_mpa": float(r.modulus_mpa["median"]), "model": spec["model"],
                           "kinematics": spec["fe"]["kinematics"]} for film, (r, _, spec) in chosen.items()}
+        stage("roughness", _roughness_stage, study, films, medians, seed, pool)
         stage("verification", _verification_stage, study, settings, seed, medians, pool)
         stage("curves", _curves_stage, study, settings, films, pool)
         stage("outlines", _outlines_stage, study, settings, medians)
@@ -396,6 +397,87 @@ def _fe_solve(sphere_radius_mm: float, force_n: float, film: tuple[float, float]
             "fe_max_pressure_mpa": res.max_pressure_mpa, "converged": res.converged, "profile": _profile(res)}
 
 
+#: Effective draws below which a study's re-conditioned roughness inputs come with a warning.
+MIN_EFFECTIVE_DRAWS = 4.0
+
+
+class RoughnessConditioningWarning(UserWarning):
+    """A study's roughened-flat data leave few of the shipped draws of the roughness inputs."""
+
+
+def _roughness_stage(study: Study, films, medians: dict, seed: int, workers, st):
+    """The study's own roughened-flat data condition the shipped roughness inputs again
+    (``roughness-inputs.json``, kind ``roughness-inputs``; `filmcal.calibration.roughness.reweighted_inputs`).
+
+    Each rough case of a film that the dataset also measured on a smooth flat is an observation of the
+    imprint's growth (`dataset_rough_flat_observations`); each shipped draw predicts it on sphere-on-flat
+    with the flat roughened, the film at its posterior median under its preferred model. Nothing to do when
+    the dataset has no such pairs."""
+    from dataclasses import asdict
+
+    from filmcal._parallel import run_tasks
+    from filmcal.calibration.roughness import dataset_rough_flat_observations, reweighted_inputs
+    from filmcal.contact.rough_imprint import load_roughness_inputs
+
+    observations = [o for film in films for o in dataset_rough_flat_observations(study.dataset_rows(film, None)[0],
+                                                                                   film)]
+    if not observations:
+        return None, False
+    draws = load_roughness_inputs()
+    used = {o.film: medians[o.film] for o in observations}
+    spec = {"observations": [asdict(o) for o in observations], "films": used, "seed": seed,
+            "draws": [d.to_dict() for d in draws]}
+    path = study.layout.roughness_inputs
+    if _current(study, path, spec):
+        return None, False
+    unique = list(dict.fromkeys(draws))
+    models = [(_film_model(study, o.film, used[o.film]), used[o.film]["modulus_mpa"]) for o in observations]
+    tasks = {k: (_sphere_growths, (models, d, observations)) for k, d in enumerate(unique)}
+    st.set_total(len(tasks))
+    st.log(f"[roughness] the dataset's {len(observations)} roughened-flat observation(s) condition the roughness "
+           f"inputs again: {len(unique)} distinct draws")
+    solved: dict = {}
+
+    def keep(k, growths, _):
+        solved[unique[k]] = growths
+        st.advance(note=f"draw {k + 1}/{len(unique)}")
+
+    run_tasks(tasks, workers, keep)
+    growths = {j: np.array([solved[d][j] - 1.0 for d in draws]) for j in range(len(observations))}
+    out = reweighted_inputs(draws, growths, observations, random_state=seed)
+    st.log(f"[roughness] {out['effective_draws']:.1f} effective draws of {len(draws)} remain")
+    if out["effective_draws"] < MIN_EFFECTIVE_DRAWS:
+        warnings.warn(RoughnessConditioningWarning(
+            f"the dataset's roughened-flat growths rest on {out['effective_draws']:.1f} effective draws of the "
+            f"{len(draws)} shipped ones (predicted {100 * min(g.min() for g in growths.values()):.1f} to "
+            f"{100 * max(g.max() for g in growths.values()):.1f} %, observed "
+            + ", ".join(f"{100 * o.growth:+.1f} %" for o in observations)
+            + "): the roughness bands of this study's corrections are narrower than the inputs' uncertainty; "
+            "more roughened-flat imprints would tell the draws apart"), stacklevel=2)
+    atomic_write_json(path, {"source": "the shipped conditioned draws, weighted by this study's roughened-flat data",
+                             "observations": spec["observations"], "films": used,
+                             "predicted_growth": {str(j): g.tolist() for j, g in growths.items()},
+                             "weights": out["weights"], "effective_draws": out["effective_draws"],
+                             "conditioned": [d.to_dict() for d in out["conditioned"]]}, indent=1)
+    study.record(path, "roughness-inputs", spec)
+    return None, True
+
+
+def _film_model(study: Study, film: str, median: dict):
+    from filmcal.contact.film import FilmModel
+
+    return FilmModel(study.film(film), median["model"].split("/")[0], median["kinematics"])
+
+
+def _sphere_growths(models: list, draw, observations: list) -> list[float]:
+    """``g_f`` of one draw at each roughened-flat observation, each with its ``(FilmModel, modulus)`` (a worker's
+    task: the draw's law against a film is built once for all of its observations)."""
+    from filmcal.wheelrail.rough_growth import sphere_growth
+
+    return [sphere_growth(model, modulus, draw, o.ra_um, sphere_radius_mm=o.sphere_radius_mm,
+                          force_n=1e3 * o.force_kn) for (model, modulus), o in zip(models, observations)]
+
+
 def _verification_stage(study: Study, settings: PipelineSettings, seed: int, medians: dict, workers, st):
     path = study.layout.verification
     if _current(study, path, {"films": medians}):
@@ -466,10 +548,8 @@ def _curves_stage(study: Study, settings: PipelineSettings, films, workers, st):
 
     rough = None
     if settings.rough_ra_um:
-        from filmcal.contact.rough_imprint import load_roughness_inputs
-
         rough = RoughConfiguration(float(settings.rough_ra_um), None,
-                                   tuple(load_roughness_inputs()[:settings.rough_draws]))
+                                   tuple(study.roughness_inputs()[0][:settings.rough_draws]))
     specs, components, rows = {}, {}, {}
     for film in films:
         chosen = chosen_posteriors(study, film)
