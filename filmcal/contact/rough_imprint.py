@@ -116,8 +116,9 @@ class RoughnessInputs:
             warnings.warn(RoughnessRangeWarning(
                 f"Ra {float(ra_um):g} um: synthetic surfaces of this Ra have rms slopes above {MAX_RMS_SLOPE:g}: at "
                 "such roughness waviness longer than the contact grid (a turned wheel's feed "
-                "marks) belongs to the macro gap, which is not separated here; take the rough answer as an "
-                "estimate, or give a measured surface"), stacklevel=2)
+                "marks) belongs to the macro gap, and a surface given by its Ra alone has none; take the rough "
+                "answer as an estimate, or give a measured profile across the lay (its waviness then enters "
+                "the gap)"), stacklevel=2)
         return surface
 
     def bodies(self, wheel=None, rail=None):

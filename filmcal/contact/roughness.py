@@ -91,6 +91,7 @@ import math
 from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import scipy.fft as sfft
@@ -947,18 +948,33 @@ class Roughness:
     Attributes
     ----------
     wheel, rail : RoughSurface or None
-        The bodies' surfaces (None: smooth).
+        The bodies' surfaces (None: smooth); after `split`, their micro parts.
     film_hardness_mpa : float
         Cap on asperity pressures in the film (default: the PET carrier's, :data:`PET_HARDNESS_MPA`).
+    waviness : filmcal.contact.waviness.Waviness or None
+        Both bodies' long-wave heights for the macro gap (`split`).
     """
 
     wheel: RoughSurface | None = None
     rail: RoughSurface | None = None
     film_hardness_mpa: float = PET_HARDNESS_MPA
+    waviness: Any = None
 
     @property
     def smooth(self) -> bool:
-        return self.wheel is None and self.rail is None
+        return self.wheel is None and self.rail is None and self.waviness is None
+
+    def split(self, cutoff_um: float) -> "Roughness":
+        """The bodies split at ``cutoff_um`` (`filmcal.contact.waviness.split_surface`): their micro parts for the
+        laws, their waviness (added) for the macro gap of the solve (``waviness``)."""
+        from filmcal.contact.waviness import split_surface
+
+        parts = [(None, None) if s is None else split_surface(s, cutoff_um) for s in (self.wheel, self.rail)]
+        wavy = [w for _, w in parts if w is not None]
+        total = self.waviness
+        for w in wavy:
+            total = w if total is None else total + w
+        return Roughness(parts[0][0], parts[1][0], self.film_hardness_mpa, total)
 
     def composite(self) -> RoughSurface | None:
         """The two surfaces' heights added (the gap between them), or the one rough surface."""
@@ -999,9 +1015,12 @@ class Roughness:
         return None if surface is None else steel_contact_law(surface)
 
     def describe(self) -> dict[str, object]:
-        """Ra of each body (None: smooth), JSON-ready."""
-        return {"wheel_ra_um": None if self.wheel is None else self.wheel.ra_um,
-                "rail_ra_um": None if self.rail is None else self.rail.ra_um}
+        """Ra of each body (None: smooth), and the RMS of the waviness in the gap when split, JSON-ready."""
+        out = {"wheel_ra_um": None if self.wheel is None else self.wheel.ra_um,
+               "rail_ra_um": None if self.rail is None else self.rail.ra_um}
+        if self.waviness is not None:
+            out["waviness_rms_um"] = self.waviness.rms_um
+        return out
 
 
 # ---------------------------------------------------------------------------

@@ -133,19 +133,28 @@ def growth_modulus_mpa(components) -> float:
     return float(weighted_quantiles(e, w if w.sum() > 0 else np.ones_like(w), [0.5])[0])
 
 
-def draw_laws(draw: RoughnessInputs | None, films: dict, *, wheel=None, rail=None, law=None) -> dict:
-    """The rough laws of one draw: ``{film name: its law against the film, None: the law without film}``.
+def draw_laws(draw: RoughnessInputs | None, films: dict, *, wheel=None, rail=None, law=None,
+              grid_mm: float | None = None) -> dict:
+    """The rough laws of one draw on the wheel-rail contact: ``{film name: its law against the film, None: the
+    law without film, "waviness": the bodies' long-wave heights}``.
 
-    ``films`` maps each film's name to ``(FilmType, modulus_mpa)``. With ``draw`` None, ``law`` is a measured
-    film-wheel law taken as it is for every film, and the contact without film stays smooth (None).
+    ``films`` maps each film's name to ``(FilmType, modulus_mpa)``. The bodies are split at
+    `filmcal.contact.waviness.WAVINESS_CUTOFF_CELLS` cells of the contact grid (``grid_mm``, default the
+    wheel-rail model's): the laws take the micro part, the solves the waviness (none for surfaces no longer
+    than the cut-off, such as the synthetic ones). With ``draw`` None, ``law`` is a measured film-wheel law
+    taken as it is for every film, and the contact without film stays smooth (None).
     """
+    from filmcal.contact.waviness import WAVINESS_CUTOFF_CELLS
+    from filmcal.wheelrail.settings import GRID_MM
+
     if draw is None:
-        return {**{name: law for name in films}, None: None}
-    bodies = draw.bodies(wheel, rail)
+        return {**{name: law for name in films}, None: None, "waviness": None}
+    cutoff_um = 1e3 * WAVINESS_CUTOFF_CELLS * (GRID_MM if grid_mm is None else float(grid_mm))
+    bodies = draw.bodies(wheel, rail).split(cutoff_um)
     if bodies.smooth:
-        return {**{name: None for name in films}, None: None}
+        return {**{name: None for name in films}, None: None, "waviness": None}
     return {**{name: bodies.film_law(float(m), f.poisson, f.thickness_mm) for name, (f, m) in films.items()},
-            None: bodies.steel_law()}
+            None: bodies.steel_law(), "waviness": bodies.waviness}
 
 
 def solve_growths(models, draws: Sequence[tuple[float | None, dict]], offset_mm: float, force_n: float, solver,
@@ -158,7 +167,8 @@ def solve_growths(models, draws: Sequence[tuple[float | None, dict]], offset_mm:
         Models of one film and kinematics share their solves (at one modulus).
     draws : sequence of (reading level, laws)
         Per draw: its scan reading level (None: a measured law, read like a smooth contact) and its laws
-        ``{film name: law against the film, None: law without film}`` (None: smooth).
+        ``{film name: law against the film, None: law without film, "waviness": long-wave heights}`` (None:
+        smooth; `draw_laws`).
     solver
         A wheel-rail model (`filmcal.wheelrail.get_wheel_rail_model`). The smooth solves are made once for all
         draws; each rough solve starts from its smooth one.
@@ -177,23 +187,25 @@ def solve_growths(models, draws: Sequence[tuple[float | None, dict]], offset_mm:
         groups.setdefault((name, model.kinematics, float(modulus)), []).append(k)
     smooth, base = {}, {}
     for key, members in groups.items():
-        if any(laws.get(key[0]) is not None for _, laws in draws):
+        if any(laws.get(key[0]) is not None or laws.get("waviness") is not None for _, laws in draws):
             film0, law0, _ = models[members[0]][1].interface(key[2])
             smooth[key] = solver.solve(offset_mm, force_n, film=film0, roughness=law0, initial=bare)
             base.update({k: models[k][1].recorded_area_mm2(smooth[key]) for k in members})
     out = []
     for level, laws in draws:
         g0 = 1.0
-        if laws.get(None) is not None:
-            g0 = nominal_rough_area_mm2(solver.solve(offset_mm, force_n, roughness=laws[None], initial=bare),
-                                        bare) / float(bare.area_mm2)
+        wavy = laws.get("waviness")
+        if laws.get(None) is not None or wavy is not None:
+            g0 = nominal_rough_area_mm2(solver.solve(offset_mm, force_n, roughness=laws.get(None), initial=bare,
+                                                     waviness=wavy), bare) / float(bare.area_mm2)
         gf = [1.0] * len(models)
         for key, members in groups.items():
             law = laws.get(key[0])
-            if law is None:
+            if law is None and wavy is None:
                 continue
             film, solver_law, rough_law = models[members[0]][1].interface(key[2], law)
-            rough = solver.solve(offset_mm, force_n, film=film, roughness=solver_law, initial=smooth[key])
+            rough = solver.solve(offset_mm, force_n, film=film, roughness=solver_law, initial=smooth[key],
+                                 waviness=wavy)
             for k in members:
                 if base[k] > 0.0:
                     gf[k] = models[k][1].recorded_area_mm2(rough, rough_law, level) / base[k]

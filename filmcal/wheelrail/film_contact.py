@@ -193,7 +193,12 @@ def solve_film_contact(offset_mm: float, force_n: float, case: FilmContactCase,
     # a film type's imprint is read from the solve with or without its film (the latter: what it would colour)
     model = FilmModel(film_type, case.imprint_model if named is not None else "edge",
                       "small" if no_film else case.kinematics)
-    bodies = roughness.bodies()
+    from filmcal.contact.waviness import WAVINESS_CUTOFF_CELLS
+
+    whole = roughness.bodies()
+    # measured surfaces longer than a few cells: their waviness goes into the gap, the rest into the law
+    bodies = whole.split(1e3 * WAVINESS_CUTOFF_CELLS * grid_mm)
+    wavy = {"waviness_rms_um": bodies.waviness.rms_um} if bodies.waviness is not None else {}
     law = None
     rough_info = None
     if roughness.law_file is not None:
@@ -202,24 +207,26 @@ def solve_film_contact(offset_mm: float, force_n: float, case: FilmContactCase,
     if no_film:
         if not bodies.smooth:
             law = bodies.steel_law()
-            rough_info = {"model": "FFT boundary elements, steel on steel", **law.describe(), **bodies.describe()}
+            rough_info = {"model": "FFT boundary elements, steel on steel", **(law.describe() if law else {}),
+                          **whole.describe(), **wavy}
         solver_film, solver_law = film_law(None, law)
     else:
         if not bodies.smooth:
             law = bodies.film_law(case.film_modulus_mpa, film_type.poisson, film_type.thickness_mm)
             parts = getattr(law, "laws", (law,))
-            rough_info = {"model": "FFT boundary elements", **parts[0].describe(), **bodies.describe()}
+            rough_info = {"model": "FFT boundary elements", **(parts[0].describe() if law else {}),
+                          **whole.describe(), **wavy}
         solver_film, solver_law, _ = model.interface(case.film_modulus_mpa, law)
         rough_info = rough_info and {**rough_info, "reading_level": roughness.inputs().reading_level}
     result = solve_wheel_rail(offset_mm, force_n, wheel=_profile(wheel, "wheel"), rail=_profile(rail, "rail"),
                               rail_inclination=rail_inclination, nominal_radius_mm=nominal_radius_mm,
-                              film=solver_film, roughness=solver_law, grid_mm=grid_mm)
+                              film=solver_film, roughness=solver_law, grid_mm=grid_mm, waviness=bodies.waviness)
     if plot_path is not None:
         from filmcal.wheelrail.plots import plot_pressure_map
 
         plot_pressure_map(result, plot_path)
     out: dict[str, Any] = result.summary()
-    if no_film and law is not None and not law.is_hard:
+    if no_film and (law is not None and not law.is_hard or bodies.waviness is not None):
         out["nominal_area_mm2"] = nominal_rough_area_mm2(result, solve_wheel_rail(
             offset_mm, force_n, wheel=_profile(wheel, "wheel"), rail=_profile(rail, "rail"),
             rail_inclination=rail_inclination, nominal_radius_mm=nominal_radius_mm, grid_mm=grid_mm))

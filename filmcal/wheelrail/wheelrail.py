@@ -663,7 +663,7 @@ class WheelRailModel:
     def solve(self, offset_mm: float, force_n: float, film: FilmLayer | None = None,
               roughness: InterfaceLaw | None = None,
               region: ContactRegion | None = None, *,
-              initial: "WheelRailResult | None" = None) -> WheelRailResult:
+              initial: "WheelRailResult | None" = None, waviness=None) -> WheelRailResult:
         """Solve one case.
 
         Parameters
@@ -691,6 +691,9 @@ class WheelRailModel:
             same as from a cold start to the solver tolerance; only the
             iteration count falls. :meth:`solve_many` does this along a
             list of cases.
+        waviness : filmcal.contact.waviness.Waviness, optional
+            The bodies' long-wave heights, subtracted from the gap at every
+            cell (the map repeated from the grid's first cell).
 
         Returns
         -------
@@ -754,6 +757,8 @@ class WheelRailModel:
                 box = _region(curves, delta_box, self.grid_mm, slide) if region is None else region
                 grid = _grid(box, spacing_x, curves, spacing_s)
                 gap = curves.grid_gap(grid.x_mm, grid.y_mm, slide)
+                if waviness is not None:
+                    gap = gap - waviness.gap_mm(grid.x_mm, grid.y_mm)
                 start_pressure = None if previous is None else _transfer(previous, grid)
                 result = self.solver.solve(gap, normal_force, grid, film=film, law=roughness,
                                            initial_pressure_mpa=start_pressure, allow_edge=True,
@@ -939,7 +944,7 @@ def solve_wheel_rail(offset_mm: float, force_n: float, *, wheel: str | Profile =
                      nominal_radius_mm: float = NOMINAL_RADIUS_MM, film: FilmLayer | None = None,
                      roughness: InterfaceLaw | None = None, grid_mm: float = GRID_MM,
                      region: ContactRegion | None = None,
-                     initial: WheelRailResult | None = None) -> WheelRailResult:
+                     initial: WheelRailResult | None = None, waviness=None) -> WheelRailResult:
     """Wheel-rail normal contact at lateral offset eta under vertical load F.
 
     Parameters
@@ -966,6 +971,8 @@ def solve_wheel_rail(offset_mm: float, force_n: float, *, wheel: str | Profile =
     initial : WheelRailResult, optional
         Warm start from a neighbouring solution (see
         :meth:`WheelRailModel.solve`).
+    waviness : filmcal.contact.waviness.Waviness, optional
+        The bodies' long-wave heights in the gap (see :meth:`WheelRailModel.solve`).
 
     Returns
     -------
@@ -979,7 +986,7 @@ def solve_wheel_rail(offset_mm: float, force_n: float, *, wheel: str | Profile =
     """
     model = get_wheel_rail_model(wheel, rail, rail_inclination, nominal_radius_mm, grid_mm)
     return model.solve(offset_mm, force_n, film=film, roughness=roughness, region=region,
-                       initial=initial)
+                       initial=initial, waviness=waviness)
 
 
 def solve_wheel_rail_many(cases: Iterable[WheelRailCase | Mapping | tuple], *,

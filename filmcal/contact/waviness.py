@@ -1,0 +1,117 @@
+"""Waviness and micro-roughness: a measured surface split at the contact grid.
+
+A boundary-element law (`filmcal.contact.roughness`) describes asperities much smaller than the contact
+grid: it acts in series at every cell. Wavelengths longer than a few grid cells are no such asperities: a
+turned wheel's feed marks (0.1-1 mm apart at Ra 10-30 um) or a ground rail's grinding marks change the gap
+from cell to cell, so the contact and the imprint become striped. A surface is therefore split at the cut-off
+``WAVINESS_CUTOFF_CELLS`` grid cells (0.4 mm on the default 0.1 mm grid) by the Gaussian filter of ISO
+16610-21 (transmission of the long-wave part ``exp(-pi (alpha lambda_c / lambda)^2)``, ``alpha =
+sqrt(ln 2 / pi)``: 50 % at the cut-off), applied in the Fourier domain of the periodic map: the short-wave
+part is the micro surface of the law, the long-wave part (`Waviness`) is added to the macro gap of the
+solve.
+
+Orientation of a map on the contact grid: its first axis runs across the lay (the lateral direction of a
+wheel or rail, the contact plane's ``s``), its second along it (the rolling direction ``x``); a line profile
+measured across the lay is a map that is constant along it (`filmcal.contact.surface_files.profile_surface`).
+The map is repeated periodically over the contact grid, its origin at the grid's first cell.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["Waviness", "split_surface", "WAVINESS_CUTOFF_CELLS", "gaussian_transmission"]
+
+#: Cut-off of the split in contact-grid cells: longer wavelengths belong to the macro gap.
+WAVINESS_CUTOFF_CELLS = 4.0
+
+_ALPHA = math.sqrt(math.log(2.0) / math.pi)
+
+
+def gaussian_transmission(wavelength_um, cutoff_um: float):
+    """The share of a wave of ``wavelength_um`` that the ISO 16610-21 Gaussian filter of cut-off ``cutoff_um``
+    keeps in the long-wave (waviness) part: ``exp(-pi (alpha cutoff / wavelength)^2)``; 0.5 at the cut-off."""
+    lam = np.asarray(wavelength_um, dtype=float)
+    with np.errstate(divide="ignore"):
+        return np.exp(-math.pi * (_ALPHA * float(cutoff_um) / lam) ** 2)
+
+
+@dataclass(frozen=True, eq=False)
+class Waviness:
+    """The long-wave part of the bodies' surfaces: heights (um) added to the macro gap, periodic.
+
+    Attributes
+    ----------
+    heights_um : ndarray, shape (n_across, n_along)
+        Heights towards the other body (the gap closes where they are positive); first axis across the lay
+        (contact-plane ``s``), second along it (rolling ``x``).
+    pixel_um : float
+    description : str
+    """
+
+    heights_um: np.ndarray = field(repr=False)
+    pixel_um: float
+    description: str = ""
+
+    @property
+    def rms_um(self) -> float:
+        return float(np.std(self.heights_um))
+
+    def gap_mm(self, x_mm: np.ndarray, s_mm: np.ndarray) -> np.ndarray:
+        """The heights (mm) at the cells of a tensor grid ``x_mm (nx,) x s_mm (ns,)``, shape ``(nx, ns)``: the map
+        repeated from the grid's first cell, interpolated bilinearly."""
+        x = np.asarray(x_mm, dtype=float) - float(np.min(x_mm))
+        s = np.asarray(s_mm, dtype=float) - float(np.min(s_mm))
+        h = self.heights_um
+        n_s, n_x = h.shape
+        fs, fx = 1e3 * s / self.pixel_um, 1e3 * x / self.pixel_um
+        i0, j0 = np.floor(fs).astype(int), np.floor(fx).astype(int)
+        ts, tx = (fs - i0)[None, :], (fx - j0)[:, None]
+        i0, i1 = i0 % n_s, (i0 + 1) % n_s
+        j0, j1 = j0 % n_x, (j0 + 1) % n_x
+        value = ((1 - tx) * (1 - ts) * h[i0[None, :], j0[:, None]] + (1 - tx) * ts * h[i1[None, :], j0[:, None]]
+                 + tx * (1 - ts) * h[i0[None, :], j1[:, None]] + tx * ts * h[i1[None, :], j1[:, None]])
+        return 1e-3 * value
+
+    def __add__(self, other: "Waviness | None") -> "Waviness":
+        """Both bodies' waviness (their heights add in the gap); on one pixel grid."""
+        if other is None:
+            return self
+        if other.heights_um.shape != self.heights_um.shape or not math.isclose(other.pixel_um, self.pixel_um):
+            raise ValueError("the wheel's and the rail's waviness lie on different grids: give their maps on one "
+                             "grid")
+        return Waviness(self.heights_um + other.heights_um, self.pixel_um,
+                        f"{self.description} + {other.description}")
+
+
+def split_surface(surface, cutoff_um: float):
+    """A surface's micro part (wavelengths shorter than ``cutoff_um``, for the boundary-element law) and its
+    waviness (longer, for the macro gap), by the Gaussian filter of ISO 16610-21 (module notes).
+
+    Returns
+    -------
+    (RoughSurface or None, Waviness or None)
+        None for a part that does not exist: a map no longer than the cut-off along either axis has no
+        waviness (it is returned as it is), one whose heights all pass into the waviness has no micro part.
+    """
+    from filmcal.contact.roughness import RoughSurface
+
+    h = np.asarray(surface.heights_um, dtype=float)
+    size_um = np.array(h.shape) * surface.pixel_um
+    if np.all(size_um <= float(cutoff_um)):
+        return surface, None
+    q0 = np.fft.fftfreq(h.shape[0], d=surface.pixel_um)
+    q1 = np.fft.fftfreq(h.shape[1], d=surface.pixel_um)
+    q = np.hypot(q0[:, None], q1[None, :])  # cycles per um
+    keep = np.exp(-math.pi * (_ALPHA * float(cutoff_um) * q) ** 2)
+    long = np.real(np.fft.ifft2(np.fft.fft2(h) * keep))
+    short = h - long
+    scale = max(float(np.std(h)), 1e-300)
+    micro = (RoughSurface(short, surface.pixel_um, f"{surface.description}, wavelengths under {cutoff_um:g} um")
+             if np.std(short) > 1e-6 * scale else None)
+    wavy = (Waviness(long - long.mean(), surface.pixel_um,
+                     f"{surface.description}, wavelengths over {cutoff_um:g} um")
+            if np.std(long) > 1e-6 * scale else None)
+    return micro, wavy
