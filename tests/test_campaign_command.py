@@ -293,6 +293,32 @@ def test_store_lock_names_its_holder_and_is_released_by_a_killed_holder(tmp_path
         assert StoreLock(store).running_holder().pid == os.getpid()
 
 
+def test_a_waiting_store_lock_is_taken_when_its_holder_ends(tmp_path):
+    """With wait_s the lock waits for its holder (telling once who it is) and is taken as soon as the holder
+    releases it; past wait_s it is refused as without waiting."""
+    import time
+
+    store = tmp_path / "runs.sqlite"
+    holder = subprocess.Popen([sys.executable, "-c",
+                               "import sys, time; from filmcal.campaign import StoreLock; "
+                               "lock = StoreLock(sys.argv[1], 'study A').acquire(); print('held', flush=True); "
+                               "time.sleep(1.5); lock.release(); time.sleep(60)", str(store)],
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        t0 = time.monotonic()
+        with pytest.raises(StoreBusyError, match="study A"):
+            StoreLock(store, wait_s=0.3).acquire()
+        assert 0.3 <= time.monotonic() - t0 < 1.4
+        told = []
+        with StoreLock(store, wait_s=30.0, on_wait=told.append) as lock:
+            assert lock.held and 1.0 < time.monotonic() - t0 < 10.0
+        assert len(told) == 1 and told[0].command == "study A" and told[0].pid == holder.pid
+    finally:
+        holder.kill()
+        holder.wait()
+
+
 def test_an_ok_run_is_never_downgraded(tmp_path):
     with RunStore(tmp_path / "runs.sqlite") as store:
         store.add_points({"a": {"x": 1.0}, "b": {"x": 2.0}}, "h", {"model": "m"})

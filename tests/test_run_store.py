@@ -61,3 +61,30 @@ def test_a_study_refuses_runs_changed_in_the_shared_store(two_labs, capsys):
                      *SMALL]) == 2  # the recorded store, without --run-store
     err = capsys.readouterr().err
     assert "differ from those this study used" in err and len(err.strip().splitlines()) == 1
+
+
+def test_two_studies_at_once_on_one_store_compute_each_run_once(two_labs):
+    """Two calibrations started together on one shared store: the second waits for the first (saying so) and
+    then reuses its runs; every run of the store was attempted once, and both studies end well."""
+    import subprocess
+    import sys
+    import time
+
+    def start(study: str, data: str):
+        return subprocess.Popen([sys.executable, "-m", "filmcal.cli", "calibrate", "--data", str(two_labs / data),
+                                 "--study-dir", str(two_labs / study), "--run-store", str(two_labs / "store"),
+                                 *SMALL], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+
+    first = start("first", "a.csv")
+    deadline = time.monotonic() + 120
+    while not list((two_labs / "store").glob("runs-*.sqlite.lock")) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    time.sleep(1.0)  # the first holds the store's lock, computing its runs
+    second = start("second", "b.csv")
+    err_first = first.communicate(timeout=900)[1]
+    err_second = second.communicate(timeout=900)[1]
+    assert first.returncode == 0, err_first[-2000:]
+    assert second.returncode == 0, err_second[-2000:]
+    assert "waiting for the shared run store" in err_second
+    runs = _runs(two_labs)
+    assert len(runs) == 32 and {r[1] for r in runs} == {"ok"} and {r[2] for r in runs} == {1}

@@ -5,7 +5,9 @@ campaign runs, and writes into that file who holds it (pid, host, command,
 start time). The operating system releases the lock when the holder exits,
 however it exits (SIGKILL included), so a stale lock never blocks a resume.
 A second campaign on the same store is refused at once with
-`StoreBusyError`, whose message says who holds the lock.
+`StoreBusyError`, whose message says who holds the lock; or, given a
+``wait_s``, waits for the holder to finish (a study on a shared run store:
+it then reuses what the holder computed instead of computing it again).
 
 ``flock`` locks are reliable on local file systems; on network file systems
 (NFS) their behaviour depends on the server, so keep stores on a local disk.
@@ -84,6 +86,10 @@ class StoreLock:
     command : str, optional
         What the holder is doing, shown to a process that is refused
         (default: this process's command line).
+    wait_s : float
+        How long to wait for a holder to release the lock before refusing (0: refuse at once).
+    on_wait : callable, optional
+        Called once, with the holder (or None if unknown), when the lock is busy and this process waits.
 
     Examples
     --------
@@ -91,10 +97,13 @@ class StoreLock:
     ...     ...  # the only writer of runs.sqlite
     """
 
-    def __init__(self, store_path: str | os.PathLike, command: str | None = None) -> None:
+    def __init__(self, store_path: str | os.PathLike, command: str | None = None, *, wait_s: float = 0.0,
+                 on_wait=None) -> None:
         self.store_path = Path(store_path)
         self.path = lock_path_for(store_path)
         self.command = command if command is not None else " ".join([Path(sys.argv[0]).name, *sys.argv[1:]])
+        self.wait_s = max(0.0, float(wait_s))
+        self.on_wait = on_wait
         self._fd: int | None = None
 
     @property
@@ -103,12 +112,12 @@ class StoreLock:
         return self._fd is not None
 
     def acquire(self) -> "StoreLock":
-        """Take the lock, or refuse at once.
+        """Take the lock, or refuse (at once, or after waiting ``wait_s`` for the holder).
 
         Raises
         ------
         StoreBusyError
-            If another process holds it; the message names that process.
+            If another process holds it (past ``wait_s``); the message names that process.
         filmcal._errors.InputError
             If the lock file cannot be created (folder missing or read-only).
         """
@@ -119,15 +128,22 @@ class StoreLock:
         except OSError as exc:
             raise InputError(f"--store {self.store_path}: cannot create the lock file {self.path} "
                              f"({exc.strerror or exc})") from None
+        deadline = time.monotonic() + self.wait_s
+        told = False
         try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            holder = None
-            for _ in range(20):  # the holder may be writing its details right now
-                holder = _read_holder(fd)
-                if holder is not None:
+            while True:
+                try:
+                    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
                     break
-                time.sleep(0.01)
+                except BlockingIOError:
+                    if time.monotonic() >= deadline:
+                        raise
+                    if not told and self.on_wait is not None:
+                        self.on_wait(self._busy_holder(fd))
+                    told = True
+                    time.sleep(0.2)
+        except BlockingIOError:
+            holder = self._busy_holder(fd)
             os.close(fd)
             who = holder.describe() if holder else "another process"
             raise StoreBusyError(f"campaign store {self.store_path} is in use by {who}; "
@@ -142,6 +158,15 @@ class StoreLock:
         os.pwrite(fd, data, 0)
         self._fd = fd
         return self
+
+    @staticmethod
+    def _busy_holder(fd: int) -> LockHolder | None:
+        for _ in range(20):  # the holder may be writing its details right now
+            holder = _read_holder(fd)
+            if holder is not None:
+                return holder
+            time.sleep(0.01)
+        return None
 
     def release(self) -> None:
         """Clear the holder's details and release the lock (the file stays)."""

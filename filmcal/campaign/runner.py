@@ -329,7 +329,8 @@ class Campaign:
         self.settings_hash = settings_hash(self.model_name, self.settings)
 
     def run(self, design: Any, *, retry_failed: bool = False, timeout_s: float | None = None,
-            progress: bool | Callable[[int, int], None] = True, lock_command: str | None = None) -> CampaignSummary:
+            progress: bool | Callable[[int, int], None] = True, lock_command: str | None = None,
+            wait_for_lock_s: float = 0.0, on_wait: Callable | None = None) -> CampaignSummary:
         """Evaluate the design points that have no finished run yet.
 
         The store's lock is held for the whole run: a second campaign on the
@@ -353,6 +354,11 @@ class Campaign:
         lock_command : str, optional
             What to show a process refused by the lock (default: this
             process's command line).
+        wait_for_lock_s : float
+            Wait this long for another campaign on the store to finish before refusing (a shared run
+            store: the points it finished are then skipped here, not computed twice).
+        on_wait : callable, optional
+            Called once with the holder (`filmcal.campaign.lock.LockHolder` or None) when this run waits.
 
         Returns
         -------
@@ -367,7 +373,8 @@ class Campaign:
         timeout_s = None if timeout_s is None else check_positive("timeout_s", timeout_s)
         start = time.perf_counter()
         unique = {point_id(point, self.settings_hash): point for point in points}
-        with StoreLock(self.store_path, lock_command), RunStore(self.store_path) as store:
+        with StoreLock(self.store_path, lock_command, wait_s=wait_for_lock_s, on_wait=on_wait), \
+                RunStore(self.store_path) as store:
             store.add_points(unique, self.settings_hash, self._settings_record())
             stored = store.statuses(self.settings_hash)
             wanted = ("pending", "failed") if retry_failed else ("pending",)

@@ -645,7 +645,9 @@ def film_records_section(comparison: dict | None, curves: dict | None = None) ->
                                    f"{smooth[k]['area_film_median_mm2']:.1f}", f"{r['area_film_median_mm2']:.1f}",
                                    f"{100 * (r['area_film_median_mm2'] / smooth[k]['area_film_median_mm2'] - 1):+.1f}",
                                    f"{100 * (r['area_no_film_mm2'] / smooth[k]['area_no_film_mm2'] - 1):+.1f}",
-                                   f"{100 * (r['ratio_median'] / smooth[k]['ratio_median'] - 1):+.1f}"])
+                                   f"{100 * (r['ratio_median'] / smooth[k]['ratio_median'] - 1):+.1f}",
+                                   f"[{r['ratio_lo']:.3f}, {r['ratio_hi']:.3f}]",
+                                   _share(r, "roughness_share", 1.0, 2)])
         if growth:
             s.add("Roughness acts through the film-wheel interface: a synthetic steel surface of the wheel's Ra "
                   "(self-affine) is pressed into the film by periodic FFT boundary elements, with asperity "
@@ -662,10 +664,12 @@ def film_records_section(comparison: dict | None, curves: dict | None = None) ->
                   "`filmcal correct --wheel-roughness-ra-um` does. The table gives the growth of the medians "
                   "the curves show.")
             s.add(Table(["film", "wheel", "F (kN)", "eta (mm)", "recorded area, smooth (mm²)", "rough (mm²)",
-                         "imprint growth (%)", "growth without film (%)", "correction factor change (%)"],
+                         "imprint growth (%)", "growth without film (%)", "correction factor change (%)",
+                         "rough A0/A 90 %", "roughness share"],
                         growth, "Recorded (imprint) area with film, posterior medians, smooth against rough wheel; "
                                 "the growth of the contact without film (its nominal area) and what both do to the "
-                                "correcting factor A(no film)/A(film)"))
+                                "correcting factor A(no film)/A(film), with the rough factor's 90 % band over the "
+                                "posterior and the roughness draws and the roughness share of its variance"))
             s.add(_rough_flat_table())
     return s
 

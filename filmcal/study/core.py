@@ -36,8 +36,11 @@ if TYPE_CHECKING:
     from filmcal._parallel import Executor
 
 __all__ = ["Study", "FESettings", "CalibrationSpec", "IMPRINT_MODELS", "KINEMATICS", "seed_for", "output_column", "correctors", "comparison_weights", "report_view",
-           "chosen_posteriors", "curve_components", "film_model"]
+           "chosen_posteriors", "curve_components", "film_model", "SHARED_STORE_WAIT_S"]
 
+#: How long a study waits for another study writing the same shared run store (s): as long as such a campaign
+#: may run; the runs it finishes are then reused.
+SHARED_STORE_WAIT_S = 24 * 3600.0
 
 
 def seed_for(seed: int, stream: str) -> int:
@@ -380,7 +383,18 @@ class Study:
             model = partial(evaluate_point, films=films) if films else evaluate_point
         pool = {"executor": workers} if isinstance(workers, Executor) else {"workers": workers}
         campaign = Campaign(model, store, settings={"spec": store_spec}, **pool)
-        campaign.run(train + test, progress=progress or False)
+        shared = store.parent != self.layout.runs_store(spec_key(store_spec)).parent
+
+        def waiting(holder) -> None:
+            import sys
+
+            who = holder.describe() if holder is not None else "another process"
+            sys.stderr.write(f"[runs] waiting for the shared run store {store}: in use by {who}; the runs it "
+                             "finishes are reused here, not computed again\n")
+
+        # a shared store is written by one study at a time: another one waits for it, then reuses its runs
+        campaign.run(train + test, progress=progress or False, wait_for_lock_s=SHARED_STORE_WAIT_S if shared else 0.0,
+                     on_wait=waiting)
         results = campaign.results(status=None)
         rows = _match_rows(results, train + test)
         ok = rows >= 0
