@@ -35,14 +35,16 @@ _MAX_MODELS = 8
 
 
 def get_model(sphere_radius_mm: float, mesh: MeshSettings | None = None, film_thickness_mm: float = 0.09,
-              film_layers: int = FILM_LAYERS) -> SphereOnFlat:
+              film_layers: int = FILM_LAYERS, body_modulus_mpa: float = STEEL_MODULUS_MPA,
+              body_poisson: float = STEEL_POISSON) -> SphereOnFlat:
     """A `SphereOnFlat` for these settings, built once per process and kept (LRU of 8)."""
     mesh = MeshSettings() if mesh is None else mesh
-    key = (float(sphere_radius_mm), mesh, float(film_thickness_mm), int(film_layers))
+    key = (float(sphere_radius_mm), mesh, float(film_thickness_mm), int(film_layers), float(body_modulus_mpa),
+           float(body_poisson))
     if key in _MODELS:
         _MODELS.move_to_end(key)
         return _MODELS[key]
-    model = SphereOnFlat(sphere_radius_mm, mesh, film_thickness_mm, film_layers)
+    model = SphereOnFlat(sphere_radius_mm, mesh, film_thickness_mm, film_layers, body_modulus_mpa, body_poisson)
     _MODELS[key] = model
     while len(_MODELS) > _MAX_MODELS:
         _MODELS.popitem(last=False)
@@ -53,7 +55,8 @@ def solve_sphere_on_flat(sphere_radius_mm: float, force_n: float, film: Film | N
                          options: ContactOptions | None = None, mesh: MeshSettings | None = None,
                          film_thickness_mm: float = 0.09, film_layers: int = FILM_LAYERS,
                          activation_pressure_mpa: float | None = None, film_type=None,
-                         imprint_model: str = DEFAULT_IMPRINT_MODEL) -> FEResult:
+                         imprint_model: str = DEFAULT_IMPRINT_MODEL, body_modulus_mpa: float = STEEL_MODULUS_MPA,
+                         body_poisson: float = STEEL_POISSON) -> FEResult:
     """One evaluation of the FE model (reusing a cached model for this R and mesh).
 
     Parameters
@@ -74,8 +77,10 @@ def solve_sphere_on_flat(sphere_radius_mm: float, force_n: float, film: Film | N
         Also read the imprint of this film type (not with `activation_pressure_mpa`).
     imprint_model : {'activation', 'edge', 'capsule'}
         What the film records (default activation).
+    body_modulus_mpa, body_poisson : float
+        Elastic constants of the sphere and the flat (default steel).
     """
-    model = get_model(sphere_radius_mm, mesh, film_thickness_mm, film_layers)
+    model = get_model(sphere_radius_mm, mesh, film_thickness_mm, film_layers, body_modulus_mpa, body_poisson)
     return model.solve(film, force_n, options, activation_pressure_mpa, film_type, imprint_model)
 
 
@@ -126,7 +131,8 @@ def evaluate_point(params: dict, films: Sequence = (), imprint_models: Sequence[
         ``sphere_radius_mm``, ``force_kn`` and, unless ``no_film`` is true,
         ``modulus_mpa`` and ``poisson``; optional ``sphere_contact``,
         ``flat_contact``, ``friction_coefficient``, ``kinematics``,
-        ``element_size_mm``, ``film_thickness_mm``, ``activation_pressure_mpa``.
+        ``element_size_mm``, ``film_thickness_mm``, ``activation_pressure_mpa``, ``body_modulus_mpa`` and
+        ``body_poisson`` (the sphere's and the flat's; default steel).
     films : sequence of filmcal.films.FilmType
         Film types whose imprint radii to read from the same solve.
     imprint_models : sequence of str, optional
@@ -156,7 +162,9 @@ def evaluate_point(params: dict, films: Sequence = (), imprint_models: Sequence[
     res = solve_sphere_on_flat(as_finite("sphere_radius_mm", get("sphere_radius_mm")),
                                1e3 * as_finite("force_kn", get("force_kn")), film, options, mesh,
                                as_finite("film_thickness_mm", get("film_thickness_mm", 0.09)),
-                               activation_pressure_mpa=None if act is None else as_finite("activation_pressure_mpa", act))
+                               activation_pressure_mpa=None if act is None else as_finite("activation_pressure_mpa", act),
+                               body_modulus_mpa=as_finite("body_modulus_mpa", get("body_modulus_mpa", STEEL_MODULUS_MPA)),
+                               body_poisson=as_finite("body_poisson", get("body_poisson", STEEL_POISSON)))
     summary = res.summary()
     out = {k: summary[k] for k in OUTPUT_KEYS}
     if columns:

@@ -69,12 +69,16 @@ class MeshSettings:
                         low_open=False, high_open=False)
 
 
-def default_contact_zone_mm(sphere_radius_mm: float, settings: MeshSettings) -> float:
-    """Radius of the refined contact zone used when the settings leave it open."""
+def default_contact_zone_mm(sphere_radius_mm: float, settings: MeshSettings, body_modulus_mpa: float | None = None,
+                            body_poisson: float | None = None) -> float:
+    """Radius of the refined contact zone used when the settings leave it open: 1.6 Hertz radii at 150 kN
+    (of steel bodies, or of both bodies of this modulus and Poisson's ratio), at least 4 mm."""
     if settings.contact_zone_mm is not None:
         return float(settings.contact_zone_mm)
-    from filmcal.hertz import hertz_radius_mm
-    zone = max(4.0, 1.6 * hertz_radius_mm(sphere_radius_mm, 150e3))
+    from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, hertz_radius_mm
+    e = STEEL_MODULUS_MPA if body_modulus_mpa is None else body_modulus_mpa
+    nu = STEEL_POISSON if body_poisson is None else body_poisson
+    zone = max(4.0, 1.6 * hertz_radius_mm(sphere_radius_mm, 150e3, e, nu))
     zone = min(zone, 0.6 * settings.body_size_mm)
     h = settings.element_size_mm
     return float(np.ceil(zone / h - 1e-9) * h)

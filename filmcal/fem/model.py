@@ -232,7 +232,8 @@ class SphereOnFlat:
         Element layers through the film thickness (default
         :data:`filmcal.fem.mesh.FILM_LAYERS`, 2; the paper: 1).
     steel_modulus_mpa, steel_poisson : float
-        Elastic constants of both steel bodies.
+        Elastic constants of both bodies (default steel; a lab's bodies of another material, the sphere and
+        the flat alike: the refined contact zone then follows their Hertz radius).
 
     Examples
     --------
@@ -255,6 +256,14 @@ class SphereOnFlat:
 
         # sphere body: u_r = 0 on the axis, the axis node of the top pinned in z
         # (its rigid displacement w is an unknown fixed by the force balance)
+        if (self.steel_modulus_mpa, self.steel_poisson) != (STEEL_MODULUS_MPA, STEEL_POISSON) and \
+                self.mesh.contact_zone_mm is None:  # other bodies: the refined zone follows their Hertz radius
+            from dataclasses import replace
+
+            from filmcal.fem.mesh import default_contact_zone_mm
+
+            self.mesh = replace(self.mesh, contact_zone_mm=default_contact_zone_mm(
+                self.sphere_radius_mm, self.mesh, self.steel_modulus_mpa, self.steel_poisson))
         self.sphere = sphere_grid(self.sphere_radius_mm, self.mesh, self.film_thickness_mm)
         sb = Basis(self.sphere.mesh, e)
         Ks = linear_elasticity.assemble(sb, lam=lam, mu=mu)
@@ -406,12 +415,16 @@ class SphereOnFlat:
         with threadpool_limits(limits=1, user_api="blas"):
             return self._solve(film, force_n, options, film_type, imprint_model)
 
+    def _hertz_radius_mm(self, force_n: float) -> float:
+        """Hertz's contact radius of these bodies (steel by default)."""
+        return hertz_radius_mm(self.sphere_radius_mm, force_n, self.steel_modulus_mpa, self.steel_poisson)
+
     def _solve(self, film, force_n, options, film_type, imprint_model) -> FEResult:
         t0 = time.perf_counter()
         force_n = check_positive("force_n", force_n)
         opts = ContactOptions() if options is None else options
         h = self.mesh.element_size_mm
-        a_h = hertz_radius_mm(self.sphere_radius_mm, force_n)
+        a_h = self._hertz_radius_mm(force_n)
         if a_h < 10.0 * h:
             raise ValueError(f"element_size_mm = {h:g} cannot resolve a contact radius of about {a_h:.2f} mm "
                              f"(R = {self.sphere_radius_mm:g} mm, F = {force_n:g} N): use element_size_mm <= {a_h / 10:.3g}")
@@ -571,7 +584,7 @@ class SphereOnFlat:
         return False, "film Newton iterations did not converge", x, state, iterations
 
     def _initial_state(self, n_lam, normal, tangential, force_n) -> ContactState:
-        a_guess = hertz_radius_mm(self.sphere_radius_mm, force_n)
+        a_guess = self._hertz_radius_mm(force_n)
         ns = np.where(self.r_face_mm <= 0.8 * a_guess, CLOSED, OPEN)
         ns[0] = CLOSED
         return ContactState(np.zeros(n_lam), 0.0, ns, np.full(len(tangential), FREE))
@@ -631,7 +644,7 @@ class SphereOnFlat:
             converged = False
             reason = (f"contact reached the edge of the refined zone (r = {self.r_face_mm[-1]:.2f} mm): "
                       "enlarge MeshSettings.contact_zone_mm")
-        a_h = hertz_radius_mm(self.sphere_radius_mm, force_n)
+        a_h = self._hertz_radius_mm(force_n)
         strain = self._film_strain(low, x) if film is not None else np.zeros(n)
         result = FEResult(
             sphere_radius_mm=self.sphere_radius_mm, force_n=force_n,

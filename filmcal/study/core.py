@@ -28,6 +28,7 @@ from filmcal._io import canonical_json, check_output_dir
 from filmcal._versions import VersionNote, version_note
 from filmcal.contact.names import DEFAULT_KINEMATICS, FE_MODEL_REVISION, IMPRINT_MODELS, KINEMATICS
 from filmcal.contact.options import ContactOptions
+from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON
 from filmcal.films import FilmRegistry, FilmType, load_films_file
 from filmcal.study.layout import StudyLayout, spec_key
 from filmcal.study.manifest import Manifest, StudyLock, utc_now
@@ -77,6 +78,9 @@ class FESettings:
     simulator : filmcal.campaign.simulator.Simulator, optional
         A lab's own simulator in place of the in-house FE (its runs then make the surrogates; the contact
         options and kinematics above are the in-house FE's and do not reach it).
+    body_modulus_mpa, body_poisson : float
+        Elastic constants of the FE's sphere and flat (default steel; a dataset's own bodies,
+        `_bodies_spec`). Left out of the spec when steel, as before they existed.
     """
 
     sphere_contact: str = ContactOptions.sphere_contact
@@ -90,6 +94,8 @@ class FESettings:
     domain: Any = None
     simulator: Any = None
     base_domain: Any = None
+    body_modulus_mpa: float = STEEL_MODULUS_MPA
+    body_poisson: float = STEEL_POISSON
 
     def __post_init__(self) -> None:
         from filmcal.surrogate.radius import SurrogateDomain
@@ -103,8 +109,10 @@ class FESettings:
 
     def as_spec(self) -> dict:
         """The settings as a spec: the in-house FE's as before, a lab's simulator by its own spec."""
+        steel = (self.body_modulus_mpa, self.body_poisson) == (STEEL_MODULUS_MPA, STEEL_POISSON)
         out = {k: v for k, v in asdict(self).items()
-               if k != "simulator" and not (k == "base_domain" and v is None)}
+               if k != "simulator" and not (k == "base_domain" and v is None)
+               and not (steel and k in ("body_modulus_mpa", "body_poisson"))}
         if self.simulator is not None:
             out["simulator"] = self.simulator.spec()
         else:
@@ -371,6 +379,8 @@ class Study:
         films = self._fe_films(fe.film_thickness_mm)
         for p in train + test:
             p["film_thickness_mm"] = fe.film_thickness_mm
+            if (fe.body_modulus_mpa, fe.body_poisson) != (STEEL_MODULUS_MPA, STEEL_POISSON):
+                p["body_modulus_mpa"], p["body_poisson"] = fe.body_modulus_mpa, fe.body_poisson
         store_spec = self._store_spec(fe)
         store = self.runs_store(spec_key(store_spec))
         store.parent.mkdir(parents=True, exist_ok=True)
@@ -881,10 +891,35 @@ class DomainNote(UserWarning):
     """The study's design was extended to cover a dataset's cases (how many new FE runs it costs)."""
 
 
+def _bodies_spec(spec: "CalibrationSpec", data) -> "CalibrationSpec":
+    """`spec` with the FE's bodies those of the data: steel (as before), or the one material of every row's
+    sphere and flat; rows of different bodies are refused in one line before any FE work (the FE models the
+    sphere and the flat of one material, and one surrogate per material)."""
+    cols = [np.asarray(getattr(data, k), float) for k in ("sphere_modulus_mpa", "sphere_poisson",
+                                                           "flat_modulus_mpa", "flat_poisson")]
+    values = {tuple(v) for v in zip(*cols)}
+    if len(values) > 1 or any(e != e2 or nu != nu2 for e, nu, e2, nu2 in values):
+        shown = "; ".join(f"sphere {e:g} MPa / {nu:g}, flat {e2:g} MPa / {nu2:g}" for e, nu, e2, nu2 in
+                          sorted(values)[:3])
+        raise InputError(f"film {spec.film}: the dataset's bodies differ ({shown}): the FE models a sphere and a "
+                         "flat of one material, the same in every row; calibrate rows of other bodies in another "
+                         "study")
+    (e, nu, _, _), = values
+    if (e, nu) == (STEEL_MODULUS_MPA, STEEL_POISSON):
+        return spec
+    if spec.fe.simulator is not None:
+        raise InputError(f"film {spec.film}: the dataset's bodies are not steel ({e:g} MPa, {nu:g}), and a lab's "
+                         "simulator is not told the bodies: give it rows of its own bodies' material")
+    return replace(spec, fe=replace(spec.fe, body_modulus_mpa=float(e), body_poisson=float(nu)))
+
+
 def _covering_spec(spec: "CalibrationSpec", data) -> "CalibrationSpec":
     """`spec` with its FE domain extended to cover the data's cases (`SurrogateDomain.covering`), said first;
-    a case outside the supported domain is refused in one line before any FE work."""
+    a case outside the supported domain is refused in one line before any FE work. The FE's bodies are the
+    data's (`_bodies_spec`)."""
     import warnings
+
+    spec = _bodies_spec(spec, data)
 
     try:
         domain = spec.fe.domain.covering(data.sphere_radius_mm, np.asarray(data.force_n, float) / 1e3)
