@@ -188,7 +188,7 @@ def test_wheelrail_refuses_a_map_whose_law_does_not_fit(capsys, tmp_path, small_
 
 
 def test_correct_and_curves_count_their_laws(tmp_path, small_machine):
-    """correct: a law per draw; curves: a law per modulus held by the parent and by every worker."""
+    """correct: a law per draw; curves: a film and a steel law per draw held by every worker."""
     from PIL import Image
 
     from filmcal.commands import curves
@@ -196,13 +196,13 @@ def test_correct_and_curves_count_their_laws(tmp_path, small_machine):
 
     Image.new("L", (480, 480)).save(tmp_path / "map.png")
     args = argparse.Namespace(wheel_roughness_map=str(tmp_path / "map.png"), rail_roughness_map=None,
-                              workers=1, dask=None)
+                              workers=1, dask=None, roughness_draws=2)
     check_roughness_maps(args, "correct", 1, 1)  # 1 + 1 laws of 0.23 Mpx: fit in 0.8 GiB
     with pytest.raises(InputError, match=r"--wheel-roughness-map \(480 x 480 pixels\) needs about .*fewer"):
         check_roughness_maps(args, "correct", 8, 1, advice="use fewer --roughness-draws")
-    curves._check_map_memory(args)  # in this process: 5 laws
+    curves._check_map_memory(args)  # in this process: 4 laws
     args.workers = 4
-    with pytest.raises(InputError, match="in each of 5 processes.*--workers"):
+    with pytest.raises(InputError, match="in each of 4 processes.*--workers"):
         curves._check_map_memory(args)
 
 

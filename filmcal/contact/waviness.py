@@ -96,8 +96,6 @@ def split_surface(surface, cutoff_um: float):
         None for a part that does not exist: a map no longer than the cut-off along either axis has no
         waviness (it is returned as it is), one whose heights all pass into the waviness has no micro part.
     """
-    from filmcal.contact.roughness import RoughSurface
-
     h = np.asarray(surface.heights_um, dtype=float)
     size_um = np.array(h.shape) * surface.pixel_um
     if np.all(size_um <= float(cutoff_um)):
@@ -109,7 +107,7 @@ def split_surface(surface, cutoff_um: float):
     long = np.real(np.fft.ifft2(np.fft.fft2(h) * keep))
     short = h - long
     scale = max(float(np.std(h)), 1e-300)
-    micro = (RoughSurface(short, surface.pixel_um, f"{surface.description}, wavelengths under {cutoff_um:g} um")
+    micro = (type(surface)(short, surface.pixel_um, f"{surface.description}, wavelengths under {cutoff_um:g} um")
              if np.std(short) > 1e-6 * scale else None)
     wavy = (Waviness(long - long.mean(), surface.pixel_um,
                      f"{surface.description}, wavelengths over {cutoff_um:g} um")
