@@ -73,6 +73,7 @@ SLOW_TESTS: dict[str, str] = {
     "test_roughness_no_film.py::test_rough_hertz_contact_follows_greenwood_tripp": "5 s each: a rough law (BEM)",
     "test_roughness_no_film.py::test_the_nominal_area_of_rough_bodies_tends_to_the_smooth_area": "8 s: two rough laws",
     "test_correction_curves.py::test_growth_task_matches_direct_solves": "16 s: four rough laws (BEM), cold solves",
+    "test_fuzz_commands.py::test_every_case_as_a_process": "25-45 s: every fuzz case as a process of its own",
     "test_wheelrail_cli.py::test_options_rail_inclination_radius_roughness_plot": "6 s: the rough bodies' law (BEM)",
     "test_campaign.py::test_dask_cluster_gives_the_same_results_as_the_local_pool": "5 s: a Dask cluster",
     "test_campaign.py::test_killed_campaign_resumes_without_recomputing_finished_points": "4 s: kills a process",

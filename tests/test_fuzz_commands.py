@@ -1,17 +1,24 @@
 """Fuzzing the commands with values that parse but are wrong, and with damaged input files.
 
-Each case runs the real command in-process (`filmcal.cli.main`) in an empty
-working folder holding a few prepared files, and asserts the error contract:
-exit status 2, exactly one line on stderr that names the option or the file,
-no traceback, nothing on stdout, and no file created, changed or removed. Every
-case must be refused before any heavy work; a guard interrupts a case that runs
-longer than `CASE_LIMIT_S`.
+Each case runs the real command in-process (`filmcal.cli.main`) in a working
+folder holding a few prepared files and studies, and asserts the error
+contract: exit status 2, exactly one line on stderr that names the option or
+the file, no traceback, nothing on stdout, and no file created, changed or
+removed anywhere in the folder (a snapshot of every file's size, modification
+time and SHA-256). Every case must be refused before any heavy work: a guard
+interrupts a case that runs longer than `CASE_LIMIT_S`. The slow tier runs
+every case again as a user does, ``python -m filmcal.cli`` in a process of its
+own (`test_every_case_as_a_process`): the same contract, from outside.
 """
 from __future__ import annotations
 
+import hashlib
 import os
 import signal
 import sqlite3
+import stat
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -62,6 +69,11 @@ def bomb_png(tmp_path_factory) -> bytes:
 def folder(tmp_path, monkeypatch, bomb_png):
     """A working folder with good and bad inputs of every kind."""
     monkeypatch.chdir(tmp_path)
+    return make_folder(tmp_path, bomb_png)
+
+
+def make_folder(tmp_path: Path, bomb_png: bytes) -> Path:
+    """Fill `tmp_path` with the good and bad inputs of every kind."""
     (tmp_path / "design.csv").write_text("modulus_mpa,poisson,sphere_radius_mm,force_kn\n2800,0.33,450,75\n")
     (tmp_path / "binary.csv").write_bytes(b"\x00\x01\xffgarbage\xfe")
     (tmp_path / "empty.csv").write_bytes(b"")
@@ -96,10 +108,20 @@ def folder(tmp_path, monkeypatch, bomb_png):
     return tmp_path
 
 
-def snapshot(folder: Path) -> dict[str, tuple[int, int]]:
-    """Files (size, modification time) and folders; lock files beside a store or study are not output."""
-    return {str(p.relative_to(folder)): (0, 0) if p.is_dir() else (p.stat().st_size, p.stat().st_mtime_ns)
-            for p in folder.rglob("*") if not p.name.endswith(".lock")}
+def snapshot(folder: Path) -> dict[str, tuple]:
+    """Every file's size, modification time and SHA-256 (folders and special files by their kind); lock files
+    beside a store or study are not output."""
+    out = {}
+    for p in folder.rglob("*"):
+        if p.name.endswith(".lock"):
+            continue
+        info = p.lstat()
+        if stat.S_ISREG(info.st_mode):  # (a sparse file at an option's size cap: its size and time)
+            digest = hashlib.sha256(p.read_bytes()).hexdigest() if info.st_size <= 2**24 else ""
+            out[str(p.relative_to(folder))] = (info.st_size, info.st_mtime_ns, digest)
+        else:
+            out[str(p.relative_to(folder))] = ("dir" if stat.S_ISDIR(info.st_mode) else "special",)
+    return out
 
 
 def run(capsys, argv):
@@ -109,6 +131,16 @@ def run(capsys, argv):
         code = exc.code
     out, err = capsys.readouterr()
     return code, out, err
+
+
+def run_process(argv, cwd: Path):
+    """The command as a user runs it: its own process in the working folder; (exit status, stdout, stderr)."""
+    try:
+        p = subprocess.run([sys.executable, "-m", "filmcal.cli", *argv], capture_output=True, text=True,
+                           stdin=subprocess.DEVNULL, timeout=CASE_LIMIT_S, cwd=cwd)
+    except subprocess.TimeoutExpired:
+        return None, "", f"the command ran past {CASE_LIMIT_S} s instead of refusing its input"
+    return p.returncode, p.stdout, p.stderr
 
 
 def xfail(*values, reason):
@@ -291,6 +323,32 @@ def test_command_refuses_bad_input_cleanly(capsys, folder, guard, argv, names):
     assert "Traceback" not in err and out == ""
     assert any(n in lines[0] for n in names), (names, lines[0])
     assert snapshot(folder) == before, "a refused command created, changed or removed a file"
+
+
+def test_every_case_as_a_process(tmp_path, bomb_png):
+    """Every case again as a user runs it (``python -m filmcal.cli``, its own process and working folder, four
+    at a time): exit 2, one stderr line naming the option or file, nothing on stdout, every file's SHA-256
+    unchanged."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    cases = [c for c in CASES if not getattr(c, "marks", None)]
+
+    def one(k: int, argv: list, names: list) -> str | None:
+        where = tmp_path / f"case{k}"
+        where.mkdir()
+        make_folder(where, bomb_png)
+        before = snapshot(where)
+        code, out, err = run_process(argv, where)
+        lines = [line for line in err.splitlines() if line.strip()]
+        if code != 2 or len(lines) != 1 or out or "Traceback" in err or not any(n in lines[0] for n in names):
+            return f"{' '.join(argv)}: exit {code}, stderr {err.strip()[-300:]!r}, stdout {out[:100]!r}"
+        if snapshot(where) != before:
+            return f"{' '.join(argv)}: a file was created, changed or removed"
+        return None
+
+    with ThreadPoolExecutor(4) as pool:
+        failures = [f for f in pool.map(lambda kc: one(kc[0], *kc[1]), enumerate(cases)) if f]
+    assert len(cases) > 100 and not failures, "\n".join(failures[:20])
 
 
 MANIFEST_READERS = [["calibrate", "--film", "HS"], ["correct", "--film", "HS", *WHEEL], ["curves", "--film", "HS"],
