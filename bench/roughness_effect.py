@@ -1,7 +1,7 @@
 """What the bodies' roughness does to each film's imprint, with 90 % bands over the roughness inputs.
 
-Each film at its calibrated median modulus under its preferred imprint model (the full study of 26 Nov 2026,
-as `scripts/condition-roughness` takes them). Prints:
+Each film at its calibrated median modulus under its preferred imprint model, as the shipped conditioned
+draws were made with them (`filmcal/data/roughness_inputs.json`, ``films``). Prints:
 
 * wheel-rail S1002 on 60E2 (1:40), eta and load as given: the growth of the film's imprint (g_f - 1), of
   the contact without film (g_0 - 1) and the change of the correction factor (g_0 / g_f - 1), mean and 90 %
@@ -26,7 +26,14 @@ from filmcal.correction.roughness import wheel_rail_growth
 from filmcal.films import get_film
 from filmcal.wheelrail.settings import GRID_MM, NOMINAL_RADIUS_MM, RAIL, RAIL_INCLINATION, WHEEL
 
-FILMS = (("MS", 527.0, "edge", "large"), ("HS", 2501.0, "edge", "large"), ("HHS", 3400.0, "activation", "small"))
+def _films() -> tuple:
+    """The films of the shipped conditioning: (name, modulus, imprint, kinematics)."""
+    from filmcal.contact.rough_imprint import _shipped
+
+    return tuple((f["film"], float(f["modulus_mpa"]), f["imprint"], f["kinematics"]) for f in _shipped()["films"])
+
+
+FILMS = _films()
 
 
 def main(argv: list[str] | None = None) -> int:

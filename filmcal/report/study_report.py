@@ -661,7 +661,7 @@ def film_records_section(comparison: dict | None, curves: dict | None = None) ->
                   "that observation (filmcal/data/roughness_inputs.json); each posterior sample of the rough "
                   "curves is paired with one conditioned draw (its growths with and without film, solved at the "
                   "film's posterior median modulus), so their bands carry the draws' spread, as "
-                  "`filmcal correct --wheel-roughness-ra-um` does. The table gives the growth of the medians "
+                  "filmcal correct --wheel-roughness-ra-um does. The table gives the growth of the medians "
                   "the curves show.")
             s.add(Table(["film", "wheel", "F (kN)", "eta (mm)", "recorded area, smooth (mm²)", "rough (mm²)",
                          "imprint growth (%)", "growth without film (%)", "correction factor change (%)",
