@@ -42,16 +42,25 @@ def test_the_split_is_the_iso_gaussian_filter():
     assert Roughness(small).split(400.0).waviness is None
 
 
-def test_waviness_is_sampled_periodically_from_the_first_cell():
+def test_waviness_is_sampled_periodically_from_the_planes_origin():
+    """The map repeats from x = s = 0 of the contact plane, so a grid anywhere samples the same stripes; maps on
+    two pixel grids add their gaps."""
     h = np.arange(12.0).reshape(4, 3)  # 4 across the lay (s), 3 along it (x), 10 um pixels
     wavy = Waviness(h, 10.0)
-    x = np.array([5.0, 5.01, 5.02, 5.03])  # mm: 10 um steps along x
-    s = np.array([1.0, 1.01, 1.045])  # 10 um, then half a pixel
+    x = np.array([0.0, 0.01, 0.02, 0.03])  # mm: 10 um steps along x
+    s = np.array([0.0, 0.01, 0.045])  # 10 um, then half a pixel
     g = 1e3 * wavy.gap_mm(x, s)
     assert g[0, 0] == pytest.approx(h[0, 0]) and g[1, 1] == pytest.approx(h[1, 1])
     assert g[3, 0] == pytest.approx(h[0, 0])  # x wraps after 3 pixels
     # s = 45 um is pixel 4.5 across: pixel 4 wraps to 0, halfway to pixel 1
     assert g[0, 2] == pytest.approx(0.5 * (h[0, 0] + h[1, 0]))
+    # a grid starting elsewhere: the same heights at the same plane coordinates (4 and 3 pixels periodic)
+    shifted = 1e3 * wavy.gap_mm(x + 0.03, s + 0.04)
+    np.testing.assert_allclose(shifted, g, atol=1e-9)
+    other = Waviness(np.ones((5, 5)), 7.0)
+    both = wavy + other
+    np.testing.assert_allclose(both.gap_mm(x, s), wavy.gap_mm(x, s) + other.gap_mm(x, s))
+    assert both.rms_um == pytest.approx(np.hypot(wavy.rms_um, other.rms_um))
 
 
 def test_a_lateral_wave_in_full_contact_modulates_the_pressure_as_westergaard_says():

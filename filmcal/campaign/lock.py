@@ -151,6 +151,9 @@ class StoreLock:
         except OSError as exc:
             os.close(fd)
             raise InputError(f"--store {self.store_path}: cannot lock {self.path} ({exc.strerror or exc})") from None
+        except BaseException:  # an interrupt while waiting, or the waiting note failing: nothing left open
+            os.close(fd)
+            raise
         holder = LockHolder(os.getpid(), socket.gethostname(), self.command,
                             datetime.now(timezone.utc).isoformat(timespec="seconds"))
         data = json.dumps(holder.__dict__).encode()

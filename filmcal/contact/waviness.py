@@ -13,7 +13,10 @@ solve.
 Orientation of a map on the contact grid: its first axis runs across the lay (the lateral direction of a
 wheel or rail, the contact plane's ``s``), its second along it (the rolling direction ``x``); a line profile
 measured across the lay is a map that is constant along it (`filmcal.contact.surface_files.profile_surface`).
-The map is repeated periodically over the contact grid, its origin at the grid's first cell.
+The map is repeated periodically over the contact plane from the plane's origin (``x = 0, s = 0``), so that
+every solve of one configuration (with and without film, smooth start or rough) sees the same stripes in the
+same places, whatever grid region it solves on. Two bodies' maps on different pixel grids add their gaps
+(`Waviness.__add__`).
 """
 from __future__ import annotations
 
@@ -22,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Waviness", "split_surface", "WAVINESS_CUTOFF_CELLS", "gaussian_transmission"]
+__all__ = ["Waviness", "WavinessSum", "split_surface", "WAVINESS_CUTOFF_CELLS", "gaussian_transmission"]
 
 #: Cut-off of the split in contact-grid cells: longer wavelengths belong to the macro gap.
 WAVINESS_CUTOFF_CELLS = 4.0
@@ -60,10 +63,10 @@ class Waviness:
         return float(np.std(self.heights_um))
 
     def gap_mm(self, x_mm: np.ndarray, s_mm: np.ndarray) -> np.ndarray:
-        """The heights (mm) at the cells of a tensor grid ``x_mm (nx,) x s_mm (ns,)``, shape ``(nx, ns)``: the map
-        repeated from the grid's first cell, interpolated bilinearly."""
-        x = np.asarray(x_mm, dtype=float) - float(np.min(x_mm))
-        s = np.asarray(s_mm, dtype=float) - float(np.min(s_mm))
+        """The heights (mm) at the cells of a tensor grid ``x_mm (nx,) x s_mm (ns,)`` of the contact plane, shape
+        ``(nx, ns)``: the map repeated from the plane's origin, interpolated bilinearly."""
+        x = np.asarray(x_mm, dtype=float)
+        s = np.asarray(s_mm, dtype=float)
         h = self.heights_um
         n_s, n_x = h.shape
         fs, fx = 1e3 * s / self.pixel_um, 1e3 * x / self.pixel_um
@@ -75,15 +78,37 @@ class Waviness:
                  + tx * (1 - ts) * h[i0[None, :], j1[:, None]] + tx * ts * h[i1[None, :], j1[:, None]])
         return 1e-3 * value
 
-    def __add__(self, other: "Waviness | None") -> "Waviness":
-        """Both bodies' waviness (their heights add in the gap); on one pixel grid."""
+    def __add__(self, other):
+        """Both bodies' waviness: their heights add in the gap (one map on one pixel grid, else a sum of maps)."""
         if other is None:
             return self
-        if other.heights_um.shape != self.heights_um.shape or not math.isclose(other.pixel_um, self.pixel_um):
-            raise ValueError("the wheel's and the rail's waviness lie on different grids: give their maps on one "
-                             "grid")
-        return Waviness(self.heights_um + other.heights_um, self.pixel_um,
-                        f"{self.description} + {other.description}")
+        if (isinstance(other, Waviness) and other.heights_um.shape == self.heights_um.shape
+                and math.isclose(other.pixel_um, self.pixel_um)):
+            return Waviness(self.heights_um + other.heights_um, self.pixel_um,
+                            f"{self.description} + {other.description}")
+        return WavinessSum((self, *getattr(other, "parts", (other,))))
+
+
+@dataclass(frozen=True, eq=False)
+class WavinessSum:
+    """The waviness of two bodies measured on different pixel grids: their gaps add."""
+
+    parts: tuple
+
+    @property
+    def description(self) -> str:
+        return " + ".join(p.description for p in self.parts)
+
+    @property
+    def rms_um(self) -> float:
+        """The RMS of the sum, the maps taken as independent."""
+        return math.sqrt(sum(p.rms_um ** 2 for p in self.parts))
+
+    def gap_mm(self, x_mm: np.ndarray, s_mm: np.ndarray) -> np.ndarray:
+        return sum(p.gap_mm(x_mm, s_mm) for p in self.parts)
+
+    def __add__(self, other):
+        return self if other is None else WavinessSum((*self.parts, *getattr(other, "parts", (other,))))
 
 
 def split_surface(surface, cutoff_um: float):

@@ -34,6 +34,7 @@ beside them.
 from __future__ import annotations
 
 import csv
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -240,7 +241,7 @@ def _rough_cell(curves: CorrectionCurves, i: int, j: int, a0: float, pooled: lis
     w = first.weights / first.weights.sum()
     mean = float(np.sum(w * h))
     sd = float(np.sqrt(np.sum(w * (h - mean) ** 2)))
-    curves.roughness_mc_error_rel[i, j] = sd * float(np.sqrt(np.sum(w * w))) / mean
+    curves.roughness_mc_error_rel[i, j] = sd * math.sqrt(first.weight_square_sum()) / mean
 
 
 CURVE_COLUMNS = ("film", "wheel", "force_kn", "offset_mm", "area_no_film_mm2", "area_film_median_mm2",
@@ -398,13 +399,14 @@ def curve_table(film: str, components, offsets_mm, forces_kn, rough=(), workers=
     """
     import tempfile
 
-    from filmcal._parallel import run_tasks
+    from filmcal._parallel import DaskExecutor, run_tasks
     from filmcal.contact.rough_law_file import save_rough_law
     from filmcal.correction.roughness import growth_modulus_mpa
 
     modulus = growth_modulus_mpa(components)
     models = [(film, model, modulus) for model, _, _ in components]
     films = {film: (components[0][0].film, modulus)}
+    remote = isinstance(workers, DaskExecutor)
     cells = [(1e3 * float(force), float(eta)) for force in forces_kn for eta in offsets_mm]
     growths = []
     with tempfile.TemporaryDirectory(prefix="filmcal-laws-") as tmp:
@@ -414,8 +416,10 @@ def curve_table(film: str, components, offsets_mm, forces_kn, rough=(), workers=
             paths: dict = {}
 
             def keep(key, laws, k, r=r, paths=paths, draws=draws):
+                # a Dask cluster's workers may not see this file system: they get the laws themselves
                 paths[draws[key]] = {name: str(save_rough_law(law, Path(tmp) / f"{r}-{key}-{name}.npz"))
-                                     if hasattr(law, "fraction_above") else law for name, law in laws.items()}
+                                     if hasattr(law, "fraction_above") and not remote else law
+                                     for name, law in laws.items()}
 
             run_tasks({k: (configuration.laws, (d, films)) for k, d in enumerate(draws)}, workers, keep)
             solved: dict = {}

@@ -59,6 +59,17 @@ class RoughGrowth:
     weights: np.ndarray
     inputs: list = field(default_factory=list)
 
+    def weight_square_sum(self) -> float:
+        """``sum w^2`` over the distinct draws (a resampled set's repeats are one draw of their summed weight):
+        ``1 / sum w^2`` is the effective number of draws, the Monte-Carlo error ``sd sqrt(sum w^2)``."""
+        w = self.weights / self.weights.sum()
+        if len(self.inputs) != len(w):
+            return float(np.sum(w * w))
+        merged: dict = {}
+        for d, wk in zip(self.inputs, w):
+            merged[d] = merged.get(d, 0.0) + float(wk)
+        return float(sum(v * v for v in merged.values()))
+
     @property
     def factor(self) -> np.ndarray:
         """``g_0 / g_f`` per draw: what the roughness does to the correction factor."""
@@ -67,7 +78,7 @@ class RoughGrowth:
     def summary(self) -> dict:
         """Weighted mean, 90 % interval and Monte-Carlo standard error of each growth (in %), JSON-ready."""
         w = self.weights / self.weights.sum()
-        n_eff = 1.0 / float(np.sum(w * w))
+        n_eff = 1.0 / self.weight_square_sum()
         out = {"n_draws": int(len(w)), "effective_draws": n_eff}
         for name, g in (("film_growth", self.film), ("no_film_growth", self.no_film),
                         ("correction_factor_change", self.factor)):
@@ -93,7 +104,8 @@ def wheel_rail_growth(model, modulus_mpa: float, draws: Sequence[RoughnessInputs
     draws = list(draws)
     unique = list(dict.fromkeys(draws))
     films = {model.film.name: (model.film, float(modulus_mpa))}
-    laws = [(d.reading_level, draw_laws(d, films, wheel=wheel, rail=rail)) for d in unique]
+    laws = [(d.reading_level, draw_laws(d, films, wheel=wheel, rail=rail, grid_mm=settings.get("grid_mm")))
+            for d in unique]
     done = 0
 
     def step() -> None:
@@ -244,7 +256,8 @@ def corrector_growths(correctors: Sequence, weights: Sequence[float], offset_mm:
 
     laws = []
     for d in unique:  # the laws (boundary elements) first, then the solves: each half of the work
-        laws.append((d.reading_level, draw_laws(d, {film.name: (film, modulus)}, wheel=wheel, rail=rail)))
+        laws.append((d.reading_level, draw_laws(d, {film.name: (film, modulus)}, wheel=wheel, rail=rail,
+                                                grid_mm=correctors[0].settings.get("grid_mm"))))
         step()
     solved = dict(zip(unique, solve_growths(models, laws, offset_mm, force_n, solver, step)))
     out = {}

@@ -1171,12 +1171,15 @@ class StudyGrowths:
         self.parts = parts
 
     def spec(self, offset_mm: float, force_n: float, bodies: dict, draws: list) -> dict:
+        from filmcal.contact.waviness import WAVINESS_CUTOFF_CELLS
+
         settings = {k: (_profile_spec(v) if k in ("wheel", "rail") else v)
                     for k, v in self.parts[0][1].settings.items()}
         return _json_roundtrip({"kind": self.KIND, "posteriors": {s["model"]: s.get("posterior_sha256")
                                                                   for _, _, s in self.parts},
                                 "wheel_rail": settings, "offset_mm": float(offset_mm), "force_n": float(force_n),
-                                "bodies": bodies, "draws": [d.to_dict() for d in draws]})
+                                "bodies": bodies, "draws": [d.to_dict() for d in draws],
+                                "waviness_cutoff_cells": WAVINESS_CUTOFF_CELLS})
 
     def _path(self, spec: dict) -> Path:
         key = spec_key(spec)

@@ -115,9 +115,8 @@ class PipelineSettings:
 
     def record(self) -> dict:
         """The settings as the study records them (a lab's simulator by its spec; none: as before)."""
-        out = {k: v for k, v in asdict(self).items() if k != "simulator"}
-        if self.rough_draws == PipelineSettings.rough_draws:  # as before the setting existed
-            del out["rough_draws"]
+        # the rough curves' draws are in their own spec (a change recomputes them): not a setting of the folder
+        out = {k: v for k, v in asdict(self).items() if k not in ("simulator", "rough_draws")}
         if self.simulator is not None:
             out["simulator"] = self.simulator.spec()
         return out
@@ -535,8 +534,8 @@ def _curves_stage(study: Study, settings: PipelineSettings, films, workers, st):
     """Curves of each film's combined models, smooth and on the rough wheel (``curves/curves-<film>.csv``).
 
     The rough wheel's growths come first: its laws (`_rough_laws`, each a study artefact), then one task per
-    distinct draw and load solving every film's growths at every offset (``curves/part-<key>.json``, kind
-    ``curves-growth``); then one task per film, load and offset (smooth and rough rows from the same
+    load and offset solving every missing film's growths there for every draw (``curves/part-<key>.json`` per
+    film and cell, kind ``curves-growth``); then one task per film, load and offset (smooth and rough rows from the same
     posterior samples; a film's rows kept as ``curves/part-<key>.json`` as soon as they are all done). An
     interrupted run resumes with what is missing."""
     from filmcal._io import atomic_write_json
@@ -619,48 +618,73 @@ def _rough_growths(study: Study, settings: PipelineSettings, rough, models: list
                    cells: int) -> dict:
     """The rough wheel's growths of every film at every curve cell: ``{film: {(force_n, offset): {model label:
     RoughGrowth}}}``. First each distinct draw's laws (`_rough_laws`), then one task per load and offset
-    solving every film's growths there for every draw, each kept as soon as it is done
-    (``curves/part-<key>.json``, kind ``curves-growth``) so that an interrupted run resumes with the missing
-    ones."""
+    solving there, for every draw, the growths of the films whose part of that cell is missing; each film's
+    part is kept as soon as its cell is done (``curves/part-<key>.json``, kind ``curves-growth``, with the
+    contact without film's growths), so that an interrupted run resumes with the missing ones only."""
     from filmcal._io import atomic_write_json
     from filmcal._parallel import run_tasks
+    from filmcal.contact.waviness import WAVINESS_CUTOFF_CELLS
     from filmcal.correction import curve_growths, growth_task
     from filmcal.study.layout import spec_key
 
     draws = rough.distinct()
     films = {film: (study.film(film), m) for film, m in moduli.items()}
-    keys = [[film, model.label, m] for film, model, m in models]
-    specs, solved, tasks = {}, {}, {}
+    specs, solved = {}, {}
     for force in settings.forces_kn:
         for eta in settings.offsets_mm:
             cell = (1e3 * float(force), float(eta))
-            specs[cell] = {"models": keys, "films": {f: t.to_dict() for f, (t, _) in films.items()},
-                           "draws": [d.to_dict() for d in draws], "rough_ra_um": settings.rough_ra_um,
-                           "force_kn": force, "offset_mm": eta}
-            part = study.layout.curves_part(spec_key(specs[cell]))
-            if study.verified(part, kind="curves-growth", spec=specs[cell]):
-                solved[cell] = dict(zip(draws, (tuple(g) for g in read_json(part)["growths"])))
-    todo = [cell for cell in specs if cell not in solved]
+            for film, (film_type, m) in films.items():
+                specs[film, cell] = {"film": film_type.to_dict(), "modulus_mpa": m,
+                                     "models": [model.label for f, model, _ in models if f == film],
+                                     "draws": [d.to_dict() for d in draws], "rough_ra_um": settings.rough_ra_um,
+                                     "waviness_cutoff_cells": WAVINESS_CUTOFF_CELLS, "force_kn": force,
+                                     "offset_mm": eta}
+                part = study.layout.curves_part(spec_key(specs[film, cell]))
+                if study.verified(part, kind="curves-growth", spec=specs[film, cell]):
+                    solved[film, cell] = read_json(part)["growths"]
+    todo = {}
+    for film, cell in specs:
+        if (film, cell) not in solved:
+            todo.setdefault(cell, []).append(film)
     laws = _rough_laws(study, settings, rough, films, draws if todo else [], workers, st, len(todo) + cells)
-    for cell in todo:
-        tasks[cell] = (growth_task, (models, draws, laws, cell[1], cell[0], {}))
+    tasks = {}
+    for cell, missing in todo.items():
+        mine = [entry for entry in models if entry[0] in missing]
+        tasks[cell] = (growth_task, (mine, draws, _sent_laws(laws, missing, workers), cell[1], cell[0], {}))
     if tasks:
         st.log(f"[curves] rough wheel ({rough.label}): growths of {len(draws)} distinct draws of the roughness "
                f"inputs at {len(tasks)} loads and offsets")
 
     def keep(cell, result, k):
-        part = study.layout.curves_part(spec_key(specs[cell]))
-        atomic_write_json(part, {"growths": [list(result[d]) for d in draws]}, indent=None)
-        study.record(part, "curves-growth", specs[cell])
-        solved[cell] = result
+        mine = [entry for entry in models if entry[0] in todo[cell]]
+        for film in todo[cell]:
+            cols = [j for j, entry in enumerate(mine) if entry[0] == film]
+            growths = [[result[d][0], [result[d][1][j] for j in cols]] for d in draws]
+            part = study.layout.curves_part(spec_key(specs[film, cell]))
+            atomic_write_json(part, {"growths": growths}, indent=None)
+            study.record(part, "curves-growth", specs[film, cell])
+            solved[film, cell] = growths
         st.advance(note=f"rough growths, {cell[0] / 1e3:g} kN, eta {cell[1]:+g} mm")
 
     run_tasks(tasks, workers, keep)
     out = {}
     for film in moduli:
-        mine = [(k, entry) for k, entry in enumerate(models) if entry[0] == film]
-        out[film] = curve_growths(mine, rough, solved)
+        mine = [(k, entry) for k, entry in enumerate(entry for entry in models if entry[0] == film)]
+        by_cell = {cell: dict(zip(draws, (tuple(g) for g in solved[f, cell]))) for f, cell in specs if f == film}
+        out[film] = curve_growths(mine, rough, by_cell)
     return out
+
+
+def _sent_laws(laws: dict, films: list, workers) -> dict:
+    """Each draw's law files for these films and without film: their paths for local workers (each reads them
+    once), the laws themselves for a Dask cluster (whose workers may not see this file system)."""
+    from filmcal._parallel import DaskExecutor
+    from filmcal.contact.rough_law_file import load_rough_law
+
+    remote = isinstance(workers, DaskExecutor)
+    return {d: {name: (load_rough_law(path) if remote else path) for name, path in by_name.items()
+                if name is None or name in films}
+            for d, by_name in laws.items()}
 
 
 def _rough_laws(study: Study, settings: PipelineSettings, rough, films: dict, draws: list, workers, st,
@@ -676,9 +700,13 @@ def _rough_laws(study: Study, settings: PipelineSettings, rough, films: dict, dr
     from filmcal.contact.rough_law_file import save_rough_law
     from filmcal.study.layout import spec_key
 
+    from filmcal.contact.waviness import WAVINESS_CUTOFF_CELLS
+    from filmcal.wheelrail.settings import GRID_MM
+
     paths, specs, tasks = {}, {}, {}
     for d in draws:
-        bodies = d.bodies(rough.wheel, rough.rail)
+        # the micro part of the bodies (the synthetic surfaces are all micro-roughness: 200 um < the cut-off)
+        bodies = d.bodies(rough.wheel, rough.rail).split(1e3 * WAVINESS_CUTOFF_CELLS * GRID_MM)
         # what makes a law: the film and its modulus (or steel), the draw's inputs and the wheel's very heights
         surface = hashlib.sha256(np.ascontiguousarray(bodies.wheel.heights_um).tobytes()).hexdigest()
         for name in [*films, None]:
