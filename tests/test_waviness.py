@@ -61,6 +61,11 @@ def test_waviness_is_sampled_periodically_from_the_planes_origin():
     both = wavy + other
     np.testing.assert_allclose(both.gap_mm(x, s), wavy.gap_mm(x, s) + other.gap_mm(x, s))
     assert both.rms_um == pytest.approx(np.hypot(wavy.rms_um, other.rms_um))
+    # laid at a random phase: the same map read at shifted coordinates, the phase reproducible by its seed
+    moved = wavy.shifted(3)
+    assert moved.offset_mm == wavy.shifted(3).offset_mm != wavy.shifted(4).offset_mm
+    assert 0 <= moved.offset_mm[0] < 0.03 and 0 <= moved.offset_mm[1] < 0.04
+    np.testing.assert_allclose(moved.gap_mm(x, s), wavy.gap_mm(x + moved.offset_mm[0], s + moved.offset_mm[1]))
 
 
 def test_a_lateral_wave_in_full_contact_modulates_the_pressure_as_westergaard_says():
@@ -96,7 +101,7 @@ def test_corrections_put_a_measured_profiles_feed_marks_into_the_gap():
     """`draw_laws` (what `filmcal correct` and `filmcal curves` solve with) splits a measured turned profile at
     4 cells of the 0.1 mm grid: the law is built on the micro part, the feed marks (0.8 mm) are the waviness of
     the solves, with the Gaussian filter's share of their amplitude."""
-    from filmcal.contact.rough_imprint import representative_roughness_inputs
+    from filmcal.contact.rough_imprint import load_roughness_inputs, representative_roughness_inputs
     from filmcal.contact.surface_files import profile_surface
     from filmcal.correction.roughness import draw_laws
     from filmcal.films import get_film
@@ -109,4 +114,24 @@ def test_corrections_put_a_measured_profiles_feed_marks_into_the_gap():
     kept = gaussian_transmission(800.0, 400.0)
     assert laws["waviness"].rms_um == pytest.approx(15.0 / math.sqrt(2) * kept, rel=0.02)
     assert "wavelengths under 400 um" in laws["HS"].surface.description
+    # each draw lays the marks at its own phase (where the crests fall on the patch is not known)
+    other = draw_laws(load_roughness_inputs()[3], {"HS": (get_film("HS"), 2600.0)}, wheel=turned)
+    assert laws["waviness"].offset_mm != other["waviness"].offset_mm
     assert laws["HS"].surface.rms_um < 0.3 * turned.rms_um
+
+
+def test_the_crests_of_a_turned_profile_carry_more_than_the_elastic_limit(tmp_path):
+    """A turned wheel's measured profile (feed marks 0.8 mm, 15 um) read from its CSV: its waviness stripes the
+    contact without film, whose crests carry several GPa elastically (what `filmcal correct` then warns of:
+    the crests flatten, the corrected area is a lower bound); a synthetic Ra has no waviness to warn of."""
+    x = np.arange(2000) * 2.0
+    z = 15.0 * np.sin(2 * np.pi * x / 800.0) + 0.8 * np.sin(2 * np.pi * x / 20.0)
+    (tmp_path / "turned.csv").write_text("x_um,z_um\n" + "".join(f"{a:g},{b:.5f}\n" for a, b in zip(x, z)))
+    from filmcal.correction.roughness import waviness_peak_mpa
+    from filmcal.contact.rough_imprint import load_roughness_inputs
+    from filmcal.contact.surface_files import read_surface_file
+
+    turned = read_surface_file(tmp_path / "turned.csv")
+    peak = waviness_peak_mpa(load_roughness_inputs()[0], -3.0, 100e3, {}, wheel=turned)
+    assert peak > 2500.0  # elastic crests far above the steel's limit
+    assert waviness_peak_mpa(load_roughness_inputs()[0], -3.0, 100e3, {}, wheel=1.5) is None

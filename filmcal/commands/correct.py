@@ -225,8 +225,8 @@ def run(args: argparse.Namespace) -> int:
         rough = out.get("roughness")
         if rough is not None:
             slo, shi = rough["smooth_area_ci90_mm2"]
-            print(f"includes the bodies' roughness (wheel Ra {rough['wheel_ra_um']:g} um, rail Ra "
-                  f"{rough['rail_ra_um']:g} um, {rough['n_draws']} draws of its inputs): smooth bodies would give "
+            print(f"includes the bodies' roughness (wheel Ra {rough['wheel_ra_um']:.3g} um, rail Ra "
+                  f"{rough['rail_ra_um']:.3g} um, {rough['n_draws']} draws of its inputs): smooth bodies would give "
                   f"{rough['smooth_area_mm2']:.2f} mm2 (90 % {slo:.2f} - {shi:.2f}); roughness is "
                   f"{100 * rough['share_of_variance']:.0f} % of the band's variance")
         for what in out.get("not_included", []):

@@ -13,9 +13,11 @@ solve.
 Orientation of a map on the contact grid: its first axis runs across the lay (the lateral direction of a
 wheel or rail, the contact plane's ``s``), its second along it (the rolling direction ``x``); a line profile
 measured across the lay is a map that is constant along it (`filmcal.contact.surface_files.profile_surface`).
-The map is repeated periodically over the contact plane from the plane's origin (``x = 0, s = 0``), so that
-every solve of one configuration (with and without film, smooth start or rough) sees the same stripes in the
-same places, whatever grid region it solves on. Two bodies' maps on different pixel grids add their gaps
+The map is repeated periodically over the contact plane from the plane's origin (``x = 0, s = 0``), shifted by
+``offset_mm``, so that every solve of one configuration (with and without film, smooth start or rough) sees the
+same stripes in the same places, whatever grid region it solves on. Where the crests fall on the patch is not
+known from a measured surface: each draw of the roughness inputs lays the map at its own random phase
+(`Waviness.shifted`, seeded by the draw), so the bands carry it. Two bodies' maps on different pixel grids add their gaps
 (`Waviness.__add__`).
 """
 from __future__ import annotations
@@ -57,16 +59,31 @@ class Waviness:
     heights_um: np.ndarray = field(repr=False)
     pixel_um: float
     description: str = ""
+    offset_mm: tuple = (0.0, 0.0)
 
     @property
     def rms_um(self) -> float:
         return float(np.std(self.heights_um))
 
+    @property
+    def period_mm(self) -> tuple[float, float]:
+        """The map's periods (mm) along x (rolling) and s (across the lay)."""
+        n_s, n_x = self.heights_um.shape
+        return 1e-3 * n_x * self.pixel_um, 1e-3 * n_s * self.pixel_um
+
+    def shifted(self, random_state) -> "Waviness":
+        """The same map laid at a random phase (uniform over its periods): where the crests fall on the patch
+        is not known from a measured surface, so each draw of the roughness inputs lays it anew."""
+        rng = np.random.default_rng(random_state)
+        px, ps = self.period_mm
+        return Waviness(self.heights_um, self.pixel_um, self.description,
+                        (float(rng.uniform(0.0, px)), float(rng.uniform(0.0, ps))))
+
     def gap_mm(self, x_mm: np.ndarray, s_mm: np.ndarray) -> np.ndarray:
         """The heights (mm) at the cells of a tensor grid ``x_mm (nx,) x s_mm (ns,)`` of the contact plane, shape
         ``(nx, ns)``: the map repeated from the plane's origin, interpolated bilinearly."""
-        x = np.asarray(x_mm, dtype=float)
-        s = np.asarray(s_mm, dtype=float)
+        x = np.asarray(x_mm, dtype=float) + self.offset_mm[0]
+        s = np.asarray(s_mm, dtype=float) + self.offset_mm[1]
         h = self.heights_um
         n_s, n_x = h.shape
         fs, fx = 1e3 * s / self.pixel_um, 1e3 * x / self.pixel_um
@@ -106,6 +123,11 @@ class WavinessSum:
 
     def gap_mm(self, x_mm: np.ndarray, s_mm: np.ndarray) -> np.ndarray:
         return sum(p.gap_mm(x_mm, s_mm) for p in self.parts)
+
+    def shifted(self, random_state) -> "WavinessSum":
+        """Each body's map at its own random phase (`Waviness.shifted`)."""
+        rng = np.random.default_rng(random_state)
+        return WavinessSum(tuple(p.shifted(rng) for p in self.parts))
 
     def __add__(self, other):
         return self if other is None else WavinessSum((*self.parts, *getattr(other, "parts", (other,))))

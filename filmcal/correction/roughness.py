@@ -26,7 +26,7 @@ from filmcal.contact.rough_imprint import RoughnessInputs
 from filmcal.wheelrail.rough_growth import sphere_growth
 
 __all__ = ["RoughGrowth", "sphere_growths", "wheel_rail_growth", "corrector_growths", "weighted_quantiles",
-           "growth_modulus_mpa", "draw_laws", "solve_growths"]
+           "growth_modulus_mpa", "draw_laws", "solve_growths", "waviness_peak_mpa"]
 
 
 def weighted_quantiles(values: np.ndarray, weights: np.ndarray, q: Sequence[float]) -> np.ndarray:
@@ -153,7 +153,7 @@ def draw_laws(draw: RoughnessInputs | None, films: dict, *, wheel=None, rail=Non
     ``films`` maps each film's name to ``(FilmType, modulus_mpa)``. The bodies are split at
     `filmcal.contact.waviness.WAVINESS_CUTOFF_CELLS` cells of the contact grid (``grid_mm``, default the
     wheel-rail model's): the laws take the micro part, the solves the waviness (none for surfaces no longer
-    than the cut-off, such as the synthetic ones). With ``draw`` None, ``law`` is a measured film-wheel law
+    than the cut-off, such as the synthetic ones), laid at a phase of the draw's own (its seed). With ``draw`` None, ``law`` is a measured film-wheel law
     taken as it is for every film, and the contact without film stays smooth (None).
     """
     from filmcal.contact.waviness import WAVINESS_CUTOFF_CELLS
@@ -165,8 +165,25 @@ def draw_laws(draw: RoughnessInputs | None, films: dict, *, wheel=None, rail=Non
     bodies = draw.bodies(wheel, rail).split(cutoff_um)
     if bodies.smooth:
         return {**{name: None for name in films}, None: None, "waviness": None}
+    # where the crests fall on the patch is unknown: each draw lays the waviness at its own phase
+    wavy = None if bodies.waviness is None else bodies.waviness.shifted([int(draw.seed), 7])
     return {**{name: bodies.film_law(float(m), f.poisson, f.thickness_mm) for name, (f, m) in films.items()},
-            None: bodies.steel_law(), "waviness": bodies.waviness}
+            None: bodies.steel_law(), "waviness": wavy}
+
+
+def waviness_peak_mpa(draw: RoughnessInputs, offset_mm: float, force_n: float, settings: dict, *, wheel=None,
+                      rail=None) -> float | None:
+    """Peak pressure (MPa) of the rough contact without film when the bodies carry waviness (`draw_laws`), or
+    None without it: the elastic macro solve puts the load on the crests, and above the steel's elastic limit
+    the real crests flatten (a larger contact than solved)."""
+    from filmcal.wheelrail import get_wheel_rail_model
+
+    laws = draw_laws(draw, {}, wheel=wheel, rail=rail, grid_mm=settings.get("grid_mm"))
+    if laws.get("waviness") is None:
+        return None
+    result = get_wheel_rail_model(**settings).solve(offset_mm, force_n, roughness=laws.get(None),
+                                                     waviness=laws["waviness"])
+    return float(result.max_pressure_mpa)
 
 
 def solve_growths(models, draws: Sequence[tuple[float | None, dict]], offset_mm: float, force_n: float, solver,

@@ -198,6 +198,10 @@ def solve_film_contact(offset_mm: float, force_n: float, case: FilmContactCase,
     whole = roughness.bodies()
     # measured surfaces longer than a few cells: their waviness goes into the gap, the rest into the law
     bodies = whole.split(1e3 * WAVINESS_CUTOFF_CELLS * grid_mm)
+    if bodies.waviness is not None:  # laid at the draw's phase, as a correction's draw lays it
+        from dataclasses import replace
+
+        bodies = replace(bodies, waviness=bodies.waviness.shifted([int(roughness.inputs().seed), 7]))
     wavy = {"waviness_rms_um": bodies.waviness.rms_um} if bodies.waviness is not None else {}
     law = None
     rough_info = None
