@@ -424,14 +424,15 @@ def test_film_records_section_states_the_preference_and_the_rough_growth():
     curves = {"HHS": [{**curve, "wheel": "smooth", "area_film_median_mm2": 100.0, "area_no_film_mm2": 70.0,
                        "ratio_median": 0.7},
                       {**curve, "wheel": "rough Ra 1.5 um", "area_film_median_mm2": 105.0, "area_no_film_mm2": 77.0,
-                       "ratio_median": 77.0 / 105.0}]}
+                       "ratio_median": 77.0 / 105.0, "ratio_lo": 0.70, "ratio_hi": 0.77, "roughness_share": 0.85}]}
     section = film_records_section(comparison, curves)
     text = " ".join(b for b in section.blocks if isinstance(b, str))
     assert "HHS: the data prefer activation/small" in text and "-0.38 (in)" in text
     tables = [b for b in section.blocks if isinstance(b, Table)]
     assert [r[1] for r in tables[0].rows] == ["edge/small", "activation/small"]
     assert tables[0].rows[0][-1] == "-1.70 (out)" and tables[0].rows[1][-2] == "1.00 / 1.00"
-    assert tables[1].rows == [["HHS", "Ra 1.5 um", "50", "-3", "100.0", "105.0", "+5.0", "+10.0", "+4.8"]]
+    assert tables[1].rows == [["HHS", "Ra 1.5 um", "50", "-3", "100.0", "105.0", "+5.0", "+10.0", "+4.8",
+                               "[0.700, 0.770]", "0.85"]]
     assert [r[1] for r in tables[2].rows[:3]] == ["MS", "HS", "HHS"]  # the shipped prior and conditioned growth
 
 

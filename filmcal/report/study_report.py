@@ -646,7 +646,7 @@ def film_records_section(comparison: dict | None, curves: dict | None = None) ->
                                    f"{100 * (r['area_film_median_mm2'] / smooth[k]['area_film_median_mm2'] - 1):+.1f}",
                                    f"{100 * (r['area_no_film_mm2'] / smooth[k]['area_no_film_mm2'] - 1):+.1f}",
                                    f"{100 * (r['ratio_median'] / smooth[k]['ratio_median'] - 1):+.1f}",
-                                   f"[{r['ratio_lo']:.3f}, {r['ratio_hi']:.3f}]",
+                                   f"[{r['ratio_lo']:.3f}, {r['ratio_hi']:.3f}]" if "ratio_lo" in r else "-",
                                    _share(r, "roughness_share", 1.0, 2)])
         if growth:
             s.add("Roughness acts through the film-wheel interface: a synthetic steel surface of the wheel's Ra "
