@@ -73,7 +73,9 @@ SLOW_TESTS: dict[str, str] = {
     "test_roughness_no_film.py::test_rough_hertz_contact_follows_greenwood_tripp": "5 s each: a rough law (BEM)",
     "test_roughness_no_film.py::test_the_nominal_area_of_rough_bodies_tends_to_the_smooth_area": "8 s: two rough laws",
     "test_correction_curves.py::test_growth_task_matches_direct_solves": "16 s: four rough laws (BEM), cold solves",
-    "test_fuzz_commands.py::test_every_case_as_a_process": "25-45 s: every fuzz case as a process of its own",
+    "test_fuzz_commands.py::test_every_command_as_a_process": "5-10 s: two fuzz cases per command as processes",
+    "test_study_roughness.py::test_a_study_with_roughened_flat_data_uses_its_own_draws":
+        "10-20 s: sphere-on-flat growths of 14 draws (the roughness stage of a study)",
     "test_wheelrail_cli.py::test_options_rail_inclination_radius_roughness_plot": "6 s: the rough bodies' law (BEM)",
     "test_campaign.py::test_dask_cluster_gives_the_same_results_as_the_local_pool": "5 s: a Dask cluster",
     "test_campaign.py::test_killed_campaign_resumes_without_recomputing_finished_points": "4 s: kills a process",
@@ -104,8 +106,6 @@ FAST_TEST_LIMIT_S = 3.0
 #: Node-id prefixes of the acceptance tier (also slow): tests that reproduce an acceptance figure end to end
 #: with many boundary-element laws, solves or calibrations, run by ``.ci/run`` after the rest, with their time.
 ACCEPTANCE_TESTS: dict[str, str] = {
-    "test_study_roughness.py::test_a_study_with_roughened_flat_data_uses_its_own_draws":
-        "100 s: a smoke pipeline on a dataset with roughened-flat rows, then a rough correction of it",
     "test_fem_edge.py::test_closing_load_edge_of_the_large_strain_film_matches_solving_again":
         "25-44 s: 26 large-strain solves (the large-strain film's closing-load edge against re-solving)",
     "test_fem_reference.py::test_production_fe_reads_the_second_formulations_edge":

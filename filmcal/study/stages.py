@@ -99,7 +99,7 @@ class PipelineSettings:
     def quick(cls) -> "PipelineSettings":
         """Few FE runs, two imprint models, three offsets at 50 kN, short chains: a minute or two."""
         return cls(train_runs=40, test_runs=12, imprint_models=("edge", "activation"), kinematics=("small",),
-                   offsets_mm=(-6.0, -3.0, 0.0), forces_kn=(50.0,), rough_draws=4, crossval_films=("HS",),
+                   offsets_mm=(-6.0, -3.0, 0.0), forces_kn=(50.0,), rough_draws=2, crossval_films=("HS",),
                    max_steps=10000)
 
     @classmethod
