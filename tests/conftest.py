@@ -75,7 +75,7 @@ SLOW_TESTS: dict[str, str] = {
     "test_correction_curves.py::test_growth_task_matches_direct_solves": "16 s: four rough laws (BEM), cold solves",
     "test_fuzz_commands.py::test_every_command_as_a_process": "5-10 s: two fuzz cases per command as processes",
     "test_study_roughness.py::test_a_study_with_roughened_flat_data_uses_its_own_draws":
-        "10-20 s: sphere-on-flat growths of 14 draws (the roughness stage of a study)",
+        "5-10 s: sphere-on-flat growths of 5 draws (the roughness stage of a study)",
     "test_wheelrail_cli.py::test_options_rail_inclination_radius_roughness_plot": "6 s: the rough bodies' law (BEM)",
     "test_campaign.py::test_dask_cluster_gives_the_same_results_as_the_local_pool": "5 s: a Dask cluster",
     "test_campaign.py::test_killed_campaign_resumes_without_recomputing_finished_points": "4 s: kills a process",
