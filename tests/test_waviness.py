@@ -135,3 +135,16 @@ def test_the_crests_of_a_turned_profile_carry_more_than_the_elastic_limit(tmp_pa
     peak = waviness_peak_mpa(load_roughness_inputs()[0], -3.0, 100e3, {}, wheel=turned)
     assert peak > 2500.0  # elastic crests far above the steel's limit
     assert waviness_peak_mpa(load_roughness_inputs()[0], -3.0, 100e3, {}, wheel=1.5) is None
+
+
+def test_curves_say_when_a_measured_surface_stripes_the_contact():
+    from filmcal.commands.curves import _waviness_note
+    from filmcal.contact.rough_imprint import load_roughness_inputs
+    from filmcal.contact.surface_files import profile_surface
+    from filmcal.correction import RoughConfiguration
+
+    x = np.arange(2000) * 2.0
+    turned = profile_surface(15.0 * np.sin(2 * np.pi * x / 800.0) + 0.8 * np.sin(2 * np.pi * x / 20.0), 2.0)
+    draws = tuple(load_roughness_inputs()[:2])
+    assert "lower bound" in _waviness_note(RoughConfiguration(turned, None, draws))
+    assert _waviness_note(RoughConfiguration(1.5, None, draws)) is None

@@ -82,6 +82,21 @@ def _rough_configurations(args: argparse.Namespace, draws: list) -> list:
     return out
 
 
+def _waviness_note(configuration) -> str | None:
+    """What the rough rows do not hold when a measured surface carries waviness (as `filmcal correct` says)."""
+    if configuration.law is not None or not configuration.draws:
+        return None
+    from filmcal.contact.waviness import WAVINESS_CUTOFF_CELLS
+    from filmcal.wheelrail.settings import GRID_MM
+
+    bodies = configuration.draws[0].bodies(configuration.wheel, configuration.rail)
+    if bodies.split(1e3 * WAVINESS_CUTOFF_CELLS * GRID_MM).waviness is None:
+        return None
+    return ("the measured surface's waviness stripes the contact without film; the elastic solve puts the load on "
+            "the crests, which can exceed the steel's elastic limit (filmcal correct says by how much): there the "
+            "rough rows' area without film is a lower bound")
+
+
 def _check_map_memory(args: argparse.Namespace) -> None:
     """Roughness maps refused before any work when their laws do not fit: per map and draw a law against the
     film and a steel law, read from their files by every worker process (each holds them for its cells)."""
@@ -120,6 +135,9 @@ def run(args: argparse.Namespace) -> int:
         chosen = chosen_posteriors(study, film, **match)
         components = curve_components(study, film, **match)
         rough = _rough_configurations(args, study.roughness_inputs()[0])
+        notes = [_waviness_note(c) for c in rough if _waviness_note(c)]
+        for note in notes:
+            sys.stderr.write(f"filmcal curves: warning: {note}\n")
         for label in ["smooth"] + [c.label for c in rough]:
             sys.stderr.write(f"[curves] {film}, {label}: {len(forces)} loads x {len(offsets)} offsets\n")
         rows = curve_table(film, components, offsets, forces, rough, workers)
@@ -132,7 +150,8 @@ def run(args: argparse.Namespace) -> int:
         atomic_savefig(plot_area_curves([dict(zip(CURVE_COLUMNS, r)) for r in rows], film), args.plot, dpi=120)
     if args.json:
         print_json({"film": film, "models": {s["model"]: w for w, _, s in chosen},
-                    "posterior_files": [str(p) for _, p, _ in chosen], "columns": list(CURVE_COLUMNS), "rows": rows})
+                    "posterior_files": [str(p) for _, p, _ in chosen], "columns": list(CURVE_COLUMNS), "rows": rows,
+                    **({"warnings": notes} if notes else {})})
     else:
         print(f"{'wheel':>16} {'F kN':>6} {'eta mm':>7} {'A0 mm2':>8} {'dA median':>9} {'dA 90 %':>17} "
               f"{'A0/A':>7} {'A0/A 90 %':>17} {'interp %':>8} {'rough share':>11} {'MC err %':>8}")
