@@ -269,7 +269,7 @@ def _set_parent_death_signal(signum: int) -> bool:
 
 # State of a pool worker process (set by _worker_main; unused in other processes).
 _worker_parent_pid: int | None = None
-_child_groups: set[int] = set()  # process groups of the children started by run_guarded
+_child_groups: set[tuple[int, str]] = set()  # (process group, run mark) of the children started by run_guarded
 _child_lock = threading.Lock()
 
 
@@ -277,11 +277,9 @@ def _kill_children() -> None:
     """Kill the process groups of the children started by `run_guarded` in this process."""
     with _child_lock:
         groups = list(_child_groups)
-    for group in groups:
-        try:
-            os.killpg(group, signal.SIGKILL)
-        except OSError:
-            pass
+    for group, mark in groups:
+        _killpg(group)
+        _kill_marked(mark)
 
 
 def _die_with_children(signum: int = signal.SIGTERM, frame: object = None) -> None:
@@ -391,9 +389,12 @@ def run_guarded(argv: Sequence[str] | str, *, cwd: str | os.PathLike | None = No
     close: stdout and stderr go to unnamed temporary files (in the folder of
     `tempfile.gettempdir`, ``TMPDIR``), so a background process the command leaves behind (``sleep 60 &``)
     holds no pipe that would keep the caller waiting. Once the child has
-    exited, its process group is killed, so such leftovers die with it. A
-    descendant that left the group (``setsid``, a daemon) is out of reach:
-    it keeps running, but it does not delay the run either.
+    exited, its process group is killed, so such leftovers die with it; and
+    on Linux so is every process that carries the run's mark in its
+    environment (`RUN_MARK_VARIABLE`, set for the child and inherited): a
+    descendant that left the group (``setsid``, a daemon) dies too. Only one
+    that also dropped its environment (``env -i``) escapes; it does not delay
+    the run either.
 
     Only the last `OUTPUT_CAP_BYTES` bytes of each stream are read back, so
     a command that writes gigabytes costs disk space in the temporary
@@ -404,6 +405,8 @@ def run_guarded(argv: Sequence[str] | str, *, cwd: str | os.PathLike | None = No
     """
     timeout_s = _check_timeout(timeout_s)
     cap = int(OUTPUT_CAP_BYTES)
+    mark = os.urandom(12).hex()
+    env = dict(os.environ if env is None else env, **{RUN_MARK_VARIABLE: mark})
     in_worker = _worker_parent_pid is not None and threading.current_thread() is threading.main_thread()
     start = time.perf_counter()
     if in_worker:
@@ -417,7 +420,7 @@ def run_guarded(argv: Sequence[str] | str, *, cwd: str | os.PathLike | None = No
             process = subprocess.Popen(argv, cwd=cwd, shell=shell, env=env, stdin=subprocess.DEVNULL,
                                        stdout=out_file, stderr=err_file, start_new_session=True)
             with _child_lock:
-                _child_groups.add(process.pid)
+                _child_groups.add((process.pid, mark))
             try:
                 try:
                     _wait_for_exit(process, timeout_s)
@@ -429,8 +432,9 @@ def run_guarded(argv: Sequence[str] | str, *, cwd: str | os.PathLike | None = No
                 # command at its deadline (or on an exception), and else what it left running.
                 _killpg(process.pid)
                 process.wait()  # a session leader cannot leave its group: it is dead now
+                _kill_marked(mark)  # and what left the group (setsid, a daemon) but kept the environment
                 with _child_lock:
-                    _child_groups.discard(process.pid)
+                    _child_groups.discard((process.pid, mark))
             out, out_bytes = _read_tail(out_file, cap)
             err, err_bytes = _read_tail(err_file, cap)
     finally:
@@ -524,6 +528,44 @@ def _killpg(group: int) -> None:
         os.killpg(group, signal.SIGKILL)
     except OSError:
         pass
+
+
+#: Environment variable that marks every process a `run_guarded` command starts (its value is one run's
+#: random mark): descendants inherit it, also those that leave the process group.
+RUN_MARK_VARIABLE = "FILMCAL_RUN_MARK"
+
+
+def _kill_marked(mark: str) -> int:
+    """SIGKILL every process of this user whose environment carries `mark` (Linux: ``/proc``); their number.
+
+    Finds what a command left running outside its process group (``setsid``, a double-forked daemon),
+    as long as it kept the environment it was started with. Repeats until a pass finds none, so that
+    a process forked during the pass is caught by the next.
+    """
+    if not os.path.isdir("/proc"):
+        return 0
+    needle = f"{RUN_MARK_VARIABLE}={mark}".encode()
+    killed = 0
+    for _ in range(5):
+        found = 0
+        for entry in os.scandir("/proc"):
+            if not entry.name.isdigit() or int(entry.name) == os.getpid():
+                continue
+            try:
+                with open(f"/proc/{entry.name}/environ", "rb") as fh:
+                    environ = fh.read()
+            except OSError:  # gone, or another user's
+                continue
+            if needle in environ.split(b"\0"):
+                try:
+                    os.kill(int(entry.name), signal.SIGKILL)
+                    found += 1
+                except OSError:
+                    pass
+        killed += found
+        if not found:
+            break
+    return killed
 
 
 # -- deadlines in the calling process -------------------------------------------------

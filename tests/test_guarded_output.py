@@ -53,22 +53,44 @@ def test_a_background_child_neither_holds_up_the_point_nor_outlives_it(tmp_path,
     assert wait_dead(background)  # killed with the command's process group
 
 
-def test_a_grandchild_that_left_the_group_does_not_hold_up_the_run(tmp_path):
-    escape = "import os, pathlib, time; os.setsid(); pathlib.Path('escaped.pid').write_text(str(os.getpid())); time.sleep(30)"
-    command = (f"{sys.executable} -c \"{escape}\" & "
-               "while [ ! -s escaped.pid ]; do sleep 0.01; done; echo done")
-    start = time.monotonic()
-    try:
-        run = run_guarded(command, shell=True, cwd=tmp_path, timeout_s=10)
-        assert time.monotonic() - start < 8.0
-        assert (run.returncode, run.stdout, run.timed_out) == (0, "done\n", False)
-    finally:
-        pid_file = tmp_path / "escaped.pid"
-        if pid_file.exists() and pid_file.read_text():
-            try:
-                os.kill(int(pid_file.read_text()), signal.SIGKILL)
-            except ProcessLookupError:
-                pass
+@pytest.fixture
+def escaper(tmp_path):
+    """Run a command whose grandchild leaves the process group (setsid) and sleeps 30 s, started by
+    `launcher` (e.g. ``env -i``); returns (run, seconds, the grandchild's pid). Kills it afterwards."""
+    pid_file = tmp_path / "escaped.pid"
+
+    def run(launcher: str = ""):
+        escape = ("import os, pathlib, time; os.setsid(); pathlib.Path('escaped.pid').write_text(str(os.getpid())); "
+                  "time.sleep(30)")
+        command = (f"{launcher} {sys.executable} -c \"{escape}\" & "
+                   "while [ ! -s escaped.pid ]; do sleep 0.01; done; echo done")
+        start = time.monotonic()
+        result = run_guarded(command, shell=True, cwd=tmp_path, timeout_s=10)
+        return result, time.monotonic() - start, int(pid_file.read_text())
+
+    yield run
+    if pid_file.exists() and pid_file.read_text():
+        try:
+            os.kill(int(pid_file.read_text()), signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+
+
+def test_a_grandchild_that_left_the_group_neither_holds_up_the_run_nor_outlives_it(escaper):
+    """`setsid` takes a process out of the command's group; the run's mark in its environment still finds it."""
+    run, seconds, escaped = escaper()
+    assert seconds < 8.0
+    assert (run.returncode, run.stdout, run.timed_out) == (0, "done\n", False)
+    if sys.platform.startswith("linux"):
+        assert wait_dead(escaped)
+
+
+def test_a_grandchild_with_an_emptied_environment_escapes_but_does_not_hold_up_the_run(escaper):
+    """The documented limit: a process started with ``env -i`` carries no mark."""
+    run, seconds, escaped = escaper("env -i")
+    assert seconds < 8.0
+    assert (run.returncode, run.stdout) == (0, "done\n")
+    assert pid_alive(escaped)  # nothing marked it
 
 
 def test_a_cancelled_task_still_stops_its_command(tmp_path):

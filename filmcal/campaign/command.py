@@ -26,8 +26,10 @@ the command's stderr. stdout and stderr are kept in the folder as
 ``stdout.txt`` and ``stderr.txt``.
 
 The run ends when the command's own process exits: a background process it
-leaves behind is killed then (one that left the process group with
-``setsid`` keeps running, without holding up the campaign). filmcal reads
+leaves behind is killed then, also one that left the process group with
+``setsid`` (on Linux: every process started with the run's mark,
+``FILMCAL_RUN_MARK``, in its environment; only one started with an emptied
+environment escapes, without holding up the campaign). filmcal reads
 only the last 16 MiB (`filmcal._parallel.OUTPUT_CAP_BYTES`) of stdout and of
 stderr: of a longer stream, ``stdout.txt`` or ``stderr.txt`` holds that end,
 after a first line that gives the size written. A command that prints more
