@@ -111,7 +111,9 @@ VOCABULARY: dict[str, Concept] = _concepts(
     Concept("study_dir", "study folder", metavar="DIR"),
     Concept("run_store", "folder of FE (or simulator) run stores shared by studies: a study given it reuses every "
             "run of the same settings that another study made there, and records the SHA-256 of the runs it used "
-            "(default: the study's own runs/ folder, or the store it was first given)", metavar="DIR"),
+            "(default: the store the study was made with; for a new study $FILMCAL_RUN_STORE, else the user's cache, "
+            "~/.cache/filmcal/runs; FILMCAL_RUN_STORE=study keeps each study's runs in its own runs/ folder)",
+            metavar="DIR"),
     Concept("workers", "worker processes (1: everything in this process; at most 4 per core, and as many as fit "
             "in the memory available)", int, (1, 256)),
     Concept("seed", "seed of every random step", int, (0, 2**32 - 1)),

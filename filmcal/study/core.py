@@ -15,6 +15,7 @@ made it and recorded in the manifest with its SHA-256:
 from __future__ import annotations
 
 import contextlib
+import os
 import warnings
 import zlib
 from dataclasses import asdict, dataclass, field, replace
@@ -37,11 +38,37 @@ if TYPE_CHECKING:
     from filmcal._parallel import Executor
 
 __all__ = ["Study", "FESettings", "CalibrationSpec", "IMPRINT_MODELS", "KINEMATICS", "seed_for", "output_column", "correctors", "comparison_weights", "report_view",
-           "chosen_posteriors", "curve_components", "film_model", "SHARED_STORE_WAIT_S"]
+           "chosen_posteriors", "curve_components", "film_model", "SHARED_STORE_WAIT_S", "RUN_STORE_VARIABLE",
+           "default_run_store"]
 
 #: How long a study waits for another study writing the same shared run store (s): as long as such a campaign
 #: may run; the runs it finishes are then reused.
 SHARED_STORE_WAIT_S = 24 * 3600.0
+
+#: Environment variable that sets the run store of new studies given none: a folder, or ``study`` for each
+#: study's own ``runs/`` folder.
+RUN_STORE_VARIABLE = "FILMCAL_RUN_STORE"
+
+
+def default_run_store() -> Path | None:
+    """The run store a new study uses when it is given none.
+
+    ``$FILMCAL_RUN_STORE`` when set (``study``: None, the study's own ``runs/`` folder), else the user's cache
+    folder, ``$XDG_CACHE_HOME/filmcal/runs`` (``~/.cache/filmcal/runs``), so that every study of this user with
+    the same FE (or simulator) settings reuses the same runs. None when that folder cannot be made or written.
+    """
+    value = os.environ.get(RUN_STORE_VARIABLE, "").strip()
+    if value == "study":
+        return None
+    if value:
+        return Path(value).expanduser().resolve()
+    try:
+        base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+        path = base / "filmcal" / "runs"
+        path.mkdir(parents=True, exist_ok=True)
+    except (OSError, RuntimeError):  # no home, a read-only one
+        return None
+    return path.resolve() if os.access(path, os.W_OK) else None
 
 
 def seed_for(seed: int, stream: str) -> int:
@@ -204,9 +231,11 @@ class Study:
         if create and read_only:
             raise ValueError("a study cannot be both created and read-only")
         self.read_only = read_only
-        self._run_store = None if run_store is None else Path(run_store).resolve()
         self.layout = StudyLayout(root)
         self.root = self.layout.root
+        if run_store is None and create and not self.layout.manifest.exists():
+            run_store = default_run_store()  # a new study: the user's shared store (a study made before keeps its own)
+        self._run_store = None if run_store is None else Path(run_store).resolve()
         # a study that is only read (correct, curves, report) may be read-only: a colleague's, an archive
         check_output_dir(self.root, "--study-dir", must_exist=not create, writable=create)
         self.manifest_sha256 = None
@@ -424,7 +453,8 @@ class Study:
 
     def runs_store(self, key: str) -> Path:
         """The SQLite store of the FE (or simulator) runs of one spec: in the shared run store the study
-        was given (``--run-store``, recorded in its manifest), else in its own ``runs/`` folder."""
+        was made with (``--run-store``, else `default_run_store`; recorded in its manifest), else in its own
+        ``runs/`` folder."""
         shared = self._run_store or (Path(self.manifest.data["run_store"]) if self.manifest.data.get("run_store")
                                      else None)
         return self.layout.runs_store(key) if shared is None else shared / f"runs-{key}.sqlite"
