@@ -9,6 +9,9 @@ Rows:
 * ``FE / second formulation``: the FE at its default mesh with a film against the second formulation
   (`filmcal.fem.reference`, biquadratic, extrapolated from h = 0.05 and 0.025 mm) at films across nu 0.25-0.45
   (``bench/fe_reference.py`` runs 84 such cases);
+* ``FE / second formulation, large strain``: the same with neo-Hookean films (the production film's kernel and
+  the reference's are written independently; the reference extrapolated from h = 0.1 and 0.05 mm), down to
+  MS's calibrated modulus at 100 kN (through-thickness strain 0.5);
 * ``half-space / Hertz``: the wheel-rail model's half-space solver on a sphere without film (area-equivalent
   radius of its zero-pressure outline);
 * ``half-space / thin-layer BEM``: the half-space with film springs against the axisymmetric ring BEM of the
@@ -70,6 +73,7 @@ def fe_against_hertz() -> list[dict]:
 REFERENCES = {
     "FE / Hertz": "Hertz's closed form, no film (Table 1's cases and R 250 mm / 15 kN)",
     "FE / second formulation": "biquadratic FE with the closing-load edge, extrapolated to h -> 0, films at nu 0.25-0.45",
+    "FE / second formulation, large strain": "the same with neo-Hookean films in both (independent kernels), strains up to 0.5",
     "half-space / Hertz": "Hertz's closed form, no film",
     "half-space / thin-layer BEM": "axisymmetric ring BEM of the same spring film",
     "wheel-rail / CONTACT flange": "CONTACT, refined and extrapolated: S1002 on 60E1, 10 kN, eta -3..+8 mm, an HS layer at +5 mm",
@@ -113,6 +117,24 @@ def fe_against_second_formulation() -> list[dict]:
         res = get_model(r).solve(Film(e, nu), f * 1e3)
         rows.append(_row("FE / second formulation", f"R{r:g} {f:g} kN E{e:g} nu{nu:g}", res.contact_radius_mm,
                          2.0 * a[1] - a[0]))
+    return rows
+
+
+#: (R mm, F kN, E MPa, nu): large-strain films, from MS's calibrated modulus at 100 kN to a stiff one.
+LARGE_STRAIN_CASES = [(450.0, 100.0, 538.0, 0.33), (300.0, 35.0, 1200.0, 0.40), (520.0, 40.0, 3500.0, 0.25)]
+
+
+def fe_against_second_formulation_large_strain() -> list[dict]:
+    from filmcal.fem import ContactOptions, Film, get_model
+    from filmcal.fem.reference import QuadraticSphereOnFlat
+
+    rows = []
+    for r, f, e, nu in LARGE_STRAIN_CASES:
+        a = [QuadraticSphereOnFlat(r, element_size_mm=h, contact_zone_mm=12.0).solve(
+            f * 1e3, e, nu, kinematics="large").contact_radius_mm for h in (0.1, 0.05)]
+        res = get_model(r).solve(Film(e, nu), f * 1e3, ContactOptions(kinematics="large"))
+        rows.append(_row("FE / second formulation, large strain", f"R{r:g} {f:g} kN E{e:g} nu{nu:g}",
+                         res.contact_radius_mm, 2.0 * a[1] - a[0]))
     return rows
 
 
@@ -264,7 +286,8 @@ def main(argv=None) -> int:
                     help="also write the per-check summary the report prints (filmcal/data/verification.json)")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
-    rows = (fe_against_hertz() + fe_against_second_formulation() + halfspace_against_hertz()
+    rows = (fe_against_hertz() + fe_against_second_formulation() + fe_against_second_formulation_large_strain()
+            + halfspace_against_hertz()
             + halfspace_against_thin_layer() + wheelrail_against_contact())
     print(f"{'check':34} {'case':30} {'value mm':>10} {'ref mm':>10} {'diff mm':>9} {'rel %':>8}")
     for row in rows:

@@ -84,3 +84,97 @@ def test_a_study_ignores_posteriors_of_an_older_fe_revision(tmp_path):
             study.record(path, "posterior", dict(spec, fe=fe))
     found = study.posteriors("HS")
     assert [p.name for p, _ in found] == [f"p{FE_MODEL_REVISION}.json"]
+
+
+# ---------------------------------------------------------------------------- the large-strain film
+def _kernel_mesh():
+    import numpy as np
+    from skfem import Basis, ElementQuad2, ElementVector, MeshQuad
+
+    mesh = MeshQuad.init_tensor(np.linspace(0.0, 1.0, 6), np.linspace(0.0, 0.1, 3))
+    basis = Basis(mesh, ElementVector(ElementQuad2()), intorder=4)
+    u = 0.004 * np.random.default_rng(0).standard_normal(basis.N)
+    u[basis.nodal_dofs[0, mesh.nodes_satisfying(lambda x: x[0] < 1e-12)]] = 0.0  # u_r = 0 on the axis
+    return basis, u
+
+
+def _neo_hookean_energy(basis, u, modulus_mpa, poisson):
+    """W = mu/2 (tr C - 3) - mu ln J + lam/2 (ln J)^2 integrated over the ring volume, from the
+    displacement field directly (no stress, no force)."""
+    import numpy as np
+
+    lam = modulus_mpa * poisson / ((1 + poisson) * (1 - 2 * poisson))
+    mu = modulus_mpa / (2 * (1 + poisson))
+    uh = basis.interpolate(u)
+    r = np.asarray(basis.global_coordinates()[0])
+    g = np.asarray(uh.grad)
+    f_rr, f_rz, f_zr, f_zz = 1 + g[0, 0], g[0, 1], g[1, 0], 1 + g[1, 1]
+    f_tt = 1 + np.asarray(uh)[0] / r
+    tr_c = f_rr**2 + f_rz**2 + f_zr**2 + f_zz**2 + f_tt**2
+    log_j = np.log((f_rr * f_zz - f_rz * f_zr) * f_tt)
+    w = mu / 2 * (tr_c - 3) - mu * log_j + lam / 2 * log_j**2
+    return float(np.sum(w * np.asarray(basis.dx) * 2 * np.pi * r))
+
+
+def test_neo_hookean_forces_are_the_energys_gradient_and_match_the_production_kernel():
+    """The second formulation's film (second Piola-Kirchhoff form) against the strain energy by central
+    differences, its tangent against differences of its forces, and against the production film's
+    kernel (first Piola-Kirchhoff form, `filmcal.fem.largestrain`) given the same integration rule."""
+    import numpy as np
+
+    from filmcal.fem import Film
+    from filmcal.fem.largestrain import film_internal_force_and_tangent
+    from filmcal.fem.neohookean import neo_hookean_force_and_tangent
+
+    basis, u = _kernel_mesh()
+    E, nu = 1500.0, 0.42
+    f, K = neo_hookean_force_and_tangent(basis, E, nu, u)
+    rng = np.random.default_rng(1)
+    for _ in range(3):
+        v = rng.standard_normal(basis.N)
+        v[u == 0.0] = 0.0
+        eps = 1e-6
+        dw = (_neo_hookean_energy(basis, u + eps * v, E, nu) - _neo_hookean_energy(basis, u - eps * v, E, nu)) / (2 * eps)
+        assert f @ v == pytest.approx(dw, rel=1e-6)
+        df = (neo_hookean_force_and_tangent(basis, E, nu, u + eps * v)[0]
+              - neo_hookean_force_and_tangent(basis, E, nu, u - eps * v)[0]) / (2 * eps)
+        assert np.abs(df - K @ v).max() < 1e-6 * np.abs(K @ v).max()
+    f_prod, K_prod = film_internal_force_and_tangent(basis, basis, Film(E, nu), u)
+    assert np.abs(f - f_prod).max() < 1e-10 * np.abs(f).max()
+    assert np.abs(K.toarray() - K_prod).max() < 1e-10 * np.abs(K_prod).max()
+
+
+def test_large_strain_reference_of_a_steel_film_is_the_small_strain_one(spheres):
+    """A film with steel's constants strains by 0.5 %: large and small kinematics read one edge, within
+    what that strain's geometric stiffness moves the closing loads (0.02 %, 0.0002 mm of radius)."""
+    m = spheres[0.1]
+    small = m.solve(20e3, 210000.0, 0.3).contact_radius_mm
+    assert m.solve(20e3, 210000.0, 0.3, kinematics="large").contact_radius_mm == pytest.approx(small, abs=5e-4)
+    with pytest.raises(ValueError, match="kinematics"):
+        m.solve(20e3, 1000.0, 0.3, kinematics="finite")
+
+
+@pytest.mark.parametrize("sphere_radius_mm, force_kn, modulus_mpa, poisson", [
+    (250.0, 20.0, 1500.0, 0.30),   # through-thickness strain 0.1
+    (450.0, 100.0, 538.0, 0.33),   # MS's calibrated film: strain 0.49, the large-strain effect ~0.2 mm
+])
+def test_production_large_strain_fe_reads_the_second_formulations_edge(sphere_radius_mm, force_kn, modulus_mpa,
+                                                                         poisson):
+    """The production FE's large-strain film (bilinear, selective integration, first Piola-Kirchhoff
+    kernel, closing-load edge along its tangent) at its default mesh against the second formulation's
+    (biquadratic, full integration, second Piola-Kirchhoff kernel, closing loads by Newton on the force)
+    extrapolated to h -> 0: within 0.002 mm (the target is 0.005 mm); the film's nonlinearity itself
+    moves the edge by 0.1-0.2 mm, so the two kinematics are told apart."""
+    from filmcal.fem import ContactOptions, Film, get_model
+
+    R, F = sphere_radius_mm, force_kn * 1e3
+    zone = 6.0 if R < 300 else 11.0
+    a = [QuadraticSphereOnFlat(R, element_size_mm=h, contact_zone_mm=zone).solve(F, modulus_mpa, poisson,
+                                                                                  kinematics="large")
+         for h in (0.1, 0.05)]
+    reference = 2 * a[1].contact_radius_mm - a[0].contact_radius_mm
+    assert abs(a[1].contact_radius_mm - reference) < 0.003
+    production = get_model(R).solve(Film(modulus_mpa, poisson), F, ContactOptions(kinematics="large"))
+    assert production.contact_radius_mm == pytest.approx(reference, abs=0.002)
+    small = QuadraticSphereOnFlat(R, element_size_mm=0.05, contact_zone_mm=zone).solve(F, modulus_mpa, poisson)
+    assert small.contact_radius_mm - a[1].contact_radius_mm > 0.1

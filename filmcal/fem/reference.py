@@ -27,11 +27,14 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 from skfem import Basis, BilinearForm, ElementQuad2, ElementVector, FacetBasis, LinearForm, MeshQuad
 
 from filmcal._validation import check_poisson, check_positive, check_range
 from filmcal.elastic import lame_parameters
 from filmcal.fem.condense import condense, nested_dissection
+from filmcal.fem.neohookean import minimum_jacobian, neo_hookean_force_and_tangent
 from filmcal.fem.mesh import MeshSettings, default_contact_zone_mm, graded_coordinates
 from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, hertz_radius_mm
 
@@ -185,8 +188,9 @@ class QuadraticSphereOnFlat:
         self.setup_time_s = time.perf_counter() - t0
 
     # ------------------------------------------------------------------ lower body
-    def _lower(self, film_modulus_mpa: float | None, film_poisson: float):
-        """The flat (with the film tied on it) condensed onto its top z-DOFs."""
+    def _lower(self, film_modulus_mpa: float | None, film_poisson: float, radial_face: bool = False):
+        """The flat (with the film tied on it) condensed onto its top z-DOFs; with `radial_face` onto
+        its top r-DOFs off the axis, then its top z-DOFs."""
         r, d = self._r, self._depth
         nr, nd = len(r), len(d)
         t = self.film_thickness_mm
@@ -230,17 +234,27 @@ class QuadraticSphereOnFlat:
         face_z = grid[: 2 * self.n_zone - 1, 0] + 1
         if not np.allclose(b.doflocs[1, face_z], top) or not np.allclose(b.doflocs[0, face_z], self.r_face_mm):
             raise RuntimeError("the lower body's face DOFs do not match the sphere's")
-        return _condense_grid(K, grid, face_z, fixed, None), b.N
+        face = np.concatenate([face_z[1:] - 1, face_z]) if radial_face else face_z
+        return _condense_grid(K, grid, face, fixed, None), b.N
 
     # ------------------------------------------------------------------ the solve
-    def solve(self, force_n: float, film_modulus_mpa: float | None = None, film_poisson: float = 0.33
-              ) -> ReferenceResult:
-        """Press with force F (N); `film_modulus_mpa` None solves steel on steel."""
+    def solve(self, force_n: float, film_modulus_mpa: float | None = None, film_poisson: float = 0.33,
+              kinematics: str = "small") -> ReferenceResult:
+        """Press with force F (N); `film_modulus_mpa` None solves steel on steel.
+
+        ``kinematics='large'`` makes the film neo-Hookean (:mod:`filmcal.fem.neohookean`; the
+        steel bodies stay linear, as in the production model): Newton iterations at each
+        contact set, and the closing loads of the bracketing nodes found by Newton on the force.
+        """
         t0 = time.perf_counter()
         F = check_positive("force_n", force_n)
+        if kinematics not in ("small", "large"):
+            raise ValueError(f"kinematics must be 'small' or 'large', got {kinematics!r}")
         if film_modulus_mpa is not None:
             film_modulus_mpa = check_positive("film_modulus_mpa", film_modulus_mpa)
             film_poisson = check_poisson("film_poisson", film_poisson)
+            if kinematics == "large":
+                return self._solve_large(F, film_modulus_mpa, film_poisson, t0)
         # the lower body depends on the film and the mesh only, not on the sphere
         key = (self.element_size_mm, self.film_thickness_mm, self.film_layers, len(self._r), self.n_zone,
                float(self._r[-1]), film_modulus_mpa, film_poisson if film_modulus_mpa is not None else None)
@@ -314,6 +328,215 @@ class QuadraticSphereOnFlat:
                                time.perf_counter() - t0)
 
 
+    # ------------------------------------------------------------------ large-strain film
+    def _large_lower(self, film_modulus_mpa: float, film_poisson: float) -> "_NeoHookeanLower":
+        key = ("large", self.element_size_mm, self.film_thickness_mm, self.film_layers, len(self._r), self.n_zone,
+               float(self._r[-1]), film_modulus_mpa, film_poisson)
+        if key not in _LOWERS:
+            while len(_LOWERS) >= _LOWERS_KEPT:
+                _LOWERS.pop(next(iter(_LOWERS)))
+            flat, _ = self._lower(None, film_poisson, radial_face=True)
+            _LOWERS[key] = _NeoHookeanLower(self._r[: self.n_zone], self.r_face_mm, self.film_thickness_mm,
+                                            self.film_layers, self.element, flat.stiffness,
+                                            film_modulus_mpa, film_poisson)
+        return _LOWERS[key]
+
+    def _solve_large(self, F: float, film_modulus_mpa: float, film_poisson: float, t0: float) -> ReferenceResult:
+        """The large-strain film: the edge between the closing loads of two vertex nodes (see `solve`)."""
+        low = self._large_lower(film_modulus_mpa, film_poisson)
+        n = len(self.gap0_mm)
+        start = self.solve(F, film_modulus_mpa, film_poisson)  # the small-strain film's edge: where to start
+        j = int(np.searchsorted(self.r_face_mm[0::2], start.bracket_mm[0] + 1e-9)) - 1
+        k0 = int(np.searchsorted(start.r_mm, start.bracket_mm[1] + 1e-9))
+        state = _State(np.zeros(low.n_x), _face_mass(start.r_mm)[:k0] @ start.pressure_mpa, start.approach_mm)
+        closings: dict[int, tuple[float, _State]] = {}
+
+        def vertex_closing(v: int) -> float:
+            """The force at which vertex v closes with nodes 0..2v-1 closed."""
+            if v == 0:
+                return 0.0
+            if v not in closings:
+                near = min(closings, key=lambda u: abs(u - v)) if closings else None
+                seed = state if near is None else closings[near][1]
+                closings[v] = low.closing_force(self, 2 * v, F, seed)
+            return closings[v][0]
+
+        n_vertex = (n + 1) // 2
+        vertex_r = self.r_face_mm[0::2]
+        exponent, last = 1.0 / 3.0, None
+        for _ in range(8):  # jump towards the vertex whose closing load is F: a ~ F^k, k from the last two
+            if j == 0:
+                break
+            f_j = vertex_closing(j)
+            if last is not None and last[1] != f_j:
+                exponent = float(np.clip(np.log(vertex_r[j] / last[0]) / np.log(f_j / last[1]), 0.1, 1.0))
+            last = (vertex_r[j], f_j)
+            guess = vertex_r[j] * (F / f_j) ** exponent
+            jump = int(np.clip(np.argmin(np.abs(vertex_r - guess)), 1, n_vertex - 2))
+            if jump == j:
+                break
+            j = jump
+        while j > 0 and vertex_closing(j) > F:
+            j -= 1
+        while j + 1 < n_vertex - 1 and vertex_closing(j + 1) <= F:
+            j += 1
+        if j + 1 >= n_vertex - 1:
+            raise ValueError(f"the contact reaches the refined zone's edge at F = {F:g} N")
+        f_k, f_k1 = vertex_closing(j), vertex_closing(j + 1)
+        r0, r1 = self.r_face_mm[2 * j], self.r_face_mm[2 * j + 2]
+        s = (F - f_k) / (f_k1 - f_k)
+        a = float(np.cbrt(r0**3 + s * (r1**3 - r0**3)))
+        # the contact at F itself: nodes 0..2j closed, and the midside node after it if its gap is closed
+        seed = closings.get(j + 1, closings.get(j, (0.0, state)))[1]
+        at_f, gap = low.equilibrium(self, 2 * j + 1, F, seed)
+        if gap < 0.0:
+            at_f, _ = low.equilibrium(self, 2 * j + 2, F, at_f)
+        forces = np.zeros(n)
+        forces[: len(at_f.lam)] = at_f.lam
+        pressure = _nodal_pressure(self.r_face_mm, forces)
+        return ReferenceResult(a, hertz_radius_mm(self.sphere_radius_mm, F), float(at_f.w), float(pressure[0]),
+                               (float(r0), float(r1)), (float(f_k), float(f_k1)), self.element_size_mm,
+                               self.film_layers, int(self._n_dofs_sphere + low.n_dofs), self.r_face_mm.copy(),
+                               pressure, time.perf_counter() - t0)
+
+
+@dataclass
+class _State:
+    """Film DOFs, the pair forces of the closed nodes 0..m-1 (N) and the sphere's approach (mm)."""
+
+    x: np.ndarray
+    lam: np.ndarray
+    w: float
+
+
+class _NeoHookeanLower:
+    """A neo-Hookean film (biquadratic, its own mesh over the refined zone) tied to the linear flat,
+    whose top face is condensed to its stiffness `flat_stiffness` (r-DOFs off the axis, then z-DOFs)."""
+
+    def __init__(self, r_grid: np.ndarray, r_face: np.ndarray, thickness_mm: float, layers: int, element,
+                 flat_stiffness: np.ndarray, modulus_mpa: float, poisson: float) -> None:
+        self.modulus_mpa, self.poisson = modulus_mpa, poisson
+        z = np.linspace(0.0, thickness_mm, layers + 1)
+        idx = np.arange(len(r_grid) * len(z)).reshape(len(r_grid), len(z))
+        pts = np.vstack([np.repeat(r_grid, len(z)), np.tile(z, len(r_grid))])
+        self.basis = Basis(_quad_mesh(pts, _grid_cells(idx)), element, intorder=4)
+        loc = self.basis.doflocs
+        n_face = len(r_face)
+        comp = np.arange(self.basis.N) % 2
+
+        def face_dofs(height: float, component: int) -> np.ndarray:
+            dofs = np.flatnonzero(np.isclose(loc[1], height) & (comp == component))
+            dofs = dofs[np.argsort(loc[0, dofs])]
+            if len(dofs) != n_face or not np.allclose(loc[0, dofs], r_face):
+                raise RuntimeError("the film's face DOFs do not match the contact face")
+            return dofs
+
+        axis_r = np.flatnonzero(np.isclose(loc[0], 0.0) & (comp == 0))
+        self.free = np.setdiff1d(np.arange(self.basis.N), axis_r)
+        index = -np.ones(self.basis.N, int)
+        index[self.free] = np.arange(len(self.free))
+        self.n_x = len(self.free)
+        self.n_dofs = self.basis.N + len(flat_stiffness)  # the flat's face DOFs are the film's bottom ones
+        self.top_z = index[face_dofs(thickness_mm, 1)]
+        bottom = index[np.concatenate([face_dofs(0.0, 0)[1:], face_dofs(0.0, 1)])]
+        rows = np.repeat(bottom, len(bottom))
+        cols = np.tile(bottom, len(bottom))
+        self.flat = sp.csr_matrix((np.asarray(flat_stiffness).ravel(), (rows, cols)), shape=(self.n_x, self.n_x))
+
+    def force_and_tangent(self, x: np.ndarray) -> tuple[np.ndarray, sp.csr_matrix]:
+        u = np.zeros(self.basis.N)
+        u[self.free] = x
+        f, K = neo_hookean_force_and_tangent(self.basis, self.modulus_mpa, self.poisson, u)
+        return f[self.free] + self.flat @ x, K[self.free][:, self.free] + self.flat
+
+    def equilibrium(self, model: "QuadraticSphereOnFlat", m: int, force_n: float, seed: _State,
+                    closing: bool = False) -> tuple[_State, float]:
+        """Equilibrium with nodes 0..m-1 closed (gap 0, pair forces of either sign), by Newton from `seed`.
+
+        At the force `force_n`, returning the state and the gap of node m (mm); or with `closing`, at
+        the force where node m's gap closes too (the force an unknown of the same Newton iterations,
+        `force_n` its start), returning the state and that force (N). Where a step would invert a film
+        element it is halved; a load that Newton does not reach from the seed is approached in quarters.
+        """
+        try:
+            return self._newton(model, m, force_n, seed, closing)
+        except _NotConverged:
+            pass
+        mid = seed
+        for fraction in (0.25, 0.5, 0.75):
+            mid, _ = self._newton(model, m, fraction * force_n, mid, False)
+        return self._newton(model, m, force_n, mid, closing)
+
+    def _newton(self, model, m, force_n, seed, closing, max_iterations: int = 50):
+        C = model._sphere.compliance
+        d = model._sphere.load_displacement
+        g0 = model.gap0_mm
+        top = self.top_z
+        if m >= len(g0):
+            raise ValueError(f"the contact reaches the refined zone's edge at F = {force_n:g} N")
+        rows = np.arange(m + 1)  # the closed nodes and node m
+        x = seed.x.copy()
+        lam = np.zeros(m)
+        lam[: min(m, len(seed.lam))] = seed.lam[:m]
+        w, force = float(seed.w), float(force_n)
+        unit = np.zeros((self.n_x, m + 1))
+        unit[top[rows], rows] = 1.0
+        n_eq = m + 2 if closing else m + 1
+        for _ in range(max_iterations):
+            f, K = self.force_and_tangent(x)
+            f[top[:m]] += lam
+            lu = spla.splu(K.tocsc())
+            Y = lu.solve(unit)  # the film's response to a unit pair force at nodes 0..m
+            dx0 = -lu.solve(f)
+            gap = g0[rows] - w + force * d[rows] + C[np.ix_(rows, rows[:m])] @ lam - x[top[rows]]
+            # unknowns (dlam, dw[, dF]); equations: gaps of the closed nodes, force balance[, gap of node m]
+            M = np.zeros((n_eq, n_eq))
+            M[:m, :m] = C[:m, :m] + Y[top[:m], :m]
+            M[:m, m] = -1.0
+            M[m, :m] = 1.0
+            rhs = np.concatenate([-gap[:m] + dx0[top[:m]], [force - lam.sum()]])
+            if closing:
+                M[:m, m + 1] = d[:m]
+                M[m, m + 1] = -1.0
+                M[m + 1, :m] = C[m, :m] + Y[top[m], :m]
+                M[m + 1, m] = -1.0
+                M[m + 1, m + 1] = d[m]
+                rhs = np.concatenate([rhs, [-gap[m] + dx0[top[m]]]])
+            sol = np.linalg.solve(M, rhs)
+            dx = dx0 - Y[:, :m] @ sol[:m]
+            step = 1.0
+            while not _admissible(self.basis, self.free, x + step * dx):
+                step /= 2
+                if step < 1e-3:
+                    raise _NotConverged
+            x, lam, w = x + step * dx, lam + step * sol[:m], w + step * sol[m]
+            if closing:
+                force += step * sol[m + 1]
+            if step == 1.0 and np.max(np.abs(dx)) < 1e-11:
+                break
+        else:
+            raise _NotConverged
+        state = _State(x, lam, w)
+        if closing:
+            return state, force
+        return state, float(g0[m] - w + force * d[m] + C[m, :m] @ lam - x[top[m]])
+
+    def closing_force(self, model, m: int, force_n: float, seed: _State) -> tuple[float, _State]:
+        """The force at which node m closes with nodes 0..m-1 closed, and the equilibrium there."""
+        state, force = self.equilibrium(model, m, force_n, seed, closing=True)
+        return force, state
+
+
+class _NotConverged(Exception):
+    pass
+
+
+def _admissible(basis: Basis, free: np.ndarray, x: np.ndarray) -> bool:
+    u = np.zeros(basis.N)
+    u[free] = x
+    return bool(minimum_jacobian(basis, u) > 0.0)
+
+
 def _dof_grid_morphed(basis: Basis, r_grid: np.ndarray, depth_grid: np.ndarray, R: float, L: float) -> np.ndarray:
     """DOF-location grid of the sphere body, in (r, depth) with the face at depth 0."""
     comp0 = np.arange(0, basis.N, 2)
@@ -333,9 +556,9 @@ def _dof_grid_morphed(basis: Basis, r_grid: np.ndarray, depth_grid: np.ndarray, 
     return grid
 
 
-def _nodal_pressure(r: np.ndarray, forces: np.ndarray) -> np.ndarray:
-    """Nodal pressures p whose quadratic interpolation has the consistent nodal
-    forces `forces` on the face nodes at `r` (vertex, midside, ..., vertex)."""
+def _face_mass(r: np.ndarray) -> np.ndarray:
+    """Consistent nodal forces per nodal pressure of the quadratic interpolation on the face nodes at `r`
+    (vertex, midside, ..., vertex): forces = M p."""
     n = len(r)
     M = np.zeros((n, n))
     xg, wg = np.polynomial.legendre.leggauss(4)
@@ -346,7 +569,13 @@ def _nodal_pressure(r: np.ndarray, forces: np.ndarray) -> np.ndarray:
         rr = r0 + s * (r2 - r0)
         wt = 0.5 * wg * (r2 - r0) * 2.0 * np.pi * rr
         M[e:e + 3, e:e + 3] += (shape * wt) @ shape.T
-    return np.linalg.solve(M, forces)
+    return M
+
+
+def _nodal_pressure(r: np.ndarray, forces: np.ndarray) -> np.ndarray:
+    """Nodal pressures p whose quadratic interpolation has the consistent nodal
+    forces `forces` on the face nodes at `r` (vertex, midside, ..., vertex)."""
+    return np.linalg.solve(_face_mass(r), forces)
 
 
 def _condense_grid(K, grid: np.ndarray, face_z: np.ndarray, fixed: np.ndarray, load):
