@@ -51,15 +51,17 @@ def test_a_second_dataset_runs_no_fe_run_again(two_labs, capsys):
 
 def test_new_studies_share_the_users_cache_by_default(two_labs, capsys, monkeypatch):
     """Without --run-store a new study keeps its runs in the user's cache folder, so a second study of
-    another dataset runs no FE run again; FILMCAL_RUN_STORE=study keeps them in the study's own folder."""
+    another dataset runs no FE run again, and one with another FE setting reuses none;
+    FILMCAL_RUN_STORE=study keeps them in the study's own folder."""
     from filmcal.study.core import RUN_STORE_VARIABLE
 
     monkeypatch.delenv(RUN_STORE_VARIABLE)
     monkeypatch.setenv("XDG_CACHE_HOME", str(two_labs / "cache"))
     store = two_labs / "cache" / "filmcal" / "runs"
 
-    def calibrate(study: str, data: str) -> dict:
-        status = cli.main(["calibrate", "--data", str(two_labs / data), "--study-dir", str(two_labs / study), *SMALL])
+    def calibrate(study: str, data: str, *more: str) -> dict:
+        status = cli.main(["calibrate", "--data", str(two_labs / data), "--study-dir", str(two_labs / study), *SMALL,
+                           *more])
         assert status == 0, capsys.readouterr().err
         return json.loads((two_labs / study / "study.json").read_text())
 
@@ -73,6 +75,10 @@ def test_new_studies_share_the_users_cache_by_default(two_labs, capsys, monkeypa
         assert db.execute("select point_id, attempts, finished_at from runs order by point_id").fetchall() == runs
     assert first["run_store"] == second["run_store"] == str(store.resolve())
     assert not (two_labs / "first" / "runs").exists() and not (two_labs / "second" / "runs").exists()
+    calibrate("changed", "a.csv", "--kinematics", "large")  # another FE setting: not one run reused
+    (other,) = set(store.glob("runs-*.sqlite")) - {db_path}
+    with sqlite3.connect(other) as db:
+        assert db.execute("select count(*), sum(attempts) from runs where status = 'ok'").fetchone() == (32, 32)
     monkeypatch.setenv(RUN_STORE_VARIABLE, "study")
     own = calibrate("own", "a.csv")
     assert "run_store" not in own and len(list((two_labs / "own" / "runs").glob("runs-*.sqlite"))) == 1
