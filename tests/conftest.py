@@ -96,6 +96,7 @@ SLOW_TESTS: dict[str, str] = {
     "test_fem_film.py::test_flat_friction_lies_between_frictionless_and_tied": "5 s",
     "test_fuzz_files.py::test_ctrl_c_of_a_running_command_exits_130_with_one_line": "5 s: interrupts a process",
     "test_fuzz_options.py::test_property_any_non_number_is_refused_naming_the_option": "5 s: many examples",
+    "test_fuzz_options.py::test_option_cases_of_every_command_as_processes": "4-8 s: about 30 option cases in processes",
     "test_report.py::test_calibration_figures_name_parameters_as_an_engineer_reads_them": "8 s",
     "test_report.py::test_long_table_flows_over_pages_with_its_header_repeated": "7 s: a PDF",
     "test_report.py::test_report_of_a_non_study_exits_2": "6 s each: processes",

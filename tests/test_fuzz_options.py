@@ -8,7 +8,8 @@ option refuses a folder for a file, a file for a folder, a missing folder or a
 missing input. The commands' work functions are replaced by a sentinel, so a
 case that is not refused shows up as "work started" instead of running.
 Each case asserts: exit status 2, exactly one line on stderr that names the
-option, no traceback, nothing on stdout, no file written.
+option, no traceback, nothing on stdout, no file written. One case of each kind
+per command runs again as a user runs it, in a process without the sentinel.
 """
 from __future__ import annotations
 
@@ -317,6 +318,50 @@ def test_unwritable_or_odd_outputs(capsys, no_work, inputs, argv):
 
 
 # --- the command line as a whole ------------------------------------------------------
+
+def test_option_cases_of_every_command_as_processes(tmp_path):
+    """A non-finite number, a size below its bound and an unknown choice for every command that has them, as a
+    user runs it (``python -m filmcal.cli``: no sentinel, so a case that is not refused would start its work;
+    each in a process and an empty working folder of its own, four at a time): exit 2, one stderr line naming
+    the option, nothing on stdout, nothing written."""
+    import subprocess
+    import sys
+    from concurrent.futures import ThreadPoolExecutor
+
+    cases: dict[tuple, list] = {}
+    for kind, options in (("number", NUMBER_OPTIONS), ("bounded", BOUNDED_OPTIONS), ("choice", CHOICE_OPTIONS)):
+        for path, action in options:
+            if (path, kind) in cases:
+                continue
+            if kind == "number":
+                value = "nan"
+            elif kind == "bounded":
+                low = action.type.bounds[0]
+                value = repr(low - 1 if action.type.__name__ == "int" else low / 2 if low > 0 else low - 1)
+            else:
+                value = "bogus"
+            cases[(path, kind)] = [*path, f"{action.option_strings[-1]}={value}"]
+
+    def one(k: int, argv: list[str]) -> str | None:
+        where = tmp_path / f"case{k}"
+        where.mkdir()
+        try:
+            p = subprocess.run([sys.executable, "-m", "filmcal.cli", *argv], capture_output=True, text=True,
+                               stdin=subprocess.DEVNULL, timeout=60, cwd=where)
+        except subprocess.TimeoutExpired:
+            return f"{' '.join(argv)}: ran past 60 s instead of refusing its input"
+        lines = [line for line in p.stderr.splitlines() if line.strip()]
+        option = argv[-1].split("=", 1)[0]
+        if p.returncode != 2 or len(lines) != 1 or p.stdout or option not in lines[0]:
+            return f"{' '.join(argv)}: exit {p.returncode}, stderr {p.stderr.strip()[-300:]!r}, stdout {p.stdout[:100]!r}"
+        if files_under(where):
+            return f"{' '.join(argv)}: wrote {sorted(files_under(where))}"
+        return None
+
+    with ThreadPoolExecutor(4) as pool:
+        failures = [f for f in pool.map(lambda kc: one(*kc), enumerate(cases.values())) if f]
+    assert len({path for path, _ in cases}) >= 10 and not failures, "\n".join(failures[:20])
+
 
 def test_bare_filmcal_prints_one_line_on_stderr_and_exits_2(capsys):
     code, out, err = run(capsys, [])
