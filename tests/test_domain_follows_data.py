@@ -101,7 +101,7 @@ def test_a_lab_dataset_at_250_mm_is_calibrated_on_an_extended_design(tmp_path):
 def test_a_known_modulus_is_recovered_from_data_at_200_to_900_mm_and_10_to_150_kN(tmp_path):
     """Imprints made by the FE at E = 1800 MPa (HS's nu, edge reading) on spheres of 200-900 mm at 10-150 kN,
     far outside Table 1's 300-600 mm and 25-100 kN, calibrated through the command on the study's augmented
-    design: the known E lies inside the 90 % interval."""
+    design: the known E lies inside the 90 % interval and the median within 2 %."""
     from filmcal.fem import Film, solve_sphere_on_flat
     from filmcal.films import FilmType
 
@@ -125,4 +125,4 @@ def test_a_known_modulus_is_recovered_from_data_at_200_to_900_mm_and_10_to_150_k
     out = json.loads(p.stdout)
     lo, hi = out["modulus_mpa"]["ci90"]
     assert lo <= E_true <= hi, (lo, out["modulus_mpa"]["median"], hi)
-    assert abs(out["modulus_mpa"]["median"] / E_true - 1) < 0.1
+    assert abs(out["modulus_mpa"]["median"] / E_true - 1) < 0.02  # 1797.8 MPa [1773.9, 1822.1] on 27 Nov 2026
