@@ -92,6 +92,8 @@ def test_optional_columns_repeats_uncertainty_roughness_and_materials(tmp_path):
     ("film,sphere_radius_mm,measured_radius_mm\nHS,450,7\n", "line 1", "missing required column.*force_kn"),
     ("film,sphere_radius_mm,force_kn,measured_radius_mm,colour\nHS,450,75,7,red\n", "line 1",
      "unknown column.*'colour'"),
+    ("film,sphere_radius_mm,force_kn,measured_radius_mm,film_thickness_mm\nHS,450,75,7,0.1\n", "line 1",
+     "unknown column.*'film_thickness_mm'.*thickness_mm in a --films-file"),
     ("film,sphere_radius_mm,force_kn,measured_radius_mm,force_kn\nHS,450,75,7,75\n", "line 1",
      "more than once"),
     ("film,sphere_radius_mm,force_kn,measured_radius_mm\nHS,450,75,7\nHS,450,-75,7\n", "line 3, column force_kn",

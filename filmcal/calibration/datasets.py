@@ -219,7 +219,9 @@ def _parse(raw: bytes, name: str, source: str) -> Dataset:
         raise where.error(f"column(s) {', '.join(duplicated)} appear more than once", header_line)
     unknown = [h for h in header if h not in known]
     if unknown:
-        raise where.error(f"unknown column(s) {', '.join(map(repr, unknown))}; known: {', '.join(known)}",
+        hint = ("; a film's thickness is part of its definition: give thickness_mm in a --films-file, under a film "
+                "name of its own" if any("thickness" in h for h in unknown) else "")
+        raise where.error(f"unknown column(s) {', '.join(map(repr, unknown))}; known: {', '.join(known)}{hint}",
                           header_line)
     missing = [c for c in REQUIRED_COLUMNS if c not in header]
     if missing:
