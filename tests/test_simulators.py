@@ -208,6 +208,7 @@ def test_the_lab_example_runs_end_to_end(tmp_path):
         rows = list(csv.DictReader(line for line in fh if not line.startswith("#")))
     assert len(rows) == 4 and all(r["status"].startswith("ok") for r in rows)
     assert all(float(r["area_mm2"]) < float(r["measured_area_mm2"]) for r in rows)  # the film enlarges
+    assert len(list((tmp_path / "lab" / "runs").glob("runs-*.sqlite"))) == 1  # its --run-store: all in its folder
 
 
 def test_the_in_house_fe_as_an_external_command_gives_the_in_house_posterior(tmp_path):

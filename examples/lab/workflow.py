@@ -12,8 +12,9 @@ Usage (from the repository root, filmcal installed)::
     python examples/lab/workflow.py                 # 200 + 100 solver runs, a few minutes on 2 cores
     python examples/lab/workflow.py --fast          # 20 + 5 runs and short chains: a check that it runs
 
-Writes ``out/lab/`` (the study, the runs' folders, ``corrected.csv``); a second run reuses every finished
-solver run and the posterior.
+Writes ``out/lab/`` (the study, the solver runs' store and folders in ``runs/``, ``corrected.csv``); a second
+run reuses every finished solver run and the posterior. Without ``--run-store`` the runs would go to the user's
+cache, ``~/.cache/filmcal/runs``, shared by every study of the same solver and settings.
 """
 from __future__ import annotations
 
@@ -42,7 +43,8 @@ def main(argv: list[str] | None = None) -> int:
     calibrate = filmcal + ["calibrate", "--film", "LAB7", "--films-file", str(HERE / "films.toml"),
                            "--data", str(HERE / "lot.csv"), "--imprint-model", "activation", "--kinematics", "small",
                            "--simulator-command", command, "--template-file", str(HERE / "deck.inp.tmpl"),
-                           "--timeout-s", "600", "--study-dir", str(out / "study"), "--workers", args.workers,
+                           "--timeout-s", "600", "--study-dir", str(out / "study"), "--run-store", str(out / "runs"),
+                           "--workers", args.workers,
                            "--json", *sizes]
     print("1. calibrating LAB7 on the lab's data with the lab's solver ...", flush=True)
     result = json.loads(subprocess.run(calibrate, check=True, capture_output=True, text=True).stdout)
