@@ -4,7 +4,8 @@ A study folder holds::
 
     study.json                 the manifest: settings, dataset, films, and what every artefact was made from
     .lock                      held by the one process that writes the folder
-    runs/runs-<key>.sqlite     FE campaign stores (one per FE options and film set)
+    runs/runs-<key>.sqlite     FE campaign stores (one per FE options and film set), when the study keeps its
+                               own (FILMCAL_RUN_STORE=study, or made so before); else in its shared run store
     surrogates/<key>.npz|json  radius surrogates
     surrogates/<key>-validation.json
     chains/<key>.h5            emcee chains
