@@ -392,9 +392,10 @@ def run_guarded(argv: Sequence[str] | str, *, cwd: str | os.PathLike | None = No
     exited, its process group is killed, so such leftovers die with it; and
     on Linux so is every process that carries the run's mark in its
     environment (`RUN_MARK_VARIABLE`, set for the child and inherited): a
-    descendant that left the group (``setsid``, a daemon) dies too. Only one
-    that also dropped its environment (``env -i``) escapes; it does not delay
-    the run either.
+    descendant that left the group (``setsid``, a daemon) dies too. One
+    started without the mark escapes (``env -u FILMCAL_RUN_MARK`` for a
+    helper meant to outlive the run; ``env -i``); it does not delay the run
+    either.
 
     Only the last `OUTPUT_CAP_BYTES` bytes of each stream are read back, so
     a command that writes gigabytes costs disk space in the temporary
@@ -406,7 +407,9 @@ def run_guarded(argv: Sequence[str] | str, *, cwd: str | os.PathLike | None = No
     timeout_s = _check_timeout(timeout_s)
     cap = int(OUTPUT_CAP_BYTES)
     mark = os.urandom(12).hex()
-    env = dict(os.environ if env is None else env, **{RUN_MARK_VARIABLE: mark})
+    env = dict(os.environ if env is None else env)
+    # added to the marks of any run this one is part of (filmcal inside a guarded command), not in their place
+    env[RUN_MARK_VARIABLE] = ":".join(filter(None, (env.get(RUN_MARK_VARIABLE, ""), mark)))
     in_worker = _worker_parent_pid is not None and threading.current_thread() is threading.main_thread()
     start = time.perf_counter()
     if in_worker:
@@ -530,8 +533,10 @@ def _killpg(group: int) -> None:
         pass
 
 
-#: Environment variable that marks every process a `run_guarded` command starts (its value is one run's
-#: random mark): descendants inherit it, also those that leave the process group.
+#: Environment variable that marks every process a `run_guarded` command starts (its value: the random marks of
+#: the runs it is part of, joined by ``:``): descendants inherit it, also those that leave the process group. A
+#: helper that is meant to outlive the run (a licence or compile server the command starts) is started without
+#: it: ``env -u FILMCAL_RUN_MARK server &``.
 RUN_MARK_VARIABLE = "FILMCAL_RUN_MARK"
 
 
@@ -539,12 +544,14 @@ def _kill_marked(mark: str) -> int:
     """SIGKILL every process of this user whose environment carries `mark` (Linux: ``/proc``); their number.
 
     Finds what a command left running outside its process group (``setsid``, a double-forked daemon),
-    as long as it kept the environment it was started with. Repeats until a pass finds none, so that
-    a process forked during the pass is caught by the next.
+    as long as it kept the environment it was started with: not one started with an emptied environment
+    (``env -i``, some privilege-changing launchers) or one that rewrote its environment area. Repeats until a
+    pass finds none, so that a process forked during the pass is caught by the next.
     """
     if not os.path.isdir("/proc"):
         return 0
-    needle = f"{RUN_MARK_VARIABLE}={mark}".encode()
+    prefix = f"{RUN_MARK_VARIABLE}=".encode()
+    wanted = mark.encode()
     killed = 0
     for _ in range(5):
         found = 0
@@ -556,7 +563,7 @@ def _kill_marked(mark: str) -> int:
                     environ = fh.read()
             except OSError:  # gone, or another user's
                 continue
-            if needle in environ.split(b"\0"):
+            if any(v.startswith(prefix) and wanted in v[len(prefix):].split(b":") for v in environ.split(b"\0")):
                 try:
                     os.kill(int(entry.name), signal.SIGKILL)
                     found += 1

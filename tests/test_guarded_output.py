@@ -66,6 +66,7 @@ def escaper(tmp_path):
                    "while [ ! -s escaped.pid ]; do sleep 0.01; done; echo done")
         start = time.monotonic()
         result = run_guarded(command, shell=True, cwd=tmp_path, timeout_s=10)
+        assert not result.timed_out, result.stderr  # the grandchild never wrote its pid
         return result, time.monotonic() - start, int(pid_file.read_text())
 
     yield run
@@ -85,12 +86,23 @@ def test_a_grandchild_that_left_the_group_neither_holds_up_the_run_nor_outlives_
         assert wait_dead(escaped)
 
 
-def test_a_grandchild_with_an_emptied_environment_escapes_but_does_not_hold_up_the_run(escaper):
-    """The documented limit: a process started with ``env -i`` carries no mark."""
-    run, seconds, escaped = escaper("env -i")
+@pytest.mark.parametrize("launcher", ["env -i", "env -u FILMCAL_RUN_MARK"])
+def test_a_grandchild_started_without_the_mark_outlives_the_run_but_does_not_hold_it_up(escaper, launcher):
+    """The documented way out for a helper meant to outlive the run (and the limit: ``env -i``)."""
+    run, seconds, escaped = escaper(launcher)
     assert seconds < 8.0
     assert (run.returncode, run.stdout) == (0, "done\n")
-    assert pid_alive(escaped)  # nothing marked it
+    if sys.platform.startswith("linux"):  # pid_alive reads /proc
+        assert pid_alive(escaped)  # nothing marked it
+
+
+def test_a_run_inside_a_run_keeps_the_outer_runs_mark(tmp_path, monkeypatch):
+    """filmcal inside a guarded command: the inner command's processes carry both marks, so the outer sweep
+    reaches them too."""
+    monkeypatch.setenv(parallel.RUN_MARK_VARIABLE, "outer")
+    run = run_guarded([sys.executable, "-c", f"import os; print(os.environ['{parallel.RUN_MARK_VARIABLE}'])"])
+    outer, inner = run.stdout.strip().split(":")
+    assert outer == "outer" and len(inner) == 24
 
 
 def test_a_cancelled_task_still_stops_its_command(tmp_path):
@@ -149,3 +161,20 @@ def test_a_model_failure_names_the_size_when_called_directly(tmp_path, monkeypat
     model = CommandModel(f"{sys.executable} -c \"print('x' * (3 * 2**20))\"", tmp_path / "work")
     with pytest.raises(ModelFailure, match=r"wrote 3 MiB on stdout, more than the 1 MiB filmcal reads"):
         model({"x": 1.0}, point_id="p1")
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="the sweep reads /proc")
+def test_the_sweep_kills_a_process_that_carries_the_mark_among_others_and_no_other():
+    import subprocess
+
+    env = dict(os.environ, **{parallel.RUN_MARK_VARIABLE: "outer:inner"})
+    marked = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"], env=env)
+    try:
+        time.sleep(0.2)
+        assert parallel._kill_marked("other") == 0 and parallel._kill_marked("inn") == 0
+        assert marked.poll() is None
+        assert parallel._kill_marked("outer") >= 1
+        assert marked.wait(timeout=5) == -signal.SIGKILL
+    finally:
+        marked.kill()
+        marked.wait()

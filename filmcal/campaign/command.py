@@ -28,8 +28,9 @@ the command's stderr. stdout and stderr are kept in the folder as
 The run ends when the command's own process exits: a background process it
 leaves behind is killed then, also one that left the process group with
 ``setsid`` (on Linux: every process started with the run's mark,
-``FILMCAL_RUN_MARK``, in its environment; only one started with an emptied
-environment escapes, without holding up the campaign). filmcal reads
+``FILMCAL_RUN_MARK``, in its environment; a helper meant to outlive the run,
+such as a licence server, is started without it: ``env -u FILMCAL_RUN_MARK
+server &``; one that escapes does not hold up the campaign). filmcal reads
 only the last 16 MiB (`filmcal._parallel.OUTPUT_CAP_BYTES`) of stdout and of
 stderr: of a longer stream, ``stdout.txt`` or ``stderr.txt`` holds that end,
 after a first line that gives the size written. A command that prints more
