@@ -154,6 +154,29 @@ def test_large_strain_reference_of_a_steel_film_is_the_small_strain_one(spheres)
         m.solve(20e3, 1000.0, 0.3, kinematics="finite")
 
 
+def test_large_strain_reference_reaches_a_load_newton_misses_in_quarters(spheres, monkeypatch):
+    """Where Newton from the seed fails at the full load, the load is approached in quarters: same edge."""
+    from filmcal.fem import reference
+
+    m = spheres[0.1]
+    direct = m.solve(20e3, 1500.0, 0.3, kinematics="large")
+    newton = reference._NeoHookeanLower._newton
+    calls = []
+
+    def failing_first(self, model, m_closed, force_n, seed, closing, max_iterations=50):
+        calls.append(force_n)
+        if len(calls) == 1:
+            raise reference._NotConverged
+        return newton(self, model, m_closed, force_n, seed, closing, max_iterations)
+
+    monkeypatch.setattr(reference._NeoHookeanLower, "_newton", failing_first)
+    reference._LOWERS.clear()
+    stepped = m.solve(20e3, 1500.0, 0.3, kinematics="large")
+    assert calls[1:4] == pytest.approx([0.25 * calls[0], 0.5 * calls[0], 0.75 * calls[0]])
+    assert stepped.contact_radius_mm == pytest.approx(direct.contact_radius_mm, abs=1e-9)
+    assert stepped.n_dofs == direct.n_dofs == m.solve(20e3, 1500.0, 0.3).n_dofs  # one mesh, counted alike
+
+
 @pytest.mark.parametrize("sphere_radius_mm, force_kn, modulus_mpa, poisson", [
     (250.0, 20.0, 1500.0, 0.30),   # through-thickness strain 0.1
     (450.0, 100.0, 538.0, 0.33),   # MS's calibrated film: strain 0.49, the large-strain effect ~0.2 mm

@@ -335,9 +335,9 @@ class QuadraticSphereOnFlat:
         if key not in _LOWERS:
             while len(_LOWERS) >= _LOWERS_KEPT:
                 _LOWERS.pop(next(iter(_LOWERS)))
-            flat, _ = self._lower(None, film_poisson, radial_face=True)
+            flat, n_flat = self._lower(None, film_poisson, radial_face=True)
             _LOWERS[key] = _NeoHookeanLower(self._r[: self.n_zone], self.r_face_mm, self.film_thickness_mm,
-                                            self.film_layers, self.element, flat.stiffness,
+                                            self.film_layers, self.element, flat.stiffness, n_flat,
                                             film_modulus_mpa, film_poisson)
         return _LOWERS[key]
 
@@ -391,6 +391,8 @@ class QuadraticSphereOnFlat:
         at_f, gap = low.equilibrium(self, 2 * j + 1, F, seed)
         if gap < 0.0:
             at_f, _ = low.equilibrium(self, 2 * j + 2, F, at_f)
+        if at_f.lam.min() < -1e-9 * F:
+            raise RuntimeError("the closed set has a tensile pair force: the contact set is not contiguous")
         forces = np.zeros(n)
         forces[: len(at_f.lam)] = at_f.lam
         pressure = _nodal_pressure(self.r_face_mm, forces)
@@ -410,11 +412,11 @@ class _State:
 
 
 class _NeoHookeanLower:
-    """A neo-Hookean film (biquadratic, its own mesh over the refined zone) tied to the linear flat,
-    whose top face is condensed to its stiffness `flat_stiffness` (r-DOFs off the axis, then z-DOFs)."""
+    """A neo-Hookean film (biquadratic, its own mesh over the refined zone) tied to the linear flat (`flat_dofs`
+    DOFs), whose top face is condensed to its stiffness `flat_stiffness` (r-DOFs off the axis, then z-DOFs)."""
 
     def __init__(self, r_grid: np.ndarray, r_face: np.ndarray, thickness_mm: float, layers: int, element,
-                 flat_stiffness: np.ndarray, modulus_mpa: float, poisson: float) -> None:
+                 flat_stiffness: np.ndarray, flat_dofs: int, modulus_mpa: float, poisson: float) -> None:
         self.modulus_mpa, self.poisson = modulus_mpa, poisson
         z = np.linspace(0.0, thickness_mm, layers + 1)
         idx = np.arange(len(r_grid) * len(z)).reshape(len(r_grid), len(z))
@@ -436,7 +438,8 @@ class _NeoHookeanLower:
         index = -np.ones(self.basis.N, int)
         index[self.free] = np.arange(len(self.free))
         self.n_x = len(self.free)
-        self.n_dofs = self.basis.N + len(flat_stiffness)  # the flat's face DOFs are the film's bottom ones
+        # the film's bottom DOFs are the flat's face DOFs (its r-DOF on the axis too, fixed in both)
+        self.n_dofs = self.basis.N + flat_dofs - len(flat_stiffness) - 1
         self.top_z = index[face_dofs(thickness_mm, 1)]
         bottom = index[np.concatenate([face_dofs(0.0, 0)[1:], face_dofs(0.0, 1)])]
         rows = np.repeat(bottom, len(bottom))
@@ -463,9 +466,13 @@ class _NeoHookeanLower:
         except _NotConverged:
             pass
         mid = seed
-        for fraction in (0.25, 0.5, 0.75):
-            mid, _ = self._newton(model, m, fraction * force_n, mid, False)
-        return self._newton(model, m, force_n, mid, closing)
+        try:
+            for fraction in (0.25, 0.5, 0.75):
+                mid, _ = self._newton(model, m, fraction * force_n, mid, False)
+            return self._newton(model, m, force_n, mid, closing)
+        except _NotConverged:
+            raise RuntimeError(f"the large-strain film's Newton iterations did not converge at {force_n:g} N "
+                               f"with {m} nodes closed") from None
 
     def _newton(self, model, m, force_n, seed, closing, max_iterations: int = 50):
         C = model._sphere.compliance
