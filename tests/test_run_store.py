@@ -84,6 +84,30 @@ def test_new_studies_share_the_users_cache_by_default(two_labs, capsys, monkeypa
     assert "run_store" not in own and len(list((two_labs / "own" / "runs").glob("runs-*.sqlite"))) == 1
 
 
+def test_a_study_whose_store_is_out_of_reach_says_so_and_accepts_its_runs_computed_again(two_labs, capsys,
+                                                                                         monkeypatch):
+    """A colleague's copy of a study records a store it cannot use: one line says how to give another; there its
+    runs are computed again and recognised as the ones the study used (timing aside), so the refit goes on."""
+    from filmcal.study.core import RUN_STORE_VARIABLE
+
+    monkeypatch.setenv(RUN_STORE_VARIABLE, str(two_labs / "theirs"))
+    base = ["calibrate", "--data", str(two_labs / "a.csv"), "--study-dir", str(two_labs / "copy"), *SMALL]
+    assert cli.main(base) == 0, capsys.readouterr().err
+    capsys.readouterr()
+    shutil.rmtree(two_labs / "theirs")
+    (two_labs / "theirs").write_text("not a folder\n")  # out of reach
+    shutil.rmtree(two_labs / "copy" / "surrogates")  # the refit reads the runs
+    assert cli.main(base) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(err) == 1 and "run store" in err[0] and "--run-store" in err[0], err
+    assert cli.main([*base, "--run-store", str(two_labs / "mine"), "--json"]) == 0, capsys.readouterr().err
+    out = json.loads(capsys.readouterr().out)
+    (store,) = (two_labs / "mine").glob("runs-*.sqlite")
+    with sqlite3.connect(store) as db:
+        assert db.execute("select count(*) from runs where status = 'ok'").fetchone() == (32,)
+    assert out["modulus_mpa"]["median"] > 0
+
+
 def test_a_study_refuses_runs_changed_in_the_shared_store(two_labs, capsys):
     assert _calibrate(two_labs, "first", "a.csv", capsys) == 0
     (store,) = (two_labs / "store").glob("runs-*.sqlite")

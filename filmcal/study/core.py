@@ -45,6 +45,10 @@ __all__ = ["Study", "FESettings", "CalibrationSpec", "IMPRINT_MODELS", "KINEMATI
 #: may run; the runs it finishes are then reused.
 SHARED_STORE_WAIT_S = 24 * 3600.0
 
+#: Numeric outputs of a run that are no result of it (timing): left out of the content hash a study records of
+#: the runs it used, so that runs computed again elsewhere are recognised as the same.
+RUN_BOOKKEEPING_OUTPUTS = frozenset({"elapsed_s"})
+
 #: Environment variable that sets the run store of new studies given none: a folder, or ``study`` for each
 #: study's own ``runs/`` folder.
 RUN_STORE_VARIABLE = "FILMCAL_RUN_STORE"
@@ -412,7 +416,13 @@ class Study:
                 p["body_modulus_mpa"], p["body_poisson"] = fe.body_modulus_mpa, fe.body_poisson
         store_spec = self._store_spec(fe)
         store = self.runs_store(spec_key(store_spec))
-        store.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            store.parent.mkdir(parents=True, exist_ok=True)
+            if not os.access(store.parent, os.W_OK):
+                raise PermissionError("not writable")
+        except OSError as exc:  # e.g. a colleague's study whose store lies in their home
+            raise InputError(f"the study's run store {store.parent} cannot be used ({exc.strerror or exc}): give "
+                             f"--run-store DIR (or set {RUN_STORE_VARIABLE}) to keep its FE runs elsewhere") from None
         if fe.simulator is not None:
             from filmcal.fem import imprint_columns
 
@@ -467,21 +477,28 @@ class Study:
         """
         import hashlib
 
-        digest = hashlib.sha256(canonical_json({
-            "X": {k: v.tolist() for k, v in sorted(X.items())},
-            "Y": {k: [None if not np.isfinite(x) else float(x) for x in v] for k, v in sorted(Y.items())}}
-        ).encode()).hexdigest()
+        def digest(columns) -> str:
+            return hashlib.sha256(canonical_json({
+                "X": {k: v.tolist() for k, v in sorted(X.items())},
+                "Y": {k: [None if not np.isfinite(x) else float(x) for x in Y[k]] for k in sorted(columns)}}
+            ).encode()).hexdigest()
+
+        # the results, not the bookkeeping: runs computed again (a deleted cache, another store) read the same
+        results = digest([c for c in Y if c not in RUN_BOOKKEEPING_OUTPUTS])
         key = spec_key({"store": self._store_spec(fe), "n_train": fe.n_train, "n_test": fe.n_test, "seed": fe.seed,
                         "domain": fe.as_spec().get("domain"), "base_domain": fe.as_spec().get("base_domain")})
         used = self.manifest.data.setdefault("fe_runs", {})
         entry = used.get(key)
-        if entry is not None and entry["sha256"] != digest:
-            raise UntrustedArtefactError(
-                f"the FE runs read from {store} differ from those this study used (SHA-256 of their inputs and "
-                f"outputs {digest[:12]}..., recorded {entry['sha256'][:12]}... from {entry['store']}): the store "
-                "was changed or replaced; give the study its own store back, or use a new --study-dir")
-        if entry is None or entry["store"] != str(store):
-            used[key] = {"store": str(store), "sha256": digest, "n_runs": int(next(iter(X.values())).size)}
+        if entry is not None:  # recorded by this version (results only) or before it (every output column)
+            recorded, found = ((entry["results_sha256"], results) if "results_sha256" in entry
+                               else (entry["sha256"], digest(Y)))
+            if found != recorded:
+                raise UntrustedArtefactError(
+                    f"the FE runs read from {store} differ from those this study used (SHA-256 of their inputs and "
+                    f"outputs {found[:12]}..., recorded {recorded[:12]}... from {entry['store']}): the store "
+                    "was changed or replaced; give the study its own store back, or use a new --study-dir")
+        if entry is None or entry["store"] != str(store) or "results_sha256" not in entry:
+            used[key] = {"store": str(store), "results_sha256": results, "n_runs": int(next(iter(X.values())).size)}
             self.manifest.write()
 
     def radius_model(self, fe: FESettings, column: str, workers: int | Executor | None = None, progress=None):
