@@ -14,8 +14,14 @@ at the sphere and tied to the flat) but none of its formulation:
   the next node's gap closes is exact, and the radius at the given force is
   interpolated between the two nodes whose closing loads bracket it
   (a^3 linear in F, exact for Hertz). No pressure profile is fitted.
+- with ``kinematics='large'`` the film is neo-Hookean (`filmcal.fem.neohookean`,
+  written independently of the production kernel): the film keeps its own
+  mesh, tied to the flat condensed onto its top face, Newton iterations run
+  at each contact set, and the closing loads are found by Newton with the
+  force among the unknowns.
 
-It is slower than `SphereOnFlat` (seconds per film instead of milliseconds)
+It is slower than `SphereOnFlat` (seconds per film instead of milliseconds;
+10-80 s for a large-strain film at h = 0.05 mm)
 and is not used by the calibration: `bench/verification.py` and the tests run
 the production model against it.
 """
