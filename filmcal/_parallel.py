@@ -540,38 +540,80 @@ def _killpg(group: int) -> None:
 RUN_MARK_VARIABLE = "FILMCAL_RUN_MARK"
 
 
-def _kill_marked(mark: str) -> int:
+def _process_state(entry: os.DirEntry) -> str | None:
+    """The state letter of this user's process ``/proc/<pid>`` (`entry`); None for another user's or a gone one.
+
+    Neither read blocks: the owner is the directory's, the state is read from ``stat``, which takes no lock of
+    the process.
+    """
+    try:
+        if entry.stat().st_uid != os.getuid():
+            return None
+        with open(f"/proc/{entry.name}/stat", "rb") as fh:
+            stat = fh.read()
+    except OSError:  # gone
+        return None
+    close = stat.rfind(b")")  # the process's name, in parentheses, may hold anything
+    return stat[close + 2:close + 3].decode("ascii", "replace")
+
+
+def _kill_marked(mark: str, asleep_wait_s: float = 1.0) -> int:
     """SIGKILL every process of this user whose environment carries `mark` (Linux: ``/proc``); their number.
 
     Finds what a command left running outside its process group (``setsid``, a double-forked daemon),
     as long as it kept the environment it was started with: not one started with an emptied environment
     (``env -i``, some privilege-changing launchers) or one that rewrote its environment area. Repeats until a
     pass finds none, so that a process forked during the pass is caught by the next.
+
+    A process in uninterruptible sleep (state ``D``) is not read at once: reading another process's
+    environment takes its memory map's lock, which such a process may hold, and the read would wait as long
+    as it sleeps. It is looked at again every 0.1 s for up to `asleep_wait_s`; one still asleep then is
+    left alone (it cannot be killed while it sleeps either).
     """
     if not os.path.isdir("/proc"):
         return 0
     prefix = f"{RUN_MARK_VARIABLE}=".encode()
     wanted = mark.encode()
+
+    def kill_if_marked(entry: os.DirEntry) -> int:
+        try:
+            with open(f"/proc/{entry.name}/environ", "rb") as fh:
+                environ = fh.read()
+        except OSError:  # gone
+            return 0
+        if any(v.startswith(prefix) and wanted in v[len(prefix):].split(b":") for v in environ.split(b"\0")):
+            try:
+                os.kill(int(entry.name), signal.SIGKILL)
+                return 1
+            except OSError:
+                pass
+        return 0
+
     killed = 0
+    asleep: dict[str, os.DirEntry] = {}
     for _ in range(5):
         found = 0
         for entry in os.scandir("/proc"):
             if not entry.name.isdigit() or int(entry.name) == os.getpid():
                 continue
-            try:
-                with open(f"/proc/{entry.name}/environ", "rb") as fh:
-                    environ = fh.read()
-            except OSError:  # gone, or another user's
-                continue
-            if any(v.startswith(prefix) and wanted in v[len(prefix):].split(b":") for v in environ.split(b"\0")):
-                try:
-                    os.kill(int(entry.name), signal.SIGKILL)
-                    found += 1
-                except OSError:
-                    pass
+            state = _process_state(entry)
+            if state == "D":
+                asleep[entry.name] = entry
+            elif state is not None:
+                asleep.pop(entry.name, None)
+                found += kill_if_marked(entry)
         killed += found
         if not found:
             break
+    deadline = time.monotonic() + asleep_wait_s
+    while asleep and time.monotonic() < deadline:
+        time.sleep(0.1)
+        for name, entry in list(asleep.items()):
+            state = _process_state(entry)
+            if state != "D":
+                del asleep[name]
+                if state is not None:
+                    killed += kill_if_marked(entry)
     return killed
 
 

@@ -178,3 +178,39 @@ def test_the_sweep_kills_a_process_that_carries_the_mark_among_others_and_no_oth
     finally:
         marked.kill()
         marked.wait()
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="the sweep reads /proc")
+def test_the_sweep_reads_no_process_in_uninterruptible_sleep_and_kills_it_when_it_wakes(monkeypatch):
+    """Reading a process's environment waits for its memory map's lock, which a process in state D may hold:
+    the sweep must not read one while it is asleep (here its state is faked), and kills it once it wakes."""
+    import builtins
+    import subprocess
+
+    env = dict(os.environ, **{parallel.RUN_MARK_VARIABLE: "sleeper"})
+    marked = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"], env=env)
+    pid = str(marked.pid)
+    wakes_at = time.monotonic() + 0.35
+    real_state, real_open, reads_asleep = parallel._process_state, builtins.open, []
+
+    def state(entry):
+        return "D" if entry.name == pid and time.monotonic() < wakes_at else real_state(entry)
+
+    def watched_open(path, *args, **kwargs):
+        if str(path) == f"/proc/{pid}/environ" and time.monotonic() < wakes_at:
+            reads_asleep.append(path)
+        return real_open(path, *args, **kwargs)
+
+    monkeypatch.setattr(parallel, "_process_state", state)
+    monkeypatch.setattr(builtins, "open", watched_open)
+    try:
+        time.sleep(0.2)
+        assert parallel._kill_marked("sleeper", asleep_wait_s=0.0) == 0  # asleep past the wait: left alone
+        assert marked.poll() is None
+        wakes_at = time.monotonic() + 0.35
+        assert parallel._kill_marked("sleeper", asleep_wait_s=2.0) == 1
+        assert marked.wait(timeout=5) == -signal.SIGKILL
+        assert reads_asleep == []
+    finally:
+        marked.kill()
+        marked.wait()
