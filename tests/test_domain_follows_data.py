@@ -8,8 +8,15 @@ import sys
 import numpy as np
 import pytest
 
-from filmcal.hertz import hertz_max_pressure_mpa
-from filmcal.surrogate.radius import ELASTIC_LIMIT_MPA, SurrogateDomain, check_supported
+from filmcal.hertz import hertz_max_pressure_mpa, hertz_radius_mm
+from filmcal.surrogate.radius import (
+    ELASTIC_LIMIT_MPA,
+    MAX_CONTACT_RADIUS_MM,
+    SUPPORTED_FORCE_KN,
+    SUPPORTED_RADIUS_MM,
+    SurrogateDomain,
+    check_supported,
+)
 
 
 def test_a_dataset_inside_the_domain_keeps_it_and_one_outside_extends_it():
@@ -50,9 +57,12 @@ def test_cases_outside_the_supported_domain_are_refused_with_what_to_change():
     assert hertz_max_pressure_mpa(300.0, 100e3) > ELASTIC_LIMIT_MPA > hertz_max_pressure_mpa(300.0, 50e3)
     with pytest.raises(ValueError, match="elastic limit"):
         check_supported([300.0], [100.0])
-    with pytest.raises(ValueError, match="too large for the modelled 50 mm bodies"):
-        check_supported([20000.0], [100.0])
+    for radius, force in ((20000.0, 100.0), (140.0, 10.0), (450.0, 9.0), (1200.0, 151.0)):
+        with pytest.raises(ValueError, match="outside the supported spheres of 150-1500 mm and forces of 10-150 kN"):
+            check_supported([radius], [force])
     check_supported([1200.0], [150.0])  # R 1200 mm is extended, not refused
+    # the supported box keeps every contact within the modelled 50 mm bodies (Hertz radius, a closed form)
+    assert hertz_radius_mm(SUPPORTED_RADIUS_MM[1], 1e3 * SUPPORTED_FORCE_KN[1]) < MAX_CONTACT_RADIUS_MM
 
 
 def test_the_command_refuses_an_unsupported_dataset_before_any_fe_work(tmp_path):

@@ -51,6 +51,10 @@ def test_shipped_fit_was_checked_on_held_out_points_and_says_how_it_was_made():
         assert row["n"] >= 30 * 3  # 30 or more points for each of MS, HS, HHS
         assert abs(row["mean_mm"]) < 0.002 and fit.std_mm[key] >= row["rms_mm"]
         assert fit.std_mm[key] < 0.006
+    # held out over Table 1's region and over the whole supported domain (spheres of 150-1500 mm), each
+    for part in ("held_out_core", "held_out_whole"):
+        for key, row in fit.provenance[part].items():
+            assert row["n"] >= 30 * 3 and abs(row["mean_mm"]) < 0.002 and row["rms_mm"] <= fit.std_mm[key]
     assert {"made", "software", "design"} <= set(fit.provenance)
     assert fit.domain == TRANSFER_DOMAIN
 
@@ -85,7 +89,8 @@ def test_the_stored_residual_process_predicts_what_scikit_learn_predicts(tmp_pat
     Xn = rng.uniform(-1.0, 1.0, size=(20, len(FEATURES)))  # inside the training points
     Z, Zn = X[:, list(GP_INPUTS)], Xn[:, list(GP_INPUTS)]
     center, scale = Z.mean(axis=0), Z.std(axis=0)
-    kernel = ConstantKernel(1.0, (1e-3, 1e3)) * RBF(np.ones(3), (1e-2, 1e2)) + WhiteKernel(1e-2, (1e-6, 1.0))
+    kernel = ConstantKernel(1.0, (1e-3, 1e3)) * RBF(np.ones(len(GP_INPUTS)), (1e-2, 1e2)) \
+        + WhiteKernel(1e-2, (1e-6, 1.0))
     ref = GaussianProcessRegressor(kernel, normalize_y=True, n_restarts_optimizer=3, random_state=0)
     ref.fit((Z - center) / scale, y)
     assert back.predict(Xn) == pytest.approx(ref.predict((Zn - center) / scale), abs=1e-9)
@@ -104,8 +109,10 @@ def test_the_shipped_fit_carries_a_residual_process_for_the_level_readings():
     assert set(fit.residual_gp) == {f"{i}/{k}" for i in ("activation", "capsule") for k in ("small", "large")}
 
 
-#: (E MPa, nu, R mm, F kN): corners and interior points of the domain, in neither of the fit's designs.
-FRESH = np.array([[450.0, 0.44, 260.0, 22.0], [19000.0, 0.26, 590.0, 105.0], [2900.0, 0.33, 420.0, 64.0]])
+#: (E MPa, nu, R mm, F kN): corners and interior points of Table 1's region and points of the whole supported
+#: domain beyond it (a large sphere at a low force, a small one near the elastic limit), in none of the fit's designs.
+FRESH = np.array([[450.0, 0.44, 260.0, 22.0], [19000.0, 0.26, 590.0, 105.0], [2900.0, 0.33, 420.0, 64.0],
+                  [1200.0, 0.30, 1300.0, 30.0], [6000.0, 0.40, 170.0, 12.0]])
 
 
 @pytest.fixture(scope="module")

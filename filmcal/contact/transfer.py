@@ -14,8 +14,8 @@ the difference is measured and carried instead:
 (radius on sphere-on-flat, both models at equal film parameters, each read by
 the same imprint model), fitted in the film's own dimensionless groups
 
-    d / t = b . [1, nu, nu^2, x, x^2, nu x, y, nu y, y^2, c, c x, c y],
-    x = ln(l / a),  l = E* t / M,  y = ln(p_level / p_max),  c = ln(1 - 2 nu)
+    d / t = b . [1, nu, nu^2, x, x^2, nu x, y, nu y, y^2, c, c x, c y, z],
+    x = ln(l / a),  l = E* t / M,  y = ln(p_level / p_max),  c = ln(1 - 2 nu),  z = ln(t / a)
 
 (t the film thickness, M its oedometric modulus, E* the steel pair's contact
 modulus, a the application's equivalent radius of the recorded imprint,
@@ -23,12 +23,15 @@ p_max its peak pressure, p_level the film's activation pressure; the edge
 model has no y). c is the film's compressibility: the continuum film's edge
 zone scales with 1 - 2 nu (`filmcal.contact.reading.film_tip_length_mm`),
 and without it soft films near incompressibility (E 450 MPa, nu 0.44) were
-missed by 3-4 held-out standard deviations.
+missed by 3-4 held-out standard deviations. z is the film's thickness against
+the patch: x mixes it with the film's stiffness, and over spheres of 150-1500 mm
+the two vary apart (without z the level readings were missed by up to 0.015 mm
+held out beyond Table 1's 250-600 mm).
 
 The activation and capsule models read a contour near the film's edge zone,
 where the polynomial leaves a smooth residual of a few um that it cannot
 follow (held-out max 0.008-0.012 mm). For them a Gaussian process over
-(nu, x, y) (`ResidualGP`, fitted by scikit-learn's
+(nu, x, y, z) (`ResidualGP`, fitted by scikit-learn's
 `GaussianProcessRegressor` with an anisotropic squared-exponential kernel and
 a white-noise term) carries that residual: its mean is added to the
 polynomial's, and far from its training points it returns to the polynomial.
@@ -61,7 +64,7 @@ __all__ = ["TransferTerm", "TransferFit", "ResidualGP", "transfer_features", "lo
 #: The shipped fit (package data).
 TRANSFER_FILE = "film_transfer.json"
 #: Names of the fitted features (the order of the coefficients).
-FEATURES = ("1", "nu", "nu^2", "x", "x^2", "nu x", "y", "nu y", "y^2", "c", "c x", "c y")
+FEATURES = ("1", "nu", "nu^2", "x", "x^2", "nu x", "y", "nu y", "y^2", "c", "c x", "c y", "z")
 
 
 @dataclass(frozen=True)
@@ -112,7 +115,8 @@ def transfer_features(imprint: str, modulus_mpa, poisson, thickness_mm, radius_m
             raise ValueError(f"the {imprint} model's transfer needs the film's activation pressure")
         y = np.log(np.asarray(level_mpa, dtype=float) / pmax)
     c = np.log1p(-2.0 * nu)
-    return np.stack([np.ones_like(x), nu, nu * nu, x, x * x, nu * x, y, nu * y, y * y, c, c * x, c * y], axis=-1)
+    z = np.log(t / a)
+    return np.stack([np.ones_like(x), nu, nu * nu, x, x * x, nu * x, y, nu * y, y * y, c, c * x, c * y, z], axis=-1)
 
 
 def outline_perimeter_mm(rings, smoothing: int = 5) -> float:

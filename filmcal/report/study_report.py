@@ -442,8 +442,9 @@ def _transfer_blocks() -> list:
              f"{1e3 * fit.std_mm[key]:.1f}"] for key, r in sorted(held.items())]
     text = ("From calibration to application. The calibration runs the continuum FE film; every wheel-rail "
             "answer runs the film as springs in series with the half-spaces. Both solve the same sphere on a "
-            "flat at equal film parameters at held-out points over E 400-20000 MPa, ν 0.25-0.45, R 250-600 mm, "
-            "F 20-110 kN (MS, HS and HHS thresholds; made "
+            "flat at equal film parameters at held-out points over E 400-20000 MPa, ν 0.25-0.45 and the supported "
+            "spheres and forces (R 250-600 mm at 20-110 kN, Table 1's region, and R 150-1500 mm at 9-165 kN within "
+            "the steel's elastic limit; MS, HS and HHS thresholds; made "
             f"{fit.provenance.get('made', '?')} by scripts/fit-transfer). Without the transfer term the springs' "
             "imprint lies outside the calibrated film's; with it the two agree to the residual shown, which "
             "every wheel-rail band carries as the term's standard deviation.")
