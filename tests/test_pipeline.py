@@ -277,3 +277,25 @@ def test_curves_with_a_measured_roughness_law(quick_study, tmp_path):
     bad = subprocess.run([sys.executable, "-m", "filmcal.cli", "curves", "--film", "HS", "--roughness-law", str(law),
                           "--study-dir", str(study)], capture_output=True, text=True, timeout=120)
     assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1
+
+
+def test_curves_name_the_transfer_fit_they_were_made_with(quick_study, monkeypatch):
+    """Every wheel-rail answer carries the shipped transfer term, so curves made with another fit (an earlier
+    filmcal's) are stale: the curves' spec names each chosen model's fit, the pipeline's curves record the
+    shipped one, and another fit gives another spec (so the stage makes the curves again)."""
+    from dataclasses import replace
+
+    import filmcal.contact.transfer as transfer
+    from filmcal.study import PipelineSettings, Study
+    from filmcal.study.stages import curve_spec
+
+    study_dir, _, _ = quick_study
+    study = Study(study_dir)
+    recorded = study.manifest.entry("curves/curves-HS.csv")["spec"]
+    shipped = transfer.load_transfer_fit()
+    assert recorded["transfer"] == {model: shipped.digest(model) for model in recorded["weights"]}
+    settings = PipelineSettings.quick()
+    assert curve_spec(study, "HS", settings)["transfer"] == recorded["transfer"]
+    other = replace(shipped, coefficients={k: [c * 1.01 for c in v] for k, v in shipped.coefficients.items()})
+    monkeypatch.setattr(transfer, "load_transfer_fit", lambda: other)
+    assert curve_spec(study, "HS", settings)["transfer"] != recorded["transfer"]

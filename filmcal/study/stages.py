@@ -530,6 +530,24 @@ def _profile(res) -> dict:
             "hertz_radius_mm": res.hertz_radius_mm}
 
 
+def curve_spec(study: Study, film: str, settings: PipelineSettings, rough=None) -> dict:
+    """Everything that sets a film's curves: its chosen posteriors and their weights, the grid of loads and
+    offsets, the rough wheel's inputs (`rough`, a `RoughConfiguration`) and the shipped transfer term of each
+    chosen model (its digest: curves made with another fit are made again)."""
+    from filmcal.contact.transfer import load_transfer_fit
+    from filmcal.study.core import chosen_posteriors
+
+    chosen = chosen_posteriors(study, film)
+    transfer = load_transfer_fit()
+    spec = {"posteriors": sorted(p.name for _, p, _ in chosen),
+            "weights": {s["model"]: w for w, _, s in chosen}, "offsets_mm": list(settings.offsets_mm),
+            "forces_kn": list(settings.forces_kn), "rough_ra_um": settings.rough_ra_um,
+            "transfer": {s["model"]: transfer.digest(s["model"]) for _, _, s in chosen}}
+    if rough is not None:  # the rough bodies' inputs (their spectra, hardnesses and reading levels)
+        spec["rough_draws"] = [d.to_dict() for d in rough.draws]
+    return spec
+
+
 def _curves_stage(study: Study, settings: PipelineSettings, films, workers, st):
     """Curves of each film's combined models, smooth and on the rough wheel (``curves/curves-<film>.csv``).
 
@@ -542,7 +560,7 @@ def _curves_stage(study: Study, settings: PipelineSettings, films, workers, st):
     from filmcal._parallel import run_tasks
     from filmcal.correction import RoughConfiguration, curve_rows, write_curves_csv
     from filmcal.correction.roughness import growth_modulus_mpa
-    from filmcal.study.core import chosen_posteriors, curve_components
+    from filmcal.study.core import curve_components
     from filmcal.study.layout import spec_key
 
     rough = None
@@ -551,12 +569,7 @@ def _curves_stage(study: Study, settings: PipelineSettings, films, workers, st):
                                    tuple(study.roughness_inputs()[0][:settings.rough_draws]))
     specs, components, rows = {}, {}, {}
     for film in films:
-        chosen = chosen_posteriors(study, film)
-        specs[film] = {"posteriors": sorted(p.name for _, p, _ in chosen),
-                       "weights": {s["model"]: w for w, _, s in chosen}, "offsets_mm": list(settings.offsets_mm),
-                       "forces_kn": list(settings.forces_kn), "rough_ra_um": settings.rough_ra_um}
-        if rough is not None:  # the rough bodies' inputs (their spectra, hardnesses and reading levels)
-            specs[film]["rough_draws"] = [d.to_dict() for d in rough.draws]
+        specs[film] = curve_spec(study, film, settings, rough)
         path = study.layout.curves(film)
         entry = study.manifest.entry(study.layout.relative(path)) if path.exists() else None
         if entry and entry["spec"] == specs[film] and study.verified(path):
