@@ -383,7 +383,7 @@ def _reference_checks() -> list:
                 "unreadable: run python bench/verification.py --summary."]
     rows = [[c["check"], c["reference"], str(c["n"]), f"{c['mean']:+.4f} {c['unit']}",
              f"{c['max_abs']:.4f} {c['unit']}", f"{c['max_abs_rel_pct']:.3f}"] for c in doc["checks"]]
-    rows += [[t["check"], "the calibrated FE film, sphere-on-flat off both fit designs (raw: without the term)",
+    rows += [[t["check"], "the calibrated FE film, sphere-on-flat off the fit's designs (raw: without the term)",
               str(t["n"]), f"{t['mean_mm']:+.4f} mm (raw {t['raw_mean_mm']:+.4f})", f"{t['max_mm']:.4f} mm", ""]
              for t in doc["transfer"]]
     stale = doc.get("fe_model_revision") != FE_MODEL_REVISION
