@@ -277,9 +277,10 @@ def _kill_children() -> None:
     """Kill the process groups of the children started by `run_guarded` in this process."""
     with _child_lock:
         groups = list(_child_groups)
-    for group, mark in groups:
+    for group, _ in groups:
         _killpg(group)
-        _kill_marked(mark)
+    if groups:  # one sweep for every mark, without waiting: the worker has `_TERM_GRACE_S` to stop
+        _kill_marked([mark for _, mark in groups], asleep_wait_s=0.0)
 
 
 def _die_with_children(signum: int = signal.SIGTERM, frame: object = None) -> None:
@@ -541,39 +542,50 @@ RUN_MARK_VARIABLE = "FILMCAL_RUN_MARK"
 
 
 def _process_state(entry: os.DirEntry) -> str | None:
-    """The state letter of this user's process ``/proc/<pid>`` (`entry`); None for another user's or a gone one.
+    """``"D"`` if a thread of this user's process ``/proc/<pid>`` (`entry`) is in uninterruptible sleep, else its
+    main thread's state letter; None for another user's process or a gone one.
 
-    Neither read blocks: the owner is the directory's, the state is read from ``stat``, which takes no lock of
-    the process.
+    None of the reads blocks: the owner is the directory's, the states are read from the threads' ``stat``,
+    which takes no lock of the process.
     """
+    states = []
     try:
         if entry.stat().st_uid != os.getuid():
             return None
-        with open(f"/proc/{entry.name}/stat", "rb") as fh:
-            stat = fh.read()
-    except OSError:  # gone
+        for task in os.scandir(f"/proc/{entry.name}/task"):
+            with open(f"/proc/{entry.name}/task/{task.name}/stat", "rb") as fh:
+                stat = fh.read()
+            close = stat.rfind(b")")  # the thread's name, in parentheses, may hold anything
+            states.append(stat[close + 2:close + 3].decode("ascii", "replace"))
+    except OSError:  # gone (or a thread gone: read again at the next pass)
         return None
-    close = stat.rfind(b")")  # the process's name, in parentheses, may hold anything
-    return stat[close + 2:close + 3].decode("ascii", "replace")
+    if not states:
+        return None
+    return "D" if "D" in states else states[0]
 
 
-def _kill_marked(mark: str, asleep_wait_s: float = 1.0) -> int:
-    """SIGKILL every process of this user whose environment carries `mark` (Linux: ``/proc``); their number.
+#: How long a sweep after a run waits for processes in uninterruptible sleep (s): below the grace a stopped
+#: worker has (`_TERM_GRACE_S`), since a worker sweeps as it stops too (without waiting).
+ASLEEP_WAIT_S = 0.2
+
+
+def _kill_marked(marks: str | Sequence[str], asleep_wait_s: float = ASLEEP_WAIT_S) -> int:
+    """SIGKILL every process of this user whose environment carries one of `marks` (Linux: ``/proc``); their number.
 
     Finds what a command left running outside its process group (``setsid``, a double-forked daemon),
     as long as it kept the environment it was started with: not one started with an emptied environment
     (``env -i``, some privilege-changing launchers) or one that rewrote its environment area. Repeats until a
     pass finds none, so that a process forked during the pass is caught by the next.
 
-    A process in uninterruptible sleep (state ``D``) is not read at once: reading another process's
-    environment takes its memory map's lock, which such a process may hold, and the read would wait as long
-    as it sleeps. It is looked at again every 0.1 s for up to `asleep_wait_s`; one still asleep then is
-    left alone (it cannot be killed while it sleeps either).
+    A process with a thread in uninterruptible sleep (state ``D``) is not read at once: reading another
+    process's environment takes its memory map's lock, which such a thread may hold, and the read would wait
+    as long as it sleeps. It is looked at again every 0.05 s for up to `asleep_wait_s` (0: not at all); one
+    still asleep then is left alone, and outlives the run if it carries a mark.
     """
     if not os.path.isdir("/proc"):
         return 0
     prefix = f"{RUN_MARK_VARIABLE}=".encode()
-    wanted = mark.encode()
+    wanted = {m.encode() for m in ([marks] if isinstance(marks, str) else marks)}
 
     def kill_if_marked(entry: os.DirEntry) -> int:
         try:
@@ -581,7 +593,7 @@ def _kill_marked(mark: str, asleep_wait_s: float = 1.0) -> int:
                 environ = fh.read()
         except OSError:  # gone
             return 0
-        if any(v.startswith(prefix) and wanted in v[len(prefix):].split(b":") for v in environ.split(b"\0")):
+        if any(v.startswith(prefix) and wanted & set(v[len(prefix):].split(b":")) for v in environ.split(b"\0")):
             try:
                 os.kill(int(entry.name), signal.SIGKILL)
                 return 1
@@ -607,7 +619,7 @@ def _kill_marked(mark: str, asleep_wait_s: float = 1.0) -> int:
             break
     deadline = time.monotonic() + asleep_wait_s
     while asleep and time.monotonic() < deadline:
-        time.sleep(0.1)
+        time.sleep(0.05)
         for name, entry in list(asleep.items()):
             state = _process_state(entry)
             if state != "D":

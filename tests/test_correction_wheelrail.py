@@ -88,6 +88,9 @@ def test_command_uses_the_study_posterior_and_refuses_nonsense(quick_study, tmp_
     for entry in prov["posteriors"].values():
         assert (study / entry["file"]).is_file() and len(entry["sha256"]) == 64
     assert prov["measurement"]["offset_mm"] == -3.0 and prov["filmcal"] and prov["transfer_fit"]["made"]
+    from filmcal.contact.transfer import load_transfer_fit  # the fit each model's term came from, by its digest
+
+    assert prov["transfer_fit"]["sha256"] == {model: load_transfer_fit().digest(model) for model in out["models"]}
     assert any("roughness" in what for what in out["not_included"])  # the band does not hold it: said so
     text = subprocess.run(base[:-1] + ["--film", "HS", "--study-dir", str(study)], capture_output=True, text=True)
     assert text.returncode == 0 and "not included: the bodies' roughness" in text.stdout

@@ -41,7 +41,8 @@ def transfer_design(n: int, random_state: int, corners: bool = False,
     """``n`` points (E, nu, R, F in kN) of a Latin hypercube, R rounded to 0.1 mm.
 
     ``region="core"`` samples `CORE_DOMAIN` (R and F linear); ``"whole"`` samples `TRANSFER_DOMAIN` (R and F in
-    log) and keeps the points within the steel's elastic limit (`ELASTIC_MARGIN`), in the hypercube's order.
+    log) and keeps the first `n` of 6 n hypercube points within the steel's elastic limit (`ELASTIC_MARGIN`):
+    a random subset of a hypercube, each point uniform over the region.
     With ``corners`` the region's corners follow (E and nu at their bounds; for ``"whole"`` the (R, F) corners
     of the region cut by the elastic limit): a training design then anchors the residual process where a
     Latin hypercube leaves it to extrapolate (soft films near incompressibility, stiff films at the highest
@@ -86,7 +87,7 @@ def transfer_design(n: int, random_state: int, corners: bool = False,
             p_ref = float(hertz_max_pressure_mpa(r0, 1e3 * f0))
             f_at_r0 = f0 * (limit / p_ref) ** 3  # the largest force on the smallest sphere
             r_at_f1 = r0 * (float(hertz_max_pressure_mpa(r0, 1e3 * f1)) / limit) ** 1.5  # the smallest sphere at F max
-            rf = [(r0, f0), (r1, f0), (r1, f1), (r_at_f1, f1), (r0, min(f_at_r0, f1))]
+            rf = [(r0, f0), (r1, f0), (r1, f1), (min(max(r_at_f1, r0), r1), f1), (r0, min(max(f_at_r0, f0), f1))]
             rf = [(rr, ff) for rr, ff in rf if elastic(np.ceil(rr * 10) / 10, ff)]
         corner_rows = [(e_, nu_, np.ceil(rr * 10) / 10, ff) for e_, nu_ in itertools.product((e0, e1), (n0, n1))
                        for rr, ff in rf]
@@ -166,10 +167,16 @@ def _target(rows: list[dict]) -> np.ndarray:
     return np.array([(r["fe_radius_mm"] - r["applied_radius_mm"]) / r["thickness_mm"] for r in rows])
 
 
+def _recorded(row: dict) -> tuple[bool, bool]:
+    """Whether the calibrated FE and the application record an imprint at all (a reading of a pressure level
+    records nothing where the peak stays below it)."""
+    return row["fe_radius_mm"] > 0, row["applied_radius_mm"] > 0
+
+
 def _groups(rows: list[dict]) -> dict[str, list[dict]]:
     out: dict[str, list[dict]] = {}
     for r in rows:  # a reading that records nothing (the peak below the film's level) has no edge to transfer
-        if r["converged"] and r["applied_radius_mm"] > 0 and r["fe_radius_mm"] > 0:
+        if r["converged"] and _recorded(r) == (True, True):
             out.setdefault(f"{r['imprint']}/{r['kinematics']}", []).append(r)
     return out
 
@@ -177,8 +184,15 @@ def _groups(rows: list[dict]) -> dict[str, list[dict]]:
 def check_transfer(fit: TransferFit, rows: list[dict]) -> dict[str, dict]:
     """Residuals (mm) of rows against a fit, per ``imprint/kinematics``, without and with the term.
 
-    Returns ``{key: {"n", "raw_mean_mm", "raw_max_mm", "mean_mm", "rms_mm", "max_mm"}}`` (max: of |.|).
+    Returns ``{key: {"n", "raw_mean_mm", "raw_max_mm", "mean_mm", "rms_mm", "max_mm", "one_sided"}}`` (max: of
+    |.|; ``one_sided``: rows where one model records an imprint and the other none, at a peak pressure within
+    a hair of the film's level; they have no edge offset and are counted, not fitted).
     """
+    one_sided: dict[str, int] = {}
+    for r in rows:
+        if r["converged"] and sum(_recorded(r)) == 1:
+            key = f"{r['imprint']}/{r['kinematics']}"
+            one_sided[key] = one_sided.get(key, 0) + 1
     out = {}
     for key, group in _groups(rows).items():
         imprint = key.split("/")[0]
@@ -188,11 +202,11 @@ def check_transfer(fit: TransferFit, rows: list[dict]) -> dict[str, dict]:
         res = raw - fitted
         out[key] = {"n": len(group), "raw_mean_mm": float(raw.mean()), "raw_max_mm": float(np.abs(raw).max()),
                     "mean_mm": float(res.mean()), "rms_mm": float(np.sqrt(np.mean(res**2))),
-                    "max_mm": float(np.abs(res).max())}
+                    "max_mm": float(np.abs(res).max()), "one_sided": one_sided.get(key, 0)}
     return out
 
 
-#: Features the residual process sees (nu, x, y), for the imprint models that read a pressure level.
+#: Features the residual process sees (nu, x, y, z), for the imprint models that read a pressure level.
 GP_INPUTS = (FEATURES.index("nu"), FEATURES.index("x"), FEATURES.index("y"), FEATURES.index("z"))
 
 

@@ -195,8 +195,9 @@ def _provenance(study, parts, measurement, sphere: bool, seed: int, options: dic
     if not sphere:
         from filmcal.contact.transfer import TRANSFER_FILE, load_transfer_fit
 
-        out["transfer_fit"] = {"file": f"filmcal/data/{TRANSFER_FILE}",
-                               "made": load_transfer_fit().provenance.get("made")}
+        fit = load_transfer_fit()
+        out["transfer_fit"] = {"file": f"filmcal/data/{TRANSFER_FILE}", "made": fit.provenance.get("made"),
+                               "sha256": {s["model"]: fit.digest(s["model"]) for _, _, s in parts}}
     return out
 
 

@@ -133,7 +133,7 @@ class SurrogateDomain:
 ELASTIC_LIMIT_MPA = 1250.0
 MAX_CONTACT_RADIUS_MM = 0.6 * 50.0 / 1.6
 #: The supported spheres and forces: where the film's transfer from the calibrated FE to the wheel-rail model
-#: is measured and checked (`filmcal.correction.TRANSFER_DOMAIN`, which adds margins), so that a lab's
+#: is measured and checked (`filmcal.correction.transfer.TRANSFER_DOMAIN`, which adds margins to the forces), so that a lab's
 #: calibration domain and the application's are one.
 SUPPORTED_RADIUS_MM = (150.0, 1500.0)
 SUPPORTED_FORCE_KN = (10.0, 150.0)
