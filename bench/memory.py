@@ -261,6 +261,9 @@ def main() -> int:
     parser.add_argument("--max-s", type=float, default=180.0, help="longest estimated map run (s, default 180)")
     args = parser.parse_args()
     avail, total = _memory.available_bytes(), _memory.total_bytes()
+    if avail is None or total is None:
+        parser.error("this machine's memory is unknown (no /proc/meminfo): the checks allow any size; "
+                     "nothing to compare")
     budget = (min(_memory.usable_bytes(), 4 * GIB) if args.quick else _memory.usable_bytes()) \
         if args.max_gib is None else args.max_gib * GIB
     print(f"machine: {_memory.cpu_count()} cores, {total / GIB:.1f} GiB, {avail / GIB:.1f} GiB available now; a run "

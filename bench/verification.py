@@ -31,7 +31,9 @@ Rows:
 ``--grid``: each reading of the half-space solution with a film on S1002/60E2 (50/100 kN, eta -5..+2 mm,
 E 800-6300 MPa) at grids 0.2 / 0.1 / 0.05 mm against its Richardson extrapolation, and the observed order.
 ``--study-dir D``: Table 1 through the application model at each film's calibrated median E and preferred
-model (residuals against the calibration's own FE at the same E), and the wheel-rail correction factor
+model (residuals against the calibration's own FE at the same E; the FE's own least-squares E, one
+Gauss-Newton step from the median, with the mean residual there, and the span of the mean residual over the
+posterior's 90 % interval of E: how closely the data fix it), and the wheel-rail correction factor
 A_0 / A_f at S1002/60E2, 100 kN, eta 0 per film before (the readings before the transfer term: contours of
 ``p**2``, no transfer term) and after.
 
@@ -253,20 +255,32 @@ def study_checks(study_dir: str) -> list[dict]:
         film = get_film(film_name)
         model = FilmModel(film, imprint, kinematics)
         data = load_table1(film_name)
-        applied, calibrated = [], []
+        applied, calibrated, slope = [], [], []
         solver_film, solver_law, _ = model.interface(e)
+
+        def fe_radius(modulus: float, r: float, f: float) -> float:
+            fe = get_model(r).solve(Film(modulus, film.poisson), f, ContactOptions(kinematics=kinematics))
+            return fe.contact_radius_mm if imprint == "edge" else fe.read_imprint(imprint, film)
+
         for r, f, measured in zip(data.sphere_radius_mm, data.force_n, data.measured_radius_mm):
             hs = sphere_on_flat_contact(float(r), float(f), film=solver_film, law=solver_law)
             area = model.recorded_area_mm2(hs) + model.transfer_term(e, hs).shift_mm2
             applied.append(measured - math.sqrt(area / math.pi))
-            fe = get_model(float(r)).solve(Film(e, film.poisson), float(f), ContactOptions(kinematics=kinematics))
-            fe_radius = fe.contact_radius_mm if imprint == "edge" else fe.read_imprint(imprint, film)
-            calibrated.append(measured - fe_radius)
-        applied, calibrated = np.array(applied), np.array(calibrated)
+            calibrated.append(measured - fe_radius(e, float(r), float(f)))
+            slope.append((fe_radius(1.01 * e, float(r), float(f)) - fe_radius(e / 1.01, float(r), float(f))) / 0.02)
+        applied, calibrated, slope = np.array(applied), np.array(calibrated), np.array(slope)
+        # the FE's own least-squares modulus (one Gauss-Newton step in ln E from the median, residuals linear
+        # there) and the plain mean residual there; the mean residual over the posterior's 90 % interval of E
+        step = float(np.sum(slope * calibrated) / np.sum(slope**2))
+        lo, hi = (float(v) for v in preferred["modulus_mpa"]["ci90"])
         out.append({"check": "Table 1 through the application", "case": f"{film_name} {preferred['model']} E{e:.0f}",
                     "mean_residual_mm": float(applied.mean()), "rms_mm": float(np.sqrt(np.mean(applied**2))),
                     "calibration_mean_residual_mm": float(calibrated.mean()),
-                    "calibration_rms_mm": float(np.sqrt(np.mean(calibrated**2)))})
+                    "calibration_rms_mm": float(np.sqrt(np.mean(calibrated**2))),
+                    "fe_least_squares_mpa": e * math.exp(step),
+                    "fe_least_squares_mean_residual_mm": float(np.mean(calibrated - step * slope)),
+                    "ci90_mean_residual_mm": sorted(float(np.mean(calibrated - math.log(v / e) * slope))
+                                                    for v in (lo, hi))})
         a0 = solve_wheel_rail(0.0, 100e3).area_mm2
         res = solve_wheel_rail(0.0, 100e3, film=solver_film, roughness=solver_law)
         after = model.recorded_area_mm2(res)
@@ -333,6 +347,10 @@ def main(argv=None) -> int:
                 print(f"Table 1 {r['case']:28} application: mean {r['mean_residual_mm']:+.4f} rms {r['rms_mm']:.4f} mm"
                       f" | calibration's FE: mean {r['calibration_mean_residual_mm']:+.4f} "
                       f"rms {r['calibration_rms_mm']:.4f} mm")
+                lo, hi = r["ci90_mean_residual_mm"]
+                print(f"        the FE's least-squares E {r['fe_least_squares_mpa']:.0f} MPa: mean residual "
+                      f"{r['fe_least_squares_mean_residual_mm']:+.4f} mm; over the posterior's 90 % interval of E "
+                      f"the mean residual spans {lo:+.4f} .. {hi:+.4f} mm")
             else:
                 print(f"A0/Af 100 kN eta 0 {r['case']:22} before {r['before']:.4f} after {r['after']:.4f} "
                       f"({100 * (r['after'] / r['before'] - 1):+.2f} %; reading {r['reading_change_mm2']:+.2f} mm2, "

@@ -151,3 +151,27 @@ def test_nothing_recorded_gives_no_transfer_term():
     assert model.recorded_area_mm2(result) == 0.0
     term = model.transfer_term(400.0, result)
     assert (term.shift_mm2, term.std_mm2) == (0.0, 0.0)
+
+
+def test_the_fit_script_reuses_every_measured_row_and_fits_them_again_to_the_same_numbers(tmp_path):
+    """scripts/fit-transfer at its smallest sizes (the shipped fit's way, every design and both regions): a
+    second run given the first's rows measures nothing and writes the same fit; each region is held out."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parent.parent / "scripts" / "fit-transfer"
+    sizes = ["--train", "2", "--near-incompressible", "1", "--whole", "2", "--held-out", "2", "--held-out-whole", "2",
+             "--workers", "2"]
+    first = subprocess.run([sys.executable, str(script), *sizes, "--out", str(tmp_path / "a.json"), "--rows",
+                            str(tmp_path / "rows.json")], capture_output=True, text=True, timeout=900)
+    assert first.returncode == 0, first.stderr[-2000:]
+    again = subprocess.run([sys.executable, str(script), *sizes, "--out", str(tmp_path / "b.json"), "--reuse",
+                            str(tmp_path / "rows.json")], capture_output=True, text=True, timeout=900)
+    assert again.returncode == 0, again.stderr[-2000:]
+    a, b = TransferFit.from_json(tmp_path / "a.json"), TransferFit.from_json(tmp_path / "b.json")
+    assert b.provenance["points_measured"] == 0 and b.provenance["points_reused"] == a.provenance["points_measured"]
+    assert a.provenance["points_measured"] == 2 + 16 + 1 + 2 + 20 + 2 + 2 + 2  # the corners: 16 and 4 x 5
+    assert b.coefficients == a.coefficients and b.std_mm == a.std_mm
+    assert {"held_out_core", "held_out_whole"} <= set(a.provenance)
+    assert "held out, the whole domain" in first.stdout
