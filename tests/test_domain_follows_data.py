@@ -73,6 +73,9 @@ def test_the_command_refuses_an_unsupported_dataset_before_any_fe_work(tmp_path)
                        capture_output=True, text=True, timeout=60)
     assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and "elastic limit" in p.stderr
     assert not (tmp_path / "st" / "runs").exists() and not list((tmp_path / "st").glob("**/*.sqlite"))
+    # the refused dataset does not bind the study: the lab leaves the case out and calibrates in the same folder
+    manifest = tmp_path / "st" / "study.json"
+    assert not manifest.exists() or json.loads(manifest.read_text()).get("dataset") is None
 
 
 @pytest.mark.slow

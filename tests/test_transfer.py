@@ -175,3 +175,18 @@ def test_the_fit_script_reuses_every_measured_row_and_fits_them_again_to_the_sam
     assert b.coefficients == a.coefficients and b.std_mm == a.std_mm
     assert {"held_out_core", "held_out_whole"} <= set(a.provenance)
     assert "held out, the whole domain" in first.stdout
+
+
+def test_the_transfer_domain_covers_every_case_the_calibration_supports():
+    """One domain from calibration to application: every sphere and force a dataset may hold
+    (`SUPPORTED_RADIUS_MM`, `SUPPORTED_FORCE_KN`), with the 10 % force margins a study's design adds
+    (`SurrogateDomain.covering`), lies inside the domain where the transfer is measured and held out."""
+    from filmcal.correction.transfer import CORE_DOMAIN
+    from filmcal.surrogate.radius import SUPPORTED_FORCE_KN, SUPPORTED_RADIUS_MM, SurrogateDomain
+
+    (r0, r1), (f0, f1) = TRANSFER_DOMAIN["sphere_radius_mm"], TRANSFER_DOMAIN["force_kn"]
+    assert r0 <= SUPPORTED_RADIUS_MM[0] and SUPPORTED_RADIUS_MM[1] <= r1
+    widest = SurrogateDomain().covering([SUPPORTED_RADIUS_MM[1], SUPPORTED_RADIUS_MM[1]],
+                                        [SUPPORTED_FORCE_KN[0], SUPPORTED_FORCE_KN[1]])
+    assert f0 <= widest.force_kn[0] and widest.force_kn[1] <= f1 * (1 + 1e-12)
+    assert r0 <= CORE_DOMAIN["sphere_radius_mm"][0] and CORE_DOMAIN["sphere_radius_mm"][1] <= r1

@@ -791,6 +791,13 @@ class Study:
             raise InputError(f"dataset {ds.name} has {int(np.unique(rows.case_index).size)} cases (sphere radius and "
                              f"force) of film {film}{where}: comparing its imprint models leaves one case out at a "
                              "time and needs at least 3; calibrate one imprint model (edge, say) or add cases")
+        from filmcal.surrogate.radius import check_supported
+
+        if recorded is None:  # before the study records the dataset: a refused one must not bind the study to it
+            try:
+                check_supported(rows.sphere_radius_mm, rows.force_kn)
+            except ValueError as exc:
+                raise InputError(f"the dataset is outside the supported domain: {exc}") from None
         if recorded is None and self._lock.held:
             self.manifest.data["dataset"] = meta
         return rows, meta
