@@ -25,7 +25,7 @@ from pathlib import Path
 
 from filmcal.calibration.inversion import least_squares_modulus
 from filmcal.fem import ContactOptions, oedometric_modulus_mpa
-from filmcal.study import CalibrationSpec, FESettings, Study
+from filmcal.study import CalibrationSpec, Study
 from filmcal.surrogate.radius import FERadiusModel
 
 SETTINGS = {
@@ -40,11 +40,7 @@ SETTINGS = {
 def calibration_spec(study: Study, loads: str | None) -> CalibrationSpec:
     """HS, edge of contact, default FE options: the FE sizes, seed and step cap of the study's pipeline when it
     has them (its posteriors are then reused), else those of `filmcal calibrate`."""
-    recorded = study.manifest.data.get("settings") or {}
-    pipeline = recorded.get("pipeline") or {}
-    fe = FESettings(n_train=pipeline.get("train_runs", 200), n_test=pipeline.get("test_runs", 100),
-                    seed=recorded.get("seed", 0))
-    return CalibrationSpec("HS", fe=fe, loads=loads, max_steps=pipeline.get("max_steps"))
+    return study.spec_like_pipeline("HS", "edge/small", loads)
 
 
 def main() -> None:
@@ -79,7 +75,7 @@ def main() -> None:
         with study.writing("examples/calibration_model_choices.py"):
             spec = calibration_spec(study, loads)
             post, _, _ = study.calibrate(spec)
-            model, _, _ = study.radius_model(spec.fe, "contact_radius_mm")
+            model, _, _ = study.radius_model(study.as_calibrated(spec).fe, "contact_radius_mm")
         ls = least_squares_modulus("HS", model, loads, modulus_range_mpa=spec.fe.domain.modulus_mpa)
         fe = fe_default[loads].modulus_mpa
         ci = post.modulus_mpa["ci90"]

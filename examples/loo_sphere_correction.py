@@ -27,17 +27,7 @@ from pathlib import Path
 
 from filmcal.calibration import Priors, SamplerSettings, calibrate
 from filmcal.correction import leave_one_case_out, psis_leave_one_case_out
-from filmcal.study import CalibrationSpec, FESettings, Study, seed_for
-
-
-def fe_settings(study: Study) -> tuple[FESettings, int | None]:
-    """The FE settings (edge, small strain) and MCMC step cap of the study's pipeline when it has them, else
-    those of `filmcal calibrate`."""
-    recorded = study.manifest.data.get("settings") or {}
-    pipeline = recorded.get("pipeline") or {}
-    fe = FESettings(n_train=pipeline.get("train_runs", 200), n_test=pipeline.get("test_runs", 100),
-                    seed=recorded.get("seed", 0))
-    return fe, pipeline.get("max_steps")
+from filmcal.study import FESettings, Study, seed_for
 
 
 def psis_folds(problem, result, film: str, fe: FESettings, max_steps: int | None):
@@ -78,22 +68,24 @@ def main() -> None:
     args = ap.parse_args()
     films = [f.strip() for f in args.films.split(",")]
     study = Study(args.study_dir, create=True)
-    fe, max_steps = fe_settings(study)
-    full = {}
+    specs, models, full = {}, {}, {}
     with study.writing("examples/loo_sphere_correction.py"):
-        model, _, _ = study.radius_model(fe, "contact_radius_mm")
-        for film in films:
-            study.film(film)  # an unknown film is refused before any work
+        for film in films:  # an unknown film is refused before any work
+            # the FE sizes, seed and step cap of the study's pipeline (its posteriors are then reused), else
+            # those of `filmcal calibrate`; the surrogate the calibration on Table 1 is made with
+            specs[film] = study.spec_like_pipeline(film, "edge/small")
+            models[film], _, _ = study.radius_model(study.as_calibrated(specs[film]).fe, "contact_radius_mm")
             if args.method == "psis":
-                result, path, _ = study.calibrate(CalibrationSpec(film, fe=fe, max_steps=max_steps))
+                result, path, _ = study.calibrate(specs[film])
                 full[film] = (study.problem(path), result)
     lines = []
     for film in films:
+        spec = specs[film]
         if args.method == "psis":
-            cv = psis_folds(*full[film], film, fe, max_steps)
+            cv = psis_folds(*full[film], film, spec.fe, spec.max_steps)
         else:
-            priors = Priors.for_film(study.film(film), modulus_range_mpa=fe.domain.modulus_mpa)
-            cv = leave_one_case_out(model, film, priors=priors, log=lambda msg: print(msg, flush=True))
+            priors = Priors.for_film(study.film(film), modulus_range_mpa=spec.fe.domain.modulus_mpa)
+            cv = leave_one_case_out(models[film], film, priors=priors, log=lambda msg: print(msg, flush=True))
         lines += table(cv, args.method == "psis")
         print(lines[-2], flush=True)
     out = Path(args.out)

@@ -11,13 +11,14 @@ import pytest
 from filmcal import cli
 
 HEADER = "film,sphere_radius_mm,force_kn,radius_error_mm\n"
+#: The design alone (no runs at the data's cases) unless a test says otherwise: the store's mechanics
 SMALL = ["--film", "HS", "--imprint-model", "edge", "--train-runs", "24", "--test-runs", "8", "--max-steps", "1500",
-         "--workers", "1"]
+         "--workers", "1", "--moduli-per-case", "0"]
 
 
-def _calibrate(tmp_path, study: str, data: str, capsys) -> int:
+def _calibrate(tmp_path, study: str, data: str, capsys, *more: str) -> int:
     status = cli.main(["calibrate", "--data", str(tmp_path / data), "--study-dir", str(tmp_path / study),
-                       "--run-store", str(tmp_path / "store"), *SMALL])
+                       "--run-store", str(tmp_path / "store"), *SMALL, *more])
     err = capsys.readouterr().err
     assert status == 0, err
     return status
@@ -45,6 +46,12 @@ def test_a_second_dataset_runs_no_fe_run_again(two_labs, capsys):
     first, second = (json.loads((two_labs / s / "study.json").read_text()) for s in ("first", "second"))
     assert first["run_store"] == second["run_store"] == str((two_labs / "store").resolve())
     assert first["fe_runs"] == second["fe_runs"] and len(first["fe_runs"]) == 1
+    # with runs at each dataset's cases (8 moduli at each of its 3), a dataset adds only its own cases' runs
+    assert _calibrate(two_labs, "third", "a.csv", capsys, "--moduli-per-case", "8") == 0
+    with_cases = _runs(two_labs)
+    assert len(with_cases) == 32 + 24 and set(runs) <= set(with_cases)
+    assert _calibrate(two_labs, "fourth", "b.csv", capsys, "--moduli-per-case", "8") == 0
+    assert len(_runs(two_labs)) == 32 + 24 + 24 and set(with_cases) <= set(_runs(two_labs))
     assert not (two_labs / "first" / "runs").exists()  # the runs live in the shared store only
     assert first["dataset"]["sha256"] != second["dataset"]["sha256"]  # two datasets indeed
 

@@ -186,7 +186,8 @@ def test_a_command_simulator_fails_on_some_points_and_resumes_without_running_an
     assert p.returncode == 0, p.stderr[-2000:]
     ids = log.read_text().split()
     # every point ran once, but the one or two the kill cut short (they never answered, so they ran again)
-    assert len(ids) - len(set(ids)) <= 2 and len(set(ids)) == 40
+    # 30 + 10 design runs and 3 moduli at each of the 8 cases (at most --train-runs in all)
+    assert len(ids) - len(set(ids)) <= 2 and len(set(ids)) == 40 + 3 * len(DATASET_CASES)
     out = json.loads(p.stdout)
     assert out["modulus_mpa"]["ci90"][0] < 2000.0 < out["modulus_mpa"]["ci90"][1]
     stores = list((tmp_path / "st").rglob("*.sqlite"))
@@ -238,3 +239,39 @@ def test_the_in_house_fe_as_an_external_command_gives_the_in_house_posterior(tmp
     assert wrapped["modulus_mpa"] == in_house["modulus_mpa"]
     assert wrapped["sigma_mm"] == in_house["sigma_mm"]
     assert "simulator" in wrapped["fe_options"] and "simulator" not in in_house["fe_options"]
+
+
+def test_the_design_runs_the_data_cases_so_the_surrogate_is_exact_where_the_calibration_asks(tmp_path):
+    """The toy law is analytic: at the dataset's cases the surrogate's mean is checked against it. With runs
+    along ln E at each case (`moduli_per_case`), those runs are in the surrogate's training set: at a case and
+    one of their moduli its latent std is at most the noise's (a GP conditioned on a noisy observation at a
+    point, Rasmussen & Williams eq. 2.24); the hypercube's runs are reused, not run twice."""
+    from filmcal.study import CalibrationSpec, FESettings, Study
+
+    _dataset(tmp_path / "lot.csv", 2000.0)
+    study = Study(tmp_path / "st", create=True, run_store=tmp_path / "store")
+    sim = Simulator(python="toymodels:toy_simulator")
+    R = np.array([r for r, _ in DATASET_CASES], float)
+    F = np.array([1e3 * f for _, f in DATASET_CASES], float)
+    e_case = float(np.geomspace(400.0, 20000.0, 4)[1])  # one of the cases' moduli
+    with study.writing("test"):
+        for k in (0, 4):
+            spec = CalibrationSpec("HS", imprint="edge", fe=FESettings(n_train=40, n_test=5, moduli_per_case=k,
+                                                                        simulator=sim))
+            fe = study.as_calibrated(spec, dataset=tmp_path / "lot.csv").fe
+            assert fe.case_runs == len(DATASET_CASES) * k
+            assert sorted(fe.case_points) == (sorted((float(r), float(f), 0.33) for r, f in DATASET_CASES) if k else [])
+            model, _, _ = study.radius_model(fe, "contact_radius_mm", workers=1)
+            for e in (2000.0, e_case):
+                mean, std = model.predict(e, 0.33, R, F)
+                assert np.all(np.abs(mean - ToyRadiusModel().predict(e, 0.33, R, F)[0]) <= 3 * std + 1e-4)
+            gp = model.surrogate
+            _, T = gp._gp_inputs({"modulus_mpa": np.full(R.shape, e_case), "poisson": np.full(R.shape, 0.33),
+                                  "sphere_radius_mm": R, "force_kn": F / 1e3})
+            latent = gp.predict_gp(T)[1] / np.sqrt(gp.noise_variance_)  # in the GP's own coordinates
+            if k:  # without the cases' runs the corner case (300 mm, 25 kN) lies above it (1.07 when written)
+                assert np.all(latent <= 1.0)
+        runs = study.fe_runs(fe, workers=1)
+    assert len(runs["X_train"]["modulus_mpa"]) == 40 + 4 * len(DATASET_CASES)
+    with sqlite3.connect(runs["store"]) as db:  # the hypercube's 45 runs once, the cases' 32 beside them
+        assert db.execute("select count(*) from runs").fetchone()[0] == 45 + 4 * len(DATASET_CASES)

@@ -10,6 +10,7 @@ from filmcal.commands._options import (
     STUDY_IMPRINT_MODELS, add, add_contact_options, add_simulator_options, force_range, local, renamed,
 )
 from filmcal.contact.names import DEFAULT_KINEMATICS, MIXTURE
+from filmcal.surrogate.radius import MODULI_PER_CASE
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -45,6 +46,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add(p, "run_store")
     local(p, "--train-runs", type=int, default=200, help="FE runs to train the surrogate (default 200)")
     local(p, "--test-runs", type=int, default=100, help="held-out FE runs to validate it (default 100)")
+    local(p, "--moduli-per-case", type=int, default=MODULI_PER_CASE, metavar="N",
+          help=f"FE runs added to the training design at each of the data's (R, F) cases, at moduli spread over "
+               f"the prior's range, so that the surrogate is exact where the calibration asks it (default "
+               f"{MODULI_PER_CASE}; at most --train-runs in all; 0: the Latin hypercube alone)")
     where = p.add_mutually_exclusive_group()
     add(where, "workers", extra="(default: all cores)")
     add(where, "dask", extra="; the command's parallel work runs there (FE or simulator runs, fits, calibrations)")
@@ -65,7 +70,8 @@ def _spec(args: argparse.Namespace):
     fe = FESettings(sphere_contact=args.sphere_contact, flat_contact=args.flat_contact,
                     friction_coefficient=args.friction_coefficient,
                     kinematics=args.kinematics, n_train=args.train_runs,
-                    n_test=args.test_runs, seed=args.seed, simulator=simulator_from_args(args))
+                    n_test=args.test_runs, seed=args.seed, moduli_per_case=args.moduli_per_case,
+                    simulator=simulator_from_args(args))
     imprint = "edge" if args.imprint_model == MIXTURE else args.imprint_model
     return CalibrationSpec(args.film, imprint=imprint, fe=fe, loads=args.forces_kn, poisson=args.poisson,
                            discrepancy=None if args.discrepancy == "none" else args.discrepancy,
@@ -74,7 +80,7 @@ def _spec(args: argparse.Namespace):
 
 def run(args: argparse.Namespace) -> int:
     from filmcal._parallel import parallel_work
-    from filmcal.study import Study, output_column
+    from filmcal.study import Study
 
     spec = _spec(args)
     from filmcal.calibration.data import parse_load_range
@@ -116,8 +122,7 @@ def run(args: argparse.Namespace) -> int:
                 label = next(iter(calibrated))
                 assessment = study.assess(calibrated[label][1], calibrated[label][0]).to_dict()
             result, path, full = calibrated[label]
-            _, validation, _ = study.radius_model(spec.fe, output_column(full["imprint"], film.name), workers,
-                                                  progress=False)
+            validation = study.surrogate_validation(path)
     if args.plots:
         _plots(result, Path(args.plots), path.stem)
     from filmcal.calibration.pipeline import scatter_warning

@@ -112,6 +112,14 @@ class FESettings:
     body_modulus_mpa, body_poisson : float
         Elastic constants of the FE's sphere and flat (default steel; a dataset's own bodies,
         `_bodies_spec`). Left out of the spec when steel, as before they existed.
+    moduli_per_case : int
+        FE runs added to the training design at each of the dataset's (R, F) cases, at moduli spread over
+        the domain (`filmcal.surrogate.radius.case_design_points`); 0: the Latin hypercube alone.
+    case_points : tuple of (float, float, float)
+        The dataset's cases ``(sphere_radius_mm, force_kn, poisson)`` those runs are made at, set from the
+        data by `_covering_spec` (at most ``n_train`` runs in all). Both are left out of the spec when there
+        are none, as before they existed; they are not in the run store's spec (a run is a run wherever
+        it was asked for).
     """
 
     sphere_contact: str = ContactOptions.sphere_contact
@@ -127,6 +135,8 @@ class FESettings:
     base_domain: Any = None
     body_modulus_mpa: float = STEEL_MODULUS_MPA
     body_poisson: float = STEEL_POISSON
+    moduli_per_case: int = 0
+    case_points: tuple = ()
 
     def __post_init__(self) -> None:
         from filmcal.surrogate.radius import SurrogateDomain
@@ -137,13 +147,25 @@ class FESettings:
             raise InputError(f"kinematics must be one of {', '.join(KINEMATICS)}, got {self.kinematics!r}")
         if not (20 <= self.n_train <= 5000 and 5 <= self.n_test <= 5000):
             raise InputError(f"train_runs must be 20-5000 and test_runs 5-5000, got {self.n_train} and {self.n_test}")
+        if isinstance(self.moduli_per_case, bool) or not isinstance(self.moduli_per_case, int) or \
+                not 0 <= self.moduli_per_case <= 100:
+            raise InputError(f"moduli_per_case must be an integer 0-100, got {self.moduli_per_case!r}")
+        object.__setattr__(self, "case_points", tuple(tuple(float(v) for v in c) for c in self.case_points))
+
+    @property
+    def case_runs(self) -> int:
+        """FE runs at the dataset's cases (`case_points` times `moduli_per_case`)."""
+        return len(self.case_points) * self.moduli_per_case
 
     def as_spec(self) -> dict:
         """The settings as a spec: the in-house FE's as before, a lab's simulator by its own spec."""
         steel = (self.body_modulus_mpa, self.body_poisson) == (STEEL_MODULUS_MPA, STEEL_POISSON)
         out = {k: v for k, v in asdict(self).items()
                if k != "simulator" and not (k == "base_domain" and v is None)
-               and not (steel and k in ("body_modulus_mpa", "body_poisson"))}
+               and not (steel and k in ("body_modulus_mpa", "body_poisson"))
+               and not (self.case_runs == 0 and k in ("moduli_per_case", "case_points"))}
+        if self.case_runs:
+            out["case_points"] = [list(c) for c in self.case_points]
         if self.simulator is not None:
             out["simulator"] = self.simulator.spec()
         else:
@@ -385,7 +407,8 @@ class Study:
     def _store_spec(self, fe: FESettings) -> dict:
         films = self._fe_films(fe.film_thickness_mm)
         return {"kind": "fe-runs", "options": {k: v for k, v in fe.as_spec().items()
-                                              if k not in ("n_train", "n_test", "seed", "domain", "base_domain")},
+                                              if k not in ("n_train", "n_test", "seed", "domain", "base_domain",
+                                                           "moduli_per_case", "case_points")},
                 "films": [f.to_dict() for f in films]}
 
     def fe_runs(self, fe: FESettings, workers: int | Executor | None = None, progress=None) -> dict:
@@ -402,12 +425,13 @@ class Study:
         from filmcal._parallel import Executor
         from filmcal.campaign import Campaign
         from filmcal.fem import evaluate_point
-        from filmcal.surrogate.radius import INPUTS, design_points
+        from filmcal.surrogate.radius import INPUTS, case_design_points, design_points
 
         self._require_writer()
         domain = fe.domain
         options = fe.contact_options()
         train = design_points(domain, fe.n_train, seed_for(fe.seed, "design-train"), options, fe.base_domain)
+        train += case_design_points(domain, fe.case_points, fe.moduli_per_case, options)
         test = design_points(domain, fe.n_test, seed_for(fe.seed, "design-test"), options, fe.base_domain)
         films = self._fe_films(fe.film_thickness_mm)
         for p in train + test:
@@ -485,8 +509,10 @@ class Study:
 
         # the results, not the bookkeeping: runs computed again (a deleted cache, another store) read the same
         results = digest([c for c in Y if c not in RUN_BOOKKEEPING_OUTPUTS])
+        spec = fe.as_spec()
         key = spec_key({"store": self._store_spec(fe), "n_train": fe.n_train, "n_test": fe.n_test, "seed": fe.seed,
-                        "domain": fe.as_spec().get("domain"), "base_domain": fe.as_spec().get("base_domain")})
+                        "domain": spec.get("domain"), "base_domain": spec.get("base_domain"),
+                        **{k: spec[k] for k in ("moduli_per_case", "case_points") if k in spec}})
         used = self.manifest.data.setdefault("fe_runs", {})
         entry = used.get(key)
         if entry is not None:  # recorded by this version (results only) or before it (every output column)
@@ -528,6 +554,20 @@ class Study:
         validation = SurrogateValidation(**v["summary"], details={"points": v["points"]})
         return SurrogateRadiusModel(load_surrogate(stem), fe.domain), validation, key
 
+    def surrogate_validation(self, posterior: Path):
+        """The held-out validation (`SurrogateValidation`) of the surrogate a recorded posterior was
+        calibrated with (the one its manifest entry names)."""
+        from filmcal._io import read_json
+        from filmcal.surrogate.radius import SurrogateValidation
+
+        key = (self.manifest.entry(self.layout.relative(posterior)) or {}).get("surrogate")
+        path = self.verified(self.layout.surrogate_validation(key)) if key is not None else None
+        if path is None:
+            raise UntrustedArtefactError(f"the surrogate of {posterior.name} is missing from {self.root}: run "
+                                         "the calibration again to refit it")
+        v = read_json(path)
+        return SurrogateValidation(**v["summary"], details={"points": v["points"]})
+
     def radius_models(self, requests, workers: int | Executor | None = None, progress=None) -> dict:
         """Validated radius surrogates of several ``(FESettings, column)``: recorded ones are read, the FE
         runs of the others are run (or resumed) and their surrogates fitted in parallel, each recorded as
@@ -555,12 +595,12 @@ class Study:
             if recorded is not None:
                 out[fe, column] = recorded
         campaigns = list(dict.fromkeys(fe for fe, column in requests if (fe, column) not in out))
-        total_runs = sum(fe.n_train + fe.n_test for fe in campaigns)
+        total_runs = sum(fe.n_train + fe.case_runs + fe.n_test for fe in campaigns)
         for fe, column in dict.fromkeys(requests):
             if (fe, column) in out:
                 continue
             if fe not in runs:
-                before = sum(f.n_train + f.n_test for f in runs)
+                before = sum(f.n_train + f.case_runs + f.n_test for f in runs)
                 runs[fe] = self.fe_runs(fe, workers, None if not callable(progress) else (
                     lambda done, total, before=before: progress(before + done, max(total_runs, before + total),
                                                                 "FE run")))
@@ -652,8 +692,7 @@ class Study:
             if spec.imprint not in imprint_models_for(film):
                 raise InputError(f"the {spec.imprint} imprint model cannot read film {film.name} (it reads "
                                  f"{', '.join(imprint_models_for(film))})")
-            data, data_meta = self.dataset_rows(film.name, spec.loads, dataset)
-            spec = _covering_spec(spec, data)
+            spec, data, data_meta = self._as_calibrated(spec, dataset)
             full = self._calibration_spec_dict(spec, data_meta)
             path = self.layout.posterior(spec_key(full))
             if self.verified(path):
@@ -693,6 +732,17 @@ class Study:
 
         run_tasks(tasks, workers, record)
         return [results[i] for i in range(len(specs))]
+
+    def as_calibrated(self, spec: CalibrationSpec, dataset=None) -> CalibrationSpec:
+        """`spec` as the calibration runs it on the data (default: the study's dataset): its FE design
+        covering the data's cases (`_covering_spec`), so that what it names (its surrogate, its posterior)
+        is what `calibrate` made."""
+        return self._as_calibrated(spec, dataset)[0]
+
+    def _as_calibrated(self, spec: CalibrationSpec, dataset=None):
+        film = self.film(spec.film)
+        data, data_meta = self.dataset_rows(film.name, spec.loads, dataset)
+        return _covering_spec(spec, data, film.poisson), data, data_meta
 
     def _heal_surrogate(self, spec: CalibrationSpec, film: FilmType, posterior: Path, workers) -> None:
         """Refit the surrogate a reused posterior was calibrated with when its files are missing.
@@ -736,12 +786,16 @@ class Study:
         pipeline recorded, so that its posteriors are reused; a study made by
         `filmcal calibrate` alone gets that command's defaults.
         """
+        from filmcal.surrogate.radius import MODULI_PER_CASE
+
         imprint, _, kinematics = model.partition("/")
         recorded = self.manifest.data.get("settings") or {}
         pipeline = recorded.get("pipeline") or {}
         fe = FESettings(kinematics=kinematics or "small", n_train=pipeline.get("train_runs", 200),
                         n_test=pipeline.get("test_runs", 100), seed=recorded.get("seed", 0),
-                        film_thickness_mm=self.film(film).thickness_mm)
+                        film_thickness_mm=self.film(film).thickness_mm,
+                        # a pipeline's record leaves it out when 0 (as before it existed); `calibrate`'s default
+                        moduli_per_case=pipeline.get("moduli_per_case", 0) if pipeline else MODULI_PER_CASE)
         return CalibrationSpec(film, imprint=imprint, fe=fe, loads=loads, max_steps=pipeline.get("max_steps"))
 
     def dataset_rows(self, film: str, loads: str | None, dataset=None, *, compared: bool = False):
@@ -967,13 +1021,14 @@ def _bodies_spec(spec: "CalibrationSpec", data) -> "CalibrationSpec":
     return replace(spec, fe=replace(spec.fe, body_modulus_mpa=float(e), body_poisson=float(nu)))
 
 
-def _covering_spec(spec: "CalibrationSpec", data) -> "CalibrationSpec":
+def _covering_spec(spec: "CalibrationSpec", data, poisson: float) -> "CalibrationSpec":
     """`spec` with its FE domain extended to cover the data's cases (`SurrogateDomain.covering`), said first;
     a case outside the supported domain is refused in one line before any FE work. The FE's bodies are the
-    data's (`_bodies_spec`)."""
+    data's (`_bodies_spec`), and its training design gains runs along ln E at each of the data's cases at the
+    film's Poisson ratio (`_with_case_points`)."""
     import warnings
 
-    spec = _bodies_spec(spec, data)
+    spec = _with_case_points(_bodies_spec(spec, data), data, poisson)
 
     try:
         domain = spec.fe.domain.covering(data.sphere_radius_mm, np.asarray(data.force_n, float) / 1e3)
@@ -992,6 +1047,18 @@ def _covering_spec(spec: "CalibrationSpec", data) -> "CalibrationSpec":
         f"(the design is augmented: the {spec.fe.n_train + spec.fe.n_test} runs over the domain it extends are "
         "reused)"), stacklevel=3)
     return replace(spec, fe=replace(spec.fe, domain=domain, base_domain=base))
+
+
+def _with_case_points(spec: "CalibrationSpec", data, poisson: float) -> "CalibrationSpec":
+    """`spec` with its FE runs at the data's distinct (R, F) cases at `poisson`: ``moduli_per_case`` each,
+    fewer when the cases are many (at most ``n_train`` runs in all; none below 2 a case)."""
+    lo, hi = spec.fe.domain.poisson
+    if spec.fe.moduli_per_case == 0 or not lo <= poisson <= hi:
+        return spec
+    cases = sorted({(float(r), round(float(f) / 1e3, 9)) for r, f in zip(data.sphere_radius_mm, data.force_n)})
+    k = min(spec.fe.moduli_per_case, spec.fe.n_train // max(len(cases), 1))
+    points = tuple((r, f, float(poisson)) for r, f in cases) if k >= 2 else ()
+    return replace(spec, fe=replace(spec.fe, moduli_per_case=k if points else 0, case_points=points))
 
 
 def _rough_flat(data, film, imprint: str, kinematics: str, modulus_range_mpa):

@@ -29,6 +29,7 @@ import numpy as np
 from filmcal._errors import InputError
 from filmcal._io import atomic_write_json, read_json
 from filmcal.films import FILM_TYPES
+from filmcal.surrogate.radius import MODULI_PER_CASE
 from filmcal.study.core import (IMPRINT_MODELS, KINEMATICS, CalibrationSpec, FESettings, Study, refit_without_case,
                                 seed_for)
 
@@ -47,6 +48,9 @@ class PipelineSettings:
     ----------
     train_runs, test_runs : int
         FE runs of the surrogate's training design and of its held-out design.
+    moduli_per_case : int
+        FE runs added to the training design at each of the dataset's (R, F) cases, along ln E
+        (`FESettings.moduli_per_case`; 0: none, as the quick and smoke sizes).
     imprint_models : tuple of str
         What the film records, each calibrated and compared (`filmcal.contact.imprint`).
     kinematics : tuple of str
@@ -72,6 +76,7 @@ class PipelineSettings:
 
     train_runs: int = 200
     test_runs: int = 100
+    moduli_per_case: int = MODULI_PER_CASE
     imprint_models: tuple[str, ...] = IMPRINT_MODELS
     kinematics: tuple[str, ...] = ("small", "large")
     offsets_mm: tuple[float, ...] = tuple(float(x) for x in np.arange(-7.0, 2.01, 1.0))
@@ -98,25 +103,28 @@ class PipelineSettings:
     @classmethod
     def quick(cls) -> "PipelineSettings":
         """Few FE runs, two imprint models, three offsets at 50 kN, short chains: a minute or two."""
-        return cls(train_runs=40, test_runs=12, imprint_models=("edge", "activation"), kinematics=("small",),
-                   offsets_mm=(-6.0, -3.0, 0.0), forces_kn=(50.0,), rough_draws=2, crossval_films=("HS",),
-                   max_steps=10000)
+        return cls(train_runs=40, test_runs=12, moduli_per_case=0, imprint_models=("edge", "activation"),
+                   kinematics=("small",), offsets_mm=(-6.0, -3.0, 0.0), forces_kn=(50.0,), rough_draws=2,
+                   crossval_films=("HS",), max_steps=10000)
 
     @classmethod
     def smoke(cls) -> "PipelineSettings":
         """The whole path at its smallest size (20+5 FE runs, one offset, short chains, no cross-validation):
         a check that an installation runs the job, about 20 s; its numbers are not a calibration."""
-        return cls(train_runs=20, test_runs=5, imprint_models=("edge", "activation"), kinematics=("small",),
-                   offsets_mm=(0.0,), forces_kn=(50.0,), rough_ra_um=None, crossval_films=(), max_steps=400)
+        return cls(train_runs=20, test_runs=5, moduli_per_case=0, imprint_models=("edge", "activation"),
+                   kinematics=("small",), offsets_mm=(0.0,), forces_kn=(50.0,), rough_ra_um=None, crossval_films=(),
+                   max_steps=400)
 
     def fe(self, kinematics: str, seed: int) -> FESettings:
         return FESettings(kinematics=kinematics, n_train=self.train_runs, n_test=self.test_runs, seed=seed,
-                          simulator=self.simulator)
+                          moduli_per_case=self.moduli_per_case, simulator=self.simulator)
 
     def record(self) -> dict:
         """The settings as the study records them (a lab's simulator by its spec; none: as before)."""
         # the rough curves' draws are in their own spec (a change recomputes them): not a setting of the folder
-        out = {k: v for k, v in asdict(self).items() if k not in ("simulator", "rough_draws")}
+        # none at the dataset's cases: recorded as before they existed, so that such studies go on
+        out = {k: v for k, v in asdict(self).items() if k not in ("simulator", "rough_draws")
+               and not (k == "moduli_per_case" and v == 0)}
         if self.simulator is not None:
             out["simulator"] = self.simulator.spec()
         return out
@@ -506,7 +514,8 @@ def _verification_stage(study: Study, settings: PipelineSettings, seed: int, med
     out_films = {}
     for film, (e, nu) in films.items():
         kinematics = medians[film]["kinematics"]
-        model, _, _ = study.radius_model(settings.fe(kinematics, seed), "contact_radius_mm", progress=False)
+        fe = study.as_calibrated(CalibrationSpec(film, fe=settings.fe(kinematics, seed))).fe
+        model, _, _ = study.radius_model(fe, "contact_radius_mm", progress=False)
         rows = []
         for r, f in cases:
             mean, std = model.predict(e, nu, r, f)

@@ -258,6 +258,13 @@ class GPSurrogate(BaseEstimator):
             raise ValueError("the GP fit failed from every start (kernel matrix not positive definite); "
                              "raise noise_level_bounds[0]")
         best = int(np.argmax(lml))
+        if results[best][2]:  # stopped short: once more from there
+            theta, value, messages = _optimise_from(template, results[best][0], T, z)
+            if value <= lml[best] + 1e-9:
+                # no line search ascends from it: a maximum to the likelihood's own rounding, not a failure
+                messages = [m for m in messages if not m.startswith("lbfgs failed to converge")]
+                theta, value = results[best][0], lml[best]
+            results[best] = (theta, value, messages)
         for message in dict.fromkeys(results[best][2]):
             warnings.warn(f"GP hyperparameter optimisation: {message}", ConvergenceWarning, stacklevel=2)
         self._set_state(X, y, input_transform, output_transform, template.clone_with_theta(results[best][0]))
