@@ -130,6 +130,8 @@ ACCEPTANCE_TESTS: dict[str, str] = {
         "41 s: boundary-element laws of a measured map and a profile (Ra reported within 2 %)",
     "test_simulators.py::test_the_design_runs_the_data_cases_so_the_surrogate_is_exact_where_the_calibration_asks":
         "5 s: two toy campaigns and GP fits",
+    "test_simulators.py::test_a_posterior_on_the_design_alone_is_superseded_by_one_with_the_cases_runs":
+        "6 s: two toy calibrations",
     "test_simulators.py::test_a_python_simulator_of_another_law_recovers_its_own_modulus":
         "25 s: two calibrations on a lab's simulator (its own E recovered)",
     "test_simulators.py::test_a_command_simulator_fails_on_some_points_and_resumes_without_running_any_twice":

@@ -275,3 +275,21 @@ def test_the_design_runs_the_data_cases_so_the_surrogate_is_exact_where_the_cali
     assert len(runs["X_train"]["modulus_mpa"]) == 40 + 4 * len(DATASET_CASES)
     with sqlite3.connect(runs["store"]) as db:  # the hypercube's 45 runs once, the cases' 32 beside them
         assert db.execute("select count(*) from runs").fetchone()[0] == 45 + 4 * len(DATASET_CASES)
+
+
+def test_a_posterior_on_the_design_alone_is_superseded_by_one_with_the_cases_runs(tmp_path):
+    """A folder calibrated before the cases' runs existed and again after keeps both posteriors; a reader
+    takes the one whose surrogate has the cases' runs, and names no option it could not give."""
+    from filmcal.study import CalibrationSpec, FESettings, Study
+
+    _dataset(tmp_path / "lot.csv", 2000.0)
+    study = Study(tmp_path / "st", create=True, run_store=tmp_path / "store")
+    sim = Simulator(python="toymodels:toy_simulator")
+    with study.writing("test"):
+        made = [study.calibrate(CalibrationSpec("HS", imprint="edge", max_steps=1500,
+                                                fe=FESettings(n_train=40, n_test=5, moduli_per_case=k, simulator=sim)),
+                                dataset=tmp_path / "lot.csv", workers=1)[1] for k in (0, 4)]
+    assert made[0] != made[1] and len(study.manifest.artefacts("posterior")) == 2
+    (path, spec), = study.posteriors("HS")
+    assert path == made[1] and spec["fe"]["moduli_per_case"] == 4
+    assert study.posterior("HS")[1] == made[1]

@@ -950,7 +950,10 @@ class Study:
         None matches anything, except that without ``loads`` the posteriors of
         all loads are taken when there are also some of a load range. Posteriors
         of an older revision of the in-house FE (`FE_MODEL_REVISION`; a folder
-        run again after an update keeps them) are stale and never returned.
+        run again after an update keeps them) are stale and never returned, and
+        one made on the design alone is superseded by one of the same settings
+        whose surrogate also has runs at the data's cases (`FESettings.case_points`;
+        a folder calibrated again after an update keeps both).
         """
         out = []
         for rel, entry in self.manifest.artefacts("posterior").items():
@@ -964,7 +967,7 @@ class Study:
                 out.append((self.root / rel, spec))
         if match.get("loads") is None and len({s.get("loads") is None for _, s in out}) == 2:
             out = [(p, s) for p, s in out if s.get("loads") is None]  # no load range asked: all loads first
-        return out
+        return _without_superseded(out)
 
     def posterior(self, film: str, **match: Any):
         """The one recorded posterior of `film` matching `match`; a clear error when none or several.
@@ -1094,6 +1097,22 @@ def json_key(value: Any) -> str:
     import json
 
     return json.dumps(value, sort_keys=True, default=str)
+
+
+def _case_runs(spec: dict) -> int:
+    return len(spec["fe"].get("case_points", ())) * int(spec["fe"].get("moduli_per_case", 0))
+
+
+def _without_superseded(found: list[tuple[Path, dict]]) -> list[tuple[Path, dict]]:
+    """`found` without the posteriors made on the design alone where one of the same settings otherwise has
+    runs at the data's cases (its surrogate is exact where the calibration asks it)."""
+    design = ("case_points", "moduli_per_case")
+
+    def settings(spec: dict) -> str:
+        return json_key({k: v for k, v in _spec_fields(spec).items() if k not in design})
+
+    with_cases = {settings(s) for _, s in found if _case_runs(s)}
+    return [(p, s) for p, s in found if _case_runs(s) or settings(s) not in with_cases]
 
 
 def _spec_fields(spec: dict) -> dict:
