@@ -9,8 +9,8 @@
 
 Usage (from the repository root, filmcal installed)::
 
-    python examples/lab/workflow.py                 # 200 + 100 solver runs, a few minutes on 2 cores
-    python examples/lab/workflow.py --fast          # 20 + 5 runs and short chains: a check that it runs
+    python examples/lab/workflow.py                 # 200 + 100 solver runs and 12 at each of the lot's 7 cases
+    python examples/lab/workflow.py --fast          # 20 + 5 runs, 2 at each case, short chains: a check that it runs
 
 Writes ``out/lab/`` (the study, the solver runs' store and folders in ``runs/``, ``corrected.csv``); a second
 run reuses every finished solver run and the posterior. Without ``--run-store`` the runs would go to the user's
@@ -30,7 +30,7 @@ HERE = Path(__file__).resolve().parent
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--fast", action="store_true", help="20 + 5 solver runs and short chains")
+    ap.add_argument("--fast", action="store_true", help="20 + 5 solver runs, 2 at each case, and short chains")
     ap.add_argument("--out-dir", default="out/lab")
     ap.add_argument("--workers", default="2")
     args = ap.parse_args(argv)
