@@ -7,8 +7,9 @@ from pathlib import Path
 
 from filmcal.commands._common import print_json, simulator_from_args
 from filmcal.commands._options import (
-    STUDY_IMPRINT_MODELS, add, add_contact_options, add_simulator_options, force_range, local, renamed,
+    STUDY_IMPRINT_MODELS, add, add_contact_options, add_simulator_options, bounds_text, force_range, local, renamed,
 )
+from filmcal._validation import arg_int_in
 from filmcal.contact.names import DEFAULT_KINEMATICS, MIXTURE
 from filmcal.surrogate.radius import MODULI_PER_CASE
 
@@ -46,10 +47,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add(p, "run_store")
     local(p, "--train-runs", type=int, default=200, help="FE runs to train the surrogate (default 200)")
     local(p, "--test-runs", type=int, default=100, help="held-out FE runs to validate it (default 100)")
-    local(p, "--moduli-per-case", type=int, default=MODULI_PER_CASE, metavar="N",
+    local(p, "--moduli-per-case", type=arg_int_in(0, 100), default=MODULI_PER_CASE, metavar="N",
           help=f"FE runs added to the training design at each of the data's (R, F) cases, at moduli spread over "
                f"the prior's range, so that the surrogate is exact where the calibration asks it (default "
-               f"{MODULI_PER_CASE}; at most --train-runs in all; 0: the Latin hypercube alone)")
+               f"{MODULI_PER_CASE}; at most --train-runs in all; 0: the Latin hypercube alone)"
+               + bounds_text(0, 100, True))
     where = p.add_mutually_exclusive_group()
     add(where, "workers", extra="(default: all cores)")
     add(where, "dask", extra="; the command's parallel work runs there (FE or simulator runs, fits, calibrations)")
