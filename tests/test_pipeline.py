@@ -299,3 +299,32 @@ def test_curves_name_the_transfer_fit_they_were_made_with(quick_study, monkeypat
     other = replace(shipped, coefficients={k: [c * 1.01 for c in v] for k, v in shipped.coefficients.items()})
     monkeypatch.setattr(transfer, "load_transfer_fit", lambda: other)
     assert curve_spec(study, "HS", settings)["transfer"] != recorded["transfer"]
+
+
+def test_a_study_made_before_the_cases_runs_goes_on_with_its_own_design(tmp_path):
+    """A full study recorded without ``moduli_per_case`` (made before the runs at the data's cases) is continued
+    with its own design, said in one line, not refused; other settings still differ and are refused as before."""
+    import warnings
+    from dataclasses import replace
+
+    import pytest
+
+    from filmcal._errors import InputError
+    from filmcal.study import PipelineSettings, Study
+    from filmcal.study.stages import DesignKeptNote, _kept_design
+
+    old = PipelineSettings(moduli_per_case=0)
+    assert "moduli_per_case" not in old.record()  # what such a study recorded
+    study = Study(tmp_path / "st", create=True)
+    with study.writing("test"):
+        study.set_settings({"pipeline": old.record(), "seed": 0})
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            kept = _kept_design(study, PipelineSettings())
+        assert kept.moduli_per_case == 0 and kept.record() == old.record()
+        assert [w.category for w in caught] == [DesignKeptNote]
+        study.set_settings({"pipeline": kept.record(), "seed": 0})  # accepted
+        other = replace(PipelineSettings(), train_runs=100)
+        assert _kept_design(study, other) is other
+        with pytest.raises(InputError, match="other settings"):
+            study.set_settings({"pipeline": other.record(), "seed": 0})

@@ -49,7 +49,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     local(p, "--test-runs", type=int, default=100, help="held-out FE runs to validate it (default 100)")
     local(p, "--moduli-per-case", type=arg_int_in(0, 100), default=MODULI_PER_CASE, metavar="N",
           help=f"FE runs added to the training design at each of the data's (R, F) cases, at moduli spread over "
-               f"the prior's range, so that the surrogate is exact where the calibration asks it (default "
+               f"the prior's range at the film's nu, so that the surrogate is exact where the calibration asks it (with "
+               f"--poisson free: along its nominal nu) (default "
                f"{MODULI_PER_CASE}; at most --train-runs in all; 0: the Latin hypercube alone)"
                + bounds_text(0, 100, True))
     where = p.add_mutually_exclusive_group()

@@ -468,7 +468,7 @@ def preliminary_section(model, modulus_range_mpa: tuple[float, float]) -> Sectio
     return s
 
 
-def design_section(design: DesignData | None) -> Section:
+def design_section(design: DesignData | None, config_settings: dict | None = None) -> Section:
     """Design quality metrics and the pairs plot of the FE campaign in physical units."""
     s = Section("Design of the FE campaign")
     if design is None:
@@ -483,7 +483,10 @@ def design_section(design: DesignData | None) -> Section:
                                for src in ("quality", "random_lhs_median")])
     s.add(f"Optimal Latin hypercubes (enhanced stochastic evolutionary search on φp) over log E, ν, the five "
           f"sphere radii (discrete levels) and F: {m['train']['n']} training and {m['test']['n']} held-out FE "
-          "runs, each compared with the median of ten plain random Latin hypercubes of the same size. The "
+          "runs, each compared with the median of ten plain random Latin hypercubes of the same size"
+          + (f"; the training runs are joined by {cases} at each of the data's (R, F) cases, at moduli spread "
+             "over the prior's range (not shown)" if (cases := (config_settings or {}).get("moduli_per_case"))
+             else "") + ". The "
           "metrics are computed in the unit cube (each input scaled to 0-1, E in log); the figure shows the "
           "points in physical units.",
           Table(["metric (unit cube)", "training", "random LHS", "held out", "random LHS"], rows,
@@ -927,7 +930,7 @@ SECTION_BUILDERS: list[Callable[[StudyData], Section | list[Section]]] = [
     lambda d: summary_section(d.posteriors, d.curves),
     lambda d: verification_section(d.verification),
     lambda d: preliminary_section(d.radius_model, d.modulus_range_mpa),
-    lambda d: design_section(d.design),
+    lambda d: design_section(d.design, d.settings),
     lambda d: surrogate_section(d.surrogate_validation),
     calibration_sections,
     lambda d: film_records_section(d.imprint_comparison, d.curves),

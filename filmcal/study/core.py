@@ -736,8 +736,10 @@ class Study:
     def as_calibrated(self, spec: CalibrationSpec, dataset=None) -> CalibrationSpec:
         """`spec` as the calibration runs it on the data (default: the study's dataset): its FE design
         covering the data's cases (`_covering_spec`), so that what it names (its surrogate, its posterior)
-        is what `calibrate` made."""
-        return self._as_calibrated(spec, dataset)[0]
+        is what `calibrate` made. Its domain note is not said again (the calibration said it)."""
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DomainNote)
+            return self._as_calibrated(spec, dataset)[0]
 
     def _as_calibrated(self, spec: CalibrationSpec, dataset=None):
         film = self.film(spec.film)
@@ -1047,6 +1049,7 @@ def _covering_spec(spec: "CalibrationSpec", data, poisson: float) -> "Calibratio
     warnings.warn(DomainNote(
         f"the dataset's cases lie outside the design's domain: it is extended to sphere radii {levels} mm and "
         f"forces {domain.force_kn[0]:.3g}-{domain.force_kn[1]:.3g} kN, {new} new FE runs per film kinematics "
+        + (f"besides the {spec.fe.case_runs} at the data's cases " if spec.fe.case_runs else "") +
         f"(the design is augmented: the {spec.fe.n_train + spec.fe.n_test} runs over the domain it extends are "
         "reused)"), stacklevel=3)
     return replace(spec, fe=replace(spec.fe, domain=domain, base_domain=base))
@@ -1109,7 +1112,8 @@ def _without_superseded(found: list[tuple[Path, dict]]) -> list[tuple[Path, dict
     design = ("case_points", "moduli_per_case")
 
     def settings(spec: dict) -> str:
-        return json_key({k: v for k, v in _spec_fields(spec).items() if k not in design})
+        return json_key({"film": spec.get("film"), "dataset": spec.get("dataset"),
+                         **{k: v for k, v in _spec_fields(spec).items() if k not in design}})
 
     with_cases = {settings(s) for _, s in found if _case_runs(s)}
     return [(p, s) for p, s in found if _case_runs(s) or settings(s) not in with_cases]
@@ -1445,9 +1449,10 @@ def report_view(study: Study) -> dict:
               "hash": spec_key(settings or {"films": films}),
               "software": study.manifest.data.get("software"),
               "software_later": study.manifest.data.get("software_later", [])}
-    posteriors = {}
+    posteriors, used = {}, set()
     for film in films:
         found = study.posteriors(film)
+        used |= {(study.manifest.entry(study.layout.relative(p)) or {}).get("surrogate") for p, _ in found}
         if not found:
             continue
         weights = comparison_weights(study, film)
@@ -1456,8 +1461,10 @@ def report_view(study: Study) -> dict:
             or [found[0][0]]
         posteriors[film] = pick[0]
     surrogate = validation = None
+    # an edge surrogate a current posterior was calibrated with (not one of a superseded design)
     edge = [(rel, e) for rel, e in study.manifest.artefacts("radius-surrogate").items()
-            if e.get("column") == "contact_radius_mm" and rel.endswith(".json") and not rel.endswith("-validation.json")]
+            if e.get("column") == "contact_radius_mm" and rel.endswith(".json") and not rel.endswith("-validation.json")
+            and Path(rel).stem in used]
     if edge:
         rel = edge[0][0]
         surrogate = study.root / rel[: -len(".json")]

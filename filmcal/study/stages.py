@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -99,6 +99,9 @@ class PipelineSettings:
             raise InputError("at least one imprint model and one film kinematics are needed")
         if isinstance(self.rough_draws, bool) or not isinstance(self.rough_draws, int) or self.rough_draws < 1:
             raise InputError(f"rough_draws must be an integer >= 1, got {self.rough_draws!r}")
+        if isinstance(self.moduli_per_case, bool) or not isinstance(self.moduli_per_case, int) or \
+                not 0 <= self.moduli_per_case <= 100:
+            raise InputError(f"moduli_per_case must be an integer 0-100, got {self.moduli_per_case!r}")
 
     @classmethod
     def quick(cls) -> "PipelineSettings":
@@ -195,10 +198,35 @@ def run_pipeline(study_dir, settings: PipelineSettings | None = None, films=FILM
         return _run_stages(study, settings, films, seed, pool, progress, report, dataset)
 
 
+def _kept_design(study: Study, settings: PipelineSettings) -> PipelineSettings:
+    """`settings`, or with no runs at the data's cases when the study was made before they existed (its record
+    has no ``moduli_per_case``) with otherwise the same settings: such a study goes on with its own design and
+    posteriors, said in one line; a new ``--study-dir`` gets the cases' runs."""
+    recorded = (study.manifest.data.get("settings") or {}).get("pipeline")
+    if recorded is None or "moduli_per_case" in recorded or settings.moduli_per_case == 0:
+        return settings
+    import json
+
+    from filmcal._json import json_safe
+
+    kept = replace(settings, moduli_per_case=0)
+    if json.loads(json.dumps(json_safe(kept.record()))) == recorded:  # as the study recorded it
+        warnings.warn(DesignKeptNote(
+            f"study {study.root} was made before the surrogates' runs at the data's cases: it goes on with its own "
+            "design and posteriors (a new --study-dir gets those runs)"), stacklevel=2)
+        return kept
+    return settings
+
+
+class DesignKeptNote(UserWarning):
+    """A study made before the runs at the data's cases goes on with its own design."""
+
+
 def _run_stages(study: Study, settings: PipelineSettings, films, seed: int, pool, progress, report,
                 dataset) -> dict:
     """The pipeline's stages in an opened study, every stage's parallel work on `pool`; the summary."""
     with study.writing("filmcal pipeline"):
+        settings = _kept_design(study, settings)
         study.set_settings({"pipeline": settings.record(), "seed": seed})
         known = list(study.manifest.data.get("pipeline_films", []))
         films = known + [f for f in films if f not in known]
@@ -278,8 +306,10 @@ STAGE_COSTS_S = {"design_per_run": 0.02, "fe_run": 0.25, "gp_fit_per_run2": 5e-4
 def _calibration_costs(settings: PipelineSettings, n_specs: int) -> tuple[float, float, float]:
     """Planned cost of the calibration stage (s), and the shares of its FE runs and its surrogate fits."""
     c = STAGE_COSTS_S
-    fe = c["fe_run"] * (settings.train_runs + settings.test_runs) * len(settings.kinematics)
-    fits = c["gp_fit_per_run2"] * settings.train_runs ** 2 * len(settings.kinematics)
+    # the runs at the data's cases: Table 1's ten cases, at most train_runs (a dataset's own are not known here)
+    cases = min(10 * settings.moduli_per_case, settings.train_runs)
+    fe = c["fe_run"] * (settings.train_runs + cases + settings.test_runs) * len(settings.kinematics)
+    fits = c["gp_fit_per_run2"] * (settings.train_runs + cases) ** 2 * len(settings.kinematics)
     total = fe + fits + c["chain"] * n_specs
     return total, fe / total, fits / total
 

@@ -260,11 +260,12 @@ class GPSurrogate(BaseEstimator):
         best = int(np.argmax(lml))
         if results[best][2]:  # stopped short: once more from there
             theta, value, messages = _optimise_from(template, results[best][0], T, z)
-            if value <= lml[best] + 1e-9:
+            if value > lml[best] + 1e-9:
+                results[best], lml[best] = (theta, value, messages), value
+            elif np.isfinite(value):
                 # no line search ascends from it: a maximum to the likelihood's own rounding, not a failure
-                messages = [m for m in messages if not m.startswith("lbfgs failed to converge")]
-                theta, value = results[best][0], lml[best]
-            results[best] = (theta, value, messages)
+                results[best] = (results[best][0], lml[best],
+                                 [m for m in results[best][2] if not m.startswith("lbfgs failed to converge")])
         for message in dict.fromkeys(results[best][2]):
             warnings.warn(f"GP hyperparameter optimisation: {message}", ConvergenceWarning, stacklevel=2)
         self._set_state(X, y, input_transform, output_transform, template.clone_with_theta(results[best][0]))
