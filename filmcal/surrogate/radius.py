@@ -41,8 +41,9 @@ LOG_INPUTS = ("modulus_mpa", "sphere_radius_mm", "force_kn")
 #: The FE output read where the contact pressure falls to zero (the ``edge`` imprint model).
 EDGE_COLUMN = "contact_radius_mm"
 #: FE runs at each of a dataset's (R, F) cases, at moduli spread over the domain (`case_design_points`): 12
-#: puts neighbours 1.43 apart in E over 400-20000 MPa, and the surrogate's std at the cases below the FE's
-#: own jitter (0.001 mm) where the Latin hypercube alone leaves up to 0.03 mm at Table 1's 25 kN cases.
+#: puts neighbours 1.43 apart in E over 400-20000 MPa and brings the surrogate's std at the cases down to the
+#: FE's own jitter (0.0009 mm for HHS's activation reading), where the Latin hypercube alone leaves 2-4 times
+#: that at Table 1's 25 kN cases (`bench/case_runs.py`).
 MODULI_PER_CASE = 12
 
 
