@@ -11,7 +11,7 @@ from filmcal.commands._options import (
 )
 from filmcal._validation import arg_int_in
 from filmcal.contact.names import DEFAULT_KINEMATICS, MIXTURE
-from filmcal.surrogate.radius import MODULI_PER_CASE
+from filmcal.surrogate.radius import MAX_MODULI_PER_CASE, MODULI_PER_CASE
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -47,12 +47,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add(p, "run_store")
     local(p, "--train-runs", type=int, default=200, help="FE runs to train the surrogate (default 200)")
     local(p, "--test-runs", type=int, default=100, help="held-out FE runs to validate it (default 100)")
-    local(p, "--moduli-per-case", type=arg_int_in(0, 100), default=MODULI_PER_CASE, metavar="N",
+    local(p, "--moduli-per-case", type=arg_int_in(0, MAX_MODULI_PER_CASE), default=MODULI_PER_CASE, metavar="N",
           help=f"FE runs added to the training design at each of the data's (R, F) cases, at moduli spread over "
                f"the prior's range at the film's nu, so that the surrogate is exact where the calibration asks it (with "
                f"--poisson free: along its nominal nu) (default "
                f"{MODULI_PER_CASE}; at most --train-runs in all; 0: the Latin hypercube alone)"
-               + bounds_text(0, 100, True))
+               + bounds_text(0, MAX_MODULI_PER_CASE, True))
     where = p.add_mutually_exclusive_group()
     add(where, "workers", extra="(default: all cores)")
     add(where, "dask", extra="; the command's parallel work runs there (FE or simulator runs, fits, calibrations)")

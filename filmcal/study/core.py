@@ -75,6 +75,15 @@ def default_run_store() -> Path | None:
     return path.resolve() if os.access(path, os.W_OK) else None
 
 
+def as_recorded(settings: dict) -> dict:
+    """`settings` as a study's manifest records them (JSON values: lists for tuples, plain floats)."""
+    import json
+
+    from filmcal._json import json_safe
+
+    return json.loads(json.dumps(json_safe(settings)))
+
+
 def seed_for(seed: int, stream: str) -> int:
     """An independent integer seed of the named stream of a study's seed.
 
@@ -139,7 +148,7 @@ class FESettings:
     case_points: tuple = ()
 
     def __post_init__(self) -> None:
-        from filmcal.surrogate.radius import SurrogateDomain
+        from filmcal.surrogate.radius import SurrogateDomain, check_moduli_per_case
 
         if self.domain is None:
             object.__setattr__(self, "domain", SurrogateDomain())
@@ -147,9 +156,7 @@ class FESettings:
             raise InputError(f"kinematics must be one of {', '.join(KINEMATICS)}, got {self.kinematics!r}")
         if not (20 <= self.n_train <= 5000 and 5 <= self.n_test <= 5000):
             raise InputError(f"train_runs must be 20-5000 and test_runs 5-5000, got {self.n_train} and {self.n_test}")
-        if isinstance(self.moduli_per_case, bool) or not isinstance(self.moduli_per_case, int) or \
-                not 0 <= self.moduli_per_case <= 100:
-            raise InputError(f"moduli_per_case must be an integer 0-100, got {self.moduli_per_case!r}")
+        check_moduli_per_case(self.moduli_per_case)
         object.__setattr__(self, "case_points", tuple(tuple(float(v) for v in c) for c in self.case_points))
 
     @property
@@ -375,12 +382,8 @@ class Study:
 
     def set_settings(self, settings: dict) -> None:
         """Record the study's settings on first use; refuse other settings later (naming what differs)."""
-        import json
-
-        from filmcal._json import json_safe
-
         self._require_writer()
-        settings = json.loads(json.dumps(json_safe(settings)))
+        settings = as_recorded(settings)
         old = self.manifest.data.get("settings")
         if old is not None and old != settings:
             a, b = _flatten(old), _flatten(settings)

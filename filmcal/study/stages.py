@@ -29,9 +29,9 @@ import numpy as np
 from filmcal._errors import InputError
 from filmcal._io import atomic_write_json, read_json
 from filmcal.films import FILM_TYPES
-from filmcal.surrogate.radius import MODULI_PER_CASE
-from filmcal.study.core import (IMPRINT_MODELS, KINEMATICS, CalibrationSpec, FESettings, Study, refit_without_case,
-                                seed_for)
+from filmcal.surrogate.radius import MODULI_PER_CASE, check_moduli_per_case
+from filmcal.study.core import (IMPRINT_MODELS, KINEMATICS, CalibrationSpec, FESettings, Study, as_recorded,
+                                refit_without_case, seed_for)
 
 __all__ = ["PipelineSettings", "run_pipeline", "STAGES"]
 
@@ -99,9 +99,7 @@ class PipelineSettings:
             raise InputError("at least one imprint model and one film kinematics are needed")
         if isinstance(self.rough_draws, bool) or not isinstance(self.rough_draws, int) or self.rough_draws < 1:
             raise InputError(f"rough_draws must be an integer >= 1, got {self.rough_draws!r}")
-        if isinstance(self.moduli_per_case, bool) or not isinstance(self.moduli_per_case, int) or \
-                not 0 <= self.moduli_per_case <= 100:
-            raise InputError(f"moduli_per_case must be an integer 0-100, got {self.moduli_per_case!r}")
+        check_moduli_per_case(self.moduli_per_case)
 
     @classmethod
     def quick(cls) -> "PipelineSettings":
@@ -205,12 +203,8 @@ def _kept_design(study: Study, settings: PipelineSettings) -> PipelineSettings:
     recorded = (study.manifest.data.get("settings") or {}).get("pipeline")
     if recorded is None or "moduli_per_case" in recorded or settings.moduli_per_case == 0:
         return settings
-    import json
-
-    from filmcal._json import json_safe
-
     kept = replace(settings, moduli_per_case=0)
-    if json.loads(json.dumps(json_safe(kept.record()))) == recorded:  # as the study recorded it
+    if as_recorded(kept.record()) == recorded:
         warnings.warn(DesignKeptNote(
             f"study {study.root} was made before the surrogates' runs at the data's cases: it goes on with its own "
             "design and posteriors (a new --study-dir gets those runs)"), stacklevel=2)

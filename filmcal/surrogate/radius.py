@@ -32,7 +32,7 @@ if TYPE_CHECKING:
     from filmcal.surrogate.gp import GPSurrogate
 
 __all__ = ["INPUTS", "LOG_INPUTS", "EDGE_COLUMN", "SurrogateDomain", "SurrogateValidation", "design_points",
-           "case_design_points", "MODULI_PER_CASE",
+           "case_design_points", "MODULI_PER_CASE", "MAX_MODULI_PER_CASE", "check_moduli_per_case",
            "option_columns", "radius_excess_mm", "fit_radius_surrogate", "validate_radius_surrogate", "fit_and_validate",
            "SurrogateRadiusModel", "FERadiusModel", "CaseTable", "load_for_prediction"]
 
@@ -45,6 +45,17 @@ EDGE_COLUMN = "contact_radius_mm"
 #: FE's own jitter (0.0009 mm for HHS's activation reading), where the Latin hypercube alone leaves 2-4 times
 #: that at Table 1's 25 kN cases (`bench/case_runs.py`).
 MODULI_PER_CASE = 12
+#: Most runs at one case a setting may ask for.
+MAX_MODULI_PER_CASE = 100
+
+
+def check_moduli_per_case(value) -> int:
+    """`value` if it is a count of runs at each case (0 to `MAX_MODULI_PER_CASE`), else `InputError`."""
+    from filmcal._errors import InputError
+
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= MAX_MODULI_PER_CASE:
+        raise InputError(f"moduli_per_case must be an integer 0-{MAX_MODULI_PER_CASE}, got {value!r}")
+    return value
 
 
 @dataclass(frozen=True)
