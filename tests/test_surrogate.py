@@ -145,6 +145,49 @@ def test_log_output_matches_standardized_fit_of_log_data(train):
     np.testing.assert_allclose(upper, np.exp(m + 1.6448536269514722 * s), rtol=1e-5)
 
 
+def test_auto_transform_compares_densities_of_the_same_outputs(train):
+    """The evidence of each transform is a density of y: in other units (y -> c y) both shift by -n log c.
+
+    Change of variables: p(c y) = p(y) / c^n for any transform. The standardised
+    z and the log's standardised z are the same for y and c y, so only the
+    Jacobian moves, and the choice cannot depend on the units.
+    """
+    X, y = train[0][:60], train[1][:60]
+    mm = make_surrogate(output_transform="auto", n_restarts=0).fit(X, y)
+    m = make_surrogate(output_transform="auto", n_restarts=0).fit(X, 1e-3 * y)
+    assert set(mm.log_evidence_) == {"log", "standardize"}
+    for kind in mm.log_evidence_:
+        assert m.log_evidence_[kind] - mm.log_evidence_[kind] == pytest.approx(-60 * np.log(1e-3), rel=1e-6)
+    assert m.output_transform_.kind == mm.output_transform_.kind
+    assert mm.log_evidence_[mm.output_transform_.kind] == max(mm.log_evidence_.values())
+
+
+@pytest.mark.parametrize("shape, expected", [("exponential", "log"), ("linear near zero", "standardize")])
+def test_auto_transform_keeps_the_one_that_predicts_better(shape, expected):
+    """y = exp(3 x0 + 2 x1) is linear after the log; y = 0.002 + x0 + x1 is linear as it is and
+    close to zero, where a log stretches it. The evidence picks the transform under which y is
+    linear, and that one also predicts held-out points better (a second, independent measure)."""
+    X = qmc.LatinHypercube(2, rng=3).random(60)
+    Xt = qmc.LatinHypercube(2, rng=4).random(200)
+
+    def f(x):
+        return np.exp(3 * x[:, 0] + 2 * x[:, 1]) if shape == "exponential" else 0.002 + x[:, 0] + x[:, 1]
+
+    def surrogate(transform):
+        return GPSurrogate(("a", "b"), "y", output_transform=transform, n_restarts=2, random_state=0)
+
+    auto = surrogate("auto").fit(X, f(X))
+    assert auto.output_transform_.kind == expected
+    other = surrogate("standardize" if expected == "log" else "log").fit(X, f(X))
+    assert np.sqrt(np.mean((auto.predict(Xt) - f(Xt)) ** 2)) < np.sqrt(np.mean((other.predict(Xt) - f(Xt)) ** 2))
+
+
+def test_auto_transform_standardises_outputs_that_are_not_positive(train):
+    X, y = train[0][:40], train[1][:40]
+    fitted = make_surrogate(output_transform="auto", n_restarts=0).fit(X, y - np.median(y))
+    assert list(fitted.log_evidence_) == ["standardize"] and fitted.output_transform_.kind == "standardize"
+
+
 def test_noise_widens_the_std(fitted, held_out):
     _, latent = fitted.predict(held_out[0], return_std=True)
     _, noisy = fitted.predict(held_out[0], return_std=True, noise=True)

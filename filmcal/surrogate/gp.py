@@ -31,6 +31,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from filmcal.surrogate.kernels import kernel_parts, make_kernel
 from filmcal.surrogate.transforms import (
+    OUTPUT_TRANSFORMS,
     InputTransform,
     OutputTransform,
     as_input_matrix,
@@ -112,8 +113,12 @@ class GPSurrogate(BaseEstimator):
     input_bounds : mapping of str -> (low, high), optional
         Physical domain used by ``"unit"`` scaling; inputs not listed use the
         range of the training data.
-    output_transform : {"standardize", "log"}, default "standardize"
-        ``"log"`` models ``log(y)`` (y > 0) and is then standardised.
+    output_transform : {"standardize", "log", "auto"}, default "standardize"
+        ``"log"`` models ``log(y)`` (y > 0) and is then standardised. ``"auto"``
+        fits both when every y > 0 (else only the standardised y) and keeps the
+        one with the larger evidence of the physical outputs (`log_evidence_`):
+        a log suits an output spanning decades, but stretches one that comes
+        close to zero.
     length_scale_bounds, constant_value_bounds, noise_level_bounds : (float, float)
         Bounds of the Matern length scales (scaled inputs), of the signal
         variance and of the white-noise variance (standardised output).
@@ -148,6 +153,10 @@ class GPSurrogate(BaseEstimator):
         Log marginal likelihood of the transformed data at `kernel_`.
     restart_log_marginal_likelihoods_ : ndarray
         Optimum reached from each start (-inf where the fit failed), in start order.
+    log_evidence_ : dict of str -> float
+        Log marginal likelihood of the physical outputs y (the Jacobian of the
+        output transform included) at the optimum of each transform tried; only
+        after `fit`, not after loading.
     at_bounds_ : list of str
         Hyperparameters that ended at a bound (a white noise at its lower bound
         is normal for noise-free data).
@@ -246,11 +255,40 @@ class GPSurrogate(BaseEstimator):
         y = as_output_vector(y, self.output, X.shape[0])
         if X.shape[0] < _MIN_POINTS:
             raise ValueError(f"need at least {_MIN_POINTS} training points, got {X.shape[0]}")
+        if self.output_transform != "auto" and self.output_transform not in OUTPUT_TRANSFORMS:
+            raise ValueError(f"output_transform must be 'auto' or one of {', '.join(OUTPUT_TRANSFORMS)}; "
+                             f"got {self.output_transform!r}")
         input_transform = InputTransform.fit(names, X, self.log_inputs, self.input_scaling, self.input_bounds)
-        output_transform = OutputTransform.fit(y, self.output_transform)
-        T, z = input_transform.transform(X), output_transform.transform(y)
-
+        T = input_transform.transform(X)
         template = self._template_kernel(len(names))
+        if self.output_transform != "auto":
+            kinds = [self.output_transform]
+        else:
+            kinds = ["log", "standardize"] if np.all(y > 0) else ["standardize"]
+        fits = {kind: self._fit_output(template, T, y, kind) for kind in kinds}
+        self.log_evidence_ = {kind: fit[4] for kind, fit in fits.items()}
+        kind = max(kinds, key=lambda k: self.log_evidence_[k])  # the first of equals: log
+        output_transform, theta, lml, messages, _ = fits[kind]
+        for message in dict.fromkeys(messages):
+            warnings.warn(f"GP hyperparameter optimisation: {message}", ConvergenceWarning, stacklevel=2)
+        self._set_state(X, y, input_transform, output_transform, template.clone_with_theta(theta))
+        self.restart_log_marginal_likelihoods_ = lml
+        return self
+
+    def _fit_output(self, template: Kernel, T: np.ndarray, y: np.ndarray, kind: str
+                    ) -> tuple[OutputTransform, np.ndarray, np.ndarray, list[str], float]:
+        """Hyperparameters for the outputs `y` under the output transform `kind`.
+
+        Returns the output transform, the best log-hyperparameters, the optimum
+        of every start, the best start's warnings and the log evidence of the
+        physical outputs: the log marginal likelihood of ``z = (h(y) - offset) /
+        scale`` plus the log Jacobian ``log|dz/dy|`` summed over the points,
+        ``-n log(scale)`` and, for the log, ``-sum(log y)``. The evidences of two
+        transforms are then densities of the same y and can be compared (the
+        warped-GP argument of Snelson, Rasmussen & Ghahramani, NIPS 2003).
+        """
+        output_transform = OutputTransform.fit(y, kind)
+        z = output_transform.transform(y)
         starts = self._starts(template, np.random.default_rng(self.random_state))
         results = _run_starts(template, starts, T, z, self.n_jobs)
         lml = np.array([r[1] for r in results])
@@ -266,11 +304,8 @@ class GPSurrogate(BaseEstimator):
                 # no line search ascends from it: a maximum to the likelihood's own rounding, not a failure
                 results[best] = (results[best][0], lml[best],
                                  [m for m in results[best][2] if not m.startswith("lbfgs failed to converge")])
-        for message in dict.fromkeys(results[best][2]):
-            warnings.warn(f"GP hyperparameter optimisation: {message}", ConvergenceWarning, stacklevel=2)
-        self._set_state(X, y, input_transform, output_transform, template.clone_with_theta(results[best][0]))
-        self.restart_log_marginal_likelihoods_ = lml
-        return self
+        jacobian = -y.size * np.log(output_transform.scale) - (np.sum(np.log(y)) if kind == "log" else 0.0)
+        return output_transform, results[best][0], lml, results[best][2], float(lml[best] + jacobian)
 
     def _set_state(self, X: np.ndarray, y: np.ndarray, input_transform: InputTransform,
                    output_transform: OutputTransform, kernel: Kernel) -> None:

@@ -3,8 +3,8 @@
 The FE model gives, for a film (E, nu) between a sphere of radius R and a
 flat under force F, a contact radius and imprint radii (one per imprint model
 and film type, `filmcal.contact.imprint`). A Gaussian process emulates one of
-them as its excess over the Hertz radius, in log (the excess is positive and
-spans a decade), over (log E, nu, log R, log F):
+them as its excess over the Hertz radius (in log or not, whichever the
+evidence prefers), over (log E, nu, log R, log F):
 
 * `SurrogateDomain` -- where it is trained and valid (the prior's support);
 * `design_points` -- an optimal Latin hypercube over the domain as FE points;
@@ -280,18 +280,21 @@ def radius_excess_mm(X: dict, radius_mm: np.ndarray) -> np.ndarray:
 
 def fit_radius_surrogate(X: dict, radius_mm: np.ndarray, domain: SurrogateDomain, random_state: int = 0,
                          n_restarts: int = 8) -> "GPSurrogate":
-    """GP of the radius excess over Hertz, log output, over (log E, nu, log R, log F).
+    """GP of the radius excess over Hertz over (log E, nu, log R, log F), in log or not by the evidence.
 
-    Non-positive excesses (an imprint read inside the Hertz radius, possible
-    for a stiff film read at a high activation pressure) cannot take a log:
-    the output is then fitted without the log transform.
+    The output transform is ``"auto"`` (`GPSurrogate`): the log and the
+    standardised excess are both fitted and the one whose evidence of the
+    excesses is larger is kept. An edge reading's excess spans a decade and
+    keeps its log; a level reading of a stiff film (HHS's activation contour)
+    comes close to zero or inside the Hertz radius, where a log stretches
+    the small excesses and the standardised excess predicts 2-3 times better
+    (bench/output_transform.py). Non-positive excesses are fitted standardised.
     """
     from filmcal.surrogate.gp import GPSurrogate
 
     y = radius_excess_mm(X, radius_mm)
-    transform = "log" if np.all(y > 0) else "standardize"
     return GPSurrogate(list(INPUTS), output="radius_excess_mm", log_inputs=list(LOG_INPUTS),
-                       output_transform=transform, input_bounds=domain.bounds(), n_restarts=n_restarts,
+                       output_transform="auto", input_bounds=domain.bounds(), n_restarts=n_restarts,
                        random_state=random_state).fit(X, y)
 
 
