@@ -10,8 +10,9 @@ Nothing in the study is written.
     python bench/case_runs.py --study-dir filmcal-study
 
 Prints per film: the std at each case (the std the likelihood adds to sigma^2)
-of the hypercube alone with the output transform it chose by itself (log while
-every excess over Hertz is positive), of the hypercube alone with the transform
+of the hypercube alone with the output transform chosen by sign (log while
+every excess over Hertz is positive: the rule before the evidence chose it,
+`bench/output_transform.py`), of the hypercube alone with the transform
 of the surrogate with the cases, and of the surrogate with the cases; and the
 three surrogates' held-out radius rms and max.
 """
@@ -74,8 +75,8 @@ def main(argv=None) -> int:
         names = list(with_cases.input_names_)
         X = {n: with_cases.X_train_[~at_case, i] for i, n in enumerate(names)}
         y = with_cases.y_train_[~at_case]
-        # the hypercube alone as it was fitted before (its own output transform: log while every excess over
-        # Hertz is positive, `fit_radius_surrogate`) and with the transform of the surrogate with the cases
+        # the hypercube alone as it was fitted before the evidence chose the transform (log while every excess
+        # over Hertz is positive) and with the transform of the surrogate with the cases
         before = GPSurrogate(**{**with_cases.get_params(), "output_transform": "log" if np.all(y > 0)
                                 else "standardize"}).fit(X, y)
         alone = GPSurrogate(**with_cases.get_params()).fit(X, y)
@@ -90,7 +91,7 @@ def main(argv=None) -> int:
         print(f"{film} {label} at E = {median:.0f} MPa, nu {nu:g}: {int(at_case.sum())} case runs of "
               f"{len(at_case)} training runs; output transform {before.get_params()['output_transform']} for the "
               f"hypercube alone, {transform} with the cases")
-        print(f"  {'R mm':>6} {'F kN':>6} {'std: hypercube, own transform':>30} {'hypercube, ' + transform:>22} "
+        print(f"  {'R mm':>6} {'F kN':>6} {'std: hypercube, by sign':>30} {'hypercube, ' + transform:>22} "
               f"{'with the cases':>15}")
         for (r, f), b, a, w in zip(cases, s_before, s_alone, s_with):
             print(f"  {r:6.0f} {f:6.0f} {b:30.4f} {a:22.4f} {w:15.4f}")
@@ -98,7 +99,7 @@ def main(argv=None) -> int:
         H = {n: np.asarray(v[n], float) for n in names}
         truth = np.asarray(v["radius_fe_mm"], float)
         hertz = hertz_radius_mm(H["sphere_radius_mm"], H["force_kn"] * 1e3)
-        for name, gp in (("hypercube, own transform", before), (f"hypercube, {transform}", alone),
+        for name, gp in (("hypercube, by sign", before), (f"hypercube, {transform}", alone),
                          ("with the cases", with_cases)):
             err = gp.predict(H) + hertz - truth
             print(f"  held out ({len(truth)} runs), {name}: radius rms {np.sqrt(np.mean(err ** 2)):.4f} mm, "

@@ -498,14 +498,18 @@ def design_section(design: DesignData | None, config_settings: dict | None = Non
     return s
 
 
-def surrogate_section(v: dict | None) -> Section:
-    """Held-out validation of the Gaussian-process surrogate."""
+def surrogate_section(v: dict | None, radius_model=None) -> Section:
+    """Held-out validation of the Gaussian-process surrogate (`radius_model`: the same surrogate, for its output
+    transform)."""
     s = Section("Surrogate validation")
     if v is None:
         return _missing(s, "surrogate-validation.json")
     m = v["summary"]
-    s.add("A Gaussian process (Matérn kernel, fitted FE noise) of the film's radius excess over Hertz, in log "
-          "inputs and log output, checked on held-out FE runs of the second design.",
+    kind = getattr(getattr(getattr(radius_model, "surrogate", None), "output_transform_", None), "kind", None)
+    chosen = {"log": " (here in log)", "standardize": " (here standardised)"}.get(kind, "")
+    s.add("A Gaussian process (Matérn kernel, fitted FE noise) of the film's radius excess over Hertz, over log "
+          "inputs, its output in log or standardised, whichever gives the excesses the larger evidence"
+          f"{chosen}; checked on held-out FE runs of the second design.",
           Table(["held-out runs", "RMS radius error (mm)", "max radius error (mm)", "RMS area error (%)",
                  "max area error (%)", "inside the 90 % interval", "Q2"],
                 [[str(m["n"]), f"{m['radius_rms_error_mm']:.4f}", f"{m['radius_max_error_mm']:.4f}",
@@ -931,7 +935,7 @@ SECTION_BUILDERS: list[Callable[[StudyData], Section | list[Section]]] = [
     lambda d: verification_section(d.verification),
     lambda d: preliminary_section(d.radius_model, d.modulus_range_mpa),
     lambda d: design_section(d.design, d.settings),
-    lambda d: surrogate_section(d.surrogate_validation),
+    lambda d: surrogate_section(d.surrogate_validation, d.radius_model),
     calibration_sections,
     lambda d: film_records_section(d.imprint_comparison, d.curves),
     lambda d: crossval_section(d.crossval),
