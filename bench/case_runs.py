@@ -79,7 +79,8 @@ def main(argv=None) -> int:
         # over Hertz is positive) and with the transform of the surrogate with the cases
         before = GPSurrogate(**{**with_cases.get_params(), "output_transform": "log" if np.all(y > 0)
                                 else "standardize"}).fit(X, y)
-        alone = GPSurrogate(**with_cases.get_params()).fit(X, y)
+        transform = with_cases.output_transform_.kind
+        alone = GPSurrogate(**{**with_cases.get_params(), "output_transform": transform}).fit(X, y)
         cases = np.array([c[:2] for c in fe["case_points"]])
         nu = fe["case_points"][0][2]
         Q = {"modulus_mpa": np.full(len(cases), median), "poisson": np.full(len(cases), nu),
@@ -87,7 +88,6 @@ def main(argv=None) -> int:
         _, s_with = with_cases.predict(Q, return_std=True, noise=True)
         _, s_alone = alone.predict(Q, return_std=True, noise=True)
         _, s_before = before.predict(Q, return_std=True, noise=True)
-        transform = with_cases.get_params()["output_transform"]
         print(f"{film} {label} at E = {median:.0f} MPa, nu {nu:g}: {int(at_case.sum())} case runs of "
               f"{len(at_case)} training runs; output transform {before.get_params()['output_transform']} for the "
               f"hypercube alone, {transform} with the cases")

@@ -60,6 +60,17 @@ def test_loaded_surrogate_predicts_identically(fitted, saved):
     assert loaded.get_params() == fitted.get_params()
 
 
+def test_an_auto_transform_surrogate_loads_with_the_transform_it_chose(data, tmp_path):
+    """The setting stays "auto"; the transform the evidence chose is what the file holds and what predicts."""
+    fitted = GPSurrogate(NAMES, "sphere_radius_mm", log_inputs=("modulus_mpa",), output_transform="auto",
+                         n_restarts=1, random_state=3).fit(*data)
+    loaded = load_surrogate(save_surrogate(fitted, tmp_path / "auto")[0])
+    assert loaded.get_params()["output_transform"] == "auto"
+    assert loaded.output_transform_ == fitted.output_transform_
+    X = query_points()
+    np.testing.assert_allclose(loaded.predict(X), fitted.predict(X), rtol=1e-12)
+
+
 def test_any_file_of_the_pair_or_the_base_path_loads(fitted, saved):
     json_path, npz_path = saved
     X = query_points()[:10]
