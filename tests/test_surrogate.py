@@ -162,6 +162,23 @@ def test_auto_transform_compares_densities_of_the_same_outputs(train):
     assert mm.log_evidence_[mm.output_transform_.kind] == max(mm.log_evidence_.values())
 
 
+@pytest.mark.parametrize("kind", ["log", "standardize"])
+def test_the_evidence_is_the_gaussian_density_of_the_physical_outputs(train, kind):
+    """A second computation with scipy: y (or log y) ~ N(offset, scale^2 K) with the fitted kernel K (noise
+    included), so log p(y) = logpdf(h(y)) - sum(log y) for the log (change of variables), logpdf(y) otherwise."""
+    from scipy.stats import multivariate_normal
+
+    X, y = train[0][:50], train[1][:50]
+    fitted = make_surrogate(output_transform=kind, n_restarts=0).fit(X, y)
+    out = fitted.output_transform_
+    h = np.log(y) if kind == "log" else y
+    K = fitted.kernel_(fitted.X_gp_)
+    expected = multivariate_normal(np.full(y.size, out.offset), out.scale**2 * K).logpdf(h)
+    if kind == "log":
+        expected -= np.sum(np.log(y))
+    assert fitted.log_evidence_ == {kind: pytest.approx(expected, rel=1e-9, abs=1e-6)}
+
+
 @pytest.mark.parametrize("shape, expected", [("exponential", "log"), ("linear near zero", "standardize")])
 def test_auto_transform_keeps_the_one_that_predicts_better(shape, expected):
     """y = exp(3 x0 + 2 x1) is linear after the log; y = 0.002 + x0 + x1 is linear as it is and

@@ -505,11 +505,14 @@ def surrogate_section(v: dict | None, radius_model=None) -> Section:
     if v is None:
         return _missing(s, "surrogate-validation.json")
     m = v["summary"]
-    kind = getattr(getattr(getattr(radius_model, "surrogate", None), "output_transform_", None), "kind", None)
-    chosen = {"log": " (here in log)", "standardize": " (here standardised)"}.get(kind, "")
+    surrogate = getattr(radius_model, "surrogate", None)
+    kind = {"log": "in log", "standardize": "standardised"}.get(getattr(surrogate, "output_transform_", None)
+                                                              and surrogate.output_transform_.kind, "")
+    rule = ("whichever gives the excesses the larger evidence" if surrogate is not None
+            and surrogate.get_params().get("output_transform") == "auto" else "log while every excess is positive")
     s.add("A Gaussian process (Matérn kernel, fitted FE noise) of the film's radius excess over Hertz, over log "
-          "inputs, its output in log or standardised, whichever gives the excesses the larger evidence"
-          f"{chosen}; checked on held-out FE runs of the second design.",
+          f"inputs, its output in log or standardised ({rule}{': here ' + kind if kind else ''}); checked on "
+          "held-out FE runs of the second design.",
           Table(["held-out runs", "RMS radius error (mm)", "max radius error (mm)", "RMS area error (%)",
                  "max area error (%)", "inside the 90 % interval", "Q2"],
                 [[str(m["n"]), f"{m['radius_rms_error_mm']:.4f}", f"{m['radius_max_error_mm']:.4f}",

@@ -571,7 +571,8 @@ class Study:
         v = read_json(path)
         return SurrogateValidation(**v["summary"], details={"points": v["points"]})
 
-    def radius_models(self, requests, workers: int | Executor | None = None, progress=None) -> dict:
+    def radius_models(self, requests, workers: int | Executor | None = None, progress=None,
+                      transform_rule: str = "evidence") -> dict:
         """Validated radius surrogates of several ``(FESettings, column)``: recorded ones are read, the FE
         runs of the others are run (or resumed) and their surrogates fitted in parallel, each recorded as
         it is done.
@@ -583,6 +584,8 @@ class Study:
         progress : callable, optional
             ``progress(done, total, what)``: the FE runs of every campaign counted together
             (``what`` "FE run"), then the surrogate fits ("GP fit").
+        transform_rule : {"evidence", "sign"}
+            How the fits choose their output transform (`filmcal.surrogate.radius.TRANSFORM_RULES`); recorded.
 
         Returns
         -------
@@ -618,12 +621,13 @@ class Study:
             ok_tr, ok_te = np.isfinite(ytr), np.isfinite(yte)
             train = ({k: v[ok_tr] for k, v in r["X_train"].items()}, ytr[ok_tr])
             test = ({k: v[ok_te] for k, v in r["X_test"].items()}, yte[ok_te])
-            tasks[fe, column] = (fit_and_validate, (train, test, fe.domain, seed_for(fe.seed, f"gp-{column}")))
+            tasks[fe, column] = (fit_and_validate, (train, test, fe.domain, seed_for(fe.seed, f"gp-{column}"),
+                                                    transform_rule))
 
         fitted_now: list = []
 
         def store(request, fitted, k) -> None:
-            out[request] = self._store_radius_model(*request, *fitted)
+            out[request] = self._store_radius_model(*request, *fitted, transform_rule)
             fitted_now.append(request)
             if callable(progress):
                 progress(len(fitted_now), len(tasks), "GP fit")
@@ -631,7 +635,7 @@ class Study:
         run_tasks(tasks, workers, store)
         return out
 
-    def _store_radius_model(self, fe: FESettings, column: str, model, validation):
+    def _store_radius_model(self, fe: FESettings, column: str, model, validation, transform_rule: str):
         from filmcal._io import atomic_write_json
         from filmcal.surrogate import save_surrogate
 
@@ -644,7 +648,7 @@ class Study:
         atomic_write_json(vpath, {"summary": validation.to_dict(), "points": validation.details["points"],
                                   "column": column}, indent=None)
         for p in (stem.with_name(stem.name + ".json"), stem.with_name(stem.name + ".npz"), vpath):
-            self.record(p, "radius-surrogate", spec, column=column)
+            self.record(p, "radius-surrogate", spec, column=column, transform_rule=transform_rule)
         return model, validation, key
 
     # ------------------------------------------------------------ calibration
@@ -771,12 +775,15 @@ class Study:
         column = output_column(spec.imprint, film.name)
         if spec_key(self._radius_spec(spec.fe, column)) != key:
             return  # made under settings that no longer give this key: not this study's to remake
+        # refitted under the rule it was made with: one recorded without a rule was made by sign
+        rule = next((e["transform_rule"] for p in files if "transform_rule" in (e := self.manifest.entry(
+            self.layout.relative(p)) or {})), "sign")
         for p in files:  # the set is remade whole: its other files (checked to be the study's own) go first
             if p.exists():
                 self.verified(p)
                 p.unlink()
             self.manifest.forget(self.layout.relative(p))
-        self.radius_models([(spec.fe, column)], workers)
+        self.radius_models([(spec.fe, column)], workers, transform_rule=rule)
         self.manifest.data.setdefault("rebuilt", []).append(
             {"artefact": f"surrogates/{key}", "missing": [p.name for p in missing], "when_utc": utc_now()})
         self.manifest.write()

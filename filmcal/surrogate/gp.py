@@ -265,7 +265,15 @@ class GPSurrogate(BaseEstimator):
             kinds = [self.output_transform]
         else:
             kinds = ["log", "standardize"] if np.all(y > 0) else ["standardize"]
-        fits = {kind: self._fit_output(template, T, y, kind) for kind in kinds}
+        starts = self._starts(template, np.random.default_rng(self.random_state))  # the same for every transform
+        fits = {}
+        for kind in kinds:
+            try:
+                fits[kind] = self._fit_output(template, T, y, kind, starts)
+            except ValueError:
+                if kind == kinds[-1] and not fits:
+                    raise
+        kinds = list(fits)
         self.log_evidence_ = {kind: fit[4] for kind, fit in fits.items()}
         kind = max(kinds, key=lambda k: self.log_evidence_[k])  # the first of equals: log
         output_transform, theta, lml, messages, _ = fits[kind]
@@ -275,7 +283,7 @@ class GPSurrogate(BaseEstimator):
         self.restart_log_marginal_likelihoods_ = lml
         return self
 
-    def _fit_output(self, template: Kernel, T: np.ndarray, y: np.ndarray, kind: str
+    def _fit_output(self, template: Kernel, T: np.ndarray, y: np.ndarray, kind: str, starts: np.ndarray
                     ) -> tuple[OutputTransform, np.ndarray, np.ndarray, list[str], float]:
         """Hyperparameters for the outputs `y` under the output transform `kind`.
 
@@ -289,7 +297,6 @@ class GPSurrogate(BaseEstimator):
         """
         output_transform = OutputTransform.fit(y, kind)
         z = output_transform.transform(y)
-        starts = self._starts(template, np.random.default_rng(self.random_state))
         results = _run_starts(template, starts, T, z, self.n_jobs)
         lml = np.array([r[1] for r in results])
         if not np.any(np.isfinite(lml)):

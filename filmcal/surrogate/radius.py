@@ -33,7 +33,7 @@ if TYPE_CHECKING:
 
 __all__ = ["INPUTS", "LOG_INPUTS", "EDGE_COLUMN", "SurrogateDomain", "SurrogateValidation", "design_points",
            "case_design_points", "MODULI_PER_CASE", "MAX_MODULI_PER_CASE", "check_moduli_per_case",
-           "option_columns", "radius_excess_mm", "fit_radius_surrogate", "validate_radius_surrogate", "fit_and_validate",
+           "option_columns", "radius_excess_mm", "TRANSFORM_RULES", "fit_radius_surrogate", "validate_radius_surrogate", "fit_and_validate",
            "SurrogateRadiusModel", "FERadiusModel", "CaseTable", "load_for_prediction"]
 
 INPUTS = ("modulus_mpa", "poisson", "sphere_radius_mm", "force_kn")
@@ -278,23 +278,34 @@ def radius_excess_mm(X: dict, radius_mm: np.ndarray) -> np.ndarray:
     return np.asarray(radius_mm, float) - hertz_radius_mm(X["sphere_radius_mm"], np.asarray(X["force_kn"]) * 1e3)
 
 
+#: How a radius surrogate's output transform is chosen: by the evidence of the excesses ("evidence"), or log
+#: while every excess is positive ("sign": the rule of the surrogates a study recorded without a rule, made
+#: before the evidence chose; kept to refit such a surrogate as it was made).
+TRANSFORM_RULES = ("evidence", "sign")
+
+
 def fit_radius_surrogate(X: dict, radius_mm: np.ndarray, domain: SurrogateDomain, random_state: int = 0,
-                         n_restarts: int = 8) -> "GPSurrogate":
+                         n_restarts: int = 8, transform_rule: str = "evidence") -> "GPSurrogate":
     """GP of the radius excess over Hertz over (log E, nu, log R, log F), in log or not by the evidence.
 
-    The output transform is ``"auto"`` (`GPSurrogate`): the log and the
-    standardised excess are both fitted and the one whose evidence of the
-    excesses is larger is kept. An edge reading's excess spans a decade and
-    keeps its log; a level reading of a stiff film (HHS's activation contour)
-    comes close to zero or inside the Hertz radius, where a log stretches
-    the small excesses and the standardised excess predicts 2-3 times better
-    (bench/output_transform.py). Non-positive excesses are fitted standardised.
+    With ``transform_rule="evidence"`` the output transform is ``"auto"``
+    (`GPSurrogate`): the log and the standardised excess are both fitted and
+    the one whose evidence of the excesses is larger is kept. An edge
+    reading's excess spans a decade and keeps its log; a level reading of a
+    stiff film (HHS's activation contour) comes close to zero or inside the
+    Hertz radius, where a log stretches the small excesses and the standardised
+    excess predicts 2-3 times better (bench/output_transform.py). Non-positive
+    excesses are fitted standardised. ``"sign"`` takes the log whenever every
+    excess is positive (`TRANSFORM_RULES`).
     """
     from filmcal.surrogate.gp import GPSurrogate
 
+    if transform_rule not in TRANSFORM_RULES:
+        raise ValueError(f"transform_rule must be one of {', '.join(TRANSFORM_RULES)}; got {transform_rule!r}")
     y = radius_excess_mm(X, radius_mm)
+    transform = "auto" if transform_rule == "evidence" else "log" if np.all(y > 0) else "standardize"
     return GPSurrogate(list(INPUTS), output="radius_excess_mm", log_inputs=list(LOG_INPUTS),
-                       output_transform="auto", input_bounds=domain.bounds(), n_restarts=n_restarts,
+                       output_transform=transform, input_bounds=domain.bounds(), n_restarts=n_restarts,
                        random_state=random_state).fit(X, y)
 
 
@@ -340,14 +351,16 @@ def _broadcast(modulus_mpa, poisson, sphere_radius_mm, force_n):
 
 
 def fit_and_validate(train: tuple[dict, np.ndarray], test: tuple[dict, np.ndarray], domain: SurrogateDomain,
-                     random_state: int = 0) -> tuple["SurrogateRadiusModel", SurrogateValidation]:
-    """Fit a radius surrogate on ``train = (X, radius_mm)`` and check it on the held-out ``test``.
+                     random_state: int = 0, transform_rule: str = "evidence"
+                     ) -> tuple["SurrogateRadiusModel", SurrogateValidation]:
+    """Fit a radius surrogate on ``train = (X, radius_mm)`` (`fit_radius_surrogate`) and check it on the
+    held-out ``test``.
 
     Returns
     -------
     (SurrogateRadiusModel, SurrogateValidation)
     """
-    surrogate = fit_radius_surrogate(*train, domain, random_state=random_state)
+    surrogate = fit_radius_surrogate(*train, domain, random_state=random_state, transform_rule=transform_rule)
     return SurrogateRadiusModel(surrogate, domain), validate_radius_surrogate(surrogate, *test)
 
 
