@@ -506,8 +506,8 @@ def surrogate_section(v: dict | None, radius_model=None) -> Section:
         return _missing(s, "surrogate-validation.json")
     m = v["summary"]
     surrogate = getattr(radius_model, "surrogate", None)
-    kind = {"log": "in log", "standardize": "standardised"}.get(getattr(surrogate, "output_transform_", None)
-                                                              and surrogate.output_transform_.kind, "")
+    transform = getattr(surrogate, "output_transform_", None)
+    kind = {"log": "in log", "standardize": "standardised"}.get(transform.kind if transform else None, "")
     rule = ("whichever gives the excesses the larger evidence" if surrogate is not None
             and surrogate.get_params().get("output_transform") == "auto" else "log while every excess is positive")
     s.add("A Gaussian process (Matérn kernel, fitted FE noise) of the film's radius excess over Hertz, over log "

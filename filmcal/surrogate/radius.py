@@ -33,7 +33,8 @@ if TYPE_CHECKING:
 
 __all__ = ["INPUTS", "LOG_INPUTS", "EDGE_COLUMN", "SurrogateDomain", "SurrogateValidation", "design_points",
            "case_design_points", "MODULI_PER_CASE", "MAX_MODULI_PER_CASE", "check_moduli_per_case",
-           "option_columns", "radius_excess_mm", "TRANSFORM_RULES", "fit_radius_surrogate", "validate_radius_surrogate", "fit_and_validate",
+           "option_columns", "radius_excess_mm", "TRANSFORM_RULES", "fit_radius_surrogate", "validate_radius_surrogate",
+           "fit_and_validate",
            "SurrogateRadiusModel", "FERadiusModel", "CaseTable", "load_for_prediction"]
 
 INPUTS = ("modulus_mpa", "poisson", "sphere_radius_mm", "force_kn")
