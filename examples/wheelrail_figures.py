@@ -6,13 +6,17 @@ default, the paper's 1 mm steps included), three models as in the paper's
 section 2.2:
 
 * no film (hard steel-on-steel contact);
-* HS film: E = 2800 MPa, nu = 0.33, t = 0.09 mm (the paper's calibrated film),
-  as springs in series;
-* HS film and a rough wheel: Greenwood-Williamson law from Ra = 1.5 um at the
-  film-wheel interface.
+* HS film at its calibrated median under its preferred model (`HS_MODULUS_MPA`,
+  edge reading, large strain), as `filmcal wheelrail` and the corrector solve
+  it (`filmcal.wheelrail.film_contact.solve_film_contact`: the film law of
+  `FilmModel.interface`, its reading and the transfer term);
+* the same film on a rough wheel (Ra 1.5 um; the boundary-element law of the
+  representative conditioned roughness inputs, in series with the film).
 
-The contact area (``contact_area_mm2``) is the area where the pressure is
-positive (the solver's zero-pressure outline), with or without film. Run::
+The area without film (``contact_area_mm2``) is the solver's zero-pressure
+outline; a film's area is its imprint as calibrated
+(``calibrated_imprint_area_mm2``: the imprint model's reading plus the transfer
+term, whose standard deviation the CSV carries). Run::
 
     python examples/wheelrail_figures.py [--out-dir out/wheelrail_figures] [--step-mm 0.5]
                                          [--rail 60E2]
@@ -42,32 +46,37 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, contact_modulus_mpa
-from filmcal.wheelrail import FilmLayer, GreenwoodWilliamsonLaw
-from filmcal.wheelrail.wheelrail import WheelRailModel, WheelRailResult
+from filmcal.wheelrail.film_contact import FilmContactCase, WheelRoughness, solve_film_contact
+from filmcal.wheelrail.wheelrail import WheelRailResult
 
 FORCES_KN = (50.0, 100.0)
-HS_FILM = FilmLayer(2800.0, 0.33, 0.09)
-ROUGH_WHEEL = GreenwoodWilliamsonLaw(1.5, contact_modulus_mpa(HS_FILM.modulus_mpa, HS_FILM.poisson,
-                                                              STEEL_MODULUS_MPA, STEEL_POISSON))
+#: HS's posterior median under its preferred model (edge, large strain) in the full study (`filmcal pipeline`,
+#: 27 Nov 2026), the modulus the shipped roughness conditioning used.
+HS_MODULUS_MPA = 2564.0
+HS_FILM = FilmContactCase(HS_MODULUS_MPA, film="HS", imprint_model="edge", kinematics="large")
 MODELS = {
-    "no film": (None, None),
+    "no film": (FilmContactCase(None), None),
     "HS film": (HS_FILM, None),
-    "HS film + rough wheel": (HS_FILM, ROUGH_WHEEL),
+    "HS film + rough wheel": (HS_FILM, WheelRoughness(ra_um=1.5)),
 }
 STYLE = {"no film": ("tab:blue", "o"), "HS film": ("tab:orange", "s"),
          "HS film + rough wheel": ("tab:green", "^")}
 
 
-def solve_all(model: WheelRailModel, offsets_mm: np.ndarray) -> dict:
-    """Results keyed by (force_kn, model name, eta)."""
+def area_mm2(summary: dict) -> float:
+    """A film's imprint as calibrated, or the area without film."""
+    return float(summary.get("calibrated_imprint_area_mm2", summary["contact_area_mm2"]))
+
+
+def solve_all(rail: str, offsets_mm: np.ndarray) -> dict:
+    """``(result, summary)`` of `solve_film_contact`, keyed by (force_kn, model name, eta)."""
     results = {}
     for force in FORCES_KN:
         for eta in offsets_mm:
-            for name, (film, law) in MODELS.items():
-                res = model.solve(float(eta), force * 1e3, film=film, roughness=law)
-                results[(force, name, float(eta))] = res
-            line = " ".join(f"{name}: {results[(force, name, float(eta))].area_mm2:7.2f}"
+            for name, (case, roughness) in MODELS.items():
+                results[(force, name, float(eta))] = solve_film_contact(float(eta), force * 1e3, case, roughness,
+                                                                        rail=rail)
+            line = " ".join(f"{name}: {area_mm2(results[(force, name, float(eta))][1]):7.2f}"
                             for name in MODELS)
             print(f"F = {force:5.0f} kN, eta = {eta:+5.1f} mm | {line} mm2", flush=True)
     return results
@@ -75,17 +84,19 @@ def solve_all(model: WheelRailModel, offsets_mm: np.ndarray) -> dict:
 
 def write_csv(results: dict, path: Path) -> None:
     """One row per case."""
-    fields = ["force_kn", "offset_mm", "model", "contact_area_mm2",
+    fields = ["force_kn", "offset_mm", "model", "contact_area_mm2", "transfer_std_mm2",
               "max_pressure_mpa", "n_patches", "centroid_y_mm", "centroid_rail_y_mm",
               "centroid_wheel_y_mm", "contact_angle_deg", "hertz_area_mm2", "hertz_like",
               "converged", "elapsed_s"]
     with open(path, "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=fields)
         writer.writeheader()
-        for (force, name, eta), res in sorted(results.items(), key=lambda kv: (kv[0][0], kv[0][1], kv[0][2])):
+        for (force, name, eta), (res, summary) in sorted(results.items(),
+                                                          key=lambda kv: (kv[0][0], kv[0][1], kv[0][2])):
             writer.writerow({
                 "force_kn": force, "offset_mm": eta, "model": name,
-                "contact_area_mm2": f"{res.area_mm2:.4f}",
+                "contact_area_mm2": f"{area_mm2(summary):.4f}",
+                "transfer_std_mm2": f"{summary['transfer_std_mm2']:.4f}" if "transfer_std_mm2" in summary else "",
                 "max_pressure_mpa": f"{res.max_pressure_mpa:.2f}", "n_patches": res.n_patches,
                 "centroid_y_mm": f"{res.centroid_y_mm:.4f}",
                 "centroid_rail_y_mm": f"{res.centroid_rail_y_mm:.4f}",
@@ -97,8 +108,8 @@ def write_csv(results: dict, path: Path) -> None:
                 "converged": res.converged, "elapsed_s": f"{res.elapsed_s:.3f}"})
 
 
-def _curve(results: dict, force: float, name: str, offsets: np.ndarray, attr: str) -> np.ndarray:
-    return np.array([getattr(results[(force, name, float(e))], attr) for e in offsets])
+def _areas(results: dict, force: float, name: str, offsets: np.ndarray) -> np.ndarray:
+    return np.array([area_mm2(results[(force, name, float(e))][1]) for e in offsets])
 
 
 def plot_area_curves(results: dict, offsets: np.ndarray, path: Path) -> None:
@@ -110,24 +121,25 @@ def plot_area_curves(results: dict, offsets: np.ndarray, path: Path) -> None:
         for name in MODELS:
             color, marker = STYLE[name]
             label = name
-            ax.plot(offsets, _curve(results, force, name, offsets, "area_mm2"), "-", color=color,
+            ax.plot(offsets, _areas(results, force, name, offsets), "-", color=color,
                     marker=marker, ms=4, label=label)
         ax.set_title(f"F = {force:g} kN")
         ax.set_ylabel("contact area A (mm$^2$)")
         ax.grid(True, lw=0.3)
         ratio_ax = axes[1, col]
-        bare = _curve(results, force, "no film", offsets, "area_mm2")
+        bare = _areas(results, force, "no film", offsets)
         for name in ("HS film", "HS film + rough wheel"):
             color, marker = STYLE[name]
-            ratio_ax.plot(offsets, _curve(results, force, name, offsets, "area_mm2") / bare, "-",
+            ratio_ax.plot(offsets, _areas(results, force, name, offsets) / bare, "-",
                           color=color, marker=marker, ms=4, label=name)
         ratio_ax.set_xlabel("lateral offset $\\eta$ (mm), flange towards the gauge corner $\\rightarrow$")
-        ratio_ax.set_ylabel("A / A(no film)")
+        ratio_ax.set_ylabel("A / A(no film, smooth)")
         ratio_ax.grid(True, lw=0.3)
     handles, labels = axes[0, 0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=2, fontsize=8)
     fig.suptitle("S1002 on 60E2 (1:40, R0 = 460 mm): contact area with and without HS film "
-                 "(E = 2800 MPa, $\\nu$ = 0.33, t = 90 $\\mu$m)", fontsize=10)
+                 f"(E = {HS_MODULUS_MPA:g} MPa, $\\nu$ = 0.33, t = 90 $\\mu$m, edge reading; "
+                 "rough wheel Ra 1.5 $\\mu$m)", fontsize=10)
     fig.savefig(path, dpi=150)
 
 
@@ -153,13 +165,13 @@ def plot_outlines(results: dict, offsets: np.ndarray, force: float, path: Path) 
     fig = Figure(figsize=(2.6 * ncol, 3.3 * nrow), layout="constrained")
     axes = np.atleast_2d(fig.subplots(nrow, ncol, sharex=True, sharey=True))
     rings = [ring for eta in shown for name in ("no film", "HS film")
-             for ring in results[(force, name, float(eta))].outline_mm]
+             for ring in results[(force, name, float(eta))][0].outline_mm]
     y_lo = min(float(r[:, 1].min()) for r in rings) - 1.5
     y_hi = max(float(r[:, 1].max()) for r in rings) + 1.5
     x_hi = max(float(np.abs(r[:, 0]).max()) for r in rings) + 1.0
     for ax, eta in zip(axes.flat, shown):
-        bare = results[(force, "no film", float(eta))]
-        film = results[(force, "HS film", float(eta))]
+        bare = results[(force, "no film", float(eta))][0]
+        film = results[(force, "HS film", float(eta))][0]
         for y in _rail_joints_track_y(bare):
             ax.axvline(y, color="0.6", lw=0.8, ls="-.")
         for res, style, label in ((bare, "-", "no film"), (film, "--", "HS film")):
@@ -168,7 +180,8 @@ def plot_outlines(results: dict, offsets: np.ndarray, force: float, path: Path) 
                         lw=1.2, label=label if k == 0 else None)
         point = bare.placement.contact
         ax.plot(point.y_mm, 0.0, "+", color="tab:red", ms=8)
-        ax.set_title(f"$\\eta$ = {eta:+g} mm\nA = {bare.area_mm2:.0f} / {film.area_mm2:.0f} mm$^2$",
+        a_film = area_mm2(results[(force, "HS film", float(eta))][1])
+        ax.set_title(f"$\\eta$ = {eta:+g} mm\nA = {bare.area_mm2:.0f} / {a_film:.0f} mm$^2$",
                      fontsize=8)
         ax.set_xlim(y_lo, y_hi)
         ax.set_ylim(-x_hi, x_hi)
@@ -191,7 +204,7 @@ def plot_hertz(results: dict, offsets: np.ndarray, path: Path) -> None:
     fig = Figure(figsize=(8, 4.5), layout="constrained")
     ax = fig.add_subplot()
     for force, color in zip(FORCES_KN, ("tab:blue", "tab:red")):
-        res = [results[(force, "no film", float(e))] for e in offsets]
+        res = [results[(force, "no film", float(e))][0] for e in offsets]
         ax.plot(offsets, [r.area_mm2 for r in res], "-o", color=color, ms=4,
                 label=f"{force:g} kN, half-space solution")
         hertz = np.array([r.hertz.area_mm2 if r.hertz is not None else np.nan for r in res])
@@ -220,7 +233,7 @@ def main() -> int:
     out.mkdir(parents=True, exist_ok=True)
     offsets = np.round(np.arange(-7.0, 2.0 + 1e-9, args.step_mm), 6)
     start = time.perf_counter()
-    results = solve_all(WheelRailModel(rail=args.rail), offsets)
+    results = solve_all(args.rail, offsets)
     write_csv(results, out / "wheelrail_area_curves.csv")
     plot_area_curves(results, offsets, out / "fig6_area_vs_offset.png")
     plot_outlines(results, offsets, 50.0, out / "fig7_outlines_50kN.png")

@@ -26,7 +26,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "moduli spanning the posteriors (one solve serves every imprint model of a film kinematics); "
                     "the study keeps those solved areas when no other process is writing it, so correcting again "
                     "at the same offset and force reads them instead of solving.")
-    add(p, "film", extra="(required, except with --batch whose rows name their film)")
+    add(p, "film", help="film type: MS, HS, HHS, or a film of the study's --films-file",
+        extra="(required, except with --batch whose rows name their film)")
     add(p, "imprint_model", choices=STUDY_IMPRINT_MODELS, default=MIXTURE,
         extra=f"; or {MIXTURE} (default): the study's weighted mixture of the models it compared")
     add(p, "kinematics", extra="(default: every kinematics of the chosen posteriors, by their weights)")

@@ -21,7 +21,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "bands. Rough bodies multiply each sample by one draw's rough/smooth growths (with and "
                     "without film), so their bands hold the roughness law's uncertainty. About a second per (load, "
                     "offset) with smooth bodies; rough bodies add a few seconds per draw and (load, offset).")
-    add(p, "film", required=True)
+    add(p, "film", help="film type: MS, HS, HHS, or a film of the study's --films-file", required=True)
     add(p, "forces_kn", default="50,100", extra="(default 50,100)")
     add(p, "offsets_mm", default="-7:2:1", extra="(default -7:2:1)")
     add(p, "wheel_roughness_ra_um", extra="; also curves on the rough bodies: each posterior sample's areas times "

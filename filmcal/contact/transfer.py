@@ -5,7 +5,7 @@ wheel-rail answer runs the half-space solver with the film as springs ``t/M``
 in series (`filmcal.contact.laws`). The springs have no lateral coupling: near
 the edge of the contact the continuum film is pulled down by its loaded
 neighbours and is less confined, so its edge lies inside the springs' edge
-(about 0.03 mm for a 90 um film), and each imprint model reads a contour that
+(by 0.005-0.03 mm for a 90 um film), and each imprint model reads a contour that
 differs accordingly. A pointwise law cannot reproduce a non-local effect, so
 the difference is measured and carried instead:
 

@@ -573,7 +573,9 @@ _IMPRINT_TEXT = (
     "expected coloured area when the capsules' burst strengths are spread log-normally over the measurement "
     "range (2 % of them break at its lower end, 98 % at its upper end). Each is calibrated with a small-strain "
     "(linear) and a large-strain (neo-Hookean) film. The same model reads the wheel-rail pressure field in "
-    "the correction, so the film is read alike where it is calibrated and where it is used.")
+    "the correction, and the transfer term (section on the wheel-rail model) adds what the wheel-rail model's "
+    "film springs miss of the calibrated continuum film, so the film is read alike where it is calibrated and "
+    "where it is used.")
 
 
 def _case_verdict(v: dict, radius_mm: float = 600.0, force_kn: float = 25.0) -> str:
