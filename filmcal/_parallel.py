@@ -1590,9 +1590,13 @@ def run_tasks(tasks: dict, workers: int | Executor | None, on_done: Callable[[An
 
     Raises
     ------
+    InputError
+        If the first failed task failed on its input (`filmcal._errors.InputError`: bad input, said as such).
     RuntimeError
-        If any task failed (the first failure is chained).
+        If any other task failed (the first failure is chained).
     """
+    from filmcal._errors import InputError
+
     items = [(key, fn, args) for key, (fn, args) in tasks.items()]
     if not items:
         return
@@ -1614,6 +1618,8 @@ def run_tasks(tasks: dict, workers: int | Executor | None, on_done: Callable[[An
             consume(executor)
     if errors:
         key, error = errors[0]
+        if isinstance(error, InputError):  # the input's fault, said as it is: not an internal error
+            raise error
         raise RuntimeError(f"{len(errors)} task(s) failed, first {key}: {error!r}") from error
 
 

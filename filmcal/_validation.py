@@ -139,17 +139,25 @@ def arg_int_in(low: int, high: int) -> Callable[[str], int]:
     return _argparse_type(convert, lambda n: _require(low <= n <= high, what), "int", (low, high))
 
 
-def arg_float_in(low: float, high: float) -> Callable[[str], float]:
-    """An argparse ``type`` for a finite number in [low, high]."""
-    what = f"must be a number in [{low:g}, {high:g}]"
-
+def _arg_float(accept: Callable[[float], bool], what: str, bounds: tuple[float, float]) -> Callable[[str], float]:
+    """An argparse ``type`` for a finite number that `accept` takes (`what` says which)."""
     def convert(text: str) -> float:
         try:
             return float(text)
         except ValueError:
             raise ValueError(what) from None
-    return _argparse_type(convert, lambda x: _require(math.isfinite(x) and low <= x <= high, what), "float",
-                          (low, high))
+    return _argparse_type(convert, lambda x: _require(math.isfinite(x) and accept(x), what), "float", bounds)
+
+
+def arg_float_in(low: float, high: float) -> Callable[[str], float]:
+    """An argparse ``type`` for a finite number in [low, high]."""
+    return _arg_float(lambda x: low <= x <= high, f"must be a number in [{low:g}, {high:g}]", (low, high))
+
+
+def arg_zero_or_in(low: float, high: float) -> Callable[[str], float]:
+    """An argparse ``type`` for 0 or a finite number in [low, high] (0 < low): e.g. an Ra, 0 for smooth."""
+    return _arg_float(lambda x: x == 0.0 or low <= x <= high, f"must be 0 or a number in [{low:g}, {high:g}]",
+                      (0.0, high))
 
 
 def _grid(text: str, max_count: int) -> list[float]:
@@ -215,3 +223,20 @@ FORCE_KN_BOUNDS = (1e-3, 2000.0)
 #: Sphere radius (mm) and lateral offset eta (mm) a measurement may have (an option, a batch row, a request).
 SPHERE_RADIUS_MM_BOUNDS = (1.0, 1e5)
 OFFSET_MM_BOUNDS = (-60.0, 60.0)
+#: The smallest Ra (um) a rough body may have: 10 nm, a super-finished steel surface; below it the growth of
+#: any reading is far under a grid cell (Ra 0.01 um moves the wheel-rail area by < 0.5 %), and heights of a
+#: few atoms are not a roughness the boundary elements resolve. A smooth body is given as Ra 0 (no surface).
+MIN_RA_UM = 0.01
+#: The shortest chain (steps per walker) a calibration may be capped at: below it no autocorrelation time
+#: can be estimated, so neither burn-in nor thinning nor the diagnostics exist.
+MIN_MCMC_STEPS = 100
+#: The largest Ra (um) a synthetic surface is made for: a freshly reprofiled wheel.
+MAX_RA_UM = 30.0
+
+
+def check_ra(name: str, value: float) -> float:
+    """An Ra in um: 0 (smooth) or within [`MIN_RA_UM`, `MAX_RA_UM`]."""
+    x = as_finite(name, value)
+    if not (x == 0.0 or MIN_RA_UM <= x <= MAX_RA_UM):
+        raise ValueError(f"{name} must be 0 (smooth) or in [{MIN_RA_UM:g}, {MAX_RA_UM:g}] um, got {value!r}")
+    return x

@@ -74,7 +74,7 @@ SIZE_BOUNDS: dict[str, tuple[float, float]] = {
     "elastic_limit_mpa": (100.0, 1e4),
     "samples": (1, 2000),
     "iterations": (1, 1000),
-    "element_size_mm": (0.02, 5.0),
+    "element_size_mm": (0.02, 1.0),  # MeshSettings' own bound above
     "sphere_radius_mm": SPHERE_RADIUS_MM_BOUNDS,
     "film_layers": (1, 8),
     "grid_mm": (0.01, 1.0),  # the wheel-rail model's own (filmcal.wheelrail.settings.GRID_MM_RANGE)
@@ -341,9 +341,11 @@ def _name_option(message: str, options: dict[str, str]) -> str:
     if "--" in message:
         return message
     usable = {d: o for d, o in options.items() if o.startswith("--") and d not in ("help", "json")}
+    # a message about a file's content names its columns, not options: only its lead names an option
+    about_file = re.match(r"(batch|dataset|roughness map) ", message) is not None
     for dest in sorted(usable, key=len, reverse=True):
         if message.startswith(dest + " ") or message.startswith(dest + ":") or (
-                "_" in dest and re.search(rf"(?<![\w-]){re.escape(dest)}(?![\w-])", message)):
+                "_" in dest and not about_file and re.search(rf"(?<![\w-]){re.escape(dest)}(?![\w-])", message)):
             return f"{usable[dest]}: {message}"
     lead = re.match(r"([a-z][a-z0-9]*(?:_[a-z0-9]+)*)\b", message)
     if lead:

@@ -140,7 +140,7 @@ def test_bad_input_raises_value_error(kwargs, match):
 
 def test_model_returning_nan_raises_value_error():
     with pytest.raises(ValueError, match="model returned mean=nan"):
-        calibrate_film("HS", NaNBelow1000(), max_steps=10)
+        calibrate_film("HS", NaNBelow1000(), max_steps=100)
 
 
 def test_backend_path_that_is_not_hdf5_raises(tmp_path):

@@ -227,3 +227,35 @@ def test_the_corrected_patch_has_a_length_width_and_position_with_bands(quick_st
     assert patch["length_mm"]["mean"] == pytest.approx(length * scale, rel=0.01)
     assert patch["width_mm"]["ci90"][0] < width * scale < patch["width_mm"]["ci90"][1]
     assert patch["lateral_position_mm"]["mean"] == pytest.approx(bare.centroid_rail_y_mm)
+
+
+def test_a_refused_measurement_writes_nothing_and_a_load_without_imprint_is_refused(quick_study, tmp_path):
+    """A measurement refused after its solve wrote the solve cache and rewrote study.json; at 1 N the
+    activation reading records nothing, and `correct` answered 'nan +/- nan' with exit 0 while `curves`
+    ended in an internal error (exit 70). Now: exit 2, one line, the study unchanged."""
+    import hashlib
+    import shutil
+
+    study = tmp_path / "study"
+    shutil.copytree(quick_study[0], study)
+
+    def snapshot():
+        return {str(p.relative_to(study)): hashlib.sha256(p.read_bytes()).hexdigest()
+                for p in sorted(study.rglob("*")) if p.is_file() and not p.name.endswith(".lock")}
+
+    before = snapshot()
+    cli = [sys.executable, "-m", "filmcal.cli"]
+    cases = {"an implausible area at a new offset": (
+        ["correct", "--film", "HS", "--measured-area-mm2", "5000", "--offset-mm=-2.5", "--force-kn", "100"],
+        "implausible"),
+        "a load without imprint": (
+            ["correct", "--film", "HS", "--imprint-model", "activation", "--measured-area-mm2", "0.2",
+             "--offset-mm=-3", "--force-kn", "0.001"], "records nothing"),
+        "curves at a load without imprint": (
+            ["curves", "--film", "HS", "--imprint-model", "activation", "--forces-kn", "0.001", "--offsets-mm=-3",
+             "--workers", "1", "--progress", "quiet"], "records nothing")}
+    for what, (args, says) in cases.items():
+        p = subprocess.run(cli + args + ["--study-dir", str(study)], capture_output=True, text=True, timeout=300)
+        assert p.returncode == 2 and says in p.stderr, (what, p.returncode, p.stderr[-2000:])
+        assert len(p.stderr.strip().splitlines()) == 1 and p.stdout == "", (what, p.stderr)
+        assert snapshot() == before, what

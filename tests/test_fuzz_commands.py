@@ -88,6 +88,7 @@ def make_folder(tmp_path: Path, bomb_png: bytes) -> Path:
     # a flat "rail" 400 mm wide: wider than any wheel profile
     (tmp_path / "widerail.csv").write_text("y_mm,z_mm\n" + "".join(f"{y},{-1e-4 * y * y}\n" for y in range(-200, 201, 5)))
     (tmp_path / "law.csv").write_text("closure_um,pressure_mpa\n1,abc\n")
+    (tmp_path / "decreasing.csv").write_text("closure_um,pressure_mpa\n0,0\n2,10\n1,20\n")
     (tmp_path / "films.toml").write_text('[LOT7]\nthickness_mm = "thick"\n')
     (tmp_path / "notoml.toml").write_bytes(b"[[[\x00")
     (tmp_path / "garbled.sqlite").write_bytes(os.urandom(4096))
@@ -245,6 +246,22 @@ CASES = [
     (["profile", "hugeprofile.csv", "--kind", "rail"], ["hugeprofile.csv"]),
     (["wheelrail", *WR, "--no-film", "--nominal-radius-mm", "0"], ["--nominal-radius-mm", "radius"]),
     (["wheelrail", *WR, "--no-film", "--wheel-roughness-ra-um", "-1"], ["--wheel-roughness-ra-um"]),
+    # an Ra of a few atoms made no surface to solve (ZeroDivisionError, exit 70)
+    (["wheelrail", *WR, "--no-film", "--wheel-roughness-ra-um=1e-308"], ["--wheel-roughness-ra-um"]),
+    (["wheelrail", *WR, "--no-film", "--nominal-radius-mm", "1e308"], ["--nominal-radius-mm"]),
+    (["curves", "--film", "HS", "--roughness-law", "decreasing.csv", "--study-dir", "emptystudy"],
+     ["decreasing.csv", "--study-dir"]),
+    # fem: a sphere as small as the FE body collapsed its rim elements (exit 70); a contact beyond the body
+    (["fem", "--sphere-radius-mm", "50", "--force-kn", "10", "--no-film"], ["--sphere-radius-mm"]),
+    (["fem", "--sphere-radius-mm", "5000", "--force-kn", "2000", "--no-film"], ["--force-kn"]),
+    (["fem", "--sphere-radius-mm", "450", "--force-kn", "50", "--no-film", "--element-size-mm", "2"],
+     ["--element-size-mm"]),
+    (["scan", "films.toml", "--out", "s.csv", "--dpi", "1e300"], ["--dpi"]),
+    (["scan", "films.toml", "--out", "s.csv", "--mm-per-pixel", "1e-300"], ["--mm-per-pixel"]),
+    (["calibrate", "--film", "HS", "--max-steps", "1", "--study-dir", "emptystudy"], ["--max-steps"]),
+    # a batch written over itself lost the measurements
+    (["correct", "--batch", "design.csv", "--out", "design.csv", "--study-dir", "emptystudy"], ["--out"]),
+    (["correct", "--batch", "empty.csv", "--out", "o.csv", "--study-dir", "emptystudy"], ["--batch", "empty.csv"]),
     (["wheelrail", *WR, "--no-film", "--wheel-roughness-map", "bomb.png", "--roughness-pixel-um", "1",
       "--roughness-height-range-um", "5"], ["bomb.png"]),
     (["wheelrail", *WR, "--no-film", "--wheel-roughness-map", "cut.png", "--roughness-pixel-um", "1",

@@ -35,6 +35,22 @@ def test_data_that_cannot_be_calibrated_are_refused_before_any_work(tmp_path, co
     assert _snapshot(tmp_path) == before and not (tmp_path / "study").exists()
 
 
+@pytest.mark.parametrize("column, value, says", [
+    ("flat_ra_um", "1e6", "0 (smooth) or in [0.01, 30] um"),  # ran the FE campaign, then exit 70
+    ("flat_ra_um", "1e-308", "0 (smooth) or in [0.01, 30] um"),
+    ("measurement_std_mm", "1000", "more than 0.25 of the Hertz radius"),  # was calibrated as a scatter
+])
+def test_implausible_columns_are_refused_when_the_dataset_loads(tmp_path, column, value, says):
+    rows = "".join(f"HS,{r},{f},1.0,{value}\n" for r, f in ((300, 25), (450, 50), (600, 75)))
+    (tmp_path / "lab.csv").write_text(HEADER.strip() + f",{column}\n" + rows)
+    before = _snapshot(tmp_path)
+    p = subprocess.run([sys.executable, "-m", "filmcal.cli", "calibrate", "--film", "HS", "--data", "lab.csv",
+                        "--study-dir", "study"], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2, p.stderr[-2000:]
+    assert len(p.stderr.strip().splitlines()) == 1 and says in p.stderr and column in p.stderr, p.stderr
+    assert _snapshot(tmp_path) == before and not (tmp_path / "study").exists()
+
+
 def test_repeats_that_read_alike_never_make_the_likelihood_nan():
     """Two imprints of one case read alike: as sigma -> 0 the case's variance terms overflowed into NaN (which
     stopped the sampler); the sigma floor and the overflow-safe form give finite values or -inf."""

@@ -128,3 +128,18 @@ def test_a_read_only_study_is_answered_as_the_writable_one(studies, tmp_path, co
             d.pop("provenance", None)
             d["posterior_files"] = [Path(f).name for f in d.get("posterior_files", [])]
         assert answer == expected
+
+
+def test_a_report_of_a_read_only_study_without_out_dir_is_refused_before_any_figure(studies, tmp_path):
+    """It drew for 15 s and then failed on the read-only folder: now one line before any work names --out-dir."""
+    study = tmp_path / "ro"
+    shutil.copytree(studies / "intact", study)
+    shutil.rmtree(study / "report", ignore_errors=True)
+    before = _snapshot(study)
+    if not _read_only_mounts() and os.geteuid() != 0:
+        for path in [study, *study.rglob("*")]:
+            path.chmod(path.stat().st_mode & ~0o222)
+    p = _run(["report", "--study-dir", str(study)], cwd=tmp_path, read_only=study)
+    assert p.returncode == 2, p.stderr[-2000:]
+    assert len(p.stderr.strip().splitlines()) == 1 and "--out-dir" in p.stderr, p.stderr
+    assert _snapshot(study) == before

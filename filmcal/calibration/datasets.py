@@ -17,8 +17,10 @@ column                   required  meaning
 ``repeat``               no        number of the imprint within its case
                                    (integer >= 1; unique within a case)
 ``measurement_std_mm``   no        standard uncertainty of the measured radius
-                                   (mm, >= 0; default 0)
-``flat_ra_um``           no        roughness Ra of the flat (um, >= 0)
+                                   (mm, >= 0, at most a quarter of the Hertz
+                                   radius; default 0)
+``flat_ra_um``           no        roughness Ra of the flat (um: 0, smooth, or
+                                   0.01-30)
 ``sphere_modulus_mpa``   no        Young's modulus of the sphere (MPa; default
                                    steel, 210000)
 ``sphere_poisson``       no        its Poisson's ratio (default 0.3)
@@ -48,7 +50,7 @@ from pathlib import Path
 
 import numpy as np
 
-from filmcal._validation import FORCE_KN_BOUNDS, SPHERE_RADIUS_MM_BOUNDS
+from filmcal._validation import FORCE_KN_BOUNDS, MAX_RA_UM, MIN_RA_UM, SPHERE_RADIUS_MM_BOUNDS
 from filmcal.calibration.data import _FIELDS, RadiusErrorData, parse_load_range
 from filmcal.films import FILM_TYPES, FilmType
 from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, hertz_radius_mm, plausible_imprint_radius_mm
@@ -184,6 +186,11 @@ class _Where:
         return ValueError(f"dataset {where}: {message}")
 
 
+#: The largest measurement standard deviation of a radius a dataset may give, over the case's Hertz radius:
+#: Table 1's scatter is 0.3-1.5 % of the radius; a quarter of it is a unit error (um for mm), not a scatter.
+MAX_STD_OVER_HERTZ = 0.25
+
+
 def _number(where: _Where, line: int, column: str, text: str, low: float = -math.inf, high: float = math.inf,
             low_open: bool = True, high_open: bool = True, what: str | None = None) -> float:
     try:
@@ -288,7 +295,11 @@ def _parse(raw: bytes, name: str, source: str) -> Dataset:
                 cols[column].append(default)
                 continue
             low, high, low_open, what = limits[column]
-            cols[column].append(_number(where, line, column, text, low, high, low_open, True, what))
+            value = _number(where, line, column, text, low, high, low_open, True, what)
+            if column == "flat_ra_um" and not (value == 0.0 or MIN_RA_UM <= value <= MAX_RA_UM):
+                raise where.error(f"must be 0 (smooth) or in [{MIN_RA_UM:g}, {MAX_RA_UM:g}] um, got {text!r}", line,
+                                  column)
+            cols[column].append(value)
         lines.append(line)
 
     arrays = {k: np.asarray(v, dtype=float) for k, v in cols.items() if k not in ("film", "repeat")}
@@ -305,6 +316,12 @@ def _parse(raw: bytes, name: str, source: str) -> Dataset:
         if bad.size:
             raise where.error(f"gives a measured radius {radius[bad[0]]:g} mm <= 0 (Hertz radius "
                               f"{hertz[bad[0]]:.4g} mm)", lines[bad[0]], measured_column)
+    bad = np.flatnonzero(arrays["measurement_std_mm"] > MAX_STD_OVER_HERTZ * hertz)
+    if bad.size:
+        i = bad[0]
+        raise where.error(f"gives a measurement_std_mm of {arrays['measurement_std_mm'][i]:g} mm, more than "
+                          f"{MAX_STD_OVER_HERTZ:g} of the Hertz radius {hertz[i]:.3f} mm (an imprint's scatter is a "
+                          "few percent of its radius): check the units (mm)", lines[i], "measurement_std_mm")
     lo, hi = plausible_imprint_radius_mm(hertz)
     bad = np.flatnonzero((radius < lo) | (radius > hi))
     if bad.size:

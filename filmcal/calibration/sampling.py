@@ -34,6 +34,7 @@ import emcee
 import h5py
 import numpy as np
 
+from filmcal._validation import MIN_MCMC_STEPS as MIN_STEPS
 from filmcal.calibration.diagnostics import Diagnostics, compute_diagnostics
 from filmcal.calibration.likelihood import CalibrationProblem
 from filmcal.elastic import oedometric_ratio
@@ -45,6 +46,7 @@ __all__ = ["SamplerSettings", "ChainRun", "StoredChain", "initial_positions", "r
 CHAIN_GROUP = "mcmc"
 _METADATA_ATTR = "filmcal_calibration"
 _FORMAT = "filmcal-calibration-chain"
+
 
 
 @dataclass(frozen=True)
@@ -88,6 +90,9 @@ class SamplerSettings:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
                 raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+        if self.max_steps < MIN_STEPS:
+            raise ValueError(f"max_steps must be at least {MIN_STEPS} (a shorter chain gives no autocorrelation "
+                             f"time to judge it by), got {self.max_steps!r}")
         for name in ("min_tau_multiple", "tau_rtol", "burn_in_tau", "thin_tau", "min_ess"):
             value = float(getattr(self, name))
             if not (math.isfinite(value) and value > 0):

@@ -58,6 +58,7 @@ def _concepts(*items: Concept) -> dict[str, Concept]:
 
 _POSITIVE = (1e-12, 1e12)  # finite and > 0 (bounds stated as "> 0")
 from filmcal._validation import FORCE_KN_BOUNDS, OFFSET_MM_BOUNDS, SPHERE_RADIUS_MM_BOUNDS  # noqa: E402 (one place)
+from filmcal._validation import MAX_RA_UM, MIN_RA_UM, arg_zero_or_in  # noqa: E402
 
 VOCABULARY: dict[str, Concept] = _concepts(
     Concept("film", "film type: MS, HS, HHS, or a film of --films-file (or of the study)", metavar="NAME"),
@@ -87,15 +88,21 @@ VOCABULARY: dict[str, Concept] = _concepts(
     Concept("offset_std_mm", "standard uncertainty of the lateral offset in mm (a ruler or gauge: about "
             "0.5-1 mm)", float, (0.0, 10.0)),
     Concept("offsets_mm", "lateral offsets eta in mm: a list -5,0 or start:stop:step", metavar="LIST"),
-    Concept("wheel_roughness_ra_um", "roughness Ra of the wheel in um (a synthetic self-affine surface)",
-            float, (0.0, 30.0)),
+    Concept("wheel_roughness_ra_um", "roughness Ra of the wheel in um (a synthetic self-affine surface; 0: "
+            f"smooth, else at least {MIN_RA_UM:g}) [allowed 0 to {MAX_RA_UM:g}]", arg_zero_or_in(MIN_RA_UM, MAX_RA_UM)),
     Concept("rail_roughness_ra_um", "roughness Ra of the rail in um (a synthetic self-affine surface, drawn "
-            "independently of the wheel's)", float, (0.0, 30.0)),
+            f"independently of the wheel's; 0: smooth, else at least {MIN_RA_UM:g}) [allowed 0 to {MAX_RA_UM:g}]",
+            arg_zero_or_in(MIN_RA_UM, MAX_RA_UM)),
     Concept("wheel_roughness_map", "a measured surface of the wheel: an x3p map or profile, a stylus line "
             "profile across the lay (CSV with x_um or x_mm and z_um or z_nm columns), a CSV of heights or a "
             "greyscale PNG/TIFF (these two with --roughness-pixel-um)", metavar="FILE"),
     Concept("rail_roughness_map", "a measured surface of the rail (the formats of --wheel-roughness-map)",
             metavar="FILE"),
+    Concept("roughness_pixel_um", "pixel size in um of a CSV or image roughness map", float, (0.001, 100.0)),
+    Concept("roughness_height_scale", "CSV roughness map: factor from its numbers to um (default 1)", float,
+            (1e-6, 1e6)),
+    Concept("roughness_height_range_um", "image roughness map: height in um from black to full white", float,
+            (0.001, 1000.0)),
     Concept("scan", "a scanned imprint (PNG, TIFF or JPEG)", metavar="FILE"),
     Concept("simulator_command", "a command template run once per design point; placeholders are the "
             "design's columns plus {work_dir} and {point_id}", metavar="TEMPLATE"),
@@ -266,6 +273,32 @@ def contact_options(args: argparse.Namespace) -> ContactOptions:
                           friction_coefficient=args.friction_coefficient, kinematics=args.kinematics)
 
 
+def add_roughness_map_reading(parser) -> None:
+    """How a CSV or image roughness map is read: --roughness-pixel-um, --roughness-height-scale (CSV),
+    --roughness-height-range-um (image); see `roughness_map_reading`."""
+    add(parser, "roughness_pixel_um")
+    add(parser, "roughness_height_scale", default=1.0)
+    add(parser, "roughness_height_range_um")
+
+
+def roughness_map_reading(args: argparse.Namespace) -> dict[str, Any]:
+    """The keywords of `filmcal.contact.surface_files.read_surface_file` from `add_roughness_map_reading`'s
+    options."""
+    return {"pixel_um": args.roughness_pixel_um, "height_scale": args.roughness_height_scale,
+            "height_range_um": args.roughness_height_range_um}
+
+
+def add_scan_resolution(parser, prefix: str = "") -> None:
+    """--dpi and --mm-per-pixel of a scanned imprint, bounded (1 um to 1 mm pixels)."""
+    from filmcal._validation import arg_float_in
+
+    local(parser, "--dpi", type=arg_float_in(25.0, 25400.0),
+          help=f"{prefix}scan resolution in dots per inch (default: the file's resolution metadata) "
+               "[allowed 25 to 25400]")
+    local(parser, "--mm-per-pixel", type=arg_float_in(0.001, 1.0),
+          help=f"{prefix}pixel size in mm (instead of --dpi) [allowed 0.001 to 1]")
+
+
 def rail_inclination(text: str) -> float:
     """A rail inclination from '1/40', '0.025' or '0' (a fraction or a number, 0 to 0.2)."""
     from fractions import Fraction
@@ -296,8 +329,11 @@ def add_wheel_rail_options(parser, *, grid: bool = False) -> None:
     local(parser, "--rail-inclination", type=rail_inclination, default=d.RAIL_INCLINATION, metavar="SLOPE",
           help="rail inclination as a fraction or a number, e.g. 1/40 (default), 1/20, 0.025, or 0 for an "
                "upright rail" + bounds_text(*rail_inclination.bounds, False))
-    local(parser, "--nominal-radius-mm", type=float, default=d.NOMINAL_RADIUS_MM,
-          help=f"the wheel's nominal rolling radius at its tape circle in mm (default {d.NOMINAL_RADIUS_MM:g})")
+    from filmcal._validation import arg_float_in
+
+    local(parser, "--nominal-radius-mm", type=arg_float_in(150.0, 1500.0), default=d.NOMINAL_RADIUS_MM,
+          help=f"the wheel's nominal rolling radius at its tape circle in mm (default {d.NOMINAL_RADIUS_MM:g}) "
+               "[allowed 150 to 1500]")
     if grid:
         local(parser, "--grid-mm", type=float, default=d.GRID_MM,
               help=f"cell size of the contact grid in mm (default {d.GRID_MM:g}, the film's resolution)")

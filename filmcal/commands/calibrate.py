@@ -57,7 +57,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add(where, "workers", extra="(default: all cores)")
     add(where, "dask", extra="; the command's parallel work runs there (FE or simulator runs, fits, calibrations)")
     add(p, "seed", default=0, extra="(default 0)")
-    local(p, "--max-steps", type=int, default=None, help="cap on MCMC steps per walker (default: until converged)")
+    from filmcal._validation import MIN_MCMC_STEPS
+
+    local(p, "--max-steps", type=arg_int_in(MIN_MCMC_STEPS, 10**7), default=None,
+          help=f"cap on MCMC steps per walker (default: until converged) [allowed {MIN_MCMC_STEPS} to {10**7}]")
     local(p, "--plots", metavar="DIR", help="write trace, corner, per-case (Fig. 3) and predictive plots")
     add(p, "json", action="store_true")
     renamed(p, "--imprint", "--imprint-model", type=lambda t: MIXTURE if t == "stacked" else t)

@@ -5,7 +5,9 @@ import argparse
 import contextlib
 
 from filmcal.commands._common import print_json
-from filmcal.commands._options import STUDY_IMPRINT_MODELS, add, add_wheel_rail_options, force_range, local, renamed, split_model
+from filmcal.commands._options import (STUDY_IMPRINT_MODELS, add, add_roughness_map_reading, add_scan_resolution,
+                                      add_wheel_rail_options, force_range, local, renamed, roughness_map_reading,
+                                      split_model)
 from filmcal.contact.names import MIXTURE
 
 
@@ -45,9 +47,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     local(p, "--measurement-std-mm", type=float, default=0.0,
           help="sphere-on-flat: standard uncertainty of the measured radius (mm, default 0)")
     add(p, "scan", extra="instead of --measured-area-mm2 / --measured-radius-mm")
-    local(p, "--dpi", type=float,
-          help="--scan: scan resolution in dots per inch (default: the file's resolution metadata)")
-    local(p, "--mm-per-pixel", type=float, help="--scan: pixel size in mm (instead of --dpi)")
+    add_scan_resolution(p, "--scan: ")
     local(p, "--threshold", type=float,
           help="--scan: stain intensity (1 - green channel) above which a pixel is stained "
                "(default: Otsu's threshold)")
@@ -68,7 +68,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add(p, "rail_roughness_ra_um", extra="(wheel-rail)")
     add(p, "wheel_roughness_map", extra="(wheel-rail; instead of --wheel-roughness-ra-um; its Ra is reported)")
     add(p, "rail_roughness_map", extra="(wheel-rail; instead of --rail-roughness-ra-um)")
-    local(p, "--roughness-pixel-um", type=float, help="pixel size in um of a CSV or image roughness map")
+    add_roughness_map_reading(p)
     local(p, "--roughness-draws", type=int, default=8,
           help="wheel-rail with roughness: draws of the roughness law's conditioned inputs (coating hardness, "
                "the scan's reading level, the surface's spectrum) that the band takes, 1-16 (default 8; each "
@@ -132,6 +132,12 @@ def run_batch(args: argparse.Namespace) -> int:
 
     if args.out is None:
         raise ValueError("--batch needs --out")
+    from pathlib import Path
+
+    out_path, batch_path = Path(args.out), Path(args.batch)
+    if out_path.resolve() == batch_path.resolve() or (out_path.exists() and batch_path.exists()
+                                                      and out_path.samefile(batch_path)):
+        raise ValueError(f"--out {args.out} is the --batch file itself: give another file (the batch is kept)")
     single = [name for name in ("film", "force_kn", "measured_area_mm2", "offset_mm", "measured_radius_mm", "sphere_radius_mm",
                                 "scan", "wheel_roughness_ra_um", "rail_roughness_ra_um")
               if getattr(args, name, None) is not None]
@@ -198,7 +204,7 @@ def run(args: argparse.Namespace) -> int:
         args.scan, args.dpi, args.mm_per_pixel, args.threshold,
         1.0 if args.min_region_mm2 is None else args.min_region_mm2, args.outline_out, args.field_side)
     roughness = BodyRoughness(args.wheel_roughness_ra_um, args.rail_roughness_ra_um, args.roughness_draws,
-                              args.wheel_roughness_map, args.rail_roughness_map, args.roughness_pixel_um)
+                              args.wheel_roughness_map, args.rail_roughness_map, **roughness_map_reading(args))
     if sphere and not roughness.smooth:
         raise ValueError("--wheel-roughness-ra-um / --rail-roughness-ra-um apply to the wheel-rail form")
     study = Study(args.study_dir)  # an existing study: a mistyped folder is an error, not a new study

@@ -5,8 +5,8 @@ import argparse
 import sys
 
 from filmcal.commands._common import print_json
-from filmcal.commands._options import (FORCE_KN_BOUNDS, STUDY_IMPRINT_MODELS, add, force_range, local, renamed,
-                                       split_model)
+from filmcal.commands._options import (FORCE_KN_BOUNDS, STUDY_IMPRINT_MODELS, add, add_roughness_map_reading,
+                                       force_range, local, renamed, roughness_map_reading, split_model)
 from filmcal.contact.names import MIXTURE
 
 
@@ -30,7 +30,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add(p, "rail_roughness_ra_um", extra="; with the wheel's, or alone")
     add(p, "wheel_roughness_map", extra="(instead of --wheel-roughness-ra-um)")
     add(p, "rail_roughness_map", extra="(instead of --rail-roughness-ra-um)")
-    local(p, "--roughness-pixel-um", type=float, help="pixel size in um of a CSV or image roughness map")
+    add_roughness_map_reading(p)
+    add(p, "progress", default="auto", extra="(quiet: no line per curve set)")
     local(p, "--roughness-draws", type=int, default=8,
           help="rough bodies: draws of the roughness law's conditioned inputs (coating hardness, the scan's "
                "reading level, the surface's spectrum) that the rough bands take, 1-16 (default 8); the "
@@ -68,7 +69,7 @@ def _rough_configurations(args: argparse.Namespace, draws: list) -> list:
         from filmcal.contact.surface_files import read_surface_file
 
         def body(ra, path):
-            return read_surface_file(path, args.roughness_pixel_um) if path else (ra or None)
+            return read_surface_file(path, **roughness_map_reading(args)) if path else (ra or None)
 
         if isinstance(args.roughness_draws, bool) or not 1 <= args.roughness_draws <= len(draws):
             raise ValueError(f"--roughness-draws must be an integer in [1, {len(draws)}], got {args.roughness_draws!r}")
@@ -138,8 +139,9 @@ def run(args: argparse.Namespace) -> int:
         notes = [_waviness_note(c) for c in rough if _waviness_note(c)]
         for note in notes:
             sys.stderr.write(f"filmcal curves: warning: {note}\n")
-        for label in ["smooth"] + [c.label for c in rough]:
-            sys.stderr.write(f"[curves] {film}, {label}: {len(forces)} loads x {len(offsets)} offsets\n")
+        if args.progress != "quiet":
+            for label in ["smooth"] + [c.label for c in rough]:
+                sys.stderr.write(f"[curves] {film}, {label}: {len(forces)} loads x {len(offsets)} offsets\n")
         rows = curve_table(film, components, offsets, forces, rough, workers)
     if args.csv:
         write_curves_csv(args.csv, rows)

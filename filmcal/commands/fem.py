@@ -17,7 +17,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "between them or without one. Prints the contact radius (the zero-pressure edge) read with "
                     "sub-element accuracy, the area, the maximum pressure and the Hertz radius for reference; "
                     "with --film, also the imprint that film records (--imprint-model).")
-    add(p, "sphere_radius_mm", required=True, extra="(e.g. 300, 450, 600)")
+    add(p, "sphere_radius_mm", required=True, extra="(e.g. 300, 450, 600; the FE body takes spheres of at least "
+        "55 mm, 1.1 times its 50 mm size)")
     add(p, "force_kn", required=True, extra="(e.g. 25-100)")
     film = p.add_mutually_exclusive_group(required=True)
     add(film, "film_modulus_mpa")
@@ -48,6 +49,27 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
+def _zone_for_force(mesh, sphere_radius_mm: float, force_kn: float):
+    """The mesh with its refined zone grown to 1.6 Hertz radii at this force where the default zone (sized for
+    150 kN) is smaller; a contact too large for the FE body is refused before any work."""
+    import math
+    from dataclasses import replace
+
+    from filmcal.fem.mesh import default_contact_zone_mm
+    from filmcal.hertz import hertz_radius_mm
+
+    need = 1.6 * float(hertz_radius_mm(sphere_radius_mm, 1e3 * force_kn))
+    if need <= default_contact_zone_mm(sphere_radius_mm, mesh):
+        return mesh
+    limit = 0.6 * mesh.body_size_mm
+    if need > limit:
+        raise ValueError(f"--force-kn: {force_kn:g} kN on a sphere of {sphere_radius_mm:g} mm makes a contact of "
+                         f"{need / 1.6:.1f} mm Hertz radius; the FE body ({mesh.body_size_mm:g} mm) resolves "
+                         f"contacts up to {limit / 1.6:.1f} mm: lower the force or take a smaller sphere")
+    h = mesh.element_size_mm
+    return replace(mesh, contact_zone_mm=min(math.ceil(need / h) * h, limit))
+
+
 def run(args: argparse.Namespace) -> int:
     from filmcal.commands._options import contact_options
     from filmcal.fem import Film, MeshSettings, solve_sphere_on_flat
@@ -73,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
     film = None if args.no_film else Film(args.film_modulus_mpa, poisson)
     options = contact_options(args)
     mesh = MeshSettings() if args.element_size_mm is None else MeshSettings(element_size_mm=args.element_size_mm)
+    mesh = _zone_for_force(mesh, args.sphere_radius_mm, args.force_kn)
     if film is not None:  # a film thinner than the mesh resolves: refused before the model is built
         from filmcal.fem.model import check_film_thickness
         check_film_thickness(thickness, mesh.element_size_mm, args.film_layers)

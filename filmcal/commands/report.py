@@ -29,6 +29,17 @@ def run(args: argparse.Namespace) -> int:
     from filmcal.study import Study
 
     Study(args.study_dir)  # a folder that is not a study is refused before the report's imports
+    from pathlib import Path
+
+    from filmcal._io import check_output_dir
+
+    if args.out_dir is not None:
+        check_output_dir(args.out_dir, "--out-dir")
+    else:  # STUDY_DIR/report: a read-only study (an archive, a colleague's) needs --out-dir elsewhere
+        try:
+            check_output_dir(Path(args.study_dir) / "report", "--study-dir")
+        except ValueError as exc:
+            raise type(exc)(f"{exc}: the report goes to STUDY_DIR/report; give --out-dir elsewhere") from None
     from filmcal.report import write_report
 
     paths = write_report(args.study_dir, args.out_dir)

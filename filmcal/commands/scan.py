@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 from filmcal.commands._common import print_json
-from filmcal.commands._options import add, local
+from filmcal.commands._options import add, add_scan_resolution, local
 
 
 def add_parser(subparsers) -> None:
@@ -32,8 +32,7 @@ def add_parser(subparsers) -> None:
                "scan_status)")
     local(p, "--overview", metavar="FILE.png",
           help="the overview image (default: --out with .png in place of .csv)")
-    local(p, "--dpi", type=float, help="the scan's resolution (default: the file's own)")
-    local(p, "--mm-per-pixel", type=float, help="pixel size in mm (instead of --dpi)")
+    add_scan_resolution(p)
     local(p, "--rotate-deg", choices=("0", "90", "180", "270"), default="0",
           help="turn the page counter-clockwise before numbering: 180 for a sheet scanned upside down "
                "(default 0)")

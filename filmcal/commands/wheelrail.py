@@ -5,7 +5,7 @@ import argparse
 import math
 
 from filmcal.commands._common import print_json
-from filmcal.commands._options import add, add_wheel_rail_options, local, renamed
+from filmcal.commands._options import add, add_roughness_map_reading, add_wheel_rail_options, local, renamed
 from filmcal.contact.names import DEFAULT_IMPRINT_MODEL, DEFAULT_KINEMATICS, IMPRINT_MODELS
 
 
@@ -48,11 +48,7 @@ def add_parser(subparsers) -> None:
     add(p, "rail_roughness_map")
     add(p, "rail_roughness_ra_um", extra=": with a film, pressed into the film's other face (its law in series "
                                           "with the wheel's); without film, its heights add to the wheel's")
-    local(p, "--roughness-pixel-um", type=float, help="pixel size of --wheel-roughness-map in um")
-    local(p, "--roughness-height-scale", type=float, default=1.0,
-          help="CSV height map: factor from the numbers to um (default 1)")
-    local(p, "--roughness-height-range-um", type=float,
-          help="image height map: height in um from black to full white")
+    add_roughness_map_reading(p)
     local(p, "--roughness-seed", type=int, help="realisation of the synthetic rough surfaces (default: the "
                                                 "representative conditioned draw's)")
     local(p, "--hardness-mpa", type=float, help="cap on asperity pressures in the film's coating (MPa; default: "

@@ -240,7 +240,11 @@ class TabularLaw(InterfaceLaw):
             pressure = [float(r["pressure_mpa"]) for r in rows]
         except (KeyError, TypeError, ValueError):
             raise ValueError(f"roughness_law {path}: needs numeric columns closure_um,pressure_mpa") from None
-        return cls(closure, pressure)
+        try:
+            return cls(closure, pressure)
+        except ValueError as exc:  # said in the file's own columns
+            text = str(exc).replace("closure_mm", "closure_um")
+            raise ValueError(f"roughness_law {path}: {text}") from None
 
     def __init__(self, closure_mm: np.ndarray, pressure_mpa: np.ndarray) -> None:
         c = np.asarray(closure_mm, dtype=float)

@@ -103,7 +103,7 @@ import scipy.fft as sfft
 from threadpoolctl import threadpool_limits
 from scipy.special import erf
 
-from filmcal._validation import check_poisson, check_positive, check_range
+from filmcal._validation import MIN_RA_UM, check_poisson, check_positive, check_range
 from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON
 from filmcal.contact.laws import TabularLaw
 
@@ -123,6 +123,7 @@ __all__ = [
     "WHEEL_SURFACE_DEFAULTS",
     "rough_law_cost",
     "LAW_BYTES_PER_PIXEL",
+    "MIN_RA_UM",
 ]
 
 #: Indentation hardness of the PET carrier (MPa): Tabor's 3 Y with Y ~ 100 MPa (BOPET).
@@ -219,9 +220,9 @@ class RoughSurface:
         if (ra_um is None) == (rms_um is None):
             raise ValueError("give exactly one of ra_um and rms_um")
         if ra_um is not None:
-            rms = math.sqrt(0.5 * math.pi) * check_range("ra_um", ra_um, 0.0, 100.0)
+            rms = math.sqrt(0.5 * math.pi) * check_range("ra_um", ra_um, MIN_RA_UM, 100.0, low_open=False)
         else:
-            rms = check_range("rms_um", rms_um, 0.0, 125.0)
+            rms = check_range("rms_um", rms_um, math.sqrt(0.5 * math.pi) * MIN_RA_UM, 125.0, low_open=False)
         hurst = check_range("hurst", hurst, 0.0, 1.0)
         size = check_positive("size_um", size_um)
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 16 <= n <= 2048 or n % 2:
@@ -659,6 +660,9 @@ def solve_periodic_contact(surface: RoughSurface, nominal_pressures_mpa: np.ndar
     if loads.ndim != 1 or loads.size == 0 or np.any(~np.isfinite(loads)) or np.any(loads <= 0.0) \
             or np.any(np.diff(loads) <= 0.0) or loads[-1] >= hard:
         raise ValueError("nominal_pressures_mpa must be increasing, > 0 and below hardness_mpa")
+    if not surface.ra_um >= MIN_RA_UM:
+        raise ValueError(f"the surface {surface.description or 'given'} has Ra {surface.ra_um:.3g} um, below {MIN_RA_UM:g} um: it is "
+                         "smooth at the contact's scale; leave it out (a smooth body)")
     h = surface.heights_um
     kernel = _PeriodicKernel(h.shape, surface.pixel_um, e_f, nu_f, t_um,
                              check_positive("steel_modulus_mpa", steel_modulus_mpa),

@@ -335,10 +335,12 @@ def read_surface_file(path: str | Path, pixel_um: float | None = None, height_sc
         raise ValueError(f"roughness map {path}: a height map needs its pixel size (--roughness-pixel-um)")
     if suffix in (".png", ".tif", ".tiff"):
         if height_range_um is None:
-            raise ValueError("an image roughness map needs --roughness-height-range-um")
-        surface = RoughSurface.from_image(path, pixel_um, height_range_um)
-    else:
-        surface = RoughSurface.from_csv(path, pixel_um, height_scale)
+            raise ValueError(f"roughness map {path}: an image needs its height range (--roughness-height-range-um)")
+    try:
+        surface = RoughSurface.from_image(path, pixel_um, height_range_um) if suffix in (".png", ".tif", ".tiff") \
+            else RoughSurface.from_csv(path, pixel_um, height_scale)
+    except ValueError as exc:
+        raise ValueError(str(exc) if str(path) in str(exc) else f"roughness map {path}: {exc}") from None
     _check_size(surface.heights_um.shape, surface.pixel_um, f"roughness map {path}")
     level, _ = _level(surface.heights_um, surface.pixel_um, f"roughness map {path}")
     return RoughSurface(level, surface.pixel_um, surface.description)

@@ -189,6 +189,11 @@ def correction_curves(components, offsets_mm, forces_n, *, rough=(), max_samples
                     terms = [parts[k][0].transfer_term(float(m), previous) for k in members]
                     recorded[m] = [parts[k][0].recorded_area_mm2(previous) + t.shift_mm2
                                    for k, t in zip(members, terms)]
+                    for k, r in zip(members, recorded[m]):
+                        if not r > 0.0:
+                            from filmcal.correction.wheelrail import empty_imprint
+
+                            raise empty_imprint(parts[k][0], force, eta, "--forces-kn", previous.max_pressure_mpa)
                     spread[m] = [t.std_mm2 / r for t, r in zip(terms, recorded[m])]
                 at_nodes = np.log(np.array([recorded[m] for m in nodes]) / a0)
                 at_checks = np.log(np.array([recorded[m] for m in checks]) / a0) if len(checks) else None

@@ -177,7 +177,13 @@ class SphereCorrector:
         shape = r_m.shape
         mean, std = self._predict(R, F)
         if not np.all(np.isfinite(mean)):
-            raise ValueError("sphere_radius_mm or force_n outside the radius model's domain")
+            bounds = getattr(getattr(self.model, "domain", None), "bounds", None)
+            where = ""
+            if bounds is not None:
+                (r0, r1), (f0, f1) = bounds()["sphere_radius_mm"], bounds()["force_kn"]
+                where = f" (spheres of {r0:g}-{r1:g} mm at {f0:g}-{f1:g} kN)"
+            raise ValueError(f"a sphere of {float(R.max()):g} mm at {float(F.min()) / 1e3:g} kN lies outside the "
+                             f"calibrated domain{where}: correct it with a study calibrated there")
         delta = mean - hertz_radius_mm(R.reshape(-1, 1), F.reshape(-1, 1))
         rng = np.random.default_rng(self.random_state)
         scale = np.sqrt(self.sigma_mm_[None, :] ** 2 + std**2 + u.reshape(-1, 1) ** 2)

@@ -61,6 +61,9 @@ class SupportCache(Protocol):
 
     def put(self, offset_mm: float, force_n: float, support: "SupportAreas", areas: dict) -> None: ...
 
+    def flush(self) -> None:
+        """Write what `put` kept (called once the answer it served is given)."""
+
 
 class SupportAreas:
     """The wheel-rail solves that correctors of one film type and kinematics share.
@@ -134,6 +137,16 @@ class SupportAreas:
                 "no_film": {"max_pressure_mpa": float(bare.max_pressure_mpa),
                             "length_mm": float(np.ptp(points[:, 0])), "width_mm": float(np.ptp(points[:, 1])),
                             "centroid_rail_y_mm": float(bare.centroid_rail_y_mm)}}
+
+
+def empty_imprint(model, force_n: float, eta_mm: float, option: str, max_pressure_mpa: float | None = None):
+    """The input error of a load at which a film's imprint model records nothing (no correction exists)."""
+    from filmcal._errors import InputError
+
+    peak = f"the film's peak pressure {max_pressure_mpa:.0f} MPa against " if max_pressure_mpa is not None else ""
+    return InputError(f"{option}: at {force_n / 1e3:g} kN and eta {eta_mm:g} mm the {model.label} imprint records "
+                      f"nothing ({peak}the film's activation pressure {model.film.activation_pressure_mpa:g} MPa): "
+                      "no correction exists at this load; give a larger force")
 
 
 def nominal_modulus_mpa(posterior: dict, nominal_poisson: float) -> np.ndarray:
@@ -224,6 +237,8 @@ class WheelRailCorrector:
         a0 = solved["area_no_film_mm2"]
         e_grid = np.asarray(solved["modulus_grid_mpa"], dtype=float)
         a_f = np.asarray(solved["area_film_mm2"][self.film.label], dtype=float)
+        if not np.all(a_f > 0.0):
+            raise empty_imprint(self.film, force_n, offset_mm, "--force-kn")
         rel_std = np.asarray(solved["transfer_std_mm2"][self.film.label], dtype=float) / a_f
         log_e = np.log(self.modulus_mpa_)
         degree = min(2, len(e_grid) - 1)

@@ -155,6 +155,11 @@ def _radial_and_depth(zone_mm: float, s: MeshSettings) -> tuple[np.ndarray, np.n
     return r, depth
 
 
+#: The smallest sphere radius over the body's size: at R = L the cap's face reaches the body's top at its rim
+#: and the outer elements collapse (zero Jacobian); at 1.1 L the rim's face is 0.54 L deep.
+MIN_SPHERE_TO_BODY = 1.1
+
+
 def sphere_grid(sphere_radius_mm: float, settings: MeshSettings, film_thickness_mm: float = 0.0) -> BodyGrid:
     """Mesh of the sphere body: exact spherical contact face, flat top.
 
@@ -162,8 +167,9 @@ def sphere_grid(sphere_radius_mm: float, settings: MeshSettings, film_thickness_
     """
     R = check_positive("sphere_radius_mm", sphere_radius_mm)
     L = settings.body_size_mm
-    if R < L:
-        raise ValueError(f"sphere_radius_mm must be >= body_size_mm ({L:g} mm) for a spherical cap body, got {R:g}")
+    if R < round(MIN_SPHERE_TO_BODY * L, 9):
+        raise ValueError(f"sphere_radius_mm must be at least {MIN_SPHERE_TO_BODY:g} times the FE body's size "
+                         f"({round(MIN_SPHERE_TO_BODY * L, 9):g} mm) for a spherical cap body, got {R:g}")
     zone = default_contact_zone_mm(R, settings)
     r, depth = _radial_and_depth(zone, settings)
 

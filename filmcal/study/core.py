@@ -378,7 +378,12 @@ class Study:
 
     def film(self, name: str) -> FilmType:
         """A film type known to the study (built in, from the manifest or the films file)."""
-        return self.films.get(name)
+        try:
+            return self.films.get(name)
+        except ValueError as exc:  # a study's films are those it was calibrated with
+            raise InputError(str(exc).replace("(add your own with --films-file)",
+                                              f"(the films study {self.root} knows; a study takes its own "
+                                              "films with calibrate --films-file)")) from None
 
     def set_settings(self, settings: dict) -> None:
         """Record the study's settings on first use; refuse other settings later (naming what differs)."""
@@ -1280,6 +1285,7 @@ class _StudySupports:
     def __init__(self, study: Study, posteriors: dict[str, str]) -> None:
         self.study = study
         self.posteriors = posteriors  # model label -> SHA-256 of its posterior file
+        self.pending: list = []  # solves kept by `flush`, once the answer they served is given
 
     def _spec(self, offset_mm: float, force_n: float, support) -> dict:
         from filmcal.contact.transfer import load_transfer_fit
@@ -1305,8 +1311,15 @@ class _StudySupports:
         return areas
 
     def put(self, offset_mm: float, force_n: float, support, areas: dict) -> None:
+        """Keep the solves when `flush` is called (an input refused after its solve writes nothing)."""
         spec = self._spec(offset_mm, force_n, support)
-        _write_cache(self.study, self._path(spec), spec, areas, "keeping wheel-rail solves")
+        self.pending.append((self._path(spec), spec, areas))
+
+    def flush(self) -> None:
+        """Write the solves kept since the last flush into the study."""
+        for path, spec, areas in self.pending:
+            _write_cache(self.study, path, spec, areas, "keeping wheel-rail solves")
+        self.pending.clear()
 
 
 class StudyGrowths:
@@ -1323,6 +1336,7 @@ class StudyGrowths:
     def __init__(self, study: Study, parts: list) -> None:
         self.study = study
         self.parts = parts
+        self.pending: list = []  # growths kept by `flush`, once the answer they served is given
 
     def spec(self, offset_mm: float, force_n: float, bodies: dict, draws: list) -> dict:
         from filmcal.contact.waviness import WAVINESS_CUTOFF_CELLS
@@ -1344,7 +1358,14 @@ class StudyGrowths:
         return data if isinstance(data, dict) and set(data) == set(spec["posteriors"]) else None
 
     def put(self, spec: dict, data: dict) -> None:
-        _write_cache(self.study, self._path(spec), spec, data, "keeping rough wheel-rail solves")
+        """Keep the growths when `flush` is called."""
+        self.pending.append((self._path(spec), spec, data))
+
+    def flush(self) -> None:
+        """Write the growths kept since the last flush into the study."""
+        for path, spec, data in self.pending:
+            _write_cache(self.study, path, spec, data, "keeping rough wheel-rail solves")
+        self.pending.clear()
 
 
 def _read_cache(study: Study, path: Path, spec: dict):

@@ -80,7 +80,8 @@ class BodyRoughness:
 
     Each body is smooth (None or Ra 0), an Ra in um (a synthetic surface per draw) or a measured surface
     file (`filmcal.contact.surface_files.read_surface_file`: x3p, a CSV line profile across the lay, or a
-    CSV height map with ``pixel_um``); not both for one body.
+    CSV height map with ``pixel_um`` and ``height_scale``, or a greyscale image with ``pixel_um`` and
+    ``height_range_um``); not both for one body.
     """
 
     wheel_ra_um: float | None = None
@@ -89,15 +90,17 @@ class BodyRoughness:
     wheel_map: str | None = None
     rail_map: str | None = None
     pixel_um: float | None = None
+    height_scale: float = 1.0
+    height_range_um: float | None = None
 
     def __post_init__(self) -> None:
-        from filmcal._validation import check_range
+        from filmcal._validation import check_ra
         from filmcal.contact.rough_imprint import load_roughness_inputs
 
         for name in ("wheel", "rail"):
             value = getattr(self, f"{name}_ra_um")
             if value is not None:
-                check_range(f"{name}_roughness_ra_um", value, 0.0, 30.0, low_open=False, high_open=False)
+                check_ra(f"{name}_roughness_ra_um", value)
                 if getattr(self, f"{name}_map") is not None:
                     raise ValueError(f"give the {name}'s roughness as an Ra or as a map, not both")
         available = len(load_roughness_inputs())
@@ -112,7 +115,7 @@ class BodyRoughness:
             return None
         from filmcal.contact.surface_files import read_surface_file
 
-        return read_surface_file(path, self.pixel_um)
+        return read_surface_file(path, self.pixel_um, self.height_scale, self.height_range_um)
 
     def wheel(self):
         """The wheel as `RoughnessInputs.bodies` takes it: a measured surface, an Ra or None."""
@@ -282,7 +285,7 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
         raise ValueError("roughness applies to the wheel-rail form (sphere-on-flat corrections are calibrated on "
                          "the paper's smooth spheres)")
     result = _pool(results, parts, seed)
-    rough_out = None
+    rough_out, kept = None, None
     if not sphere and roughness is not None and not roughness.smooth:
         from filmcal.correction.roughness import RoughGrowth, corrector_growths
         from filmcal.study.core import StudyGrowths
@@ -374,6 +377,12 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
             outline = correct_outline(reading.outlines_mm, result, model, field_side=scan.field_side)
             outline.write_csv(Path(scan.outline_out))
             out.update(outline_file=str(scan.outline_out), outline_rule=outline.rule)
+    if not sphere:  # the answer stands: the study keeps its solves (a refused input keeps nothing)
+        for cache_ in {id(c.supports.cache): c.supports.cache for _, c, _ in parts}.values():
+            if cache_ is not None:
+                cache_.flush()
+        if kept is not None:
+            kept.flush()
     return out, reading
 
 

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from filmcal.wheelrail.settings import GRID_MM, NOMINAL_RADIUS_MM, RAIL, RAIL_INCLINATION, WHEEL
-from filmcal._validation import check_positive, check_range
+from filmcal._validation import check_positive, check_ra
 from filmcal.contact.names import DEFAULT_IMPRINT_MODEL, DEFAULT_KINEMATICS
 
 __all__ = ["WheelRoughness", "FilmContactCase", "solve_film_contact"]
@@ -54,13 +54,13 @@ class WheelRoughness:
         if sum(given) > 1:
             raise ValueError("give one of a roughness Ra, a roughness map and a roughness law")
         if self.ra_um is not None:
-            check_range("wheel_roughness_ra_um", self.ra_um, 0.0, 30.0, low_open=False, high_open=False)
+            check_ra("wheel_roughness_ra_um", self.ra_um)
         if self.rail_ra_um is not None and self.rail_map_file is not None:
             raise ValueError("give the rail's roughness as an Ra or as a map, not both")
         if self.rail_map_file is not None and self.law_file is not None:
             raise ValueError("--rail-roughness-map cannot be combined with --roughness-law")
         if self.rail_ra_um is not None:
-            check_range("rail_roughness_ra_um", self.rail_ra_um, 0.0, 30.0, low_open=False, high_open=False)
+            check_ra("rail_roughness_ra_um", self.rail_ra_um)
             if self.law_file is not None:
                 raise ValueError("--rail-roughness-ra-um cannot be combined with --roughness-law (a measured "
                                  "law is the whole interface as measured)")

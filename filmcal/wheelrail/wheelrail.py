@@ -528,8 +528,9 @@ def _region(curves: _PlaneCurves, delta_mm: float, spacing_mm: float, slide_mm: 
     if inside.size == 0:
         raise ValueError("no contact found in the contact plane (internal geometry error)")
     if inside[0] == 0 or inside[-1] == s.size - 1:
-        raise ValueError("the contact reaches the end of the wheel or rail profile at this offset "
-                         "and load; choose offset_mm further inside the profiles")
+        raise ValueError(f"the contact reaches the end of the wheel or rail profile (its approach {delta_mm:.3g} mm): "
+                         "choose an offset further inside the profiles, a smaller force, or a stiffer or thinner "
+                         "film (a soft or thick film spreads the contact)")
     r = curves.wheel_radius(s[inside] + slide_mm)
     rise = (delta_mm - d[inside]) / curves.cos
     half_x = float(np.sqrt(np.clip(r * r - (r - rise) ** 2, 0.0, None)).max())
