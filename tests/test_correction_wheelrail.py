@@ -251,6 +251,9 @@ def test_a_refused_measurement_writes_nothing_and_a_load_without_imprint_is_refu
         "a load without imprint": (
             ["correct", "--film", "HS", "--imprint-model", "activation", "--measured-area-mm2", "0.2",
              "--offset-mm=-3", "--force-kn", "0.001"], "records nothing"),
+        "a sphere outside the calibrated domain": (
+            ["correct", "--film", "HS", "--measured-radius-mm", "0.1", "--sphere-radius-mm", "300", "--force-kn",
+             "0.001"], "outside the calibrated domain"),
         "curves at a load without imprint": (
             ["curves", "--film", "HS", "--imprint-model", "activation", "--forces-kn", "0.001", "--offsets-mm=-3",
              "--workers", "1", "--progress", "quiet"], "records nothing")}
