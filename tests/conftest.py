@@ -80,6 +80,8 @@ SLOW_TESTS: dict[str, str] = {
     "test_transfer.py::test_the_fit_script_reuses_every_measured_row_and_fits_them_again_to_the_same_numbers":
         "40-60 s: the fit script at its smallest sizes, twice",
     "test_roughness_no_film.py::test_rough_hertz_contact_follows_greenwood_tripp": "5 s each: a rough law (BEM)",
+    "test_roughness_no_film.py::test_with_elastic_asperities_the_nominal_growth_is_greenwood_and_tripps":
+        "two rough laws (BEM) each",
     "test_roughness_no_film.py::test_the_nominal_area_of_rough_bodies_tends_to_the_smooth_area": "8 s: two rough laws",
     "test_correction_curves.py::test_growth_task_matches_direct_solves": "16 s: four rough laws (BEM), cold solves",
     "test_fuzz_commands.py::test_every_command_as_a_process": "5-10 s: two fuzz cases per command as processes",
