@@ -505,5 +505,8 @@ def read_imprint(path, *, dpi: float | None = None, mm_per_pixel: float | None =
     path = Path(path)
     pixels, info = load_scan(path)
     pixel_mm, source = _pixel_size(dpi, mm_per_pixel, info, path)
-    return measure_imprint(stain_intensity(pixels), pixel_mm, threshold=threshold,
-                           min_region_mm2=min_region_mm2, min_contrast=min_contrast, pixel_size_source=source)
+    try:
+        return measure_imprint(stain_intensity(pixels), pixel_mm, threshold=threshold,
+                               min_region_mm2=min_region_mm2, min_contrast=min_contrast, pixel_size_source=source)
+    except ValueError as exc:  # said of the scan it is about
+        raise type(exc)(str(exc) if str(path) in str(exc) else f"scan {path}: {exc}") from None

@@ -643,7 +643,8 @@ class SphereOnFlat:
         if converged and active[-3:].any():
             converged = False
             reason = (f"contact reached the edge of the refined zone (r = {self.r_face_mm[-1]:.2f} mm): "
-                      "enlarge MeshSettings.contact_zone_mm")
+                      "enlarge MeshSettings.contact_zone_mm (filmcal fem sizes it to 1.6 Hertz radii at its force; "
+                      "a film that spreads the contact further needs it larger)")
         a_h = self._hertz_radius_mm(force_n)
         strain = self._film_strain(low, x) if film is not None else np.zeros(n)
         result = FEResult(
