@@ -319,7 +319,7 @@ def main() -> None:
                         help="external-command acceptance figures (kill, rerun, Ctrl-C, two writers, Dask)")
     parser.add_argument("--toy", action="store_true", help="use the CPU-bound numpy toy model")
     parser.add_argument("--points", type=int, default=24, help="design points per timed run (default 24)")
-    parser.add_argument("--radius-mm", type=float, default=450.0, help="sphere radius of all points (default 450)")
+    parser.add_argument("--sphere-radius-mm", type=float, default=450.0, help="sphere radius of all points (default 450)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the design")
     parser.add_argument("--timeout-s", type=float, default=None, help="deadline per point")
     args = parser.parse_args()
@@ -329,8 +329,8 @@ def main() -> None:
         return
 
     model, model_name = load_model(args.toy)
-    points = design(args.points, args.radius_mm, args.seed)
-    print(f"model {model_name}: {len(points)} points at R = {args.radius_mm:g} mm, "
+    points = design(args.points, args.sphere_radius_mm, args.seed)
+    print(f"model {model_name}: {len(points)} points at R = {args.sphere_radius_mm:g} mm, "
           f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}")
     rates = {}
     with tempfile.TemporaryDirectory() as tmp:

@@ -13,7 +13,7 @@ Measures, in one run on this machine:
     (R, F), on the built model.
 Targets: sweep / t_factor <= 0.15, cold / t_factor <= 3.
 
-    python bench/fem_speed.py [--radius-mm 450] [--force-kn 75]
+    python bench/fem_speed.py [--sphere-radius-mm 450] [--force-kn 75]
 
 With ``--edge-table`` it prints instead the verification table of the edge and
 imprint readings: at h = 0.1 mm (the paper's mesh) against h = 0.0125 mm
@@ -22,8 +22,8 @@ pressure and the first node without, the activation contours (MS 10, HS 50,
 HHS 130 MPa) by linear interpolation of the nodal pressures -- and, without a
 film, against Hertz's closed forms. It also times the reading against the solve.
 
-    python bench/fem_speed.py --edge-table [--radius-mm 450] [--force-kn 75] [--fine-mm 0.0125]
-                              [--large-strain] [--moduli none,500,2800]
+    python bench/fem_speed.py --edge-table [--sphere-radius-mm 450] [--force-kn 75] [--fine-mm 0.0125]
+                              [--kinematics large] [--moduli none,500,2800]
 """
 from __future__ import annotations
 
@@ -75,7 +75,7 @@ def full_stiffness(model: SphereOnFlat) -> sp.csc_matrix:
 
 
 def edge_table(radius_mm: float, force_kn: float, fine_mm: float,
-               moduli=(None, 500.0, 1000.0, 2800.0, 6300.0, 10000.0), large_strain: bool = False) -> None:
+               moduli=(None, 500.0, 1000.0, 2800.0, 6300.0, 10000.0), kinematics: str = "small") -> None:
     """Print h = 0.1 mm readings against the fine-mesh and analytic references."""
     from filmcal.contact import read_radial_profile
     from filmcal.films import get_film
@@ -87,8 +87,8 @@ def edge_table(radius_mm: float, force_kn: float, fine_mm: float,
     coarse_model = SphereOnFlat(radius_mm)
     t0 = time.perf_counter()
     fine_model = SphereOnFlat(radius_mm, MeshSettings(element_size_mm=fine_mm, contact_zone_mm=11.0))
-    options = ContactOptions(kinematics="large" if large_strain else "small")
-    print(f"R{radius_mm:g} / {force_kn:g} kN{', large-strain film' if large_strain else ''}: h = 0.1 mm "
+    options = ContactOptions(kinematics=kinematics)
+    print(f"R{radius_mm:g} / {force_kn:g} kN{', large-strain film' if kinematics == 'large' else ''}: h = 0.1 mm "
           f"readings against h = {fine_mm:g} mm (model built in {time.perf_counter() - t0:.0f} s)")
     print(f"{'E MPa':>7} {'edge 0.1':>9} {'ref':>9} {'bracket':>17} {'err':>7} {'old fit':>8} | "
           + " | ".join(f"{f.name} act 0.1 / ref / err" for f in films))
@@ -157,25 +157,26 @@ def _old_fit(res) -> float:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--radius-mm", type=float, default=450.0)
+    ap.add_argument("--sphere-radius-mm", type=float, default=450.0)
     ap.add_argument("--force-kn", type=float, default=75.0)
     ap.add_argument("--edge-table", action="store_true", help="print the edge/imprint verification table")
     ap.add_argument("--fine-mm", type=float, default=0.0125, help="element size of the reference mesh")
-    ap.add_argument("--large-strain", action="store_true", help="edge table with the large-strain film")
+    ap.add_argument("--kinematics", choices=("small", "large"), default="small",
+                    help="film kinematics of the edge table (default small)")
     ap.add_argument("--moduli", default="none,500,1000,2800,6300,10000",
                     help="film moduli of the edge table (MPa; 'none' for no film)")
     args = ap.parse_args()
     if args.edge_table:
         with threadpool_limits(limits=1, user_api="blas"):
             moduli = tuple(None if m.strip() == "none" else float(m) for m in args.moduli.split(","))
-            edge_table(args.radius_mm, args.force_kn, args.fine_mm, moduli, args.large_strain)
+            edge_table(args.sphere_radius_mm, args.force_kn, args.fine_mm, moduli, args.kinematics)
         return
     with threadpool_limits(limits=1, user_api="blas"):
         # warm the process (lazy imports, first-use set-up of numpy/scipy/skfem) on
         # another radius: "cold" below means no cached model for this radius
-        SphereOnFlat(args.radius_mm * 1.5).solve(Film(2800.0, 0.33), args.force_kn * 1e3)
+        SphereOnFlat(args.sphere_radius_mm * 1.5).solve(Film(2800.0, 0.33), args.force_kn * 1e3)
         t0 = time.perf_counter()
-        model = SphereOnFlat(args.radius_mm)
+        model = SphereOnFlat(args.sphere_radius_mm)
         first = model.solve(Film(2800.0, 0.33), args.force_kn * 1e3)
         cold = time.perf_counter() - t0
         K = full_stiffness(model)
@@ -187,7 +188,7 @@ def main() -> None:
         results = [model.solve(Film(e, nu), args.force_kn * 1e3) for e, nu in zip(moduli, poissons)]
         sweep = (time.perf_counter() - t0) / len(results)
     n_ok = sum(r.converged for r in results)
-    print(f"model R{args.radius_mm:g}, F = {args.force_kn:g} kN, h = {model.mesh.element_size_mm} mm, "
+    print(f"model R{args.sphere_radius_mm:g}, F = {args.force_kn:g} kN, h = {model.mesh.element_size_mm} mm, "
           f"contact zone {model.r_face_mm[-1]:.1f} mm ({model.n_face} face nodes)")
     print(f"DOFs: full model {K.shape[0]} (after boundary conditions), bodies + film {model.n_dofs}")
     print(f"one sparse factorisation of the full stiffness (SuperLU, MMD(A'+A)): {t_factor * 1e3:8.1f} ms")

@@ -15,7 +15,7 @@ pipeline` keeps its FE sizes, seed and step cap) and compared with the
 FE-in-the-loop estimate.
 
     python examples/calibration_model_choices.py [--study-dir filmcal-study] [--out out/model_choices.md]
-        [--loads 50-100,all] [--default-only]
+        [--forces-kn 50-100,all] [--default-only]
 """
 from __future__ import annotations
 
@@ -40,19 +40,19 @@ SETTINGS = {
 def calibration_spec(study: Study, loads: str | None) -> CalibrationSpec:
     """HS, edge of contact, default FE options: the FE sizes, seed and step cap of the study's pipeline when it
     has them (its posteriors are then reused), else those of `filmcal calibrate`."""
-    return study.spec_like_pipeline("HS", "edge/small", loads)
+    return study.spec_like_pipeline("HS", "edge", "small", loads)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--study-dir", default="filmcal-study", help="study folder (created when missing)")
     ap.add_argument("--out", default="out/model_choices.md")
-    ap.add_argument("--loads", default="50-100,all", help="load ranges in kN, comma-separated, 'all' for every "
-                                                           "load (default 50-100,all)")
+    ap.add_argument("--forces-kn", default="50-100,all", help="load ranges of the calibration data in kN, "
+                    "comma-separated, 'all' for every load (default 50-100,all)")
     ap.add_argument("--default-only", action="store_true",
                     help="FE in the loop under the default setting only (the one the surrogate is compared with)")
     args = ap.parse_args()
-    load_ranges = [None if x.strip() == "all" else x.strip() for x in args.loads.split(",")]
+    load_ranges = [None if x.strip() == "all" else x.strip() for x in args.forces_kn.split(",")]
     settings = {k: v for k, v in SETTINGS.items() if v == ContactOptions() or not args.default_only}
     study = Study(args.study_dir, create=True)
     lines = ["| FE setting | loads (kN) | E least squares, FE in the loop (MPa) | M (MPa) | RMS residual (mm) | FE solves | s |",

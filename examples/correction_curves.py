@@ -2,21 +2,22 @@
 S1002/60E2 contact area over the lateral offset, at 50 and 100 kN.
 
 For each film type the posterior of its modulus under one calibrated model
-(--model, default edge/small) is asked of the study folder
+(--imprint-model and --kinematics, default edge and small) is asked of the study folder
 (`filmcal.study.Study.calibrate`: a posterior recorded with the same settings
 is reused, a missing one is calibrated there; a folder made by `filmcal
-pipeline` keeps its FE sizes, seed and step cap). With ``--model mixture`` the
+pipeline` keeps its FE sizes, seed and step cap). With ``--imprint-model mixture`` the
 study's compared models are used instead, weighted as `filmcal pipeline`
 weighed them (read only: run the pipeline first). The posterior is propagated
 through the wheel-rail model (`filmcal.correction.correction_curves`, the area
 each model records): Delta A = A_film - A_no_film and the correction factor
 A_no_film / A_film, medians and 90 % credible bands, smooth wheel (and a
-rough wheel of --rough-ra-um, its bands over 8 conditioned draws of the
+rough wheel of --wheel-roughness-ra-um, its bands over 8 conditioned draws of the
 roughness inputs, `filmcal.correction.RoughConfiguration`). The interpolation
 error of the propagation is printed beside the bands.
 
-    python examples/correction_curves.py [--films HS] [--model edge/small|mixture] [--study-dir filmcal-study]
-        [--out-dir out/curves] [--loads 50-100] [--rough-ra-um 1.5] [--offsets-mm -7,-6,...,2] [--forces-kn 50,100]
+    python examples/correction_curves.py [--films HS] [--imprint-model edge|mixture] [--kinematics small]
+        [--study-dir filmcal-study] [--out-dir out/curves] [--calibration-forces-kn 50-100]
+        [--wheel-roughness-ra-um 1.5] [--offsets-mm -7,-6,...,2] [--forces-kn 50,100]
 """
 from __future__ import annotations
 
@@ -36,12 +37,12 @@ OFFSETS_MM = tuple(float(x) for x in np.arange(-7.0, 2.01, 1.0))
 FORCES_KN = (50.0, 100.0)
 
 
-def components_of(study: Study, film: str, loads: str | None, model: str) -> list[tuple]:
+def components_of(study: Study, film: str, forces_kn: str | None, imprint_model: str, kinematics: str) -> list[tuple]:
     """``[(FilmModel, modulus samples, weight)]`` of a film: one calibrated model, or the study's mixture."""
-    if model == "mixture":
-        return curve_components(study, film, loads=loads)
+    if imprint_model == "mixture":
+        return curve_components(study, film, loads=forces_kn)
     with study.writing("examples/correction_curves.py"):
-        result, _, spec = study.calibrate(study.spec_like_pipeline(film, model, loads))
+        result, _, spec = study.calibrate(study.spec_like_pipeline(film, imprint_model, kinematics, forces_kn))
     fm = film_model(study, spec)
     return [(fm, nominal_modulus_mpa(result.samples, fm.film.poisson), 1.0)]
 
@@ -49,13 +50,16 @@ def components_of(study: Study, film: str, loads: str | None, model: str) -> lis
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--films", default="HS")
-    ap.add_argument("--model", default="edge/small", metavar="IMPRINT/KINEMATICS",
-                    help="calibrated model, e.g. activation/small (default edge/small; calibrated when missing), "
-                         "or 'mixture': the study's compared models with their weights (from `filmcal pipeline`)")
+    ap.add_argument("--imprint-model", default="edge", choices=("edge", "activation", "capsule", "mixture"),
+                    help="calibrated imprint model (default edge; calibrated when missing), or 'mixture': the "
+                         "study's compared models with their weights (from `filmcal pipeline`)")
+    ap.add_argument("--kinematics", default="small", choices=("small", "large"),
+                    help="film kinematics of the calibrated model (default small; not with mixture)")
     ap.add_argument("--study-dir", default="filmcal-study", help="study folder (created when missing)")
     ap.add_argument("--out-dir", default="out/curves")
-    ap.add_argument("--loads", default=None, help="calibration data: load range in kN, e.g. 50-100 (default all)")
-    ap.add_argument("--rough-ra-um", type=float, default=None,
+    ap.add_argument("--calibration-forces-kn", default=None,
+                    help="calibration data: load range in kN, e.g. 50-100 (default all)")
+    ap.add_argument("--wheel-roughness-ra-um", type=float, default=None,
                     help="also a rough wheel of this Ra (um): synthetic surfaces of 8 conditioned draws of the "
                          "roughness inputs")
     ap.add_argument("--offsets-mm", default=",".join(f"{x:g}" for x in OFFSETS_MM),
@@ -68,19 +72,19 @@ def main() -> None:
         forces_n = np.array([float(x) * 1e3 for x in args.forces_kn.split(",")])
     except ValueError:
         ap.error("--offsets-mm and --forces-kn take comma-separated numbers")
-    if args.rough_ra_um is not None and not args.rough_ra_um > 0:
-        ap.error("--rough-ra-um must be > 0")
-    study = Study(args.study_dir, create=args.model != "mixture")
+    if args.wheel_roughness_ra_um is not None and not args.wheel_roughness_ra_um > 0:
+        ap.error("--wheel-roughness-ra-um must be > 0")
+    study = Study(args.study_dir, create=args.imprint_model != "mixture")
     from matplotlib.figure import Figure
 
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     rough = []
-    if args.rough_ra_um:
-        rough.append(RoughConfiguration(args.rough_ra_um, None, tuple(load_roughness_inputs()[:8])))
+    if args.wheel_roughness_ra_um:
+        rough.append(RoughConfiguration(args.wheel_roughness_ra_um, None, tuple(load_roughness_inputs()[:8])))
     rows = []
     for film in args.films.split(","):
-        components = components_of(study, film, args.loads, args.model)
+        components = components_of(study, film, args.calibration_forces_kn, args.imprint_model, args.kinematics)
         table = [dict(zip(CURVE_COLUMNS, r)) for r in curve_table(film, components, offsets_mm, forces_n / 1e3, rough)]
         rows += table
         fig = Figure(figsize=(max(8.0, 5.5 * len(forces_n)), 7.5), layout="constrained")
@@ -110,7 +114,8 @@ def main() -> None:
             ax.set_ylabel("correction factor A(no film) / A(film)")
             ax.set_xlabel("lateral offset eta (mm)")
             ax.grid(lw=0.3)
-        fig.suptitle(f"{film} film ({args.model}) on S1002/60E2: posterior medians and 90 % credible bands")
+        label = args.imprint_model if args.imprint_model == "mixture" else f"{args.imprint_model}/{args.kinematics}"
+        fig.suptitle(f"{film} film ({label}) on S1002/60E2: posterior medians and 90 % credible bands")
         fig.savefig(out / f"correction_curves_{film}.png", dpi=120)
     with open(out / "correction_curves.csv", "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))

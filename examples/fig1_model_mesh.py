@@ -11,7 +11,7 @@ off the film. The model is then solved once with an HS-like film
 up to 50 kN, the FE model is linear elastic) to draw the compressed film on
 the axis zoom and the film's thickness and pressure along r.
 
-    python examples/fig1_model_mesh.py [--radius-mm 300] [--force-kn 75]
+    python examples/fig1_model_mesh.py [--sphere-radius-mm 300] [--force-kn 75]
         [--film-modulus-mpa 2800] [--out-dir out/fig1_model_mesh]
 
 Writes fig1_model_mesh.png, fig1_film_under_load.png, pressure_profile.png,
@@ -136,7 +136,7 @@ def write_csv(rows: list[dict], path: Path) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--radius-mm", type=float, default=300.0, help="sphere radius R (mm), default 300")
+    ap.add_argument("--sphere-radius-mm", type=float, default=300.0, help="sphere radius R (mm), default 300")
     ap.add_argument("--force-kn", type=float, default=75.0, help="normal force F (kN) of the solve, default 75")
     ap.add_argument("--film-modulus-mpa", type=float, default=2800.0, help="film E (MPa), default 2800")
     ap.add_argument("--film-poisson", type=float, default=0.33, help="film nu, default 0.33")
@@ -147,8 +147,8 @@ def main() -> None:
     t0 = time.perf_counter()
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    print(f"building the R{args.radius_mm:g} model ...", flush=True)
-    model = SphereOnFlat(args.radius_mm)
+    print(f"building the R{args.sphere_radius_mm:g} model ...", flush=True)
+    model = SphereOnFlat(args.sphere_radius_mm)
     print(f"built in {model.setup_time_s:.1f} s: {model.n_dofs} DOFs, {model.n_face} contact-face nodes", flush=True)
     result = model.solve(film, force_n, ContactOptions())
     if not result.converged:

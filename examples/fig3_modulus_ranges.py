@@ -2,7 +2,7 @@
 measured radius of Table 1 on its own, per film type, beside the pooled posterior.
 
 For each film type (MS, HS, HHS) the posterior of E under one calibrated model
-(--model, default edge/small) is asked of the study folder
+(--imprint-model and --kinematics, default edge and small) is asked of the study folder
 (`filmcal.study.Study.calibrate`): a posterior recorded with the same settings
 is reused, a missing one is calibrated there on the FE surrogate (which takes a
 few minutes the first time, FE runs and surrogate included). A folder made by
@@ -14,7 +14,7 @@ posterior when its range and the pooled 90 % interval do not overlap; the
 paper found this at 25 kN, where the E needed depended on the sphere's
 curvature. The dashed line marks the paper's HS value, E = 2800 MPa.
 
-    python examples/fig3_modulus_ranges.py [--films MS,HS,HHS] [--loads 50-100] [--model edge/small]
+    python examples/fig3_modulus_ranges.py [--films MS,HS,HHS] [--forces-kn 50-100] [--imprint-model edge] [--kinematics small]
         [--study-dir filmcal-study] [--out-dir out/fig3_modulus_ranges]
 
 Writes fig3_<film>.png per film, fig3_modulus_ranges.csv and fig3_modulus_ranges.md.
@@ -90,10 +90,12 @@ def markdown(rows: list[dict], results: dict[str, CalibrationResult]) -> str:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--films", default="MS,HS,HHS", help="comma-separated film types (default MS,HS,HHS)")
-    ap.add_argument("--loads", default=None, help="load range in kN of the calibration, e.g. 50-100 (default all)")
-    ap.add_argument("--model", default="edge/small", metavar="IMPRINT/KINEMATICS",
-                    help="calibrated model: imprint edge, activation or capsule / film kinematics small or large "
-                         "(default edge/small)")
+    ap.add_argument("--forces-kn", default=None,
+                    help="load range in kN of the calibration data, e.g. 50-100 (default all)")
+    ap.add_argument("--imprint-model", default="edge", choices=("edge", "activation", "capsule"),
+                    help="calibrated imprint model (default edge)")
+    ap.add_argument("--kinematics", default="small", choices=("small", "large"),
+                    help="film kinematics of the calibrated model (default small)")
     ap.add_argument("--study-dir", default="filmcal-study",
                     help="study folder (created when missing); its posteriors are reused, missing ones calibrated")
     ap.add_argument("--out-dir", default="out/fig3_modulus_ranges", help="output folder")
@@ -107,7 +109,7 @@ def main() -> None:
     out.mkdir(parents=True, exist_ok=True)
     study = Study(args.study_dir, create=True)
     with study.writing("examples/fig3_modulus_ranges.py"):
-        results = {film: study.calibrate(study.spec_like_pipeline(film, args.model, args.loads))[0] for film in films}
+        results = {film: study.calibrate(study.spec_like_pipeline(film, args.imprint_model, args.kinematics, args.forces_kn))[0] for film in films}
     rows = []
     for film, result in results.items():
         fig = plot_case_intervals(result)

@@ -73,7 +73,7 @@ def main() -> None:
         for film in films:  # an unknown film is refused before any work
             # the FE sizes, seed and step cap of the study's pipeline (its posteriors are then reused), else
             # those of `filmcal calibrate`; the surrogate the calibration on Table 1 is made with
-            specs[film] = study.spec_like_pipeline(film, "edge/small")
+            specs[film] = study.spec_like_pipeline(film, "edge", "small")
             models[film], _, _ = study.radius_model(study.as_calibrated(specs[film]).fe, "contact_radius_mm")
             if args.method == "psis":
                 result, path, _ = study.calibrate(specs[film])

@@ -2,8 +2,8 @@
 the measured radius error (Table 1) beside the posterior predictive mean and
 90 % interval of the calibrated model, and how many cases fall inside.
 
-The posterior of each film type under one calibrated model (--model, default
-edge/small) is asked of the study folder (`filmcal.study.Study.calibrate`): a
+The posterior of each film type under one calibrated model (--imprint-model and
+--kinematics, default edge and small) is asked of the study folder (`filmcal.study.Study.calibrate`): a
 posterior recorded with the same settings is reused (a folder made by
 `filmcal pipeline` keeps its FE sizes, seed and step cap), a missing one is
 calibrated there on the FE surrogate. The predictive distribution
@@ -13,7 +13,7 @@ is checked against are the data it was calibrated on, so this is a
 goodness-of-fit check, not a test on new cases (examples/loo_sphere_correction.py
 is the held-out one).
 
-    python examples/table1_comparison.py [--films MS,HS,HHS] [--loads 50-100] [--model edge/small]
+    python examples/table1_comparison.py [--films MS,HS,HHS] [--forces-kn 50-100] [--imprint-model edge] [--kinematics small]
         [--study-dir filmcal-study] [--out-dir out/table1_comparison]
 
 Writes table1_comparison.csv, table1_comparison.md and
@@ -74,10 +74,12 @@ def markdown(rows: list[dict], results: dict[str, CalibrationResult]) -> str:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--films", default="MS,HS,HHS", help="comma-separated film types (default MS,HS,HHS)")
-    ap.add_argument("--loads", default=None, help="load range in kN of the calibration, e.g. 50-100 (default all)")
-    ap.add_argument("--model", default="edge/small", metavar="IMPRINT/KINEMATICS",
-                    help="calibrated model: imprint edge, activation or capsule / film kinematics small or large "
-                         "(default edge/small)")
+    ap.add_argument("--forces-kn", default=None,
+                    help="load range in kN of the calibration data, e.g. 50-100 (default all)")
+    ap.add_argument("--imprint-model", default="edge", choices=("edge", "activation", "capsule"),
+                    help="calibrated imprint model (default edge)")
+    ap.add_argument("--kinematics", default="small", choices=("small", "large"),
+                    help="film kinematics of the calibrated model (default small)")
     ap.add_argument("--study-dir", default="filmcal-study",
                     help="study folder (created when missing); its posteriors are reused, missing ones calibrated")
     ap.add_argument("--out-dir", default="out/table1_comparison", help="output folder")
@@ -91,7 +93,7 @@ def main() -> None:
     out.mkdir(parents=True, exist_ok=True)
     study = Study(args.study_dir, create=True)
     with study.writing("examples/table1_comparison.py"):
-        results = {film: study.calibrate(study.spec_like_pipeline(film, args.model, args.loads))[0] for film in films}
+        results = {film: study.calibrate(study.spec_like_pipeline(film, args.imprint_model, args.kinematics, args.forces_kn))[0] for film in films}
     rows = []
     for film, result in results.items():
         plot_predictive(result, out / f"table1_predictive_{film}.png", dpi=130)

@@ -6,8 +6,8 @@ import subprocess
 import sys
 
 
-def _pipeline(study, *where: str) -> dict:
-    p = subprocess.run([sys.executable, "-m", "filmcal.cli", "pipeline", "--smoke", "--films", "HS", "--study-dir",
+def _pipeline(study, *where: str, size: str = "--smoke") -> dict:
+    p = subprocess.run([sys.executable, "-m", "filmcal.cli", "pipeline", size, "--films", "HS", "--study-dir",
                         str(study), "--no-report", "--json", "--progress", "quiet", *where],
                        capture_output=True, text=True, timeout=900)
     assert p.returncode == 0, p.stderr[-2000:]
@@ -18,8 +18,8 @@ def test_the_pipeline_on_a_local_dask_cluster_gives_the_posterior_of_local_worke
     from distributed import LocalCluster
 
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        on_cluster = _pipeline(tmp_path / "dask", "--dask", cluster.scheduler_address)
-    local = _pipeline(tmp_path / "local", "--workers", "2")
+        on_cluster = _pipeline(tmp_path / "dask", "--dask", cluster.scheduler_address, size="--quick")
+    local = _pipeline(tmp_path / "local", "--workers", "2", size="--quick")
     assert on_cluster["films"]["HS"]["modulus_mpa"] == local["films"]["HS"]["modulus_mpa"]
     assert on_cluster["films"]["HS"]["imprint_weights"] == local["films"]["HS"]["imprint_weights"]
 

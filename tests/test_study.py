@@ -140,6 +140,6 @@ def test_spec_like_pipeline_takes_the_study_s_own_sizes(tmp_path):
     assert study.spec_like_pipeline("HS").fe.n_train == 200  # a study without pipeline settings: calibrate's
     with study.writing():
         study.set_settings({"pipeline": {"train_runs": 40, "test_runs": 12, "max_steps": 3000}, "seed": 7})
-    spec = study.spec_like_pipeline("HS", "activation/large", "50-100")
+    spec = study.spec_like_pipeline("HS", "activation", "large", "50-100")
     assert (spec.imprint, spec.fe.kinematics, spec.loads, spec.max_steps) == ("activation", "large", "50-100", 3000)
     assert (spec.fe.n_train, spec.fe.n_test, spec.fe.seed) == (40, 12, 7)

@@ -122,3 +122,19 @@ def test_csv_columns_use_no_old_name():
                           ("surrogate inputs", INPUTS), ("dataset", REQUIRED_COLUMNS + MEASURED_COLUMNS + OPTIONAL_COLUMNS)):
         bad = sorted(c for c in columns if c in OLD)
         assert not bad, f"{name} columns use old names {bad}"
+
+
+def test_no_example_or_bench_script_takes_an_old_option_name():
+    """The scripts a lab copies speak the commands' vocabulary too (they took --loads, --rough-ra-um, --model
+    IMPRINT/KINEMATICS, --radius-mm and --large-strain). A bench's --model names a compared model by its label
+    (edge/small), the summary's own key, not the renamed option."""
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    scripts = [*root.glob("examples/**/*.py"), *root.glob("bench/**/*.py")]
+    assert len(scripts) > 10
+    bad = [f"{path.relative_to(root)}: --{flag}" for path in scripts
+           for flag in re.findall(r'add_argument\(\s*"--([a-z0-9-]+)"', path.read_text())
+           if flag.replace("-", "_") in OLD and not (flag == "model" and path.parent.name == "bench")]
+    assert not bad, bad

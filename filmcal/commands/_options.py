@@ -386,9 +386,10 @@ def add_simulator_options(parser) -> None:
     add(which, "simulator_python", extra="; called with modulus_mpa, poisson, sphere_radius_mm, force_kn, "
         "film_thickness_mm, it returns contact_radius_mm and optionally the pressure profile radius_mm, "
         "pressure_mpa (lists) from which every imprint model is read")
-    add(which, "simulator_command", extra="; placeholders {modulus_mpa}, {poisson}, {sphere_radius_mm}, "
-        "{force_kn}, {film_thickness_mm}, {work_dir}, {point_id}; it prints (or writes to outputs.json) a JSON "
-        "object with contact_radius_mm and optionally radius_mm, pressure_mpa")
+    add(which, "simulator_command", help="a command template run once per design point, in a fresh folder; "
+        "placeholders {modulus_mpa}, {poisson}, {sphere_radius_mm}, {force_kn}, {film_thickness_mm}, {work_dir}, "
+        "{point_id}; it prints (or writes to outputs.json) a JSON object with contact_radius_mm and optionally "
+        "radius_mm, pressure_mpa")
     add(which, "simulator_umbridge", extra="; input [[modulus_mpa, poisson, sphere_radius_mm, force_kn, "
         "film_thickness_mm]], output [[contact_radius_mm]] and optionally [radius_mm], [pressure_mpa]")
     add(sim, "umbridge_model")

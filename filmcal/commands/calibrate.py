@@ -21,7 +21,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "(measured radius = Hertz radius + tabulated error): measured radius = FE radius(E, nu, R, F) "
                     "+ noise, with the noise level sigma inferred and the surrogate's uncertainty in the "
                     "likelihood. The FE model is seen through a Gaussian-process surrogate trained on an optimal "
-                    "Latin hypercube of FE runs (kept in --study-dir and reused). Prints E and the oedometric "
+                    "Latin hypercube of FE runs (kept in the run store and reused by every study with the same FE settings). Prints E and the oedometric "
                     "modulus M = E(1-nu)/((1+nu)(1-2nu)) with 90 %% intervals and the sampler's diagnostics.")
     add(p, "film", required=True)
     add(p, "films_file", extra="; recorded in the study")
@@ -42,8 +42,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_contact_options(p, prefix="FE ")
     add(p, "kinematics", default=DEFAULT_KINEMATICS, extra=f"of the FE model (default {DEFAULT_KINEMATICS})")
     add(p, "study_dir", default="filmcal-study",
-        extra="of the FE runs, surrogates and chains (default ./filmcal-study; created when missing); artefacts "
-              "made with other settings are kept beside, never reused")
+        extra="of the surrogates and chains, recording the FE runs it used (default ./filmcal-study; created when "
+              "missing); artefacts made with other settings are kept beside, never reused")
     add(p, "run_store")
     local(p, "--train-runs", type=int, default=200, help="FE runs to train the surrogate (default 200)")
     local(p, "--test-runs", type=int, default=100, help="held-out FE runs to validate it (default 100)")

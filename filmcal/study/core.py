@@ -796,8 +796,10 @@ class Study:
                                   f"{posterior.name}) was missing: refitted from the study's recorded FE runs"),
                       stacklevel=2)
 
-    def spec_like_pipeline(self, film: str, model: str = "edge/small", loads: str | None = None) -> CalibrationSpec:
-        """The calibration of `film` under `model` ("imprint/kinematics") with the study's own sizes.
+    def spec_like_pipeline(self, film: str, imprint_model: str = "edge", kinematics: str = "small",
+                           forces_kn: str | None = None) -> CalibrationSpec:
+        """The calibration of `film` under one imprint model and film kinematics, on the data of the load range
+        `forces_kn` ("50-100"; None: all), with the study's own sizes.
 
         The FE design sizes, seed and MCMC step cap are those the study's
         pipeline recorded, so that its posteriors are reused; a study made by
@@ -805,15 +807,14 @@ class Study:
         """
         from filmcal.surrogate.radius import MODULI_PER_CASE
 
-        imprint, _, kinematics = model.partition("/")
         recorded = self.manifest.data.get("settings") or {}
         pipeline = recorded.get("pipeline") or {}
-        fe = FESettings(kinematics=kinematics or "small", n_train=pipeline.get("train_runs", 200),
+        fe = FESettings(kinematics=kinematics, n_train=pipeline.get("train_runs", 200),
                         n_test=pipeline.get("test_runs", 100), seed=recorded.get("seed", 0),
                         film_thickness_mm=self.film(film).thickness_mm,
                         # a pipeline's record leaves it out when 0 (as before it existed); `calibrate`'s default
                         moduli_per_case=pipeline.get("moduli_per_case", 0) if pipeline else MODULI_PER_CASE)
-        return CalibrationSpec(film, imprint=imprint, fe=fe, loads=loads, max_steps=pipeline.get("max_steps"))
+        return CalibrationSpec(film, imprint=imprint_model, fe=fe, loads=forces_kn, max_steps=pipeline.get("max_steps"))
 
     def dataset_rows(self, film: str, loads: str | None, dataset=None, *, compared: bool = False):
         """The calibration data of one film and the record of their dataset.
