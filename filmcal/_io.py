@@ -34,8 +34,7 @@ from filmcal._json import json_safe
 __all__ = [
     "atomic_path", "atomic_open", "atomic_savefig", "atomic_write_bytes", "atomic_write_text", "atomic_write_json",
     "read_json", "sha256_file", "canonical_json", "json_hash",
-    "check_output_file", "check_output_dir", "check_input_file", "INPUT_FILE_MAX_MIB",
-]
+    "check_output_file", "check_output_dir", "check_input_file", "INPUT_FILE_MAX_MIB", "check_distinct_files"]
 
 #: The largest input file accepted by default, in MiB: far above any dataset, film file, profile or design
 #: a lab writes, and far below what would exhaust memory once read.
@@ -310,6 +309,26 @@ def check_output_file(path: str | os.PathLike[str], option: str = "--out") -> Pa
     if not _can_create_in(folder):
         raise InputError(f"{option} {str(p)!r}: folder {str(folder)!r} is not writable")
     return p
+
+
+def check_distinct_files(*paths: tuple[str | os.PathLike[str] | None, str]) -> None:
+    """Refuse, before any work, two options that name the same file (an output written over an input or over
+    another output): ``(path, option)`` pairs, None skipped; links and spellings are resolved.
+
+    Raises
+    ------
+    filmcal._errors.InputError
+        Naming both options and the file.
+    """
+    seen: dict[Path, str] = {}
+    for path, option in paths:
+        if path is None or str(path) == "":
+            continue
+        key = Path(path).resolve()
+        if key in seen:
+            raise InputError(f"{option} {str(path)!r} is the file of {seen[key]}: give another file (nothing was "
+                             "written)")
+        seen[key] = option
 
 
 def check_output_dir(path: str | os.PathLike[str], option: str = "--study-dir",

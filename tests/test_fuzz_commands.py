@@ -262,6 +262,13 @@ CASES = [
     # a batch written over itself lost the measurements
     (["correct", "--batch", "design.csv", "--out", "design.csv", "--study-dir", "emptystudy"], ["--out"]),
     (["correct", "--batch", "empty.csv", "--out", "o.csv", "--study-dir", "emptystudy"], ["--batch", "empty.csv"]),
+    # an output written over an input lost it (a store overwritten by its CSV, a scan by its table or overview)
+    (["campaign", "export", "--store", "garbled.sqlite", "--out", "garbled.sqlite"], ["--out"]),
+    (["scan", "cut.png", "--out", "cut.png"], ["--out"]),
+    (["scan", "cut.png", "--out", "s.csv", "--overview", "cut.png"], ["--overview"]),
+    (["scan", "cut.png", "--out", "s.png"], ["--out"]),
+    (["doe", "--samples", "2", "--param", "modulus_mpa=100:1000", "--augment", "design.csv", "--out", "design.csv"],
+     ["--out"]),
     (["wheelrail", *WR, "--no-film", "--wheel-roughness-map", "bomb.png", "--roughness-pixel-um", "1",
       "--roughness-height-range-um", "5"], ["bomb.png"]),
     (["wheelrail", *WR, "--no-film", "--wheel-roughness-map", "cut.png", "--roughness-pixel-um", "1",

@@ -265,8 +265,10 @@ def _status(args: argparse.Namespace) -> int:
 
 
 def _export(args: argparse.Namespace) -> int:
+    from filmcal._io import check_distinct_files
     from filmcal.campaign import RunStore
 
+    check_distinct_files((args.store, "--store"), (args.out, "--out"))
     with RunStore(args.store, readonly=True) as store:
         n_rows = store.export_csv(args.out)
     if args.json:

@@ -132,12 +132,9 @@ def run_batch(args: argparse.Namespace) -> int:
 
     if args.out is None:
         raise ValueError("--batch needs --out")
-    from pathlib import Path
+    from filmcal._io import check_distinct_files
 
-    out_path, batch_path = Path(args.out), Path(args.batch)
-    if out_path.resolve() == batch_path.resolve() or (out_path.exists() and batch_path.exists()
-                                                      and out_path.samefile(batch_path)):
-        raise ValueError(f"--out {args.out} is the --batch file itself: give another file (the batch is kept)")
+    check_distinct_files((args.batch, "--batch"), (args.out, "--out"), (f"{args.out}.provenance.json", "--out's provenance"))
     single = [name for name in ("film", "force_kn", "measured_area_mm2", "offset_mm", "measured_radius_mm", "sphere_radius_mm",
                                 "scan", "wheel_roughness_ra_um", "rail_roughness_ra_um")
               if getattr(args, name, None) is not None]

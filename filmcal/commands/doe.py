@@ -75,6 +75,9 @@ def run(args: argparse.Namespace) -> int:
 
     if len(args.param) > MAX_PARAMS:
         raise ValueError(f"--param given {len(args.param)} times; at most {MAX_PARAMS} parameters")
+    from filmcal._io import check_distinct_files
+
+    check_distinct_files((args.augment, "--augment"), (args.out, "--out"))
     if not args.augment and args.samples < 2:
         raise ValueError(f"--samples must be at least 2 without --augment, got {args.samples}")
     space = DesignSpace(tuple(parse_parameter(spec) for spec in args.param))

@@ -48,8 +48,12 @@ def add_parser(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from filmcal.correction.sheet import scan_sheet
 
+    from filmcal._io import check_distinct_files
+
     out = Path(args.out)
     overview = Path(args.overview) if args.overview else out.with_suffix(".png")
+    check_distinct_files((args.sheet, "the scanned sheet"), (out, "--out"),
+                         (overview, "--overview" if args.overview else "--out's overview (its name with .png)"))
     sheet = scan_sheet(args.sheet, out, overview, dpi=args.dpi, mm_per_pixel=args.mm_per_pixel,
                        rotate_deg=int(args.rotate_deg), min_imprint_mm2=args.min_imprint_mm2, film=args.film or "",
                        force_kn=args.force_kn, offset_mm=args.offset_mm)
