@@ -354,3 +354,46 @@ def test_a_dense_measured_profile_is_averaged_in_bins_before_its_spline(tmp_path
     assert "2000 bin means of 20001 points" in profile.source
     t = np.linspace(-29.0, 29.0, 301)
     assert np.max(np.abs(profile.z(t) - t**2 / 600.0)) < 2e-5  # bin means of a parabola: a 0.03 um shift
+
+
+def _arc_rail_csv(path, radius_mm: float, half_width_mm: float, bom: bool = False, scale: float = 1.0):
+    """A partial rail head: a circular crown of `radius_mm` over +-`half_width_mm`, points in mm x `scale`."""
+    y = np.linspace(-half_width_mm, half_width_mm, 141)
+    z = np.sqrt(radius_mm**2 - y**2) - radius_mm if math.isfinite(radius_mm) else 0.0 * y
+    text = ("\ufeff" if bom else "") + "y_mm,z_mm\r\n" + "".join(
+        f"{a * scale:.9g},{b * scale:.9g}\r\n" for a, b in zip(y, z))
+    return _write(path, text)
+
+
+def test_json_summary_of_a_partial_rail_head_says_which_dimensions_it_does_not_reach(tmp_path, capsys):
+    """A measured crown 70 mm wide and 2 mm deep was refused ('depth_mm must lie in (0, 2.04)'): the
+    summary asked for the head width 14 mm below the crown top. Now that width is null with the reason,
+    and the crown radius is the arc's (R300 drawn into the file)."""
+    import json
+
+    path = _arc_rail_csv(tmp_path / "crown.csv", 300.0, 35.0)
+    assert main(["profile", str(path), "--json"]) == 0
+    dims = json.loads(capsys.readouterr().out)["dimensions"]
+    assert dims["head_width_mm"] is None and dims["head_width_at_gauge_depth_mm"] is None
+    assert dims["crown_radius_mm"] == pytest.approx(300.0, rel=1e-3)
+    sagitta = 300.0 - math.sqrt(300.0**2 - 35.0**2)  # 2.049 mm: the depth the crown's ends reach
+    assert len(dims["not_reached"]) == 1 and f"{sagitta:.3g} mm below" in dims["not_reached"][0]
+    flat = _arc_rail_csv(tmp_path / "flat.csv", math.inf, 35.0)
+    assert main(["profile", str(flat), "--json"]) == 0
+    dims = json.loads(capsys.readouterr().out)["dimensions"]
+    assert dims["crown_radius_mm"] is None and any("straight" in r for r in dims["not_reached"])
+
+
+def test_a_profile_with_a_byte_order_mark_and_crlf_reads_like_one_without(tmp_path):
+    plain = load_profile_csv(_arc_rail_csv(tmp_path / "plain.csv", 300.0, 35.0))
+    marked = load_profile_csv(_arc_rail_csv(tmp_path / "marked.csv", 300.0, 35.0, bom=True))
+    yy = np.linspace(-30.0, 30.0, 61)
+    np.testing.assert_array_equal(marked.z(yy), plain.z(yy))
+
+
+def test_a_profile_in_metres_is_refused_with_the_units(tmp_path, capsys):
+    """The same crown written in metres spans 0.07 'mm' and was read as a 70-um wide rail."""
+    path = _arc_rail_csv(tmp_path / "metres.csv", 300.0, 35.0, scale=1e-3)
+    assert main(["profile", str(path), "--json"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "0.07 mm across" in err[0] and "not m" in err[0], err

@@ -511,7 +511,7 @@ _COLUMN_NAMES = (("y_mm", "z_mm"), ("y", "z"))
 
 def _read_csv_points(path: Path) -> tuple[np.ndarray, np.ndarray]:
     """Read columns y_mm,z_mm (or y,z) from `path`, checking every value."""
-    with open(path, newline="") as fh:
+    with open(path, newline="", encoding="utf-8-sig") as fh:
         rows = [(n, row) for n, row in enumerate(csv.reader(fh), start=1)
                 if row and any(c.strip() for c in row) and not row[0].lstrip().startswith("#")]
     if not rows:
@@ -547,6 +547,9 @@ def _read_csv_points(path: Path) -> tuple[np.ndarray, np.ndarray]:
 #: How far from its origin a profile's points may lie (mm): the widest wheel profile spans about 140 mm and the
 #: deepest rail about 180 mm, so a larger value is a unit or column error.
 PROFILE_EXTENT_MM = 1000.0
+#: The narrowest a profile may be across (mm): a contact patch is 10-20 mm wide and the solver needs the
+#: profile around it, so a narrower file is a partial scan or a profile in metres.
+PROFILE_MIN_SPAN_MM = 10.0
 
 
 def load_profile_csv(path: str | Path, kind: str = "rail", name: str | None = None,
@@ -600,6 +603,10 @@ def load_profile_csv(path: str | Path, kind: str = "rail", name: str | None = No
         bad = int(np.argmax(dy <= 0) if dy[0] > 0 else np.argmax(dy >= 0))
         raise ValueError(f"{path}: y must be strictly monotone; it stops being so at point {bad + 2} "
                          f"(y = {y[bad + 1]:g} after {y[bad]:g})")
+    span = float(np.ptp(y))
+    if span < PROFILE_MIN_SPAN_MM:
+        raise ValueError(f"{path}: the points span {span:.3g} mm across; a wheel or rail profile spans at least "
+                         f"{PROFILE_MIN_SPAN_MM:g} mm in millimetres (give y_mm and z_mm in mm, not m)")
     lam = None if smoothing is None else check_range("smoothing", smoothing, 0.0, math.inf, low_open=False)
     from scipy.interpolate import make_smoothing_spline  # imported here: the CLI starts faster
 
@@ -708,14 +715,48 @@ def profile_dimensions(profile: Profile) -> dict[str, Any]:
 
     Wheels: flange_height_mm, flange_thickness_mm (at 10 mm). Rails:
     head_width_mm and the depth where it is measured, head width at the
-    14 mm gauge depth, crown_radius_mm (1 / curvature at y = 0).
+    14 mm gauge depth, crown_radius_mm (1 / curvature at y = 0). A dimension
+    that a measured profile does not reach (a partial rail head shallower
+    than the gauge depth, a wheel without its flange) is None, and
+    ``"not_reached"`` says why.
     """
+    not_reached: list[str] = []
     if profile.kind == "wheel":
-        return {"flange_height_mm": flange_height_mm(profile),
-                "flange_thickness_mm": flange_thickness_mm(profile),
-                "flange_thickness_height_mm": FLANGE_THICKNESS_HEIGHT_MM}
+        lo, _ = profile.y_range_mm
+        if lo >= 0:
+            not_reached.append(f"the flange: the profile starts at y = {lo:g} mm, on the tread")
+            return {"flange_height_mm": None, "flange_thickness_mm": None,
+                    "flange_thickness_height_mm": FLANGE_THICKNESS_HEIGHT_MM, "not_reached": not_reached}
+        height = flange_height_mm(profile)
+        thickness = None
+        if height > FLANGE_THICKNESS_HEIGHT_MM:
+            thickness = flange_thickness_mm(profile)
+        else:
+            not_reached.append(f"the flange thickness {FLANGE_THICKNESS_HEIGHT_MM:g} mm above the tread "
+                               f"datum: the flange is {height:.3g} mm high")
+        return {"flange_height_mm": height, "flange_thickness_mm": thickness,
+                "flange_thickness_height_mm": FLANGE_THICKNESS_HEIGHT_MM, "not_reached": not_reached}
+    lo, hi = profile.y_range_mm
+    reach = profile.z(0.0) - max(profile.z(lo), profile.z(hi)) if lo < 0 < hi else 0.0
     depth = profile.flank_depth_mm if profile.flank_depth_mm is not None else GAUGE_DEPTH_MM
-    return {"head_width_mm": head_width_mm(profile, depth),
+
+    def width_at(d: float) -> float | None:
+        if d < reach:
+            return head_width_mm(profile, d)
+        not_reached.append(f"the head width {d:g} mm below the crown top: both sides of the profile "
+                           f"reach only {max(reach, 0.0):.3g} mm below it")
+        return None
+
+    width = width_at(depth)
+    crown_radius = None
+    curvature = profile.curvature(0.0) if lo < 0 < hi else 0.0
+    if abs(curvature) > 1e-9:
+        crown_radius = 1.0 / curvature
+    else:
+        not_reached.append("the crown radius: the profile is straight at y = 0" if lo < 0 < hi
+                           else "the crown radius: the profile does not reach y = 0")
+    return {"head_width_mm": width,
             "head_width_depth_mm": depth,
-            "head_width_at_gauge_depth_mm": head_width_mm(profile, GAUGE_DEPTH_MM),
-            "crown_radius_mm": 1.0 / profile.curvature(0.0)}
+            "head_width_at_gauge_depth_mm": width if depth == GAUGE_DEPTH_MM else width_at(GAUGE_DEPTH_MM),
+            "crown_radius_mm": crown_radius,
+            "not_reached": not_reached}
