@@ -148,3 +148,22 @@ def test_filmcal_scan_writes_a_table_correct_batch_reads_and_an_overview(tmp_pat
     p = subprocess.run([sys.executable, "-m", "filmcal.cli", "scan", str(blank), "--out", str(out)],
                        capture_output=True, text=True)
     assert p.returncode == 2 and "no imprint found" in p.stderr
+
+
+@pytest.mark.parametrize("mode, problem", [("L", "greyscale"), ("I;16", "greyscale"), ("P", "palette")])
+def test_a_grey_or_palette_sheet_is_refused_for_its_colours_not_for_a_cut_imprint(tmp_path, mode, problem):
+    """A grey or palette copy of a good sheet was refused as 'the stain touches the image border': grey
+    reads every tinted paper pixel as stain, a web palette dithers the paper into dye-coloured dots. Both
+    now get one line that names what is wrong with the file, and nothing is written."""
+    colour = tmp_path / "sheet.jpg"
+    synthetic_sheet(colour, dpi=200, seed=5)
+    image = Image.open(colour)
+    converted = image.convert("L").convert("I;16") if mode == "I;16" else image.convert(mode)
+    path = tmp_path / "sheet.png"
+    converted.save(path, dpi=(200, 200))
+    out = tmp_path / "imprints.csv"
+    p = subprocess.run([sys.executable, "-m", "filmcal.cli", "scan", str(path), "--out", str(out)],
+                       capture_output=True, text=True)
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
+    assert problem in p.stderr and "sheet.png" in p.stderr
+    assert not out.exists() and not (tmp_path / "imprints.png").exists()

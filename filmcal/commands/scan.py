@@ -14,7 +14,7 @@ def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "scan",
         help="find, number and read every imprint on a scanned sheet",
-        description="Find every imprint on a scanned page (PNG, TIFF or JPEG; several imprints taped on one "
+        description="Find every imprint on a scanned page (a colour scan: PNG, TIFF or JPEG in RGB; several imprints taped on one "
                     "sheet, with labels, tape and dust), number them in reading order (rows from the top, left to "
                     "right, after --rotate-deg) and read each one's area with its uncertainty. The stain is "
                     "unmixed by the dye's colour, so tape, pencil, black pen and blue ink are not read as stain. "

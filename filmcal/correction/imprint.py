@@ -415,8 +415,6 @@ def _image_pixels(image) -> np.ndarray:
     mode = image.mode
     if mode in ("1", "L", "LA", "RGB", "RGBA", "I;16", "I;16L", "I;16B", "I", "F"):
         pixels = np.asarray(image)
-    elif mode in ("P", "PA"):
-        pixels = np.asarray(image.convert("RGBA"))
     else:  # CMYK, YCbCr, LAB, HSV, ...
         pixels = np.asarray(image.convert("RGB"))
     if mode in ("I;16", "I;16L", "I;16B"):
@@ -453,9 +451,11 @@ def load_scan(path, max_pixels: int = MAX_IMPRINT_PIXELS) -> tuple[np.ndarray, d
                     raise DamagedFileError(
                         path, f"{width} x {height} pixels; a scan needs 2 x 2 to "
                               f"{max_pixels / 1e6:g} million pixels: crop or downsample it")
-                image.load()
-                info = dict(image.info)
-                pixels = _image_pixels(image)
+                mode = image.mode
+                if mode not in ("P", "PA"):  # refused below, without decoding
+                    image.load()
+                    info = dict(image.info)
+                    pixels = _image_pixels(image)
     except DamagedFileError:
         raise
     except Image.DecompressionBombError as exc:
@@ -467,6 +467,9 @@ def load_scan(path, max_pixels: int = MAX_IMPRINT_PIXELS) -> tuple[np.ndarray, d
         if "cannot identify image file" in str(exc):
             raise DamagedFileError(path, "not an image Pillow can read (PNG, TIFF or JPEG expected)") from None
         raise damaged(path, exc) from None
+    if mode in ("P", "PA"):
+        raise ValueError(f"{path.name} is an indexed-colour (palette) image: its few quantised colours cannot "
+                         "carry the dye's density; save the scan as true colour (RGB PNG, TIFF or JPEG)")
     return pixels, info
 
 

@@ -258,6 +258,9 @@ def read_sheet(path, *, dpi: float | None = None, mm_per_pixel: float | None = N
         raise ValueError(f"rotate_deg must be 0, 90, 180 or 270, got {rotate_deg!r}")
     min_imprint_mm2 = check_positive("min_imprint_mm2", min_imprint_mm2)
     pixels, info = load_scan(path, MAX_SHEET_PIXELS)
+    if pixels.ndim == 2 or pixels.shape[2] == 2:  # grey, grey with alpha
+        raise ValueError(f"{path.name} is a greyscale image: the film's magenta dye is told from tape, pencil, ink "
+                         "and paper by its colour; scan the sheet in colour (RGB)")
     h, source = _pixel_size(dpi, mm_per_pixel, info, path)
     stored = stain_intensity(pixels)
     del pixels
