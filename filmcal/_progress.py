@@ -4,8 +4,8 @@ Three modes:
 
 ``bar``    one tqdm bar per stage on a terminal: the stage, units done of
            total, elapsed and estimated time left (tqdm's own estimate);
-``log``    plain lines for files and CI: a line when a stage starts, whenever a
-           unit finishes (at most one line per second), and a heartbeat at
+``log``    plain lines for files and CI: whenever a unit finishes (at most one
+           line per second, and always for the last unit), and a heartbeat at
            least every ``interval_s`` seconds while a stage runs, with units
            done of total, elapsed and the estimated time left;
 ``quiet``  nothing but warnings.
@@ -245,7 +245,8 @@ class Progress:
             self._run_bar.set_description_str(stage.name, refresh=False)
             self._run_bar.set_postfix_str(f"{stage.done}/{stage.total or '?'} {stage.note}".strip()
                                           + f", about {_duration(self.run_left_s() or 0.0)} left", refresh=True)
-        elif self.mode == "log" and time.monotonic() - stage._last_line >= 1.0:
+        elif self.mode == "log" and (time.monotonic() - stage._last_line >= 1.0
+                                     or (stage.total and stage.done == stage.total)):
             stage.line()
 
     # ------------------------------------------------------------ stages

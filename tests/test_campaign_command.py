@@ -406,7 +406,7 @@ def test_an_unreachable_dask_scheduler_fails_within_seconds(tmp_path):
 @pytest.mark.slow(reason="4 s: a process pool")
 def test_ctrl_c_stops_within_two_seconds_and_keeps_finished_points(tmp_path):
     case = make_case(tmp_path, ["ok"] * 4 + ["hang"] * 2 + ["ok"] * 4, sleep_s=0.3)
-    run = subprocess.Popen(cli(case, "--workers", "2", "--timeout-s", "60"), stdout=subprocess.PIPE,
+    run = subprocess.Popen(cli(case, "--workers", "2", "--timeout-s", "60", "--progress", "quiet"), stdout=subprocess.PIPE,
                            stderr=subprocess.PIPE, text=True)
     seen: set = set()
     wait_until(lambda: bool(seen.update(descendants(run.pid)) or True) and "p05" in dict(starts(case["log"])),
@@ -590,3 +590,41 @@ def test_a_store_reached_through_a_link_takes_the_same_lock(tmp_path):
     link = tmp_path / "alias.sqlite"
     link.symlink_to(store)
     assert lock_path_for(link) == lock_path_for(store) == tmp_path / "runs.sqlite.lock"
+
+
+def test_a_design_row_with_fewer_cells_than_columns_is_refused_before_any_run(tmp_path):
+    """`850,0.33,7.5` under four column names ran with force_kn silently left out."""
+    case = make_case(tmp_path, ["ok"], sleep_s=0.0)
+    lines = case["design"].read_text().splitlines()
+    case["design"].write_text("\n".join([lines[0], lines[1].rsplit(",", 1)[0]]) + "\n")
+    p = subprocess.run(cli(case), capture_output=True, text=True)
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
+    assert "line 2: 7 cells for 8 columns" in p.stderr
+    assert not case["store"].exists() and starts(case["log"]) == []
+
+
+def test_a_campaign_whose_every_point_failed_exits_1_and_names_the_first_reason(tmp_path):
+    """All points failed used to exit 0 like a good run; one ok point among failures is a normal run."""
+    case = make_case(tmp_path, ["fail", "garbage"], sleep_s=0.0)
+    p = subprocess.run(cli(case, "--workers", "1", "--progress", "quiet"), capture_output=True, text=True)
+    assert p.returncode == 1, p.stderr
+    assert p.stdout.startswith("2 points: 0 ok, 2 failed")
+    err = p.stderr.strip().splitlines()
+    assert len(err) == 1 and "every point failed" in err[0] and "--retry-failed" in err[0]
+    assert "exit status 3" in err[0] or "no JSON object" in err[0]
+    mixed = make_case(tmp_path / "mixed" if (tmp_path / "mixed").mkdir() is None else None, ["fail", "ok"], 0.0)
+    p = subprocess.run(cli(mixed, "--workers", "1", "--progress", "quiet"), capture_output=True, text=True)
+    assert p.returncode == 0 and p.stderr == "", p.stderr
+
+
+def test_progress_log_prints_a_line_per_finished_point_with_the_time_left(tmp_path):
+    """`--progress log` printed nothing at all: the campaign's own bar shows only on a terminal."""
+    case = make_case(tmp_path, ["ok", "ok", "ok"], sleep_s=0.0)
+    p = subprocess.run(cli(case, "--workers", "1", "--progress", "log"), capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    lines = p.stderr.strip().splitlines()  # the first, then at most one a second, and always the last
+    assert lines[0].startswith("[campaign] 1/3 done") and "left" in lines[0]
+    assert lines[-1].startswith("[campaign] 3/3 done") and "left" not in lines[-1]
+    quiet = subprocess.run(cli(case, "--workers", "1", "--progress", "quiet", "--retry-failed"),
+                           capture_output=True, text=True)
+    assert quiet.returncode == 0 and quiet.stderr == ""

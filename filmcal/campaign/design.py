@@ -166,8 +166,8 @@ def read_design_csv(path: str | os.PathLike) -> list[dict[str, DesignValue]]:
     FileNotFoundError
         If the file does not exist.
     ValueError
-        If the file has no header or no data rows, a row has more cells than
-        the header, or a number is not finite (``nan``, ``inf``).
+        If the file has no header or no data rows, a row has more or fewer
+        cells than the header, or a number is not finite (``nan``, ``inf``).
     """
     path = Path(path)
     if not path.is_file():
@@ -185,6 +185,10 @@ def read_design_csv(path: str | os.PathLike) -> list[dict[str, DesignValue]]:
         for row in reader:
             if None in row:
                 raise ValueError(f"design file {path}, line {reader.line_num}: more cells than columns")
+            if any(text is None for text in row.values()):  # DictReader's filler for a short row
+                given = sum(text is not None for text in row.values())
+                raise ValueError(f"design file {path}, line {reader.line_num}: {given} cells for {len(header)} "
+                                 "columns (leave a cell empty, with its comma, to leave a value out)")
             rows.append({name: _parse_cell(text or "") for name, text in row.items()})
     if not rows:
         raise ValueError(f"design file {path} has no data rows")

@@ -195,6 +195,7 @@ def _run(args: argparse.Namespace) -> int:
     from filmcal._errors import InputError
     from filmcal._io import check_output_dir
     from filmcal._parallel import DaskExecutor, check_dask_address
+    from filmcal._progress import Progress
     from filmcal.campaign import Campaign, CommandModel, read_design_csv
     from filmcal.campaign.simulator import import_model
 
@@ -229,8 +230,13 @@ def _run(args: argparse.Namespace) -> int:
         campaign = Campaign(model, args.store, settings=settings, executor=executor,
                             workers=None if executor is not None else args.workers,
                             group_by=group_by, model_name=model_name)
-        summary = campaign.run(points, retry_failed=args.retry_failed, timeout_s=args.timeout_s,
-                               progress=args.progress != "quiet", lock_command=_lock_command(args))
+        with Progress(args.progress).stage("campaign") as stage:
+            def advance(done: int, total: int) -> None:
+                stage.set_total(total)
+                stage.advance()
+
+            summary = campaign.run(points, retry_failed=args.retry_failed, timeout_s=args.timeout_s,
+                                   progress=advance, lock_command=_lock_command(args))
     except BaseException:
         if executor is not None:
             executor.abort()
@@ -244,6 +250,12 @@ def _run(args: argparse.Namespace) -> int:
         print(f"{summary.n_points} points: {counts.ok} ok, {counts.failed} failed, {counts.pending} pending "
               f"(ran {summary.n_run} in {summary.elapsed_s:.1f} s, {summary.n_skipped} already done) "
               f"-> {args.store}")
+    if summary.n_run and not summary.n_run_ok and not summary.counts.ok:
+        failed = campaign.records(status="failed")
+        reason = (failed[0].reason if failed else None) or "no reason recorded"
+        print(f"filmcal campaign run: every point failed (the first: {reason});"
+              " fix the simulator and rerun with --retry-failed", file=sys.stderr)
+        return 1
     return 0
 
 
