@@ -347,6 +347,37 @@ def test_status_of_an_empty_or_foreign_file_leaves_it_alone(tmp_path, content):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["runs.sqlite"]
 
 
+@pytest.mark.parametrize("content", [b"just some text, not a database\n" * 20, os.urandom(4096)])
+def test_a_campaign_on_a_foreign_or_garbled_store_leaves_no_lock_and_no_journal(tmp_path, content):
+    """The refusal came after the lock file was made: `runs.sqlite.lock` stayed beside the garbled store."""
+    case = make_case(tmp_path, ["ok"], sleep_s=0.0)
+    case["store"].write_bytes(content)
+    before = sorted(p.name for p in tmp_path.iterdir())
+    p = subprocess.run(cli(case, "--progress", "quiet"), capture_output=True, text=True, timeout=60)
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and "campaign store" in p.stderr, p.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == before and case["store"].read_bytes() == content
+
+
+def test_reading_a_finished_store_writes_nothing_beside_it(tmp_path):
+    """`status` and `export` left `-wal` and `-shm` files beside a finished store (its writer left it in WAL
+    mode), and a store on a read-only medium could not be read without them."""
+    case = make_case(tmp_path, ["ok", "fail"], sleep_s=0.0)
+    p = subprocess.run(cli(case, "--workers", "1", "--progress", "quiet"), capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    before = sorted(p.name for p in tmp_path.iterdir())
+    assert not [name for name in before if name.endswith(("-wal", "-shm"))]
+    conn = sqlite3.connect(case["store"])
+    try:
+        assert conn.execute("PRAGMA journal_mode").fetchone()[0] == "delete"
+    finally:
+        conn.close()
+    for action in (["status", "--json"], ["export", "--out", str(tmp_path / "runs.csv")]):
+        run = subprocess.run([sys.executable, "-m", "filmcal.cli", "campaign", action[0], "--store",
+                              str(case["store"]), *action[1:]], capture_output=True, text=True, timeout=60)
+        assert run.returncode == 0, run.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([*before, "runs.csv"])
+
+
 @pytest.mark.slow(reason="4 s: process pools")
 def test_workers_never_exceed_the_pending_points(tmp_path):
     from filmcal._parallel import open_executor

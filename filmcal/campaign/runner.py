@@ -373,6 +373,8 @@ class Campaign:
         timeout_s = None if timeout_s is None else check_positive("timeout_s", timeout_s)
         start = time.perf_counter()
         unique = {point_id(point, self.settings_hash): point for point in points}
+        if self.store_path.exists():  # a file that is not a store is refused before its lock file is made
+            RunStore(self.store_path, readonly=True).close()
         with StoreLock(self.store_path, lock_command, wait_s=wait_for_lock_s, on_wait=on_wait), \
                 RunStore(self.store_path) as store:
             store.add_points(unique, self.settings_hash, self._settings_record())

@@ -251,7 +251,19 @@ class RunStore:
         self._conn.execute("COMMIT")
 
     def close(self) -> None:
-        """Close the database connection."""
+        """Close the database connection.
+
+        A writer leaves the file in rollback-journal mode when it is the last
+        one open, so that readers (`campaign status`, an archived copy on a
+        read-only medium) create no ``-wal``/``-shm`` files beside it; while
+        another connection is open the store stays in WAL mode.
+        """
+        if not self.readonly:
+            try:
+                self._conn.execute("PRAGMA busy_timeout=0")
+                self._conn.execute("PRAGMA journal_mode=DELETE")
+            except sqlite3.Error:  # another connection is open: it switches back when it closes
+                pass
         self._conn.close()
 
     def __enter__(self) -> "RunStore":
