@@ -127,12 +127,25 @@ def test_eight_concurrent_clients_get_the_same_answers(server):
     ({"name": "correct-sphere", "input": [[7.1, 450, 50]], "config": {"film": "XX"}}, "InvalidInput", "XX"),
     ({"name": "correct-sphere", "input": [[71, 450, 50]], "config": {"film": "HS"}}, "InvalidInput", "implausible"),
     ({"name": "correct-wheelrail", "input": [[150, -3, 1e9]], "config": {"film": "HS"}}, "InvalidInput", "force"),
+    # an integer of 400 digits has no float: it was an InternalError (500, OverflowError)
+    (b'{"name": "correct-sphere", "input": [[7.1, 1' + b"0" * 400 + b', 50]], "config": {"film": "HS"}}',
+     "InvalidInput", "finite number"),
 ])
 def test_bad_requests_get_the_protocols_error_objects(server, body, kind, words):
     url, _, _ = server
     status, answer = _call(url, "/Evaluate", body)
     assert status >= 400 and answer["error"]["type"] == kind, answer
     assert words in answer["error"]["message"]
+
+
+@pytest.mark.parametrize("method", ["DELETE", "PUT", "PATCH", "OPTIONS"])
+def test_other_methods_get_a_json_error_object_not_an_html_page(server, method):
+    """`DELETE /Info` was answered by http.server's own HTML page (501, text/html)."""
+    url, _, _ = server
+    status, answer = _call(url, "/Info", b"{}", method=method)
+    assert status == 501 and answer["error"]["type"] == "UnsupportedFeature", answer
+    assert method in answer["error"]["message"] and "GET /Info" in answer["error"]["message"]
+    assert _call(url, "/Info", method="GET")[0] == 200  # and the server goes on
 
 
 def _raw(url: str, data: bytes, read: bool = True) -> bytes:

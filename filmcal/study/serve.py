@@ -69,9 +69,14 @@ class _RequestError(Exception):
 
 
 def _number(name: str, value: Any, low: float | None = None, high: float | None = None) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise _RequestError("InvalidInput", f"{name} must be a finite number, got {value!r}")
-    value = float(value)
+    try:  # an integer of hundreds of digits has no float: OverflowError
+        number = float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else math.nan
+    except OverflowError:
+        number = math.nan
+    if not math.isfinite(number):
+        shown = repr(value) if len(repr(value)) <= 40 else f"{repr(value)[:20]}... ({len(repr(value))} characters)"
+        raise _RequestError("InvalidInput", f"{name} must be a finite number, got {shown}")
+    value = number
     if (low is not None and value < low) or (high is not None and value > high):
         raise _RequestError("InvalidInput", f"{name} {value:g} outside [{low:g}, {high:g}]")
     return value
@@ -315,6 +320,25 @@ def _handler(owner: CorrectionServer) -> type:
 
         def _error(self, exc: _RequestError, close: bool = False) -> None:
             self._send(exc.status, {"error": {"type": exc.kind, "message": str(exc)}}, close)
+
+        def send_error(self, code, message=None, explain=None):  # http.server's errors, as JSON like ours
+            """Unsupported methods (DELETE, PUT, ...), malformed request lines and oversized headers."""
+            if self.command in ("GET", "POST") or not hasattr(self, "command"):
+                kind = "InvalidInput"
+            else:
+                kind = "UnsupportedFeature"
+                message = f"no {self.command} requests: GET /Info, POST /Evaluate and the other UM-Bridge routes"
+            body = json.dumps({"error": {"type": kind, "message": message or self.responses.get(code, ("",))[0]}})
+            self.send_response(code, message)
+            self.send_header("Content-Type", "application/json")
+            self.send_header("Connection", "close")
+            self.close_connection = True
+            data = body.encode()
+            send_body = self.command != "HEAD" and code >= 200 and code not in (204, 304)
+            self.send_header("Content-Length", str(len(data) if send_body else 0))
+            self.end_headers()
+            if send_body:
+                self.wfile.write(data)
 
         def do_GET(self):  # noqa: N802 (http.server's name)
             if self.path.rstrip("/") == "/Info":
