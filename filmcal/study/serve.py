@@ -323,7 +323,7 @@ def _handler(owner: CorrectionServer) -> type:
 
         def send_error(self, code, message=None, explain=None):  # http.server's errors, as JSON like ours
             """Unsupported methods (DELETE, PUT, ...), malformed request lines and oversized headers."""
-            if self.command in ("GET", "POST") or not hasattr(self, "command"):
+            if getattr(self, "command", None) in (None, "", "GET", "POST"):  # None, "": a malformed request line
                 kind = "InvalidInput"
             else:
                 kind = "UnsupportedFeature"
@@ -334,7 +334,7 @@ def _handler(owner: CorrectionServer) -> type:
             self.send_header("Connection", "close")
             self.close_connection = True
             data = body.encode()
-            send_body = self.command != "HEAD" and code >= 200 and code not in (204, 304)
+            send_body = getattr(self, "command", None) != "HEAD" and code >= 200 and code not in (204, 304)
             self.send_header("Content-Length", str(len(data) if send_body else 0))
             self.end_headers()
             if send_body:
