@@ -133,3 +133,20 @@ def test_wheelrail_command_reports_the_measured_ra_of_an_x3p_and_a_profile(tmp_p
     assert out["imprint_area_mm2"] > 0
     bad = subprocess.run(base + ["--wheel-roughness-map", str(tmp_path / "none.x3p")], capture_output=True, text=True)
     assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("amplitude_um, match", [(1e300, "heights reach 1e\\+300 um"), (1e8, "heights reach 1e\\+08 um"),
+                                                 (60.0, "Ra 38\\.[12] um once levelled"),
+                                                 (0.005, "Ra 0.00318 um once levelled")])
+def test_a_profile_with_implausible_heights_is_refused_in_one_line_naming_it(tmp_path, amplitude_um, match):
+    """+-1e300 um ended in a ZeroDivisionError traceback (exit 70), +-1e8 um in 'the contact reaches the end of
+    the profile'. Ra = 2 A / pi of a sine says which amplitudes lie outside 0.01-30 um."""
+    x = np.arange(0.0, 1.0, 0.0005)
+    path = tmp_path / "odd.csv"
+    path.write_text("x_mm,z_um\n" + "\n".join(f"{a:.6f},{amplitude_um * math.sin(2 * math.pi * a / 0.05):.6g}"
+                                               for a in x))
+    with pytest.raises(ValueError, match=match):
+        read_surface_file(path)
+    p = subprocess.run([sys.executable, "-m", "filmcal.cli", "wheelrail", "--offset-mm=-3", "--force-kn", "100",
+                        "--no-film", "--wheel-roughness-map", str(path)], capture_output=True, text=True)
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and "odd.csv" in p.stderr, p.stderr

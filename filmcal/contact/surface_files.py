@@ -30,6 +30,9 @@ __all__ = ["read_surface_file", "read_x3p", "read_line_profile", "profile_surfac
 
 #: The coarsest pixel (um) at which the asperities that carry the film's contact are resolved.
 MAX_PIXEL_UM = 5.0
+#: The largest height (um, either sign) a roughness measurement may hold before levelling: a tilt over a
+#: 2 mm map plus Ra 30 um stays far below it; larger values are a unit error (heights in nm read as um).
+MAX_HEIGHT_UM = 5000.0
 #: The fewest pixels, and the shortest side (um), of a map that covers the spectrum's roll-off.
 MIN_PIXELS = 64
 MIN_SIDE_UM = 50.0
@@ -67,7 +70,14 @@ def _number(node, path: str, where: str, default: float | None = None) -> float:
 
 def _level(heights_um: np.ndarray, pixel_um: float, where: str) -> tuple[np.ndarray, float]:
     """Remove the least-squares plane (line for one row); refuse a form left over. Returns the levelled heights
-    and the removed tilt's height range (um)."""
+    and the removed tilt's height range (um). Heights beyond `MAX_HEIGHT_UM` and a levelled Ra beyond the
+    supported range are refused (a height unit or scale mistaken)."""
+    from filmcal._validation import MAX_RA_UM, MIN_RA_UM
+
+    worst = float(np.max(np.abs(heights_um))) if heights_um.size else 0.0
+    if not worst <= MAX_HEIGHT_UM:  # NaN too
+        raise ValueError(f"{where}: heights reach {worst:.3g} um; a roughness measurement lies within "
+                         f"{MAX_HEIGHT_UM:g} um of its mean (check the height unit, or --roughness-height-scale)")
     n, m = heights_um.shape
     x = (np.arange(n) - 0.5 * (n - 1)) * pixel_um
     y = (np.arange(m) - 0.5 * (m - 1)) * pixel_um
@@ -89,6 +99,11 @@ def _level(heights_um: np.ndarray, pixel_um: float, where: str) -> tuple[np.ndar
         raise ValueError(f"{where}: not levelled: a curvature of {np.ptp(form):.3g} um remains over the map after "
                          f"removing its plane, more than its roughness (rms {rms:.3g} um); remove the form (the "
                          "body's radius) before use")
+    ra = float(np.mean(np.abs(level - level.mean())))
+    if not MIN_RA_UM <= ra <= MAX_RA_UM:
+        raise ValueError(f"{where}: Ra {ra:.3g} um once levelled, outside the supported {MIN_RA_UM:g}-{MAX_RA_UM:g} um "
+                         + ("(check the height unit, or --roughness-height-scale)" if ra > MAX_RA_UM
+                            else "(a surface this smooth is smooth: give Ra 0 instead)"))
     return level, float(np.ptp(plane))
 
 
