@@ -36,3 +36,55 @@ def test_a_batch_equals_single_corrections_and_marks_its_bad_rows(quick_study, t
     mixed = subprocess.run(cli + ["--batch", str(src), "--out", str(out), "--film", "HS"], capture_output=True,
                            text=True)
     assert mixed.returncode == 2 and "--batch takes the measurements from its rows" in mixed.stderr
+
+
+def test_malformed_batches_are_refused_whole_and_a_byte_order_mark_is_read(quick_study, tmp_path):
+    """A row longer than the header (a decimal comma) ended in AttributeError (exit 70); a repeated column
+    was corrected silently with its last value (force_kn 100 then 50: corrected at 50 kN, the 100 lost); a
+    spreadsheet's byte-order mark made 'film' unknown."""
+    study, _, _ = quick_study
+    cli = [sys.executable, "-m", "filmcal.cli", "correct", "--study-dir", str(study), "--progress", "quiet"]
+    out = tmp_path / "out.csv"
+    for name, text, words in (
+            ("comma.csv", "film,force_kn,measured_area_mm2,offset_mm\nHS,100,150,5,-3\n",
+             "line 2: 5 cells for 4 columns (a decimal comma?"),
+            ("twice.csv", "film,force_kn,force_kn,measured_area_mm2,offset_mm\nHS,100,50,150,-3\n",
+             "column(s) force_kn appear more than once")):
+        (tmp_path / name).write_text(text)
+        p = subprocess.run(cli + ["--batch", str(tmp_path / name), "--out", str(out)], capture_output=True, text=True)
+        assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and words in p.stderr, p.stderr
+        assert not out.exists()
+    plain, marked = tmp_path / "plain.csv", tmp_path / "marked.csv"
+    plain.write_text("film,force_kn,measured_area_mm2,offset_mm\nHS,100,150,-3\n")
+    marked.write_bytes(b"\xef\xbb\xbf" + plain.read_bytes().replace(b"\n", b"\r\n"))
+    answers = []
+    for src in (plain, marked):
+        p = subprocess.run(cli + ["--batch", str(src), "--out", str(out), "--json"], capture_output=True, text=True)
+        assert p.returncode == 0, p.stderr
+        assert json.loads(p.stdout) == {"out": str(out), "provenance": f"{out}.provenance.json", "rows": 1,
+                                        "corrected": 1, "failed": 0}
+        with open(out, newline="") as fh:
+            answers.append(list(csv.DictReader(fh))[0]["area_mm2"])
+    assert answers[0] == answers[1]
+
+
+def test_a_repeated_measurement_is_answered_once_and_alike(quick_study, tmp_path):
+    """10 000 rows of one case ran at 40 rows a second; identical rows now share one answer, which is the
+    single row's to the digit, and a different row between them keeps its own."""
+    study, _, _ = quick_study
+    src, out = tmp_path / "day.csv", tmp_path / "out.csv"
+    src.write_text("film,force_kn,measured_area_mm2,offset_mm\n" + "HS,100,150,-3\n" * 5000 + "HS,100,140,-3\n"
+                   + "HS,100,150,-3\n" * 4999)
+    p = subprocess.run([sys.executable, "-m", "filmcal.cli", "correct", "--study-dir", str(study), "--batch", str(src),
+                        "--out", str(out), "--progress", "quiet"], capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    with open(out, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 10_000 and rows[5000]["measured_area_mm2"] == "140"
+    assert len({r["area_mm2"] for r in rows}) == 2 and rows[5000]["area_mm2"] != rows[0]["area_mm2"]
+    one = tmp_path / "one.csv"
+    one.write_text("film,force_kn,measured_area_mm2,offset_mm\nHS,100,150,-3\n")
+    subprocess.run([sys.executable, "-m", "filmcal.cli", "correct", "--study-dir", str(study), "--batch", str(one),
+                    "--out", str(tmp_path / "one_out.csv"), "--progress", "quiet"], check=True, capture_output=True)
+    with open(tmp_path / "one_out.csv", newline="") as fh:
+        assert list(csv.DictReader(fh))[0]["area_mm2"] == rows[-1]["area_mm2"]

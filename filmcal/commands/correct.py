@@ -156,8 +156,12 @@ def run_batch(args: argparse.Namespace) -> int:
         writer.writerows(out)
     atomic_write_json(f"{args.out}.provenance.json", {**provenance, "batch": str(args.batch)})
     failed = provenance["failed"]
-    print(f"{len(rows) - failed} of {len(rows)} rows corrected into {args.out}"
-          + (f"; {failed} failed (status column)" if failed else ""))
+    if args.json:
+        print_json({"out": str(args.out), "provenance": f"{args.out}.provenance.json", "rows": len(rows),
+                    "corrected": len(rows) - failed, "failed": failed})
+    else:
+        print(f"{len(rows) - failed} of {len(rows)} rows corrected into {args.out}"
+              + (f"; {failed} failed (status column)" if failed else ""))
     return 1 if failed else 0
 
 

@@ -36,12 +36,20 @@ def read_batch(path: str | Path) -> tuple[list[str], list[dict[str, str]]]:
     """The header and rows of a batch file; a file that cannot be read as one raises `ValueError`."""
     path = Path(path)
     try:
-        with open(path, newline="") as fh:
+        # utf-8-sig: a spreadsheet's byte-order mark is not part of the first column's name
+        with open(path, newline="", encoding="utf-8-sig") as fh:
             reader = csv.DictReader(line for line in fh if not line.lstrip().startswith("#"))
             header = [h.strip() for h in (reader.fieldnames or [])]
+            repeated = sorted({h for h in header if header.count(h) > 1})
+            if repeated:
+                raise ValueError(f"batch {path}: column(s) {', '.join(repeated)} appear more than once")
+            reader.fieldnames = header
             rows = []
             for row in reader:
-                rows.append({(k or "").strip(): (v or "").strip() for k, v in row.items()})
+                if None in row:  # DictReader's key for the cells beyond the header
+                    raise ValueError(f"batch {path}, line {reader.line_num}: {len(header) + len(row[None])} cells "
+                                     f"for {len(header)} columns (a decimal comma? write 1.5, not 1,5)")
+                rows.append({k: (v or "").strip() for k, v in row.items()})
                 if len(rows) > MAX_ROWS:
                     raise ValueError(f"batch {path}: more than {MAX_ROWS} rows; split it")
     except FileNotFoundError:
@@ -110,8 +118,16 @@ def correct_batch(study, rows: list[dict[str, str]], *, seed: int = 0, elastic_l
 
     cache: dict = {}
     out, posteriors = [], {}
+    answered: dict[tuple, dict[str, Any]] = {}  # a repeated measurement has the same answer: computed once
     for k, row in enumerate(rows, 1):
         result = dict(row)
+        key = tuple(row.get(name, "") for name in INPUT_COLUMNS)
+        if key in answered:
+            result.update(answered[key])
+            out.append(result)
+            if progress is not None:
+                progress(k, len(rows))
+            continue
         try:
             measurement, roughness = _measurement(row)
             with warnings.catch_warnings():
@@ -126,6 +142,7 @@ def correct_batch(study, rows: list[dict[str, str]], *, seed: int = 0, elastic_l
             posteriors.setdefault(answer["film"], {}).update(answer["provenance"]["posteriors"])
         except (ValueError, InputError) as exc:
             result.update({name: "" for name in OUTPUT_COLUMNS[:-1]}, status=f"failed: {exc}")
+        answered[key] = {name: result[name] for name in OUTPUT_COLUMNS}
         out.append(result)
         if progress is not None:
             progress(k, len(rows))
