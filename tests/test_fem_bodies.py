@@ -47,6 +47,6 @@ def test_a_study_takes_its_datasets_bodies_or_refuses_them_in_one_line():
     fe = _bodies_spec(spec, _data([al] * 3, [al] * 3)).fe
     assert (fe.body_modulus_mpa, fe.body_poisson) == al and fe.as_spec()["body_modulus_mpa"] == 70000.0
     for sphere, flat in (([al] * 2, [steel] * 2), ([al, steel], [al, steel])):
-        with pytest.raises(InputError, match="the dataset's bodies differ") as info:
+        with pytest.raises(InputError, match="bodies of film HS's rows differ") as info:
             _bodies_spec(spec, _data(sphere, flat))
         assert "\n" not in str(info.value)

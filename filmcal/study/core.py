@@ -306,12 +306,18 @@ class Study:
     # ------------------------------------------------------------ writing
     @contextlib.contextmanager
     def writing(self, what: str = "") -> Iterator["Study"]:
-        """Hold the study's writer lock; the manifest is saved on exit (also after an error)."""
+        """Hold the study's writer lock; the manifest is saved on exit (also after an error).
+
+        A new study whose first writer is refused (bad input, `ValueError`) before it records anything is
+        removed again (its manifest, its lock file and the folder if it made it): the refusal writes nothing,
+        and the folder stays free for other data.
+        """
         if self.read_only:
             raise InputError(f"study {self.root} is open read-only: {what or 'writing'} is refused")
         if self._lock.held:
             yield self
             return
+        new, made_root = not self.layout.manifest.exists(), not self.root.exists()
         self.root.mkdir(parents=True, exist_ok=True)
         self._lock.acquire(what)
         try:
@@ -324,6 +330,15 @@ class Study:
             self.manifest.note_writer_software()
             self.manifest.write()
             yield self
+        except ValueError:
+            if new and not self.manifest.data["artefacts"] and not self.manifest.data["stages"] and \
+                    {p.name for p in self.root.iterdir()} <= {self.layout.manifest.name, self.layout.lock.name}:
+                self.layout.manifest.unlink(missing_ok=True)
+                self.layout.lock.unlink(missing_ok=True)  # still held: no other writer can be waiting on it
+                self._lock.release()
+                if made_root:
+                    self.root.rmdir()
+            raise
         finally:
             if self._lock.held:
                 self.manifest.write()
@@ -1030,9 +1045,9 @@ def _bodies_spec(spec: "CalibrationSpec", data) -> "CalibrationSpec":
     if len(values) > 1 or any(e != e2 or nu != nu2 for e, nu, e2, nu2 in values):
         shown = "; ".join(f"sphere {e:g} MPa / {nu:g}, flat {e2:g} MPa / {nu2:g}" for e, nu, e2, nu2 in
                           sorted(values)[:3])
-        raise InputError(f"film {spec.film}: the dataset's bodies differ ({shown}): the FE models a sphere and a "
-                         "flat of one material, the same in every row; calibrate rows of other bodies in another "
-                         "study")
+        raise InputError(f"dataset: the bodies of film {spec.film}'s rows differ ({shown}): the FE models a sphere "
+                         "and a flat of one material, the same in every row; calibrate rows of other bodies in "
+                         "another study")
     (e, nu, _, _), = values
     if (e, nu) == (STEEL_MODULUS_MPA, STEEL_POISSON):
         return spec
