@@ -122,9 +122,10 @@ def test_an_area_uncertainty_as_large_as_the_area_is_refused_before_any_solve():
     n = 200
     c = WheelRailCorrector({"modulus_mpa": np.full(n, 2800.0), "sigma_mm": np.full(n, 0.01)},
                            FilmModel(get_film("HS"), "edge", "small"))
-    for std in (150.0, 1e308):
-        with pytest.raises(ValueError, match="smaller than the measured area"):
+    for std in (150.0, 1e308, 75.01):  # half the area is a quarter of its radius
+        with pytest.raises(ValueError, match="more than 50 %"):
             c.correct(150.0, -3.0, 100e3, measurement_std_mm2=std)
+    assert c.correct(150.0, -3.0, 100e3, measurement_std_mm2=75.0).area_ci90_mm2[0] > 0
 
 
 def test_roughness_multiplies_each_sample_by_a_drawn_growth_factor():

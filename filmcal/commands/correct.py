@@ -40,12 +40,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add(p, "offset_std_mm", default=0.0, extra="(wheel-rail, default 0): the band includes it through the "
         "correction's slope in the offset (two more offsets solved)")
     local(p, "--measurement-std-mm2", type=float, default=0.0,
-          help="wheel-rail: standard uncertainty of the measured area (mm2, default 0)")
+          help="wheel-rail: standard uncertainty of the measured area (mm2, default 0; at most half the area)")
     add_wheel_rail_options(p)
     local(p, "--measured-radius-mm", type=float, help="sphere-on-flat: imprint radius on the film (mm)")
     add(p, "sphere_radius_mm", extra="(sphere-on-flat)")
     local(p, "--measurement-std-mm", type=float, default=0.0,
-          help="sphere-on-flat: standard uncertainty of the measured radius (mm, default 0)")
+          help="sphere-on-flat: standard uncertainty of the measured radius (mm, default 0; at most a quarter "
+               "of the radius)")
     add(p, "scan", extra="instead of --measured-area-mm2 / --measured-radius-mm")
     add_scan_resolution(p, "--scan: ")
     local(p, "--threshold", type=float,

@@ -26,6 +26,10 @@ PREDICTIONS_KEPT = 64
 
 __all__ = ["CorrectedArea", "SphereCorrector", "pool_corrected"]
 
+#: The largest standard uncertainty of a measured radius, as a share of it (twice this of a measured area): a
+#: dataset's scatter is bounded alike (`filmcal.calibration.datasets.MAX_STD_OVER_HERTZ`).
+MAX_RELATIVE_STD = 0.25
+
 
 @dataclass
 class CorrectedArea:
@@ -171,9 +175,11 @@ class SphereCorrector:
                 raise ValueError(f"{name} must be finite and > 0")
         if not np.all(np.isfinite(u)) or np.any(u < 0):
             raise ValueError("measurement_std_mm must be finite and >= 0")
-        if np.any(u >= r_m):
-            raise ValueError("measurement_std_mm must be smaller than the measured radius (an uncertainty as large as "
-                             "the measurement leaves nothing to correct): check the units")
+        if np.any(u > MAX_RELATIVE_STD * r_m):
+            worst = float(np.max(u / r_m))
+            raise ValueError(f"measurement_std_mm is {100 * worst:.3g} % of the measured radius, more than "
+                             f"{100 * MAX_RELATIVE_STD:g} %: an imprint read that loosely leaves the film's own "
+                             "error (5-40 % of the radius) undecided; check the units")
         shape = r_m.shape
         mean, std = self._predict(R, F)
         if not np.all(np.isfinite(mean)):

@@ -38,7 +38,7 @@ from typing import Protocol, Sequence
 
 from filmcal.wheelrail.settings import GRID_MM, NOMINAL_RADIUS_MM, RAIL, RAIL_INCLINATION, WHEEL
 from filmcal.contact.film import FilmModel
-from filmcal.correction.sphere import CorrectedArea, _summarise
+from filmcal.correction.sphere import MAX_RELATIVE_STD, CorrectedArea, _summarise
 
 __all__ = ["WheelRailCorrector", "SupportAreas", "SupportCache", "support_moduli", "nominal_modulus_mpa"]
 
@@ -325,9 +325,11 @@ class WheelRailCorrector:
         if not np.all(np.isfinite(u_eta)) or np.any(u_eta < 0) or np.any(u_eta > 10.0):
             raise ValueError("offset_std_mm must be finite, >= 0 and at most 10 mm (a ruler reads the offset to "
                              "about 0.5-1 mm)")
-        if np.any(u >= A):
-            raise ValueError("measurement_std_mm2 must be smaller than the measured area (an uncertainty as large as "
-                             "the measurement leaves nothing to correct): check the units")
+        if np.any(u > 2.0 * MAX_RELATIVE_STD * A):
+            worst = float(np.max(u / A))
+            raise ValueError(f"measurement_std_mm2 is {100 * worst:.3g} % of the measured area, more than "
+                             f"{200 * MAX_RELATIVE_STD:g} % ({100 * MAX_RELATIVE_STD:g} % of its radius): an imprint "
+                             "read that loosely leaves the film's own error undecided; check the units")
         rng = np.random.default_rng(self.random_state)
         n = len(self.modulus_mpa_)
         samples = np.empty(A.shape + (n,))
