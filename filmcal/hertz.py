@@ -9,13 +9,17 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["STEEL_MODULUS_MPA", "STEEL_POISSON", "contact_modulus_mpa", "hertz_radius_mm",
+__all__ = ["STEEL_MODULUS_MPA", "STEEL_POISSON", "ELASTIC_LIMIT_MPA", "contact_modulus_mpa", "hertz_radius_mm",
            "hertz_max_pressure_mpa", "hertz_approach_mm", "hertz_pressure_mpa"]
 
 #: Young's modulus of the steel sphere and flat in the experiments (MPa).
 STEEL_MODULUS_MPA = 210000.0
 #: Poisson's ratio of the steel sphere and flat in the experiments.
 STEEL_POISSON = 0.3
+#: The steel's elastic limit as a peak Hertz pressure (MPa): the paper's specimens stayed elastic at R450 / 100 kN
+#: (p0 1083 MPa) and R300 / 50 kN (1127 MPa); it skipped R300 at 75 and 100 kN (1290 and 1420 MPa) "to avoid
+#: plastic strain".
+ELASTIC_LIMIT_MPA = 1250.0
 
 
 def _positive(name: str, value: object) -> np.ndarray:

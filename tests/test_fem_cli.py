@@ -70,3 +70,18 @@ def test_capsule_needs_a_range(capsys, tmp_path):
     code, _, err = _run(capsys, "--film-modulus-mpa", "2800", "--films-file", str(films), "--film", "LOT7",
                         "--imprint-model", "capsule")
     assert code == 2 and "LOT7 has no range_mpa" in err
+
+
+def test_a_solution_outside_its_models_validity_says_so(capsys):
+    """R450 at 2000 kN was printed as 'converged' with a 73 % small-strain film and 3360 MPa on the steel, and
+    nothing else. Hertz's peak pressure (3.2 GPa here, 1.08 GPa at 100 kN) places the elastic limit between."""
+    code = cli.main(["fem", "--sphere-radius-mm", "450", "--force-kn", "2000", "--film-modulus-mpa", "2500", "--json"])
+    out = capsys.readouterr()
+    answer = json.loads(out.out)
+    assert code == 0 and hertz_max_pressure_mpa(450.0, 2000e3) > 1250.0 > hertz_max_pressure_mpa(450.0, 100e3)
+    assert len(answer["warnings"]) == 2 and "--kinematics large" in answer["warnings"][0]
+    assert "elastic limit" in answer["warnings"][1]
+    lines = out.err.strip().splitlines()
+    assert len(lines) == 2 and all(line.startswith("filmcal fem: warning: FEValidityWarning: ") for line in lines)
+    code, out, err = _run(capsys, "--film-modulus-mpa", "2800")  # Table 1's HS case: within both
+    assert code == 0 and out["warnings"] == [] and err == ""

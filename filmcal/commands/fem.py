@@ -2,11 +2,16 @@
 from __future__ import annotations
 
 import argparse
+import warnings
 
 from filmcal.commands._common import print_json
 from filmcal.commands._options import add, add_contact_options, local, renamed
 from filmcal.contact.names import DEFAULT_IMPRINT_MODEL, DEFAULT_KINEMATICS, FILM_LAYERS, IMPRINT_MODELS
 from filmcal.films import FILM_POISSON, FILM_THICKNESS_MM
+
+
+class FEValidityWarning(UserWarning):
+    """The solution lies outside its model's validity (`filmcal.fem.FEResult.validity_warnings`)."""
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -119,6 +124,9 @@ def run(args: argparse.Namespace) -> int:
         from filmcal.report.figures import plot_pressure_profile
         plot_pressure_profile(res, args.plot)
     out = res.summary()
+    out["warnings"] = res.validity_warnings()
+    for text in out["warnings"]:
+        warnings.warn(FEValidityWarning(text), stacklevel=1)
     if args.json:
         print_json(out)
     else:

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from filmcal.hertz import ELASTIC_LIMIT_MPA
 from filmcal._validation import FORCE_KN_BOUNDS, OFFSET_MM_BOUNDS, SPHERE_RADIUS_MM_BOUNDS
 from filmcal.contact.names import MIXTURE
 from filmcal.wheelrail.settings import NOMINAL_RADIUS_MM, RAIL, RAIL_INCLINATION, WHEEL
@@ -160,10 +161,6 @@ def _check_value(name: str, value: float | None, std_name: str, std: float) -> N
         raise ValueError(f"{std_name} must be >= 0, got {std}")
 
 
-#: The steel's elastic limit as a peak Hertz pressure (MPa): the paper's specimens stayed elastic at R450 / 100 kN
-#: (p0 1083 MPa) and R300 / 50 kN (1127 MPa); it skipped R300 at 75 and 100 kN (1290 and 1420 MPa) "to avoid
-#: plastic strain".
-ELASTIC_LIMIT_MPA = 1250.0
 
 
 class ElasticLimitWarning(UserWarning):

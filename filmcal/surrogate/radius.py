@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from filmcal.hertz import hertz_radius_mm
+from filmcal.hertz import ELASTIC_LIMIT_MPA, hertz_radius_mm
 
 if TYPE_CHECKING:
     from filmcal.contact.options import ContactOptions
@@ -146,10 +146,9 @@ class SurrogateDomain:
         return levels * forces
 
 
-#: The supported domain's physical limits: the steel stays elastic (the Hertz peak pressure without film, as
-#: the paper's specimens: elastic at 1083-1127 MPa, R300 at 1290 MPa skipped) and the contact stays small
-#: against the modelled bodies (the refined zone, 1.6 times the contact radius, within 0.6 of the 50 mm body).
-ELASTIC_LIMIT_MPA = 1250.0
+#: The supported domain's physical limits: the steel stays elastic (the Hertz peak pressure without film below
+#: `filmcal.hertz.ELASTIC_LIMIT_MPA`) and the contact stays small against the modelled bodies (the refined zone,
+#: 1.6 times the contact radius, within 0.6 of the 50 mm body).
 MAX_CONTACT_RADIUS_MM = 0.6 * 50.0 / 1.6
 #: The supported spheres and forces: where the film's transfer from the calibrated FE to the wheel-rail model
 #: is measured and checked (`filmcal.correction.transfer.TRANSFER_DOMAIN`, which adds margins to the forces), so that a lab's
