@@ -122,9 +122,26 @@ def _require(ok: bool, what: str) -> None:
         raise ValueError(what)
 
 
+def _plain_float(text: str) -> float:
+    """A number as written on a command line: ASCII digits, sign, point, exponent. Python's `float` also reads
+    ``1_0`` (10) and other scripts' digits, which no user means as a number."""
+    if not text.isascii() or "_" in text:
+        raise ValueError("must be a plain number (ASCII digits, a decimal point, no underscores)")
+    return float(text)
+
+
 def arg_finite() -> Callable[[str], float]:
     """An argparse ``type`` for a finite float (nan and inf refused)."""
-    return _argparse_type(float, lambda x: _require(math.isfinite(x), "must be a finite number"), "float")
+    return _argparse_type(_plain_float, lambda x: _require(math.isfinite(x), "must be a finite number"), "float")
+
+
+def arg_int() -> Callable[[str], int]:
+    """An argparse ``type`` for an integer written plainly (``int`` alone reads ``1_0`` as 10)."""
+    def convert(text: str) -> int:
+        if not text.isascii() or "_" in text:
+            raise ValueError("must be a plain integer (ASCII digits, no underscores)")
+        return int(text)
+    return _argparse_type(convert, lambda n: None, "int")
 
 
 def arg_int_in(low: int, high: int) -> Callable[[str], int]:
@@ -133,6 +150,8 @@ def arg_int_in(low: int, high: int) -> Callable[[str], int]:
 
     def convert(text: str) -> int:
         try:
+            if not text.isascii() or "_" in text:  # int() reads 1_0 as 10
+                raise ValueError(what)
             return int(text)
         except ValueError:
             raise ValueError(what) from None
@@ -143,7 +162,7 @@ def _arg_float(accept: Callable[[float], bool], what: str, bounds: tuple[float, 
     """An argparse ``type`` for a finite number that `accept` takes (`what` says which)."""
     def convert(text: str) -> float:
         try:
-            return float(text)
+            return _plain_float(text)
         except ValueError:
             raise ValueError(what) from None
     return _argparse_type(convert, lambda x: _require(math.isfinite(x) and accept(x), what), "float", bounds)

@@ -46,7 +46,7 @@ from pathlib import Path
 
 import filmcal.commands
 from filmcal._errors import DamagedFileError
-from filmcal._validation import SPHERE_RADIUS_MM_BOUNDS, arg_finite, arg_float_in, arg_grid, arg_int_in
+from filmcal._validation import SPHERE_RADIUS_MM_BOUNDS, arg_finite, arg_float_in, arg_grid, arg_int, arg_int_in
 from filmcal._versions import VersionNote
 from filmcal.commands._options import bounds_text, missing_required
 
@@ -173,6 +173,8 @@ def _harden(parser: argparse.ArgumentParser) -> None:
                 action.help = action.help + bounds_text(low, high, integer)
         elif convert is float:
             action.type = arg_finite()
+        elif convert is int:
+            action.type = arg_int()
 
 
 def build_parser() -> argparse.ArgumentParser:

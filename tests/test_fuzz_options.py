@@ -114,7 +114,7 @@ def test_the_suite_covers_every_command():
 
 
 @pytest.mark.parametrize("case", NUMBER_OPTIONS, ids=_id)
-@pytest.mark.parametrize("value", ["nan", "-inf", "1e999", "abc"])
+@pytest.mark.parametrize("value", ["nan", "-inf", "1e999", "abc", "1_0", "\uff11"])  # 1_0 and a full-width 1 were 10, 1
 def test_number_options_refuse_non_finite_and_text(capsys, no_work, tmp_path, monkeypatch, case, value):
     monkeypatch.chdir(tmp_path)
     path, action = case
