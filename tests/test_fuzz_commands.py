@@ -107,6 +107,10 @@ def make_folder(tmp_path: Path, bomb_png: bytes) -> Path:
     (tmp_path / "binstudy").mkdir()
     (tmp_path / "binstudy" / "study.json").write_bytes(b"\xff\xfe\x00\x00")
     (tmp_path / "adir").mkdir()
+    (tmp_path / "uncalibrated").mkdir()  # a study whose manifest records no calibration: reported with 0 figures
+    from filmcal.study.manifest import Manifest
+
+    Manifest.new(tmp_path / "uncalibrated" / "study.json").write()
     return tmp_path
 
 
@@ -296,6 +300,12 @@ CASES = [
      ["--measurement-std-mm2"]),
     (["correct", "--film", "HS", "--force-kn", "100000", "--measured-area-mm2", "150", "--offset-mm=-3",
       "--study-dir", "badstudy"], ["--force-kn"]),
+    # how a map is read, without a map: was ignored
+    (["correct", "--film", "HS", *WHEEL, "--roughness-pixel-um", "1", "--study-dir", "badstudy"],
+     ["--roughness-pixel-um"]),
+    (["wheelrail", *WR, "--no-film", "--roughness-height-scale", "2"], ["--roughness-height-scale"]),
+    (["curves", "--film", "HS", "--roughness-height-range-um", "5", "--study-dir", "emptystudy"],
+     ["--roughness-height-range-um"]),
     # curves
     (["curves", "--film", "HS", "--offsets-mm=-7:2:1e-7", "--study-dir", "emptystudy"], ["--offsets-mm"]),
     (["curves", "--film", "HS", "--offsets-mm=abc", "--study-dir", "emptystudy"], ["--offsets-mm"]),
@@ -329,6 +339,7 @@ CASES = [
     (["report", "--study-dir", "emptystudy"], ["--study-dir", "study_dir", "emptystudy"]),
     (["report", "--study-dir", "badstudy"], ["badstudy/study.json"]),
     (["report", "--study-dir", "binstudy"], ["binstudy/study.json"]),
+    (["report", "--study-dir", "uncalibrated", "--out-dir", "adir"], ["no calibration yet"]),
 ]
 
 

@@ -59,6 +59,15 @@ def check_roughness_maps(args, command: str, film_laws_per_map: int, steel_laws_
     given = [(option, getattr(args, dest, None)) for option, dest in (
         ("--wheel-roughness-map", "wheel_roughness_map"), ("--rail-roughness-map", "rail_roughness_map"))]
     if all(path is None for _, path in given):
+        reading = [option for option, dest, unset in (("--roughness-pixel-um", "roughness_pixel_um", None),
+                                                       ("--roughness-height-scale", "roughness_height_scale", 1.0),
+                                                       ("--roughness-height-range-um", "roughness_height_range_um", None))
+                   if getattr(args, dest, unset) != unset]
+        if reading:
+            from filmcal._errors import InputError
+
+            raise InputError(f"{reading[0]} says how a roughness map is read: give --wheel-roughness-map or "
+                             "--rail-roughness-map with it")
         return  # nothing to read: nothing imported (a correction without maps starts fast)
     from filmcal._memory import check_memory
     from filmcal.contact.roughness import rough_law_cost

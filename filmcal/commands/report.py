@@ -28,7 +28,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from filmcal.study import Study
 
-    Study(args.study_dir)  # a folder that is not a study is refused before the report's imports
+    study = Study(args.study_dir)  # a folder that is not a study is refused before the report's imports
+    if not any(entry.get("kind") == "posterior" for entry in study.manifest.data["artefacts"].values()):
+        raise ValueError(f"--study-dir {args.study_dir!r} holds no calibration yet: a report tells a calibration's "
+                         "story; run `filmcal pipeline` or `filmcal calibrate --study-dir ...` first")
     from pathlib import Path
 
     from filmcal._io import check_output_dir

@@ -94,7 +94,7 @@ def offset_range_mm(wheel: Profile, rail: Profile, rail_inclination: float = RAI
     (low, high) : tuple of float
         Allowed range of `offset_mm` (mm) for `place_wheel_on_rail`.
     """
-    c, s = _cos_sin(check_range("rail_inclination", rail_inclination, 0.0, 0.2, low_open=False))
+    c, s = _cos_sin(check_range("rail_inclination", rail_inclination, 0.0, 0.2, low_open=False, high_open=False))
     ylo, yhi = rail.y_range_mm
     rail_lo = ylo * c - rail.z(ylo) * s
     rail_hi = yhi * c - rail.z(yhi) * s
@@ -277,7 +277,7 @@ def place_wheel_on_rail(wheel: Profile | str = WHEEL, rail: Profile | str = RAIL
     w = _resolve(wheel, "wheel")
     r = _resolve(rail, "rail")
     eta = as_finite("offset_mm", offset_mm)
-    incl = check_range("rail_inclination", rail_inclination, 0.0, 0.2, low_open=False)
+    incl = check_range("rail_inclination", rail_inclination, 0.0, 0.2, low_open=False, high_open=False)
     r0 = check_positive("nominal_radius_mm", nominal_radius_mm)
     tol = check_range("tolerance_mm", tolerance_mm, 0.0, math.inf, low_open=False)
     res = check_range("resolution_mm", resolution_mm, 1e-4, 1.0, low_open=False, high_open=False)
@@ -307,8 +307,10 @@ def place_wheel_on_rail(wheel: Profile | str = WHEEL, rail: Profile | str = RAIL
     grid = np.linspace(overlap[0], overlap[1], n)
     d = lift(grid)
     if int(np.argmax(d)) in (0, n - 1):
-        raise ValueError(f"{allowed} with a contact inside both profiles; at {eta:g} the profiles "
-                         "first touch at the edge of the overlap")
+        raise ValueError(f"offset_mm {eta:g}: {w.name} and {r.name} first touch at the end of their overlap "
+                         f"(y = {grid[int(np.argmax(d))]:.1f} mm), not inside both profiles: the rail's crown must "
+                         f"meet the wheel inside the rail profile (is it flat, or cut too narrow?); the wheel covers "
+                         f"the rail for offset_mm in [{lo_eta:.2f}, {hi_eta:.2f}] mm")
     peaks = np.flatnonzero((d[1:-1] >= d[:-2]) & (d[1:-1] > d[2:])) + 1
     found = []
     for i in peaks:

@@ -637,7 +637,7 @@ class WheelRailModel:
         self.grid_mm = check_range("grid_mm", grid_mm, *GRID_MM_RANGE, low_open=False,
                                    high_open=False)
         self.rail_inclination = check_range("rail_inclination", rail_inclination, 0.0, 0.2,
-                                            low_open=False)
+                                            low_open=False, high_open=False)
         self.nominal_radius_mm = check_positive("nominal_radius_mm", nominal_radius_mm)
         self.wheel = _resolve(wheel, "wheel")
         self.rail = _resolve(rail, "rail")
