@@ -201,6 +201,9 @@ def _grid(text: str, max_count: int) -> list[float]:
         raise ValueError(f"{form}, got {text!r}")
     if len(values) > max_count:
         raise ValueError(f"{text!r} gives {len(values)} values; at most {max_count}")
+    repeated = sorted({v for v in values if values.count(v) > 1})
+    if repeated:
+        raise ValueError(f"{text!r} gives {', '.join(f'{v:g}' for v in repeated)} more than once")
     return values
 
 
@@ -214,7 +217,8 @@ def parse_grid(name: str, text: str, max_count: int) -> list[float]:
     ------
     ValueError
         Naming `name`, for text that is neither form, non-finite values, a
-        step <= 0, stop < start, no value, or more than `max_count` values.
+        step <= 0, stop < start, no value, a value given twice, or more than
+        `max_count` values.
     """
     try:
         return _grid(text, max_count)

@@ -273,6 +273,11 @@ CASES = [
     (["scan", "cut.png", "--out", "s.png"], ["--out"]),
     (["doe", "--samples", "2", "--param", "modulus_mpa=100:1000", "--augment", "design.csv", "--out", "design.csv"],
      ["--out"]),
+    # a map-reading option that the given map does not read was ignored
+    (["wheelrail", *WR, "--no-film", "--wheel-roughness-map", "cut.png", "--roughness-pixel-um", "1",
+      "--roughness-height-range-um", "5", "--roughness-height-scale", "2"], ["--roughness-height-scale", "image"]),
+    (["wheelrail", *WR, "--no-film", "--wheel-roughness-map", "design.csv", "--roughness-pixel-um", "1",
+      "--roughness-height-range-um", "5"], ["--roughness-height-range-um", "csv map"]),
     (["wheelrail", *WR, "--no-film", "--wheel-roughness-map", "bomb.png", "--roughness-pixel-um", "1",
       "--roughness-height-range-um", "5"], ["bomb.png"]),
     (["wheelrail", *WR, "--no-film", "--wheel-roughness-map", "cut.png", "--roughness-pixel-um", "1",
@@ -306,7 +311,16 @@ CASES = [
     (["wheelrail", *WR, "--no-film", "--roughness-height-scale", "2"], ["--roughness-height-scale"]),
     (["curves", "--film", "HS", "--roughness-height-range-um", "5", "--study-dir", "emptystudy"],
      ["--roughness-height-range-um"]),
+    # a repeated imprint model started the whole pipeline with it twice
+    (["pipeline", "--study-dir", "emptystudy", "--imprint-models", "edge,edge"], ["edge is given more than once"]),
     # curves
+    (["curves", "--film", "HS", "--offsets-mm=0,0", "--study-dir", "emptystudy"], ["0 more than once"]),
+    (["curves", "--film", "HS", "--csv", "same.png", "--plot", "same.png", "--study-dir", "emptystudy"],
+     ["is the file of --csv"]),
+    (["curves", "--film", "HS", "--csv", "emptystudy/curves.csv", "--study-dir", "emptystudy"],
+     ["inside the study folder"]),
+    (["correct", "--batch", "design.csv", "--out", "emptystudy/out.csv", "--study-dir", "emptystudy"],
+     ["inside the study folder"]),
     (["curves", "--film", "HS", "--offsets-mm=-7:2:1e-7", "--study-dir", "emptystudy"], ["--offsets-mm"]),
     (["curves", "--film", "HS", "--offsets-mm=abc", "--study-dir", "emptystudy"], ["--offsets-mm"]),
     (["curves", "--film", "HS", "--forces-kn=1:1e9:1", "--study-dir", "emptystudy"], ["--forces-kn"]),

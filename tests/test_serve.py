@@ -126,6 +126,11 @@ def test_eight_concurrent_clients_get_the_same_answers(server):
      "'filmm'"),
     ({"name": "correct-sphere", "input": [[7.1, 450, 50]], "config": {"film": "XX"}}, "InvalidInput", "XX"),
     ({"name": "correct-sphere", "input": [[71, 450, 50]], "config": {"film": "HS"}}, "InvalidInput", "implausible"),
+    # unknown choices were answered as 'no posterior ... run calibrate'
+    ({"name": "correct-wheelrail", "input": [[150, -3, 100]], "config": {"film": "HS", "kinematics": "medium"}},
+     "InvalidInput", "kinematics must be one of small, large"),
+    ({"name": "correct-wheelrail", "input": [[150, -3, 100]], "config": {"film": "HS", "imprint_model": "bogus"}},
+     "InvalidInput", "imprint_model must be one of edge, activation, capsule, mixture"),
     ({"name": "correct-wheelrail", "input": [[150, -3, 1e9]], "config": {"film": "HS"}}, "InvalidInput", "force"),
     # an integer of 400 digits has no float: it was an InternalError (500, OverflowError)
     (b'{"name": "correct-sphere", "input": [[7.1, 1' + b"0" * 400 + b', 50]], "config": {"film": "HS"}}',
@@ -146,6 +151,7 @@ def test_other_methods_get_a_json_error_object_not_an_html_page(server, method):
     assert status == 501 and answer["error"]["type"] == "UnsupportedFeature", answer
     assert method in answer["error"]["message"] and "GET /Info" in answer["error"]["message"]
     assert _call(url, "/Info", method="GET")[0] == 200  # and the server goes on
+    assert _call(url, "/Info/?client=x", method="GET")[0] == 200  # a query string is not part of the route
 
 
 def _raw(url: str, data: bytes, read: bool = True) -> bytes:

@@ -43,6 +43,31 @@ def simulator_from_args(args):
 ROUGH_COMMAND_BASE_BYTES = {"wheelrail": 110 * 2**20, "curves": 300 * 2**20, "correct": 120 * 2**20}
 
 
+def _check_map_reading(args, maps: list) -> None:
+    """Refuse a map-reading option (`add_roughness_map_reading`) that none of the given maps reads: given without
+    a map, or a CSV's height scale for an image, a pixel size for an x3p file or a line profile."""
+    given = [(option, dest) for option, dest, unset in (
+        ("--roughness-pixel-um", "pixel_um", None), ("--roughness-height-scale", "height_scale", 1.0),
+        ("--roughness-height-range-um", "height_range_um", None))
+        if getattr(args, "roughness_" + dest, unset) != unset]
+    if not given:
+        return
+    from filmcal._errors import InputError
+
+    if not maps:
+        raise InputError(f"{given[0][0]} says how a roughness map is read: give --wheel-roughness-map or "
+                         "--rail-roughness-map with it")
+    from filmcal.contact.surface_files import READING_OPTIONS, surface_file_kind
+
+    kinds = {surface_file_kind(path) for path in maps}
+    for option, dest in given:
+        if not any(dest in READING_OPTIONS[kind] for kind in kinds):
+            raise InputError(f"{option} does not apply to the roughness map given ({', '.join(sorted(kinds))}): "
+                             "an x3p file and a line profile carry their own scales, a CSV height map takes "
+                             "--roughness-pixel-um and --roughness-height-scale, an image --roughness-pixel-um and "
+                             "--roughness-height-range-um; leave it out")
+
+
 def check_roughness_maps(args, command: str, film_laws_per_map: int, steel_laws_per_map: int = 1,
                          copies: int = 1, advice: str = "crop the map") -> None:
     """Check the roughness maps a command was given before any work: each at most
@@ -58,16 +83,8 @@ def check_roughness_maps(args, command: str, film_laws_per_map: int, steel_laws_
     """
     given = [(option, getattr(args, dest, None)) for option, dest in (
         ("--wheel-roughness-map", "wheel_roughness_map"), ("--rail-roughness-map", "rail_roughness_map"))]
+    _check_map_reading(args, [path for _, path in given if path is not None])
     if all(path is None for _, path in given):
-        reading = [option for option, dest, unset in (("--roughness-pixel-um", "roughness_pixel_um", None),
-                                                       ("--roughness-height-scale", "roughness_height_scale", 1.0),
-                                                       ("--roughness-height-range-um", "roughness_height_range_um", None))
-                   if getattr(args, dest, unset) != unset]
-        if reading:
-            from filmcal._errors import InputError
-
-            raise InputError(f"{reading[0]} says how a roughness map is read: give --wheel-roughness-map or "
-                             "--rail-roughness-map with it")
         return  # nothing to read: nothing imported (a correction without maps starts fast)
     from filmcal._memory import check_memory
     from filmcal.contact.roughness import rough_law_cost

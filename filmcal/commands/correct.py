@@ -136,6 +136,9 @@ def run_batch(args: argparse.Namespace) -> int:
     from filmcal._io import check_distinct_files
 
     check_distinct_files((args.batch, "--batch"), (args.out, "--out"), (f"{args.out}.provenance.json", "--out's provenance"))
+    from filmcal.study.layout import check_outside_study
+
+    check_outside_study(args.out, "--out", args.study_dir)
     single = [name for name in ("film", "force_kn", "measured_area_mm2", "offset_mm", "measured_radius_mm", "sphere_radius_mm",
                                 "scan", "wheel_roughness_ra_um", "rail_roughness_ra_um")
               if getattr(args, name, None) is not None]

@@ -115,6 +115,7 @@ def run(args: argparse.Namespace) -> int:
     from filmcal._parallel import parallel_work
     from filmcal._validation import parse_grid
     from filmcal.study import Study
+    from filmcal.study.layout import check_outside_study
 
     forces = parse_grid("forces_kn", args.forces_kn, 50)
     offsets = parse_grid("offsets_mm", args.offsets_mm, 200)
@@ -125,6 +126,13 @@ def run(args: argparse.Namespace) -> int:
     if any(not (-20 <= e <= 10) for e in offsets):
         raise ValueError(f"offsets_mm must lie in [-20, 10] mm, got {args.offsets_mm!r}")
     _check_map_memory(args)
+    from filmcal._io import check_distinct_files, check_output_file
+
+    outputs = [(path, option) for path, option in ((args.csv, "--csv"), (args.plot, "--plot")) if path]
+    for path, option in outputs:  # refused before the solves, not after them
+        check_output_file(path, option)
+        check_outside_study(path, option, args.study_dir)
+    check_distinct_files(*outputs)
     from filmcal.correction import CURVE_COLUMNS, curve_table, write_curves_csv
     from filmcal.study.core import chosen_posteriors, curve_components
 

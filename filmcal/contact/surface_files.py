@@ -25,7 +25,7 @@ from xml.etree import ElementTree
 
 import numpy as np
 
-__all__ = ["read_surface_file", "read_x3p", "read_line_profile", "profile_surface", "MAX_PIXEL_UM",
+__all__ = ["read_surface_file", "surface_file_kind", "READING_OPTIONS", "read_x3p", "read_line_profile", "profile_surface", "MAX_PIXEL_UM",
            "MIN_PIXELS", "MIN_SIDE_UM", "MAX_MAP_PIXELS", "surface_file_shape", "check_map_pixels"]
 
 #: The coarsest pixel (um) at which the asperities that carry the film's contact are resolved.
@@ -329,6 +329,22 @@ def check_map_pixels(path: str | Path, option: str = "roughness map", shape: tup
         f"{side}) or bin it to coarser pixels (at most {MAX_PIXEL_UM:g} um) first")
 
 
+#: The options of `read_surface_file` each kind of file reads (the rest it has no use for).
+READING_OPTIONS = {"x3p": (), "line profile": (), "csv map": ("pixel_um", "height_scale"),
+                   "image": ("pixel_um", "height_range_um")}
+
+
+def surface_file_kind(path: str | Path) -> str:
+    """Which reader `read_surface_file` takes for `path`: a key of `READING_OPTIONS`."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix == ".x3p":
+        return "x3p"
+    if suffix in (".png", ".tif", ".tiff"):
+        return "image"
+    return "line profile" if suffix == ".csv" and path.is_file() and _is_line_profile_csv(path) else "csv map"
+
+
 def read_surface_file(path: str | Path, pixel_um: float | None = None, height_scale: float = 1.0,
                       height_range_um: float | None = None):
     """A measured surface by its file: x3p (map or profile), a CSV line profile (a header with x_um/x_mm and
@@ -342,13 +358,14 @@ def read_surface_file(path: str | Path, pixel_um: float | None = None, height_sc
         raise ValueError(f"roughness map {path}: not found")
     check_map_pixels(path)
     suffix = path.suffix.lower()
+    image = suffix in (".png", ".tif", ".tiff")
     if suffix == ".x3p":
         return read_x3p(path)
     if suffix == ".csv" and _is_line_profile_csv(path):
         return read_line_profile(path)
     if pixel_um is None:
         raise ValueError(f"roughness map {path}: a height map needs its pixel size (--roughness-pixel-um)")
-    if suffix in (".png", ".tif", ".tiff"):
+    if image:
         if height_range_um is None:
             raise ValueError(f"roughness map {path}: an image needs its height range (--roughness-height-range-um)")
     try:

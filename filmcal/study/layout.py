@@ -30,7 +30,7 @@ from typing import Any
 from filmcal._errors import UntrustedArtefactError
 from filmcal._io import json_hash
 
-__all__ = ["StudyLayout", "spec_key", "MANIFEST_NAME"]
+__all__ = ["StudyLayout", "spec_key", "MANIFEST_NAME", "check_outside_study"]
 
 MANIFEST_NAME = "study.json"
 
@@ -38,6 +38,23 @@ MANIFEST_NAME = "study.json"
 def spec_key(spec: dict[str, Any]) -> str:
     """The 12-hex-digit key of a spec (`filmcal._io.json_hash`, the package's one settings hash)."""
     return json_hash(spec, digits=12)
+
+
+def check_outside_study(path: str | Path, option: str, study_dir: str | Path) -> None:
+    """Refuse a user's output file inside a study folder (filmcal writes that folder, and records every file
+    it keeps there: a file of the user's would be taken over or would overwrite one of the study's).
+
+    Raises
+    ------
+    filmcal._errors.InputError
+        Naming the option, the file and the study.
+    """
+    from filmcal._errors import InputError
+
+    target, root = Path(path).resolve(), Path(study_dir).resolve()
+    if target == root or root in target.parents:
+        raise InputError(f"{option} {str(path)!r} lies inside the study folder {str(study_dir)!r}, which filmcal "
+                         "writes and records: give a file outside it (nothing was written)")
 
 
 class StudyLayout:

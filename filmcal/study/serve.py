@@ -230,7 +230,7 @@ class CorrectionServer:
 
     @staticmethod
     def _config(request: dict, name: str) -> dict:
-        from filmcal.contact.names import MIXTURE
+        from filmcal.contact.names import IMPRINT_MODELS, KINEMATICS, MIXTURE
 
         given = request.get("config", {})
         if not isinstance(given, dict):
@@ -249,6 +249,10 @@ class CorrectionServer:
         for k in ("imprint_model", "kinematics", "calibration_forces_kn"):
             if config[k] is not None and not isinstance(config[k], str):
                 raise _RequestError("InvalidInput", f"config {k} must be a string, got {config[k]!r}")
+        for k, known in (("imprint_model", (*IMPRINT_MODELS, MIXTURE)), ("kinematics", KINEMATICS)):
+            if config[k] is not None and config[k] not in known:
+                raise _RequestError("InvalidInput", f"config {k} must be one of {', '.join(known)}, "
+                                    f"got {config[k]!r}")
         seed = given.get("seed", 0)
         if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32:
             raise _RequestError("InvalidInput", f"config seed must be an integer in [0, 2^32), got {seed!r}")
@@ -340,8 +344,12 @@ def _handler(owner: CorrectionServer) -> type:
             if send_body:
                 self.wfile.write(data)
 
+        def _route(self) -> str:
+            """The request's path without its query string or a trailing slash."""
+            return self.path.split("?", 1)[0].rstrip("/")
+
         def do_GET(self):  # noqa: N802 (http.server's name)
-            if self.path.rstrip("/") == "/Info":
+            if self._route() == "/Info":
                 self._send(200, owner.info())
             else:
                 self._error(_RequestError("UnsupportedFeature", f"no GET {self.path}; GET /Info lists the models",
@@ -352,7 +360,7 @@ def _handler(owner: CorrectionServer) -> type:
                       "/OutputSizes": owner.output_sizes, "/ModelInfo": owner.model_info}
             try:
                 request = self._body()
-                route = routes.get(self.path.rstrip("/"))
+                route = routes.get(self._route())
                 if route is None:
                     raise _RequestError("UnsupportedFeature", f"{self.path} is not served: only Evaluate (no "
                                         "Gradient, ApplyJacobian, ApplyHessian, shared memory)")

@@ -97,6 +97,10 @@ class PipelineSettings:
                 raise InputError(f"kinematics must be one of {', '.join(KINEMATICS)}, got {k!r}")
         if not self.imprint_models or not self.kinematics:
             raise InputError("at least one imprint model and one film kinematics are needed")
+        for name, values in (("imprint model", self.imprint_models), ("kinematics", self.kinematics)):
+            twice = sorted({v for v in values if list(values).count(v) > 1})
+            if twice:
+                raise InputError(f"{name} {', '.join(twice)} is given more than once")
         if isinstance(self.rough_draws, bool) or not isinstance(self.rough_draws, int) or self.rough_draws < 1:
             raise InputError(f"rough_draws must be an integer >= 1, got {self.rough_draws!r}")
         check_moduli_per_case(self.moduli_per_case)
