@@ -313,6 +313,8 @@ CASES = [
      ["--roughness-height-range-um"]),
     # a repeated imprint model started the whole pipeline with it twice
     (["pipeline", "--study-dir", "emptystudy", "--imprint-models", "edge,edge"], ["edge is given more than once"]),
+    # a simulator told none of a run's inputs ran the design first, then failed on its output
+    (["pipeline", "--study-dir", "emptystudy", "--simulator-command", "echo hi"], ["every run would be the same"]),
     # curves
     (["curves", "--film", "HS", "--offsets-mm=0,0", "--study-dir", "emptystudy"], ["0 more than once"]),
     (["curves", "--film", "HS", "--csv", "same.png", "--plot", "same.png", "--study-dir", "emptystudy"],

@@ -167,3 +167,25 @@ def test_a_grey_or_palette_sheet_is_refused_for_its_colours_not_for_a_cut_imprin
     assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
     assert problem in p.stderr and "sheet.png" in p.stderr
     assert not out.exists() and not (tmp_path / "imprints.png").exists()
+
+
+def test_a_page_cropped_through_an_imprint_reads_the_others_and_the_batch_refuses_the_cut_one(real_sheet, tmp_path):
+    """Cropping the real page through its first column of imprints refused the whole page ('the stain touches
+    the image border'). Now the four whole imprints read as on the full page, the two cut ones are marked, and
+    `correct --batch` marks their rows failed instead of correcting a part of an imprint as a whole one."""
+    image = Image.open(SHEET)
+    left = CENTRES_PX[0][0]  # through the middle of imprints 1 and 4
+    path = tmp_path / "cropped.png"
+    image.crop((left, 0, image.width, image.height)).save(path, dpi=image.info["dpi"])
+    sheet = read_sheet(path)
+    assert [imp.status for imp in sheet.imprints] == ["touches the page's edge: cut off", "ok", "ok"] * 2
+    whole = {i: imp.area_mm2 for i, imp in enumerate(real_sheet.imprints) if i not in (0, 3)}
+    for i, area in whole.items():
+        assert sheet.imprints[i].area_mm2 == pytest.approx(area, abs=0.05)
+    for i in (0, 3):
+        assert 0.1 * real_sheet.imprints[i].area_mm2 < sheet.imprints[i].area_mm2 < 0.6 * real_sheet.imprints[i].area_mm2
+    from filmcal.study.batch import _measurement
+
+    with pytest.raises(ValueError, match="cut off; its area is not the whole imprint's"):
+        _measurement({"film": "HS", "force_kn": "100", "measured_area_mm2": "8.3", "offset_mm": "-3",
+                      "scan_status": sheet.imprints[0].status})

@@ -99,13 +99,16 @@ class Simulator:
             if self.template_files or self.timeout_s is not None:
                 raise InputError("template files and a timeout belong to a command simulator")
         else:
-            CommandModel(self.command, Path("."), self.template_files, self.timeout_s)  # its own checks
-            missing = [name for name in CommandModel(self.command, Path("."), self.template_files).placeholders
-                       if name not in SIMULATOR_INPUTS]
+            placeholders = CommandModel(self.command, Path("."), self.template_files, self.timeout_s).placeholders
+            missing = [name for name in placeholders if name not in SIMULATOR_INPUTS]
             if missing:
                 raise InputError(f"--simulator-command: placeholder(s) {', '.join('{' + m + '}' for m in missing)} "
                                  f"are not inputs of a run; use {', '.join('{' + n + '}' for n in SIMULATOR_INPUTS)}, "
                                  "{work_dir} and {point_id}")
+            if not set(placeholders) & set(SIMULATOR_INPUTS[:4]):  # the inputs a design varies
+                raise InputError(f"--simulator-command {self.command!r} and its template files use none of "
+                                 f"{', '.join('{' + n + '}' for n in SIMULATOR_INPUTS[:4])}: every run would "
+                                 "be the same run; pass the inputs to the simulator")
 
     def spec(self) -> dict[str, Any]:
         """What makes its runs: the runs of equal specs are the same runs."""

@@ -422,6 +422,10 @@ def _image_pixels(image) -> np.ndarray:
     return pixels
 
 
+class _SizeRefused(ValueError):
+    """A scan with too few or too many pixels: a readable file, refused from its header before decoding."""
+
+
 def load_scan(path, max_pixels: int = MAX_IMPRINT_PIXELS) -> tuple[np.ndarray, dict]:
     """The pixels (as `stain_intensity` takes them) and the metadata of a scan, verified before decoding.
 
@@ -431,8 +435,10 @@ def load_scan(path, max_pixels: int = MAX_IMPRINT_PIXELS) -> tuple[np.ndarray, d
         If the file does not exist.
     filmcal._errors.DamagedFileError
         (a `ValueError`) for a file that is not an image, is truncated or
-        damaged, or has more than ``max_pixels`` pixels (refused from its
-        header, before it is decoded).
+        damaged.
+    ValueError
+        For a scan of more than ``max_pixels`` pixels (refused from its header, before it is decoded) or a
+        palette image.
     """
     import warnings
 
@@ -448,15 +454,15 @@ def load_scan(path, max_pixels: int = MAX_IMPRINT_PIXELS) -> tuple[np.ndarray, d
             with Image.open(path) as image:
                 width, height = image.size
                 if width < 2 or height < 2 or width * height > max_pixels:
-                    raise DamagedFileError(
-                        path, f"{width} x {height} pixels; a scan needs 2 x 2 to "
-                              f"{max_pixels / 1e6:g} million pixels: crop or downsample it")
+                    raise _SizeRefused(f"{path.name}: {width} x {height} pixels; a scan has 2 x 2 to "
+                                       f"{max_pixels / 1e6:g} million pixels (a whole A4 page at 600 dpi is 35 "
+                                       "million): crop it or scan it at a lower resolution")
                 mode = image.mode
                 if mode not in ("P", "PA"):  # refused below, without decoding
                     image.load()
                     info = dict(image.info)
                     pixels = _image_pixels(image)
-    except DamagedFileError:
+    except (DamagedFileError, _SizeRefused):
         raise
     except Image.DecompressionBombError as exc:
         raise damaged(path, exc) from None

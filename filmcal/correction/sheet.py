@@ -206,7 +206,12 @@ def _reading_order(boxes: list[tuple[slice, slice]]) -> list[int]:
 
 def _read_one(intensity: np.ndarray, region: np.ndarray, h: float, shape: tuple[int, int]
               ) -> tuple[Imprint, float, float, float, list[np.ndarray]]:
-    """The core (with the scale's uncertainty), the halo's area, coverage and outline of one imprint."""
+    """The core (with the scale's uncertainty), the halo's area, coverage and outline of one imprint.
+
+    The window is read with one pixel of blank paper around it, so that an imprint cut by the page's edge is
+    read as far as it goes (the sheet marks it cut off) instead of refused as a single scan would be.
+    """
+    intensity, region = np.pad(intensity, 1), np.pad(region, 1)
     inside = np.where(region, intensity, 0.0)
     areas = []
     core = None
@@ -223,7 +228,11 @@ def _read_one(intensity: np.ndarray, region: np.ndarray, h: float, shape: tuple[
     halo = measure_imprint(region.astype(float), h, threshold=0.5, min_region_mm2=0.5, min_contrast=0.0)
     ring = region & ~core.mask
     coverage = float(np.mean(intensity[ring] > DOT_INTENSITY)) if ring.any() else 0.0
-    return core, std_scale, halo.area_mm2, coverage, halo.outlines_mm
+    # back to the window's frame: the pad's column on the left and row at the bottom (y up) move x and y by h
+    core.mask = core.mask[1:-1, 1:-1]
+    core.outlines_mm = [ring_mm - h for ring_mm in core.outlines_mm]
+    core.centroid_mm = core.centroid_mm - h
+    return core, std_scale, halo.area_mm2, coverage, [ring_mm - h for ring_mm in halo.outlines_mm]
 
 
 def read_sheet(path, *, dpi: float | None = None, mm_per_pixel: float | None = None, rotate_deg: int = 0,

@@ -81,6 +81,10 @@ def _number(row: dict, name: str, default: float | None = None) -> float | None:
 def _measurement(row: dict):
     from filmcal.study.correct import BodyRoughness, SphereMeasurement, WheelRailMeasurement
 
+    status = row.get("scan_status", "")
+    if status not in ("", "ok"):  # `filmcal scan` read this imprint but says why its area is not the imprint's
+        raise ValueError(f"the scan says the imprint {status}; its area is not the whole imprint's")
+
     force = _number(row, "force_kn")
     if force is None:
         raise ValueError("force_kn is empty")
