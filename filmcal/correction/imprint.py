@@ -453,8 +453,10 @@ def load_scan(path, max_pixels: int = MAX_IMPRINT_PIXELS) -> tuple[np.ndarray, d
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
             with Image.open(path) as image:
                 width, height = image.size
-                if width < 2 or height < 2 or width * height > max_pixels:
-                    raise _SizeRefused(f"{path.name}: {width} x {height} pixels; a scan has 2 x 2 to "
+                if width < 2 or height < 2:
+                    raise _SizeRefused(f"{path.name}: {width} x {height} pixels is not a scan of an imprint")
+                if width * height > max_pixels:
+                    raise _SizeRefused(f"{path.name}: {width} x {height} pixels; a scan has at most "
                                        f"{max_pixels / 1e6:g} million pixels (a whole A4 page at 600 dpi is 35 "
                                        "million): crop it or scan it at a lower resolution")
                 mode = image.mode
