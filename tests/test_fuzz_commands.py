@@ -107,6 +107,7 @@ def make_folder(tmp_path: Path, bomb_png: bytes) -> Path:
     (tmp_path / "binstudy").mkdir()
     (tmp_path / "binstudy" / "study.json").write_bytes(b"\xff\xfe\x00\x00")
     (tmp_path / "adir").mkdir()
+    (tmp_path / "headeronly.csv").write_text("a\n")  # was 'sample needs at least 1 points, got 0'
     (tmp_path / "uncalibrated").mkdir()  # a study whose manifest records no calibration: reported with 0 figures
     from filmcal.study.manifest import Manifest
 
@@ -186,6 +187,7 @@ CASES = [
     (["doe", "--samples", "5", *[f"--param=p{i}=0:1" for i in range(21)], "--out", "d.csv"], ["--param"]),
     (["doe", *DOE, "--augment", "binary.csv"], ["--augment", "binary.csv"]),
     (["doe", *DOE, "--augment", "empty.csv"], ["empty.csv"]),
+    (["doe", *DOE, "--augment", "headeronly.csv"], ["headeronly.csv has a header and no points"]),
     (["doe", *DOE, "--augment", "wrongcols.csv"], ["--augment", "wrongcols.csv"]),
     (["doe", *DOE, "--augment", "ragged.csv"], ["ragged.csv", "--augment"]),
     # campaign

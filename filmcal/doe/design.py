@@ -153,10 +153,13 @@ def read_design_csv(path: str | PathLike) -> tuple[tuple[str, ...], np.ndarray]:
         For an empty file, a row of the wrong length or a value that is not a
         finite number.
     """
-    with open(path, newline="") as handle:
+    # utf-8-sig: a spreadsheet's byte-order mark is not part of the first column's name
+    with open(path, newline="", encoding="utf-8-sig") as handle:
         rows = [row for row in csv.reader(handle) if row]
     if not rows:
         raise ValueError(f"design file {path} is empty")
+    if len(rows) == 1:
+        raise ValueError(f"design file {path} has a header and no points")
     names = tuple(name.strip() for name in rows[0])
     values = []
     for line, row in enumerate(rows[1:], start=2):
