@@ -319,6 +319,9 @@ CASES = [
     (["pipeline", "--study-dir", "emptystudy", "--simulator-command", "echo hi"], ["every run would be the same"]),
     # curves
     (["curves", "--film", "HS", "--offsets-mm=0,0", "--study-dir", "emptystudy"], ["0 more than once"]),
+    # draws of the roughness inputs for smooth bodies were ignored
+    (["curves", "--film", "HS", "--roughness-draws", "4", "--study-dir", "emptystudy"], ["--roughness-draws"]),
+    (["correct", "--film", "HS", *WHEEL, "--roughness-draws", "2", "--study-dir", "badstudy"], ["--roughness-draws"]),
     (["curves", "--film", "HS", "--csv", "same.png", "--plot", "same.png", "--study-dir", "emptystudy"],
      ["is the file of --csv"]),
     (["curves", "--film", "HS", "--csv", "emptystudy/curves.csv", "--study-dir", "emptystudy"],

@@ -43,6 +43,23 @@ def simulator_from_args(args):
 ROUGH_COMMAND_BASE_BYTES = {"wheelrail": 110 * 2**20, "curves": 300 * 2**20, "correct": 120 * 2**20}
 
 
+#: Draws of the roughness law's conditioned inputs a rough band takes unless told otherwise.
+DEFAULT_ROUGHNESS_DRAWS = 8
+
+
+def roughness_draws(args, rough: bool) -> int:
+    """``--roughness-draws`` as given, or `DEFAULT_ROUGHNESS_DRAWS`; refused when given for smooth bodies (and
+    a measured law, which has no inputs to draw), where it would be ignored."""
+    if args.roughness_draws is None:
+        return DEFAULT_ROUGHNESS_DRAWS
+    if not rough:
+        from filmcal._errors import InputError
+
+        raise InputError("--roughness-draws applies to rough bodies: give --wheel-roughness-ra-um, "
+                         "--rail-roughness-ra-um or a roughness map with it")
+    return args.roughness_draws
+
+
 def _check_map_reading(args, maps: list) -> None:
     """Refuse a map-reading option (`add_roughness_map_reading`) that none of the given maps reads: given without
     a map, or a CSV's height scale for an image, a pixel size for an x3p file or a line profile."""

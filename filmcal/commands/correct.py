@@ -70,7 +70,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add(p, "wheel_roughness_map", extra="(wheel-rail; instead of --wheel-roughness-ra-um; its Ra is reported)")
     add(p, "rail_roughness_map", extra="(wheel-rail; instead of --rail-roughness-ra-um)")
     add_roughness_map_reading(p)
-    local(p, "--roughness-draws", type=int, default=8,
+    local(p, "--roughness-draws", type=int,
           help="wheel-rail with roughness: draws of the roughness law's conditioned inputs (coating hardness, "
                "the scan's reading level, the surface's spectrum) that the band takes, 1-16 (default 8; each "
                "costs 10-30 s; the JSON gives the Monte-Carlo error)")
@@ -174,8 +174,11 @@ def run(args: argparse.Namespace) -> int:
     from filmcal.study.correct import (BodyRoughness, ScanReading, SphereMeasurement, WheelRailMeasurement,
                                        correct_measurement)
 
-    from filmcal.commands._common import check_roughness_maps
+    from filmcal.commands._common import check_roughness_maps, roughness_draws
 
+    args.roughness_draws = roughness_draws(args, bool(args.batch is not None or args.wheel_roughness_ra_um
+                                                      or args.rail_roughness_ra_um or args.wheel_roughness_map
+                                                      or args.rail_roughness_map))
     # one law against the film per draw and map, one steel law per map: refused before any work if they do
     # not fit in the memory available now
     check_roughness_maps(args, "correct", args.roughness_draws, 1,

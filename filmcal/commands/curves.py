@@ -32,7 +32,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add(p, "rail_roughness_map", extra="(instead of --rail-roughness-ra-um)")
     add_roughness_map_reading(p)
     add(p, "progress", default="auto", extra="(quiet: no line per curve set)")
-    local(p, "--roughness-draws", type=int, default=8,
+    local(p, "--roughness-draws", type=int,
           help="rough bodies: draws of the roughness law's conditioned inputs (coating hardness, the scan's "
                "reading level, the surface's spectrum) that the rough bands take, 1-16 (default 8); the "
                "roughness share of each band's variance and the Monte-Carlo error are columns")
@@ -116,6 +116,7 @@ def run(args: argparse.Namespace) -> int:
     from filmcal._validation import parse_grid
     from filmcal.study import Study
     from filmcal.study.layout import check_outside_study
+    from filmcal.commands._common import roughness_draws
 
     forces = parse_grid("forces_kn", args.forces_kn, 50)
     offsets = parse_grid("offsets_mm", args.offsets_mm, 200)
@@ -125,6 +126,8 @@ def run(args: argparse.Namespace) -> int:
                          f"got {args.forces_kn!r}")
     if any(not (-20 <= e <= 10) for e in offsets):
         raise ValueError(f"offsets_mm must lie in [-20, 10] mm, got {args.offsets_mm!r}")
+    args.roughness_draws = roughness_draws(args, bool(args.wheel_roughness_ra_um or args.rail_roughness_ra_um
+                                                      or args.wheel_roughness_map or args.rail_roughness_map))
     _check_map_memory(args)
     from filmcal._io import check_distinct_files, check_output_file
 

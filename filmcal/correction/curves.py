@@ -246,7 +246,9 @@ def _rough_cell(curves: CorrectionCurves, i: int, j: int, a0: float, pooled: lis
     w = first.weights / first.weights.sum()
     mean = float(np.sum(w * h))
     sd = float(np.sqrt(np.sum(w * (h - mean) ** 2)))
-    curves.roughness_mc_error_rel[i, j] = sd * math.sqrt(first.weight_square_sum()) / mean
+    # one draw has no spread to estimate its error from: not known, rather than zero
+    curves.roughness_mc_error_rel[i, j] = (sd * math.sqrt(first.weight_square_sum()) / mean if len(w) > 1
+                                           else math.nan)
 
 
 CURVE_COLUMNS = ("film", "wheel", "force_kn", "offset_mm", "area_no_film_mm2", "area_film_median_mm2",

@@ -87,7 +87,7 @@ class RoughGrowth:
             sd = math.sqrt(float(np.sum(w * (pct - mean) ** 2)))
             lo, hi = weighted_quantiles(pct, w, [0.05, 0.95])
             out[name] = {"mean_pct": mean, "sd_pct": sd, "ci90_pct": [float(lo), float(hi)],
-                         "mc_error_pct": sd / math.sqrt(n_eff)}
+                         "mc_error_pct": sd / math.sqrt(n_eff) if len(w) > 1 else math.nan}  # 1 draw: unknown
         return out
 
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
+import math
 import platform
 import subprocess
 from collections.abc import Callable
@@ -689,8 +690,8 @@ def film_records_section(comparison: dict | None, curves: dict | None = None) ->
 
 def _share(row: dict, key: str, scale: float, digits: int) -> str:
     """A roughness column of a curve row ('-' on smooth bodies, or in curves written before the column)."""
-    if row.get("wheel") == "smooth" or key not in row:
-        return "-"
+    if row.get("wheel") == "smooth" or key not in row or row[key] in ("", None) or math.isnan(float(row[key])):
+        return "-"  # smooth, written before the column, or not known (the MC error of one draw)
     return f"{scale * float(row[key]):.{digits}f}"
 
 
