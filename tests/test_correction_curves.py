@@ -149,3 +149,23 @@ def test_curves_refuses_an_ra_and_a_map_for_one_body(tmp_path):
                         str(tmp_path / "st"), "--rail-roughness-ra-um", "1.5", "--rail-roughness-map",
                         str(tmp_path / "none.x3p")], capture_output=True, text=True)
     assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1
+
+
+def test_curves_beyond_the_elastic_limit_say_so_as_correct_does(quick_study):
+    """`curves --forces-kn 2000` printed its rows at a peak of 3.4 GPa without a word; `correct` warned. Hertz's
+    peak pressure of the S1002/60E2 contact (1.1 GPa at 100 kN) grows as F^(1/3): 2000 kN is far beyond the
+    limit, 100 kN below it."""
+    import json
+    import subprocess
+    import sys
+
+    study, _, _ = quick_study
+    cli = [sys.executable, "-m", "filmcal.cli", "curves", "--film", "HS", "--study-dir", str(study), "--offsets-mm=-3",
+           "--progress", "quiet", "--json", "--forces-kn"]
+    p = subprocess.run(cli + ["100,2000"], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    answer = json.loads(p.stdout)
+    assert len(answer["warnings"]) == 1 and "at 1 of 2 (load, offset) cells" in answer["warnings"][0]
+    assert p.stderr.strip().splitlines() == [f"filmcal curves: warning: {answer['warnings'][0]}"]
+    p = subprocess.run(cli + ["100"], capture_output=True, text=True)
+    assert p.returncode == 0 and p.stderr == "" and "warnings" not in json.loads(p.stdout)

@@ -154,6 +154,18 @@ def run(args: argparse.Namespace) -> int:
             for label in ["smooth"] + [c.label for c in rough]:
                 sys.stderr.write(f"[curves] {film}, {label}: {len(forces)} loads x {len(offsets)} offsets\n")
         rows = curve_table(film, components, offsets, forces, rough, workers)
+    from filmcal.hertz import ELASTIC_LIMIT_MPA
+
+    peak = CURVE_COLUMNS.index("max_pressure_no_film_mpa")
+    over = sorted({(r[2], r[3]) for r in rows if r[peak] > ELASTIC_LIMIT_MPA})
+    if over:  # as `filmcal correct` warns
+        top = max(r[peak] for r in rows)
+        note = (f"the contact without film exceeds the steel's elastic limit of {ELASTIC_LIMIT_MPA:.0f} MPa at "
+                f"{len(over)} of {len(forces) * len(offsets)} (load, offset) cells (highest {top:.0f} MPa, at "
+                f"{over[-1][0]:g} kN): there the elastic model is outside its validity and the real contact is "
+                "larger (plastic)")
+        notes.append(note)
+        sys.stderr.write(f"filmcal curves: warning: {note}\n")
     if args.csv:
         write_curves_csv(args.csv, rows)
     if args.plot:

@@ -761,7 +761,7 @@ def crossval_section(results: dict) -> Section:
 def elastic_limit_note(curves: dict) -> str:
     """What the curves' contacts without film say about the elastic model's validity (as `filmcal correct`
     warns above the steel's elastic limit)."""
-    from filmcal.study.correct import ELASTIC_LIMIT_MPA
+    from filmcal.hertz import ELASTIC_LIMIT_MPA
 
     rows = [r for rows in curves.values() for r in rows if "max_pressure_no_film_mpa" in r]
     if not rows:
