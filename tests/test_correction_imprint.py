@@ -130,10 +130,14 @@ def test_red_on_white_png_with_noise_and_dpi_metadata(tmp_path):
     true_area = math.pi * 177.2 * 153.4 * h**2
     assert abs(imp.area_mm2 - true_area) <= imp.area_std_mm2
     assert abs(imp.area_mm2 / true_area - 1) < 1e-3
-    doubled = read_imprint(path, dpi=300)  # an explicit resolution overrides the metadata
+    from filmcal.correction.imprint import ScanResolutionWarning
+
+    with pytest.warns(ScanResolutionWarning, match="x4"):  # an explicit resolution overrides the metadata, said
+        doubled = read_imprint(path, dpi=300)
     assert doubled.pixel_size_source == "dpi"
     assert doubled.area_mm2 == pytest.approx(4 * imp.area_mm2, rel=1e-3)
-    given = read_imprint(path, mm_per_pixel=0.1)
+    with pytest.warns(ScanResolutionWarning, match="records 599.999 dpi"):
+        given = read_imprint(path, mm_per_pixel=0.1)
     assert given.area_mm2 == pytest.approx(imp.area_mm2 * (0.1 / imp.pixel_size_mm) ** 2, rel=1e-6)
 
 

@@ -189,3 +189,21 @@ def test_a_page_cropped_through_an_imprint_reads_the_others_and_the_batch_refuse
     with pytest.raises(ValueError, match="cut off; its area is not the whole imprint's"):
         _measurement({"film": "HS", "force_kn": "100", "measured_area_mm2": "8.3", "offset_mm": "-3",
                       "scan_status": sheet.imprints[0].status})
+
+
+def test_a_resolution_given_against_the_files_own_is_said(tmp_path):
+    """`--dpi 100` on the real page, which records 200 dpi, read every area 4 times larger (and two specks of
+    dust as imprints) without a word; now it is said, with the factor. Agreeing with the file, or overriding a
+    software default of 72 or 96 dpi, says nothing."""
+    def scan(path, *extra):
+        return subprocess.run([sys.executable, "-m", "filmcal.cli", "scan", str(path), "--out",
+                               str(tmp_path / "t.csv"), *extra], capture_output=True, text=True)
+
+    p = scan(SHEET, "--dpi", "100")
+    warned = [line for line in p.stderr.splitlines() if "warning" in line]
+    assert p.returncode == 0 and len(warned) == 1
+    assert "records 200 dpi; read at the 100 dpi given instead" in warned[0] and "x4)" in warned[0]
+    assert not [line for line in scan(SHEET, "--dpi", "200").stderr.splitlines() if "warning" in line]
+    default = tmp_path / "sheet96.jpg"
+    Image.open(SHEET).save(default, dpi=(96, 96), quality=95)
+    assert not [line for line in scan(default, "--dpi", "200").stderr.splitlines() if "warning" in line]

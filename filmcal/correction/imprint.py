@@ -388,21 +388,36 @@ def measure_imprint(intensity, pixel_size_mm: float, *, threshold: float | None 
 # Files
 # ---------------------------------------------------------------------------
 
+class ScanResolutionWarning(UserWarning):
+    """A resolution given on the command line differs from the one the scan's file records."""
+
+
 def _pixel_size(dpi, mm_per_pixel, info: dict, path: Path) -> tuple[float, str]:
     """Pixel size (mm) from exactly one of dpi, mm_per_pixel, or the file's resolution."""
     if dpi is not None and mm_per_pixel is not None:
         raise ValueError("give either dpi or mm_per_pixel, not both")
-    if dpi is not None:
-        return MM_PER_INCH / check_positive("dpi", dpi), "dpi"
-    if mm_per_pixel is not None:
-        return check_positive("mm_per_pixel", mm_per_pixel), "mm_per_pixel"
     meta = info.get("dpi")
+    xd = yd = float("nan")
     if meta is not None:
         try:
             xd, yd = (float(v) for v in meta)
         except (TypeError, ValueError):
             xd = yd = float("nan")
-        if math.isfinite(xd) and math.isfinite(yd) and min(xd, yd) >= MIN_METADATA_DPI:
+    recorded = math.isfinite(xd) and math.isfinite(yd) and min(xd, yd) >= MIN_METADATA_DPI
+    if dpi is not None or mm_per_pixel is not None:
+        h = (MM_PER_INCH / check_positive("dpi", dpi) if dpi is not None
+             else check_positive("mm_per_pixel", mm_per_pixel))
+        software_default = round(0.5 * (xd + yd)) in (72, 96)  # written by software, not by a scanner
+        if recorded and not software_default and abs(h / (MM_PER_INCH / (0.5 * (xd + yd))) - 1.0) > 0.01:
+            import warnings
+
+            warnings.warn(ScanResolutionWarning(
+                f"{path.name} records {0.5 * (xd + yd):g} dpi; read at the {MM_PER_INCH / h:g} dpi given instead "
+                f"(areas scale with the square of the pixel size: x{(h * 0.5 * (xd + yd) / MM_PER_INCH) ** 2:.3g})"),
+                stacklevel=3)
+        return h, "dpi" if dpi is not None else "mm_per_pixel"
+    if meta is not None:
+        if recorded:
             if abs(xd - yd) > 1e-3 * max(xd, yd):
                 raise ValueError(f"{path.name} has non-square pixels ({xd:g} x {yd:g} dpi): resample it to "
                                  "square pixels, or give dpi or mm_per_pixel")
