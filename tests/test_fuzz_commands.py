@@ -108,7 +108,7 @@ def make_folder(tmp_path: Path, bomb_png: bytes) -> Path:
     (tmp_path / "binstudy" / "study.json").write_bytes(b"\xff\xfe\x00\x00")
     (tmp_path / "adir").mkdir()
     (tmp_path / "headeronly.csv").write_text("a\n")  # was 'sample needs at least 1 points, got 0'
-    (tmp_path / "uncalibrated").mkdir()  # a study whose manifest records no calibration: reported with 0 figures
+    (tmp_path / "uncalibrated").mkdir()  # a study whose manifest records nothing: was reported with 0 figures
     from filmcal.study.manifest import Manifest
 
     Manifest.new(tmp_path / "uncalibrated" / "study.json").write()
@@ -360,7 +360,7 @@ CASES = [
     (["report", "--study-dir", "emptystudy"], ["--study-dir", "study_dir", "emptystudy"]),
     (["report", "--study-dir", "badstudy"], ["badstudy/study.json"]),
     (["report", "--study-dir", "binstudy"], ["binstudy/study.json"]),
-    (["report", "--study-dir", "uncalibrated", "--out-dir", "adir"], ["no calibration yet"]),
+    (["report", "--study-dir", "uncalibrated", "--out-dir", "adir"], ["holds no results yet"]),
 ]
 
 

@@ -29,9 +29,9 @@ def run(args: argparse.Namespace) -> int:
     from filmcal.study import Study
 
     study = Study(args.study_dir)  # a folder that is not a study is refused before the report's imports
-    if not any(entry.get("kind") == "posterior" for entry in study.manifest.data["artefacts"].values()):
-        raise ValueError(f"--study-dir {args.study_dir!r} holds no calibration yet: a report tells a calibration's "
-                         "story; run `filmcal pipeline` or `filmcal calibrate --study-dir ...` first")
+    if not study.manifest.data["artefacts"]:  # a report of what a study holds; this one holds nothing yet
+        raise ValueError(f"--study-dir {args.study_dir!r} holds no results yet (no calibration, no curves): run "
+                         "`filmcal pipeline` or `filmcal calibrate --study-dir ...` first")
     from pathlib import Path
 
     from filmcal._io import check_output_dir
