@@ -47,11 +47,14 @@ ROUGH_COMMAND_BASE_BYTES = {"wheelrail": 110 * 2**20, "curves": 300 * 2**20, "co
 DEFAULT_ROUGHNESS_DRAWS = 8
 
 
-def roughness_draws(args, rough: bool) -> int:
+def roughness_draws(args, batch: bool = False) -> int:
     """``--roughness-draws`` as given, or `DEFAULT_ROUGHNESS_DRAWS`; refused when given for smooth bodies (and
-    a measured law, which has no inputs to draw), where it would be ignored."""
+    a measured law, which has no inputs to draw), where it would be ignored. A ``batch``'s rows may name rough
+    bodies of their own."""
     if args.roughness_draws is None:
         return DEFAULT_ROUGHNESS_DRAWS
+    rough = batch or any(getattr(args, name, None) for name in (
+        "wheel_roughness_ra_um", "rail_roughness_ra_um", "wheel_roughness_map", "rail_roughness_map"))
     if not rough:
         from filmcal._errors import InputError
 

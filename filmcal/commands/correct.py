@@ -176,9 +176,7 @@ def run(args: argparse.Namespace) -> int:
 
     from filmcal.commands._common import check_roughness_maps, roughness_draws
 
-    args.roughness_draws = roughness_draws(args, bool(args.batch is not None or args.wheel_roughness_ra_um
-                                                      or args.rail_roughness_ra_um or args.wheel_roughness_map
-                                                      or args.rail_roughness_map))
+    args.roughness_draws = roughness_draws(args, batch=args.batch is not None)
     # one law against the film per draw and map, one steel law per map: refused before any work if they do
     # not fit in the memory available now
     check_roughness_maps(args, "correct", args.roughness_draws, 1,

@@ -126,8 +126,7 @@ def run(args: argparse.Namespace) -> int:
                          f"got {args.forces_kn!r}")
     if any(not (-20 <= e <= 10) for e in offsets):
         raise ValueError(f"offsets_mm must lie in [-20, 10] mm, got {args.offsets_mm!r}")
-    args.roughness_draws = roughness_draws(args, bool(args.wheel_roughness_ra_um or args.rail_roughness_ra_um
-                                                      or args.wheel_roughness_map or args.rail_roughness_map))
+    args.roughness_draws = roughness_draws(args)
     _check_map_memory(args)
     from filmcal._io import check_distinct_files, check_output_file
 
@@ -157,13 +156,13 @@ def run(args: argparse.Namespace) -> int:
     from filmcal.hertz import ELASTIC_LIMIT_MPA
 
     peak = CURVE_COLUMNS.index("max_pressure_no_film_mpa")
-    over = sorted({(r[2], r[3]) for r in rows if r[peak] > ELASTIC_LIMIT_MPA})
+    over = {(r[2], r[3]) for r in rows if r[peak] > ELASTIC_LIMIT_MPA}
     if over:  # as `filmcal correct` warns
-        top = max(r[peak] for r in rows)
+        top = max(rows, key=lambda r: r[peak])
         note = (f"the contact without film exceeds the steel's elastic limit of {ELASTIC_LIMIT_MPA:.0f} MPa at "
-                f"{len(over)} of {len(forces) * len(offsets)} (load, offset) cells (highest {top:.0f} MPa, at "
-                f"{over[-1][0]:g} kN): there the elastic model is outside its validity and the real contact is "
-                "larger (plastic)")
+                f"{len(over)} of {len(forces) * len(offsets)} (load, offset) cells (highest {top[peak]:.0f} MPa, at "
+                f"{top[2]:g} kN, eta {top[3]:+g} mm): there the elastic model is outside its validity and the real "
+                "contact is larger (plastic)")
         notes.append(note)
         sys.stderr.write(f"filmcal curves: warning: {note}\n")
     if args.csv:

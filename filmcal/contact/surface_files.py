@@ -357,19 +357,17 @@ def read_surface_file(path: str | Path, pixel_um: float | None = None, height_sc
     if not path.is_file():
         raise ValueError(f"roughness map {path}: not found")
     check_map_pixels(path)
-    suffix = path.suffix.lower()
-    image = suffix in (".png", ".tif", ".tiff")
-    if suffix == ".x3p":
+    kind = surface_file_kind(path)
+    if kind == "x3p":
         return read_x3p(path)
-    if suffix == ".csv" and _is_line_profile_csv(path):
+    if kind == "line profile":
         return read_line_profile(path)
     if pixel_um is None:
         raise ValueError(f"roughness map {path}: a height map needs its pixel size (--roughness-pixel-um)")
-    if image:
-        if height_range_um is None:
-            raise ValueError(f"roughness map {path}: an image needs its height range (--roughness-height-range-um)")
+    if kind == "image" and height_range_um is None:
+        raise ValueError(f"roughness map {path}: an image needs its height range (--roughness-height-range-um)")
     try:
-        surface = RoughSurface.from_image(path, pixel_um, height_range_um) if suffix in (".png", ".tif", ".tiff") \
+        surface = RoughSurface.from_image(path, pixel_um, height_range_um) if kind == "image" \
             else RoughSurface.from_csv(path, pixel_um, height_scale)
     except ValueError as exc:
         raise ValueError(str(exc) if str(path) in str(exc) else f"roughness map {path}: {exc}") from None
