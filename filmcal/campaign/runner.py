@@ -267,6 +267,17 @@ def _sort_key(value: DesignValue | None) -> tuple[int, float, str]:
     return (0, float(value), "")
 
 
+def _foreign_file(path: Path) -> bool:
+    """True for a file with content that is not SQLite. An empty file, or a store another campaign is creating
+    right now, is left to the lock and the store (a concurrent writer is waited for, not refused)."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(16)
+    except (FileNotFoundError, IsADirectoryError):
+        return False
+    return bool(head) and head != b"SQLite format 3\x00"
+
+
 class Campaign:
     """Evaluate a design through a model, storing every run in an SQLite store.
 
@@ -373,8 +384,8 @@ class Campaign:
         timeout_s = None if timeout_s is None else check_positive("timeout_s", timeout_s)
         start = time.perf_counter()
         unique = {point_id(point, self.settings_hash): point for point in points}
-        if self.store_path.exists():  # a file that is not a store is refused before its lock file is made
-            RunStore(self.store_path, readonly=True).close()
+        if _foreign_file(self.store_path):  # refused before its lock file is made
+            RunStore(self.store_path, readonly=True).close()  # raises, naming what the file is
         with StoreLock(self.store_path, lock_command, wait_s=wait_for_lock_s, on_wait=on_wait), \
                 RunStore(self.store_path) as store:
             store.add_points(unique, self.settings_hash, self._settings_record())
