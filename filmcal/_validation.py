@@ -12,7 +12,7 @@ import re
 from numbers import Real
 from typing import Any, Callable
 
-__all__ = ["as_finite", "check_positive", "check_range", "check_poisson", "check_choice",
+__all__ = ["as_finite", "plain_float", "check_positive", "check_range", "check_poisson", "check_choice",
            "check_count", "arg_finite", "arg_int_in", "arg_float_in", "parse_grid", "arg_grid", "FORCE_KN_BOUNDS",
            "SPHERE_RADIUS_MM_BOUNDS", "OFFSET_MM_BOUNDS"]
 
@@ -122,9 +122,9 @@ def _require(ok: bool, what: str) -> None:
         raise ValueError(what)
 
 
-def _plain_float(text: str) -> float:
-    """A number as written on a command line: ASCII digits, sign, point, exponent. Python's `float` also reads
-    ``1_0`` (10) and other scripts' digits, which no user means as a number."""
+def plain_float(text: str) -> float:
+    """A number as written on a command line or in a CSV cell: ASCII digits, sign, point, exponent. Python's
+    `float` also reads ``1_0`` (10) and other scripts' digits, which no user means as a number."""
     if not text.isascii() or "_" in text:
         raise ValueError("must be a plain number (ASCII digits, a decimal point, no underscores)")
     return float(text)
@@ -132,7 +132,7 @@ def _plain_float(text: str) -> float:
 
 def arg_finite() -> Callable[[str], float]:
     """An argparse ``type`` for a finite float (nan and inf refused)."""
-    return _argparse_type(_plain_float, lambda x: _require(math.isfinite(x), "must be a finite number"), "float")
+    return _argparse_type(plain_float, lambda x: _require(math.isfinite(x), "must be a finite number"), "float")
 
 
 def arg_int() -> Callable[[str], int]:
@@ -162,7 +162,7 @@ def _arg_float(accept: Callable[[float], bool], what: str, bounds: tuple[float, 
     """An argparse ``type`` for a finite number that `accept` takes (`what` says which)."""
     def convert(text: str) -> float:
         try:
-            return _plain_float(text)
+            return plain_float(text)
         except ValueError:
             raise ValueError(what) from None
     return _argparse_type(convert, lambda x: _require(math.isfinite(x) and accept(x), what), "float", bounds)

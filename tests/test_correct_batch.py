@@ -88,3 +88,15 @@ def test_a_repeated_measurement_is_answered_once_and_alike(quick_study, tmp_path
                     "--out", str(tmp_path / "one_out.csv"), "--progress", "quiet"], check=True, capture_output=True)
     with open(tmp_path / "one_out.csv", newline="") as fh:
         assert list(csv.DictReader(fh))[0]["area_mm2"] == rows[-1]["area_mm2"]
+
+
+def test_a_batch_cell_written_with_an_underscore_or_a_full_width_digit_is_not_a_number():
+    """Python's float reads 1_0 as 10 and a full-width 1 as 1; a batch row with either is not corrected."""
+    import pytest
+
+    from filmcal.study.batch import _number
+
+    assert _number({"force_kn": " 100 "}, "force_kn") == 100.0
+    for text in ("1_00", "\uff11\uff10\uff10"):
+        with pytest.raises(ValueError, match="not a number"):
+            _number({"force_kn": text}, "force_kn")

@@ -108,6 +108,13 @@ def test_optional_columns_repeats_uncertainty_roughness_and_materials(tmp_path):
      "not a number"),
     ("film,sphere_radius_mm,force_kn,measured_radius_mm\nHS,450,75,nan\n", "line 2, column measured_radius_mm",
      "finite"),
+    # Python's float and int read 1_0 as 10 and a full-width digit as itself; no lab writes either as a number
+    ("film,sphere_radius_mm,force_kn,measured_radius_mm\nHS,4_50,75,7\n", "line 2, column sphere_radius_mm",
+     "not a number"),
+    ("film,sphere_radius_mm,force_kn,measured_radius_mm\nHS,450,75,\uff17\n", "line 2, column measured_radius_mm",
+     "not a number"),
+    ("film,sphere_radius_mm,force_kn,measured_radius_mm,repeat\nHS,450,75,7,1_0\n", "line 2, column repeat",
+     "integer"),
     ("film,sphere_radius_mm,force_kn,measured_area_mm2\nHS,450,75,0\n", "line 2, column measured_area_mm2",
      "> 0"),
     ("film,sphere_radius_mm,force_kn,radius_error_mm\nHS,450,75,-7\n", "line 2, column radius_error_mm",

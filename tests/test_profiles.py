@@ -175,6 +175,7 @@ def test_csv_round_trip_of_rail_with_short_header_and_descending_y(tmp_path):
 @pytest.mark.parametrize("text, problem", [
     ("a,b\n1,2\n2,3\n3,4\n4,5\n5,6\n6,7\n", "header"),
     ("y_mm,z_mm\n1,2\n2,x\n3,4\n4,5\n5,6\n6,7\n", "not a number"),
+    ("y_mm,z_mm\n1,2\n2,1_0\n3,4\n4,5\n5,6\n6,7\n", "not a number"),
     ("y_mm,z_mm\n1,2\n2,nan\n3,4\n4,5\n5,6\n6,7\n", "not finite"),
     ("y_mm,z_mm\n1,2\n2,3\n3,4\n", "at least"),
     ("y_mm,z_mm\n1,2\n2,3\n2,4\n4,5\n5,6\n6,7\n", "monotone"),

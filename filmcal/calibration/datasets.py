@@ -50,7 +50,7 @@ from pathlib import Path
 
 import numpy as np
 
-from filmcal._validation import FORCE_KN_BOUNDS, MAX_RA_UM, MIN_RA_UM, SPHERE_RADIUS_MM_BOUNDS
+from filmcal._validation import FORCE_KN_BOUNDS, MAX_RA_UM, MIN_RA_UM, SPHERE_RADIUS_MM_BOUNDS, plain_float
 from filmcal.calibration.data import _FIELDS, RadiusErrorData, parse_load_range
 from filmcal.films import FILM_TYPES, FilmType
 from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, hertz_radius_mm, plausible_imprint_radius_mm
@@ -194,7 +194,7 @@ MAX_STD_OVER_HERTZ = 0.25
 def _number(where: _Where, line: int, column: str, text: str, low: float = -math.inf, high: float = math.inf,
             low_open: bool = True, high_open: bool = True, what: str | None = None) -> float:
     try:
-        value = float(text)
+        value = plain_float(text.strip())
     except ValueError:
         raise where.error(f"{text!r} is not a number", line, column) from None
     ok = math.isfinite(value) and (value > low if low_open else value >= low) and \
@@ -275,6 +275,8 @@ def _parse(raw: bytes, name: str, source: str) -> Dataset:
         rep = cell.get("repeat", "")
         if rep:
             try:
+                if not rep.isascii() or "_" in rep:  # int() reads 1_0 as 10
+                    raise ValueError(rep)
                 rep_value = int(rep)
             except ValueError:
                 raise where.error(f"must be an integer >= 1, got {rep!r}", line, "repeat") from None

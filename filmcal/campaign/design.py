@@ -19,7 +19,7 @@ from typing import Any, Union
 import numpy as np
 
 from filmcal._io import canonical_json, json_hash
-from filmcal._validation import as_finite
+from filmcal._validation import as_finite, plain_float
 
 __all__ = [
     "DesignValue",
@@ -134,7 +134,7 @@ def _parse_cell(text: str) -> DesignValue | None:
     if not text:
         return None
     try:
-        return float(text)
+        return plain_float(text)
     except ValueError:
         pass
     if text.lower() in _TRUE_WORDS:

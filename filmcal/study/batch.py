@@ -16,6 +16,8 @@ import math
 from pathlib import Path
 from typing import Any
 
+from filmcal._validation import plain_float
+
 __all__ = ["INPUT_COLUMNS", "PASSED_COLUMNS", "OUTPUT_COLUMNS", "correct_batch", "read_batch"]
 
 #: The columns a batch row may have (film and force_kn always).
@@ -70,7 +72,7 @@ def _number(row: dict, name: str, default: float | None = None) -> float | None:
     if text == "":
         return default
     try:
-        value = float(text)
+        value = plain_float(text.strip())
     except ValueError:
         raise ValueError(f"{name} {text!r} is not a number") from None
     if not math.isfinite(value):

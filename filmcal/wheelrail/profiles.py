@@ -52,7 +52,7 @@ from typing import Any
 import numpy as np
 from numpy.polynomial import polynomial as npoly
 
-from filmcal._validation import as_finite, check_choice, check_positive, check_range
+from filmcal._validation import as_finite, check_choice, check_positive, check_range, plain_float
 
 __all__ = [
     "ProfileSection", "ArcSection", "PolynomialSection", "SplineSection", "Joint", "Profile",
@@ -533,7 +533,7 @@ def _read_csv_points(path: Path) -> tuple[np.ndarray, np.ndarray]:
         for col, target in zip(cols, (y, z)):
             text = row[col].strip()
             try:
-                value = float(text)
+                value = plain_float(text)
             except ValueError:
                 raise ValueError(f"{path}: line {n}: {names[col]} value {text!r} is not a number") from None
             if not math.isfinite(value):
