@@ -239,13 +239,16 @@ def test_film_compliance_is_an_spd_diagonal_term(solver):
 # --- interface laws -----------------------------------------------------------
 
 def test_nearly_linear_law_approaches_film_springs(solver):
-    """p = p0 (exp(c/c0) - 1) with p0/c0 = M/t tends to the film as p0 grows."""
+    """p = p0 (exp(c/c0) - 1) with p0/c0 = M/t tends to the film as p0 grows (on one grid: at 0.2 mm the
+    film's patch, 60 cells across, would be refined, `FILM_MIN_CELLS_ACROSS`, and the law's would not)."""
     film = FilmLayer(2800.0)
     ref = sphere_on_flat_contact(450.0, 75e3, film=film, spacing_mm=0.2, solver=solver)
+    assert ref.grid.dx_mm == 0.1
+    ref = sphere_on_flat_contact(450.0, 75e3, film=film, spacing_mm=0.1, solver=solver)
     errors = []
     for p0 in (1e3, 1e4, 1e5):
         law = ExponentialLaw(p0, p0 * film.compliance_mm_per_mpa)
-        res = sphere_on_flat_contact(450.0, 75e3, law=law, spacing_mm=0.2, solver=solver)
+        res = sphere_on_flat_contact(450.0, 75e3, law=law, spacing_mm=0.1, solver=solver)
         assert res.converged and res.newton_iterations >= 1
         errors.append(abs(res.area_mm2 / ref.area_mm2 - 1))
     assert errors[0] > errors[1] > errors[2]
@@ -256,8 +259,10 @@ def test_linear_tabular_law_equals_film(solver):
     film = FilmLayer(2800.0)
     closure = np.linspace(0.0, 0.05, 6)
     law = TabularLaw(closure, closure / film.compliance_mm_per_mpa)
-    ref = sphere_on_flat_contact(450.0, 75e3, film=film, spacing_mm=0.2, solver=solver)
-    res = sphere_on_flat_contact(450.0, 75e3, law=law, spacing_mm=0.2, solver=solver)
+    # on 0.1 mm cells: at 0.2 mm the film's patch would be refined (FILM_MIN_CELLS_ACROSS) and the law's not
+    ref = sphere_on_flat_contact(450.0, 75e3, film=film, spacing_mm=0.1, solver=solver)
+    res = sphere_on_flat_contact(450.0, 75e3, law=law, spacing_mm=0.1, solver=solver)
+    assert ref.grid.dx_mm == res.grid.dx_mm == 0.1
     assert res.area_mm2 == pytest.approx(ref.area_mm2, rel=1e-6)
     assert res.max_pressure_mpa == pytest.approx(ref.max_pressure_mpa, rel=1e-6)
 

@@ -49,6 +49,7 @@ from filmcal.elastic import oedometric_modulus_mpa
 from filmcal._validation import check_choice, check_poisson, check_positive, check_range
 
 __all__ = [
+    "through_film",
     "FilmLayer",
     "InterfaceLaw",
     "HardLaw",
@@ -614,6 +615,15 @@ class SeriesLaw(InterfaceLaw):
 
     def __repr__(self) -> str:
         return "SeriesLaw(" + ", ".join(repr(law) for law in self.laws) + ")"
+
+
+def through_film(film: FilmLayer | None, law: InterfaceLaw | None) -> bool:
+    """Whether a solver's interface ``(film, law)`` holds a film: a linear `FilmLayer`, or a
+    `LargeStrainFilm` law alone or in series (what `film_law` hands a large-strain film as)."""
+    if film is not None:
+        return True
+    laws = law.laws if isinstance(law, SeriesLaw) else (law,)
+    return any(isinstance(one, LargeStrainFilm) for one in laws)
 
 
 def film_law(film: FilmLayer | None, roughness: InterfaceLaw | None, *,

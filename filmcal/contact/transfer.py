@@ -14,7 +14,7 @@ the difference is measured and carried instead:
 (radius on sphere-on-flat, both models at equal film parameters, each read by
 the same imprint model), fitted in the film's own dimensionless groups
 
-    d / t = b . [1, nu, nu^2, x, x^2, nu x, y, nu y, y^2, c, c x, c y, z],
+    d / t = b . [1, nu, nu^2, x, x^2, nu x, y, nu y, y^2, c, c x, c y, z, c z],
     x = ln(l / a),  l = E* t / M,  y = ln(p_level / p_max),  c = ln(1 - 2 nu),  z = ln(t / a)
 
 (t the film thickness, M its oedometric modulus, E* the steel pair's contact
@@ -26,7 +26,11 @@ and without it soft films near incompressibility (E 450 MPa, nu 0.44) were
 missed by 3-4 held-out standard deviations. z is the film's thickness against
 the patch: x mixes it with the film's stiffness, and over spheres of 150-1500 mm
 the two vary apart (without z the level readings were missed by up to 0.015 mm
-held out beyond Table 1's 250-600 mm).
+held out beyond Table 1's 250-600 mm). c z is the compressibility against
+the film's aspect ratio: a nearly incompressible layer is confined the more,
+the thinner it is against the patch; without it stiff, nearly incompressible
+films on the smallest patches (E 15700-20000 MPa, nu 0.44-0.45, a 2.2-2.4 mm)
+were missed by 0.005-0.007 mm on the edge, 0.004 mm with it.
 
 The activation and capsule models read a contour near the film's edge zone,
 where the polynomial leaves a smooth residual of a few um that it cannot
@@ -64,7 +68,7 @@ __all__ = ["TransferTerm", "TransferFit", "ResidualGP", "transfer_features", "lo
 #: The shipped fit (package data).
 TRANSFER_FILE = "film_transfer.json"
 #: Names of the fitted features (the order of the coefficients).
-FEATURES = ("1", "nu", "nu^2", "x", "x^2", "nu x", "y", "nu y", "y^2", "c", "c x", "c y", "z")
+FEATURES = ("1", "nu", "nu^2", "x", "x^2", "nu x", "y", "nu y", "y^2", "c", "c x", "c y", "z", "c z")
 
 
 @dataclass(frozen=True)
@@ -116,7 +120,8 @@ def transfer_features(imprint: str, modulus_mpa, poisson, thickness_mm, radius_m
         y = np.log(np.asarray(level_mpa, dtype=float) / pmax)
     c = np.log1p(-2.0 * nu)
     z = np.log(t / a)
-    return np.stack([np.ones_like(x), nu, nu * nu, x, x * x, nu * x, y, nu * y, y * y, c, c * x, c * y, z], axis=-1)
+    return np.stack([np.ones_like(x), nu, nu * nu, x, x * x, nu * x, y, nu * y, y * y, c, c * x, c * y, z, c * z],
+                    axis=-1)
 
 
 def outline_perimeter_mm(rings, smoothing: int = 5) -> float:

@@ -96,7 +96,7 @@ def transfer_design(n: int, random_state: int, corners: bool = False,
 
 
 def measure_transfer(points: np.ndarray, films, kinematics=("small", "large"), grid_mm: float | None = None,
-                     progress=None) -> list[dict]:
+                     progress=None, fe_rows: list[dict] | None = None) -> list[dict]:
     """Both models at every point, film type and kinematics; one row per (point, film, kinematics, imprint).
 
     Parameters
@@ -110,6 +110,12 @@ def measure_transfer(points: np.ndarray, films, kinematics=("small", "large"), g
         The application's cell size (default: the wheel-rail grid).
     progress : callable, optional
         Called with the number of points done.
+    fe_rows : list of dict, optional
+        Rows measured before (this function's output): where they hold every
+        reading of a point's film type and kinematics, the calibrated FE's
+        readings are taken from them and only the application is solved again
+        (after a change of the application's grid, law or reading; never
+        after a change of the FE).
 
     Returns
     -------
@@ -126,22 +132,31 @@ def measure_transfer(points: np.ndarray, films, kinematics=("small", "large"), g
 
     spacing = GRID_MM if grid_mm is None else float(grid_mm)
     solver = HalfSpaceContactSolver()
+    known = {_reading_key(r): (float(r["fe_radius_mm"]), bool(r["converged"])) for r in (fe_rows or ())}
     rows = []
     for i, (e, nu, radius, force_kn) in enumerate(np.asarray(points, dtype=float)):
         for kin in kinematics:
             fe_by_thickness: dict = {}  # films of one thickness share the FE solve
             for film in films:
-                if film.thickness_mm not in fe_by_thickness:
-                    fe_by_thickness[film.thickness_mm] = get_model(float(radius), film_thickness_mm=film.thickness_mm) \
-                        .solve(Film(float(e), float(nu)), force_kn * 1e3, ContactOptions(kinematics=kin))
-                fe = fe_by_thickness[film.thickness_mm]
                 ft = replace(film, poisson=float(nu))
                 models = [FilmModel(ft, imprint, kin) for imprint in imprint_models_for(ft)]
+                keys = [_reading_key({"modulus_mpa": e, "poisson": nu, "sphere_radius_mm": radius,
+                                      "force_kn": force_kn, "film": film.name, "kinematics": kin,
+                                      "imprint": model.imprint}) for model in models]
+                if all(k in known for k in keys):
+                    fe_readings = [known[k] for k in keys]
+                else:
+                    if film.thickness_mm not in fe_by_thickness:
+                        fe_by_thickness[film.thickness_mm] = get_model(
+                            float(radius), film_thickness_mm=film.thickness_mm
+                        ).solve(Film(float(e), float(nu)), force_kn * 1e3, ContactOptions(kinematics=kin))
+                    fe = fe_by_thickness[film.thickness_mm]
+                    fe_readings = [(fe.contact_radius_mm if model.imprint == "edge"
+                                    else fe.read_imprint(model.imprint, ft), bool(fe.converged)) for model in models]
                 solver_film, solver_law, _ = models[0].interface(float(e))
                 applied = sphere_on_flat_contact(float(radius), force_kn * 1e3, film=solver_film, law=solver_law,
                                                  spacing_mm=spacing, solver=solver)
-                for model in models:
-                    fe_radius = fe.contact_radius_mm if model.imprint == "edge" else fe.read_imprint(model.imprint, ft)
+                for model, (fe_radius, converged) in zip(models, fe_readings):
                     rows.append({"film": film.name, "kinematics": kin, "imprint": model.imprint,
                                  "modulus_mpa": float(e), "poisson": float(nu), "sphere_radius_mm": float(radius),
                                  "force_kn": float(force_kn), "thickness_mm": film.thickness_mm,
@@ -149,10 +164,16 @@ def measure_transfer(points: np.ndarray, films, kinematics=("small", "large"), g
                                  "fe_radius_mm": float(fe_radius),
                                  "applied_radius_mm": math.sqrt(model.recorded_area_mm2(applied) / math.pi),
                                  "applied_max_pressure_mpa": float(applied.max_pressure_mpa),
-                                 "converged": bool(fe.converged)})
+                                 "converged": converged})
         if progress is not None:
             progress(i + 1)
     return rows
+
+
+def _reading_key(row: dict) -> tuple:
+    """A row's point, film type, kinematics and imprint model (the point rounded to 9 digits)."""
+    return (*(round(float(row[k]), 9) for k in ("modulus_mpa", "poisson", "sphere_radius_mm", "force_kn")),
+            row["film"], row["kinematics"], row["imprint"])
 
 
 def _features(rows: list[dict], imprint: str) -> np.ndarray:
@@ -225,9 +246,10 @@ def _residual_gp(X: np.ndarray, residual: np.ndarray) -> ResidualGP:
     from sklearn.gaussian_process import GaussianProcessRegressor
     from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
 
-    Z = X[:, list(GP_INPUTS)]
+    inputs = tuple(i for i in GP_INPUTS if np.ptp(X[:, i]) > 0)  # the edge model has no level feature
+    Z = X[:, list(inputs)]
     center, scale = Z.mean(axis=0), Z.std(axis=0)
-    kernel = ConstantKernel(1.0, (1e-3, 1e3)) * RBF(np.ones(len(GP_INPUTS)), (1e-2, 1e2)) \
+    kernel = ConstantKernel(1.0, (1e-3, 1e3)) * RBF(np.ones(len(inputs)), (1e-2, 1e2)) \
         + WhiteKernel(1e-2, (1e-6, 1.0))
     y_mean, y_std = float(np.mean(residual)), float(np.std(residual)) or 1.0
     gp = GaussianProcessRegressor(kernel, n_restarts_optimizer=3, random_state=0)
@@ -241,9 +263,13 @@ def _residual_gp(X: np.ndarray, residual: np.ndarray) -> ResidualGP:
             gp = GaussianProcessRegressor(kernel, optimizer=None)
         gp.fit(Zs, ys)
     k = gp.kernel_.k1  # ConstantKernel * RBF; the white noise has no cross-covariance
-    return ResidualGP(GP_INPUTS, center, scale, np.atleast_1d(k.k2.length_scale).astype(float),
+    return ResidualGP(inputs, center, scale, np.atleast_1d(k.k2.length_scale).astype(float),
                       float(k.k1.constant_value), np.asarray(gp.X_train_, dtype=float),
                       np.asarray(gp.alpha_, dtype=float).ravel() * y_std, y_mean)
+
+
+#: The imprint models whose transfer carries a Gaussian process on the polynomial's residual.
+RESIDUAL_GP_MODELS = ("activation", "capsule")
 
 
 def fit_transfer(train: list[dict], held_out: dict[str, list[dict]], grid_mm: float,
@@ -265,7 +291,7 @@ def fit_transfer(train: list[dict], held_out: dict[str, list[dict]], grid_mm: fl
         beta = np.zeros(len(FEATURES))
         beta[used] = np.linalg.lstsq(X[:, used], _target(group), rcond=None)[0]
         coefficients[key] = [float(b) for b in beta]
-        if imprint != "edge":
+        if imprint in RESIDUAL_GP_MODELS:
             gps[key] = _residual_gp(X, _target(group) - X @ beta)
     fit = TransferFit(coefficients, {k: 0.0 for k in coefficients}, dict(TRANSFER_DOMAIN), float(grid_mm), {}, gps)
     checks = {"train": check_transfer(fit, train),

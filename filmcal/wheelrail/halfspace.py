@@ -94,7 +94,7 @@ import scipy.fft as sfft
 
 from filmcal._validation import as_finite, check_positive
 from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, contact_modulus_mpa
-from filmcal.contact.laws import FilmLayer, InterfaceLaw
+from filmcal.contact.laws import FilmLayer, InterfaceLaw, through_film
 
 __all__ = [
     "SurfaceGrid",
@@ -998,6 +998,11 @@ class HalfSpaceContactSolver:
                 f"{self.min_cells_across} are needed across it")
 
 
+#: The finest grid `sphere_on_flat_contact` refines to, as a factor of the given spacing (the wheel-rail
+#: model's own bound).
+_SPHERE_MAX_REFINEMENT = 8
+
+
 def sphere_on_flat_contact(radius_mm: float, force_n: float, *, film: FilmLayer | None = None,
                            law: InterfaceLaw | None = None, spacing_mm: float = 0.1,
                            solver: HalfSpaceContactSolver | None = None) -> ContactResult:
@@ -1018,7 +1023,10 @@ def sphere_on_flat_contact(radius_mm: float, force_n: float, *, film: FilmLayer 
     film, law : optional
         Interface in series, see :meth:`HalfSpaceContactSolver.solve`.
     spacing_mm : float
-        Cell size (mm).
+        Cell size (mm). Through a film, a patch narrower than
+        `filmcal.wheelrail.settings.FILM_MIN_CELLS_ACROSS` cells is solved again
+        on a grid refined to at least that many (at most 8 times finer), as
+        the wheel-rail model does; ``result.grid`` gives the spacing used.
     solver : HalfSpaceContactSolver, optional
         Reused between calls to keep its FFT cache.
     """
@@ -1026,18 +1034,32 @@ def sphere_on_flat_contact(radius_mm: float, force_n: float, *, film: FilmLayer 
     force = check_positive("force_n", force_n)
     spacing = check_positive("spacing_mm", spacing_mm)
     solver = HalfSpaceContactSolver() if solver is None else solver
+    from filmcal.wheelrail.settings import FILM_MIN_CELLS_ACROSS
+
     a_hertz = (3.0 * force * radius / (4.0 * solver.contact_modulus_mpa)) ** (1.0 / 3.0)
     compliant = film is not None or (law is not None and not law.is_hard)
     half = 1.6 * a_hertz if compliant else 1.15 * a_hertz
-    for _ in range(6):
+    finest = spacing / _SPHERE_MAX_REFINEMENT
+    filmed = through_film(film, law)
+    attempts = 0
+    while attempts < 6:
         n = 2 * int(math.ceil(half / spacing)) + 1
         grid = SurfaceGrid.centred(n * spacing, n * spacing, spacing)
         x, y = grid.mesh()
         r2 = np.minimum(x * x + y * y, radius * radius)
         gap = r2 / (radius + np.sqrt(radius * radius - r2))
-        result = solver.solve(gap, force, grid, film=film, law=law, allow_edge=True)
-        if not result.reaches_edge:
+        result = solver.solve(gap, force, grid, film=film, law=law, allow_edge=True,
+                              check_resolution=not filmed)
+        if result.reaches_edge:
+            half *= 1.5
+            attempts += 1
+            continue
+        across = min(int(result.contact_mask.sum(axis=0).max()), int(result.contact_mask.sum(axis=1).max()))
+        if not filmed or across >= FILM_MIN_CELLS_ACROSS or spacing <= finest:
+            if filmed:
+                solver.check_resolution(result.contact_mask, result.grid)
             return result
-        half *= 1.5
+        # through a film, as the wheel-rail model: at least FILM_MIN_CELLS_ACROSS cells across the patch
+        spacing = max(spacing / math.ceil(FILM_MIN_CELLS_ACROSS / max(across, 1)), finest)
     raise ValueError("the contact keeps reaching the grid edge; the interface law is too "
                      "compliant for a sphere-on-flat contact of this size")

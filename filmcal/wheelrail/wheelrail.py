@@ -41,8 +41,9 @@ the plane normal ``n``:
   where pressing the wheel in along the normal was 2.8 % and 6.1 % off.
 
 A patch narrower than twice the solver's ``min_cells_across`` cells in a
-direction is solved again on a grid refined in that direction (down to an
-eighth of ``grid_mm``): a flange patch is read on 20 cells or more across.
+direction (through a film: `FILM_MIN_CELLS_ACROSS`, 80) is solved again on a
+grid refined in that direction (down to an eighth of ``grid_mm``): a flange
+patch is read on 20 cells or more across, 80 through a film.
 
 Region
 ------
@@ -90,12 +91,13 @@ from typing import Iterable, Mapping
 import numpy as np
 from scipy import ndimage
 
-from filmcal.wheelrail.settings import GRID_MM, GRID_MM_RANGE, NOMINAL_RADIUS_MM, RAIL, RAIL_INCLINATION, WHEEL
+from filmcal.wheelrail.settings import (FILM_MIN_CELLS_ACROSS, GRID_MM, GRID_MM_RANGE, NOMINAL_RADIUS_MM, RAIL,
+                                        RAIL_INCLINATION, WHEEL)
 from filmcal._validation import as_finite, check_positive, check_range
 from filmcal.wheelrail.patches import patch_ring_areas_mm2
 from filmcal.wheelrail.halfspace import ContactResult, HalfSpaceContactSolver, SurfaceGrid
 from filmcal.wheelrail.hertz import HertzContact, hertz_elliptic
-from filmcal.contact.laws import FilmLayer, InterfaceLaw
+from filmcal.contact.laws import FilmLayer, InterfaceLaw, through_film
 from filmcal.wheelrail.placement import ContactPoint, WheelRailPlacement, place_wheel_on_rail
 from filmcal.wheelrail.profiles import Profile, get_profile
 
@@ -623,6 +625,10 @@ class WheelRailModel:
     solver : HalfSpaceContactSolver, optional
         Steel on steel by default; it caches the influence-coefficient
         spectra of up to eight grid shapes.
+    film_min_cells_across : int
+        Cells a patch through a film spans at least in each direction
+        (`FILM_MIN_CELLS_ACROSS`); 0 keeps the grid as given (a study of the
+        readings' convergence on fixed grids).
 
     Notes
     -----
@@ -633,9 +639,12 @@ class WheelRailModel:
 
     def __init__(self, wheel: str | Profile = WHEEL, rail: str | Profile = RAIL,
                  rail_inclination: float = RAIL_INCLINATION, nominal_radius_mm: float = NOMINAL_RADIUS_MM, *,
-                 grid_mm: float = GRID_MM, solver: HalfSpaceContactSolver | None = None) -> None:
+                 grid_mm: float = GRID_MM, solver: HalfSpaceContactSolver | None = None,
+                 film_min_cells_across: int = FILM_MIN_CELLS_ACROSS) -> None:
         self.grid_mm = check_range("grid_mm", grid_mm, *GRID_MM_RANGE, low_open=False,
                                    high_open=False)
+        self.film_min_cells_across = int(check_range("film_min_cells_across", film_min_cells_across, 0, 1000,
+                                                     low_open=False, high_open=False))
         self.rail_inclination = check_range("rail_inclination", rail_inclination, 0.0, 0.2,
                                             low_open=False, high_open=False)
         self.nominal_radius_mm = check_positive("nominal_radius_mm", nominal_radius_mm)
@@ -713,8 +722,9 @@ class WheelRailModel:
         The grid region grows until it encloses the contact (module notes);
         each larger region starts from the previous attempt's pressure. A
         contact narrower than twice the solver's ``min_cells_across`` cells
-        in a direction (a flange contact: 60E1, 10 kN, eta +4 to +8 mm spans
-        8-11 cells of 0.1 mm across) is solved again on a grid refined in
+        (through a film: `FILM_MIN_CELLS_ACROSS`) in a direction (a flange
+        contact: 60E1, 10 kN, eta +4 to +8 mm spans 8-11 cells of 0.1 mm
+        across) is solved again on a grid refined in
         that direction only, by the factor that brings it to at least that
         many cells, over the same region; ``WheelRailResult.grid`` gives the
         spacings used. On an inclined plane the wheel's slide under its
@@ -744,6 +754,8 @@ class WheelRailModel:
                              "estimate (a Prescale film's E is of the order of 10^2-10^4 MPa); check the units")
         previous = None if initial is None else initial.contact
         spacing_x = spacing_s = self.grid_mm
+        min_across = max(2 * self.solver.min_cells_across, self.film_min_cells_across) \
+            if through_film(film, roughness) else 2 * self.solver.min_cells_across
         # the wheel's slide along an inclined plane under its vertical approach, first from the approach estimate
         first = geo.plane(tuple(p for p in placement.contact_points if p.separation_mm <= delta_box))
         slide = delta_box / 1.1 * math.tan(first.angle_rad)
@@ -775,7 +787,7 @@ class WheelRailModel:
                     continue
                 if not enclosed:
                     break
-                factor_x, factor_s = _refinement(result.contact_mask, 2 * self.solver.min_cells_across)
+                factor_x, factor_s = _refinement(result.contact_mask, min_across)
                 resolved = factor_x == factor_s == 1
                 if resolved or refinements == _MAX_REFINEMENTS:
                     break
