@@ -131,6 +131,21 @@ def test_zero_roughness_gives_the_smooth_curves_to_the_last_digit():
     assert rows[0][2:14] == rows[1][2:14] and rows[1][14] == 0.0
 
 
+def test_a_cell_the_model_cannot_solve_is_named_as_bad_input():
+    """An MS film at eta +4 mm and 20 kN spreads the flange contact past the profiles' ends: the curves said
+    "internal error" (exit 70, a RuntimeError of the worker pool); the cell is now an InputError that names
+    it, with or without rough bodies."""
+    from filmcal._errors import InputError
+    from filmcal.contact.rough_imprint import load_roughness_inputs
+    from filmcal.correction import RoughConfiguration, curve_table
+
+    ms = FilmModel(get_film("MS"), "edge", "small")
+    samples = np.full(50, 540.0)
+    for rough in ([], [RoughConfiguration(1.5, None, tuple(load_roughness_inputs()[:1]))]):
+        with pytest.raises(InputError, match=r"the cell eta \+4 mm, 20 kN cannot be solved: .*end of the wheel"):
+            curve_table("MS", [(ms, samples, 1.0)], [-4.0, 4.0], [20.0], rough, workers=1)
+
+
 def test_curve_rows_label_rough_bodies_by_their_measured_ra():
     from filmcal.contact.rough_imprint import representative_roughness_inputs
     from filmcal.correction.curves import wheel_label

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import csv
 import math
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -281,6 +282,21 @@ def _rows(film: str, wheel: str, c: CorrectionCurves) -> list[list]:
             for i, force in enumerate(c.forces_n) for j, eta in enumerate(c.offsets_mm)]
 
 
+@contextmanager
+def _at_cell(offset_mm: float, force_kn: float):
+    """A cell the model cannot solve (a soft film spreading a flange contact past the profiles' ends) is the
+    grid's fault, said as such with the cell: an `InputError`, not a failed task (an internal error)."""
+    from filmcal._errors import InputError
+
+    try:
+        yield
+    except InputError:
+        raise
+    except ValueError as exc:
+        raise InputError(f"the cell eta {offset_mm:+g} mm, {force_kn:g} kN cannot be solved: {exc}; leave it out "
+                         "of --offsets-mm or --forces-kn") from None
+
+
 def curve_rows(film: str, components, offsets_mm, forces_kn, rough=(), **wheel_rail) -> list[list]:
     """Correction curves of one film as CSV rows (`CURVE_COLUMNS`): the smooth wheel's, then each rough one's.
 
@@ -298,8 +314,9 @@ def curve_rows(film: str, components, offsets_mm, forces_kn, rough=(), **wheel_r
     **wheel_rail
         Passed on to `correction_curves` (profiles, inclination, ...).
     """
-    c = correction_curves(components, offsets_mm, np.asarray(forces_kn, dtype=float) * 1e3,
-                          rough=[g for _, g in rough], **wheel_rail)
+    with _at_cell(offsets_mm[0], forces_kn[0]) if len(offsets_mm) == len(forces_kn) == 1 else nullcontext():
+        c = correction_curves(components, offsets_mm, np.asarray(forces_kn, dtype=float) * 1e3,
+                              rough=[g for _, g in rough], **wheel_rail)
     return _rows(film, "smooth", c) + [row for (label, _), r in zip(rough, c.rough) for row in _rows(film, label, r)]
 
 
@@ -353,7 +370,8 @@ def growth_task(models, draws, laws, offset_mm: float, force_n: float, wheel_rai
 
     solver = get_wheel_rail_model(**wheel_rail, tol=SWEEP_TOL)
     given = [(None if d is None else d.reading_level, {k: _law(v) for k, v in laws[d].items()}) for d in draws]
-    return dict(zip(draws, solve_growths(models, given, offset_mm, force_n, solver)))
+    with _at_cell(offset_mm, force_n / 1e3):
+        return dict(zip(draws, solve_growths(models, given, offset_mm, force_n, solver)))
 
 
 _LOADED: dict = {}
