@@ -5,8 +5,9 @@ import argparse
 import sys
 
 from filmcal.commands._common import print_json
-from filmcal.commands._options import (FORCE_KN_BOUNDS, STUDY_IMPRINT_MODELS, add, add_roughness_map_reading,
-                                       force_range, local, renamed, roughness_map_reading, split_model)
+from filmcal.commands._options import (FORCE_KN_BOUNDS, OFFSET_MM_BOUNDS, STUDY_IMPRINT_MODELS, add,
+                                       add_roughness_map_reading, force_range, local, renamed, roughness_map_reading,
+                                       split_model)
 from filmcal.contact.names import MIXTURE
 
 
@@ -124,8 +125,9 @@ def run(args: argparse.Namespace) -> int:
     if any(not (lo <= f <= hi) for f in forces):
         raise ValueError(f"--forces-kn must lie in [{lo:g}, {hi:g}] kN (a larger load is a unit error), "
                          f"got {args.forces_kn!r}")
-    if any(not (-20 <= e <= 10) for e in offsets):
-        raise ValueError(f"offsets_mm must lie in [-20, 10] mm, got {args.offsets_mm!r}")
+    lo, hi = OFFSET_MM_BOUNDS  # as correct and serve take them; an offset the profiles do not allow names its cell
+    if any(not (lo <= e <= hi) for e in offsets):
+        raise ValueError(f"--offsets-mm must lie in [{lo:g}, {hi:g}] mm, got {args.offsets_mm!r}")
     args.roughness_draws = roughness_draws(args)
     _check_map_memory(args)
     from filmcal._io import check_distinct_files, check_output_file
