@@ -184,3 +184,18 @@ def test_curves_beyond_the_elastic_limit_say_so_as_correct_does(quick_study):
     assert p.stderr.strip().splitlines() == [f"filmcal curves: warning: {answer['warnings'][0]}"]
     p = subprocess.run(cli + ["100"], capture_output=True, text=True)
     assert p.returncode == 0 and p.stderr == "" and "warnings" not in json.loads(p.stdout)
+
+
+def test_curves_takes_the_offsets_correct_takes(tmp_path):
+    """One bound for eta everywhere (`OFFSET_MM_BOUNDS`): curves refused +12 mm, which correct, serve and
+    wheelrail solve; beyond the bound it is refused before the study is opened."""
+    import subprocess
+    import sys
+
+    from filmcal._validation import OFFSET_MM_BOUNDS
+
+    cli = [sys.executable, "-m", "filmcal.cli", "curves", "--study-dir", str(tmp_path / "none"), "--film", "HS"]
+    p = subprocess.run(cli + [f"--offsets-mm={OFFSET_MM_BOUNDS[0] - 1:g}"], capture_output=True, text=True)
+    assert p.returncode == 2 and "--offsets-mm must lie in [-60, 60] mm" in p.stderr, p.stderr
+    p = subprocess.run(cli + ["--offsets-mm=12"], capture_output=True, text=True)
+    assert p.returncode == 2 and "must lie in" not in p.stderr and "does not exist" in p.stderr, p.stderr
