@@ -214,8 +214,8 @@ def grid_convergence() -> list[dict]:
     from filmcal.films import get_film
     from filmcal.wheelrail import WheelRailModel
 
-    # fixed grids: the model's refinement of patches narrower than FILM_MIN_CELLS_ACROSS cells would turn the
-    # 0.2 mm grid into 0.1 mm for patches of fewer than 80 cells (every 50 kN case with E >= 2800 MPa)
+    # fixed grids: the model's refinement of patches narrower than FILM_MIN_CELLS_ACROSS cells would refine the
+    # 0.2 mm grid (in one direction or both) in every 50 kN case and at 100 kN for E 2800 and 6300 MPa
     fixed = {h: WheelRailModel(grid_mm=h, film_min_cells_across=0) for h in (0.2, 0.1, 0.05)}
     out = []
     hs = get_film("HS")

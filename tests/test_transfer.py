@@ -237,3 +237,25 @@ def test_the_transfer_domain_covers_every_case_the_calibration_supports():
                                         [SUPPORTED_FORCE_KN[0], SUPPORTED_FORCE_KN[1]])
     assert f0 <= widest.force_kn[0] and widest.force_kn[1] <= f1 * (1 + 1e-12)
     assert r0 <= CORE_DOMAIN["sphere_radius_mm"][0] and CORE_DOMAIN["sphere_radius_mm"][1] <= r1
+
+
+def test_fe_rows_given_are_used_and_the_fe_is_not_solved_again(monkeypatch):
+    """`measure_transfer(fe_rows=...)` (scripts/fit-transfer --reuse-fe) takes the calibrated FE's readings from
+    the rows and solves only the application: with the FE made to fail, the rows' (altered) readings come back,
+    and the application's are those of a full measurement."""
+    import filmcal.fem
+
+    point = np.array([[2900.0, 0.33, 420.0, 64.0]])
+    films = [get_film("HS")]
+    full = measure_transfer(point, films, kinematics=("small",))
+    given = [dict(r, fe_radius_mm=r["fe_radius_mm"] + 0.5) for r in full]
+
+    def no_fe(*args, **kwargs):
+        raise AssertionError("the FE was solved again")
+
+    monkeypatch.setattr(filmcal.fem, "get_model", no_fe)
+    again = measure_transfer(point, films, kinematics=("small",), fe_rows=given)
+    assert [r["fe_radius_mm"] for r in again] == [r["fe_radius_mm"] for r in given]
+    assert [r["applied_radius_mm"] for r in again] == [r["applied_radius_mm"] for r in full]
+    with pytest.raises(AssertionError, match="solved again"):  # a row missing: the FE is solved
+        measure_transfer(point, films, kinematics=("small",), fe_rows=given[1:])

@@ -30,7 +30,7 @@ held out beyond Table 1's 250-600 mm). c z is the compressibility against
 the film's aspect ratio: a nearly incompressible layer is confined the more,
 the thinner it is against the patch; without it stiff, nearly incompressible
 films on the smallest patches (E 15700-20000 MPa, nu 0.44-0.45, a 2.2-2.4 mm)
-were missed by 0.005-0.007 mm on the edge, 0.004 mm with it.
+were missed by 0.005-0.007 mm on the edge held out, 0.0040 mm with it.
 
 The activation and capsule models read a contour near the film's edge zone,
 where the polynomial leaves a smooth residual of a few um that it cannot

@@ -246,7 +246,7 @@ def _residual_gp(X: np.ndarray, residual: np.ndarray) -> ResidualGP:
     from sklearn.gaussian_process import GaussianProcessRegressor
     from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
 
-    inputs = tuple(i for i in GP_INPUTS if np.ptp(X[:, i]) > 0)  # the edge model has no level feature
+    inputs = tuple(i for i in GP_INPUTS if np.ptp(X[:, i]) > 0)  # an input that does not vary carries nothing
     Z = X[:, list(inputs)]
     center, scale = Z.mean(axis=0), Z.std(axis=0)
     kernel = ConstantKernel(1.0, (1e-3, 1e3)) * RBF(np.ones(len(inputs)), (1e-2, 1e2)) \

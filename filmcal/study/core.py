@@ -1356,6 +1356,7 @@ class StudyGrowths:
 
     def spec(self, offset_mm: float, force_n: float, bodies: dict, draws: list) -> dict:
         from filmcal.contact.waviness import WAVINESS_CUTOFF_CELLS
+        from filmcal.wheelrail.settings import FILM_MIN_CELLS_ACROSS
 
         settings = {k: (_profile_spec(v) if k in ("wheel", "rail") else v)
                     for k, v in self.parts[0][1].settings.items()}
@@ -1363,7 +1364,8 @@ class StudyGrowths:
                                                                   for _, _, s in self.parts},
                                 "wheel_rail": settings, "offset_mm": float(offset_mm), "force_n": float(force_n),
                                 "bodies": bodies, "draws": [d.to_dict() for d in draws],
-                                "waviness_cutoff_cells": WAVINESS_CUTOFF_CELLS})
+                                "waviness_cutoff_cells": WAVINESS_CUTOFF_CELLS,
+                                "film_min_cells_across": FILM_MIN_CELLS_ACROSS})
 
     def _path(self, spec: dict) -> Path:
         key = spec_key(spec)

@@ -673,6 +673,7 @@ def _rough_growths(study: Study, settings: PipelineSettings, rough, models: list
     contact without film's growths), so that an interrupted run resumes with the missing ones only."""
     from filmcal._io import atomic_write_json
     from filmcal._parallel import run_tasks
+    from filmcal.wheelrail.settings import FILM_MIN_CELLS_ACROSS
     from filmcal.contact.waviness import WAVINESS_CUTOFF_CELLS
     from filmcal.correction import curve_growths, growth_task
     from filmcal.study.layout import spec_key
@@ -687,7 +688,8 @@ def _rough_growths(study: Study, settings: PipelineSettings, rough, models: list
                 specs[film, cell] = {"film": film_type.to_dict(), "modulus_mpa": m,
                                      "models": [model.label for f, model, _ in models if f == film],
                                      "draws": [d.to_dict() for d in draws], "rough_ra_um": settings.rough_ra_um,
-                                     "waviness_cutoff_cells": WAVINESS_CUTOFF_CELLS, "force_kn": force,
+                                     "waviness_cutoff_cells": WAVINESS_CUTOFF_CELLS,
+                                     "film_min_cells_across": FILM_MIN_CELLS_ACROSS, "force_kn": force,
                                      "offset_mm": eta}
                 part = study.layout.curves_part(spec_key(specs[film, cell]))
                 if study.verified(part, kind="curves-growth", spec=specs[film, cell]):

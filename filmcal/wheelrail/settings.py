@@ -22,7 +22,8 @@ GRID_MM_RANGE = (0.01, 1.0)
 #: direction (the grid is refined where the patch is narrower, down to an eighth of the cell size). The film's
 #: readings and the transfer term resolve edge offsets of a few micrometres; on fewer cells the discrete edge
 #: moves with the grid's phase: on sphere-on-flat at 0.1 mm, a 2.4 mm patch (48 cells across) read its
-#: capsule radius 0.005-0.007 mm off the converged one, a 3.0 mm patch (61 cells) 0.005 mm, and from 80 cells
-#: on within 0.002 mm (docs/verification.md). Tread patches through a film span 95 cells or more from 20 kN
-#: on; flange patches, the lightest loads and small spheres are refined.
+#: capsule radius 0.005-0.007 mm off the converged one, a 3.0 mm patch (61 cells) 0.005 mm, and on 70 cells or
+#: more within 0.0013 mm (docs/verification.md). On S1002/60E2 at 0.1 mm, tread patches through a film span
+#: 59-97 cells at 20 kN (the stiffer the film, the fewer) and 93 or more at 50 kN: the lighter loads, stiff
+#: films, flange patches and small spheres are refined, in the direction that needs it.
 FILM_MIN_CELLS_ACROSS = 80

@@ -627,7 +627,9 @@ class WheelRailModel:
         spectra of up to eight grid shapes.
     film_min_cells_across : int
         Cells a patch through a film spans at least in each direction
-        (`FILM_MIN_CELLS_ACROSS`); 0 keeps the grid as given (a study of the
+        (`FILM_MIN_CELLS_ACROSS`); 0 leaves a film's patch to the rule
+        without film (twice the solver's ``min_cells_across``), which keeps
+        wheel-rail tread patches on the grid as given (a study of the
         readings' convergence on fixed grids).
 
     Notes
