@@ -370,8 +370,8 @@ def hertz_convergence_table(solver: HalfSpaceContactSolver) -> None:
 
 def film_sphere_table(solver: HalfSpaceContactSolver) -> None:
     """Equivalent contact radius of a sphere on a flat with a film in between."""
-    print("\nSphere on flat with film (t = 0.09 mm, nu = 0.33, grid 0.1 mm): "
-          "contact radius sqrt(A/pi) in mm, and error against Hertz (no film)")
+    print("\nSphere on flat with film (t = 0.09 mm, nu = 0.33, grid 0.1 mm, refined below 80 cells "
+          "across): contact radius sqrt(A/pi) in mm, and error against Hertz (no film)")
     print(f"{'R mm':>5} {'F kN':>5} {'Hertz':>7} " + " ".join(
         f"{'E=' + str(int(e)):>15}" for e in (1000, 2800, 5000)))
     for radius in (300.0, 450.0, 600.0):
