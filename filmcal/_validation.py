@@ -12,7 +12,7 @@ import re
 from numbers import Real
 from typing import Any, Callable
 
-__all__ = ["as_finite", "plain_float", "check_positive", "check_range", "check_poisson", "check_choice",
+__all__ = ["as_finite", "plain_float", "plain_int", "check_positive", "check_range", "check_poisson", "check_choice",
            "check_count", "arg_finite", "arg_int_in", "arg_float_in", "parse_grid", "arg_grid", "FORCE_KN_BOUNDS",
            "SPHERE_RADIUS_MM_BOUNDS", "OFFSET_MM_BOUNDS"]
 
@@ -130,6 +130,14 @@ def plain_float(text: str) -> float:
     return float(text)
 
 
+def plain_int(text: str) -> int:
+    """An integer as written on a command line or in a CSV cell: ASCII digits and a sign (`int` also reads
+    ``1_0`` as 10, and other scripts' digits)."""
+    if not text.isascii() or "_" in text:
+        raise ValueError("must be a plain integer (ASCII digits, no underscores)")
+    return int(text)
+
+
 def arg_finite() -> Callable[[str], float]:
     """An argparse ``type`` for a finite float (nan and inf refused)."""
     return _argparse_type(plain_float, lambda x: _require(math.isfinite(x), "must be a finite number"), "float")
@@ -137,11 +145,7 @@ def arg_finite() -> Callable[[str], float]:
 
 def arg_int() -> Callable[[str], int]:
     """An argparse ``type`` for an integer written plainly (``int`` alone reads ``1_0`` as 10)."""
-    def convert(text: str) -> int:
-        if not text.isascii() or "_" in text:
-            raise ValueError("must be a plain integer (ASCII digits, no underscores)")
-        return int(text)
-    return _argparse_type(convert, lambda n: None, "int")
+    return _argparse_type(plain_int, lambda n: None, "int")
 
 
 def arg_int_in(low: int, high: int) -> Callable[[str], int]:
@@ -150,9 +154,7 @@ def arg_int_in(low: int, high: int) -> Callable[[str], int]:
 
     def convert(text: str) -> int:
         try:
-            if not text.isascii() or "_" in text:  # int() reads 1_0 as 10
-                raise ValueError(what)
-            return int(text)
+            return plain_int(text)
         except ValueError:
             raise ValueError(what) from None
     return _argparse_type(convert, lambda n: _require(low <= n <= high, what), "int", (low, high))

@@ -50,7 +50,7 @@ from pathlib import Path
 
 import numpy as np
 
-from filmcal._validation import FORCE_KN_BOUNDS, MAX_RA_UM, MIN_RA_UM, SPHERE_RADIUS_MM_BOUNDS, plain_float
+from filmcal._validation import FORCE_KN_BOUNDS, MAX_RA_UM, MIN_RA_UM, SPHERE_RADIUS_MM_BOUNDS, plain_float, plain_int
 from filmcal.calibration.data import _FIELDS, RadiusErrorData, parse_load_range
 from filmcal.films import FILM_TYPES, FilmType
 from filmcal.hertz import STEEL_MODULUS_MPA, STEEL_POISSON, hertz_radius_mm, plausible_imprint_radius_mm
@@ -275,9 +275,7 @@ def _parse(raw: bytes, name: str, source: str) -> Dataset:
         rep = cell.get("repeat", "")
         if rep:
             try:
-                if not rep.isascii() or "_" in rep:  # int() reads 1_0 as 10
-                    raise ValueError(rep)
-                rep_value = int(rep)
+                rep_value = plain_int(rep)
             except ValueError:
                 raise where.error(f"must be an integer >= 1, got {rep!r}", line, "repeat") from None
             if not 1 <= rep_value <= MAX_REPEAT:
