@@ -100,3 +100,37 @@ def test_a_batch_cell_written_with_an_underscore_or_a_full_width_digit_is_not_a_
     for text in ("1_00", "\uff11\uff10\uff10"):
         with pytest.raises(ValueError, match="not a number"):
             _number({"force_kn": text}, "force_kn")
+
+
+def test_a_batch_with_the_old_std_column_is_read_with_one_note_and_the_new_name(tmp_path):
+    """DESIGN.md names the column measured_area_std_mm2 (as `filmcal scan` writes it); the old
+    measurement_std_mm2 is read for one release, with a FutureWarning naming the new one."""
+    import warnings
+
+    import pytest
+
+    from filmcal.study.batch import read_batch
+
+    old = tmp_path / "old.csv"
+    old.write_text("film,force_kn,measured_area_mm2,offset_mm,measurement_std_mm2\nHS,100,150,-3,2\n")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        header, rows = read_batch(old)
+    assert [str(w.message) for w in caught if w.category is FutureWarning][0].count("measured_area_std_mm2") == 1
+    assert "measured_area_std_mm2" in header and "measurement_std_mm2" not in header
+    assert rows[0]["measured_area_std_mm2"] == "2"
+    both = tmp_path / "both.csv"
+    both.write_text("film,force_kn,measured_area_mm2,offset_mm,measurement_std_mm2,measured_area_std_mm2\n"
+                    "HS,100,150,-3,2,2\n")
+    with pytest.raises(ValueError, match="measurement_std_mm2"):
+        read_batch(both)
+
+
+def test_the_old_std_option_sets_the_new_one_with_one_note():
+    out = subprocess.run([sys.executable, "-m", "filmcal.cli", "correct", "--film", "HS", "--measured-area-mm2", "150",
+                          "--offset-mm=-3", "--force-kn", "100", "--measurement-std-mm2", "-1",
+                          "--study-dir", "no-such-study"], capture_output=True, text=True)
+    lines = out.stderr.strip().splitlines()
+    assert out.returncode == 2
+    assert "--measurement-std-mm2 is renamed --measured-area-std-mm2" in lines[0]
+    assert "measured_area_std_mm2" in lines[-1] or "measured-area-std-mm2" in lines[-1], lines

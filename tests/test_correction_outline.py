@@ -191,7 +191,7 @@ def test_command_reads_an_imprint_and_writes_the_corrected_outline(quick_study, 
     outline_csv = tmp_path / "outline.csv"
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]))
     cmd = [sys.executable, "-m", "filmcal.cli", "correct", "--film", "HS", "--scan", str(scan), "--offset-mm=-3",
-           "--force-kn", "100", "--measurement-std-mm2", "0.5", "--study-dir", str(study), "--imprint-model", "edge", "--kinematics", "small",
+           "--force-kn", "100", "--measured-area-std-mm2", "0.5", "--study-dir", str(study), "--imprint-model", "edge", "--kinematics", "small",
            "--outline-out", str(outline_csv), "--json"]
     p = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
     assert p.returncode == 0, p.stderr

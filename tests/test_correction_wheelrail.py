@@ -45,7 +45,7 @@ def test_ratio_interpolates_the_film_effect_across_the_posterior():
     direct = support["area_no_film_mm2"] / corr.film_area_mm2(e_check, -5.0, 50e3)
     k = np.argmin(np.abs(corr.modulus_mpa_ - e_check))
     assert ratio[k] == pytest.approx(direct, rel=2e-3)
-    out = corr.correct(120.0, -5.0, 50e3, measurement_std_mm2=2.0)
+    out = corr.correct(120.0, -5.0, 50e3, measured_area_std_mm2=2.0)
     lo, hi = out.area_ci90_mm2
     assert lo < out.area_mm2 < hi and out.area_std_mm2 > 0
 
@@ -112,7 +112,7 @@ def test_command_uses_the_study_posterior_and_refuses_nonsense(quick_study, tmp_
 
 
 def test_an_area_uncertainty_as_large_as_the_area_is_refused_before_any_solve():
-    """`correct --measurement-std-mm2 1e308` printed 'inf +/- nan' with exit 0."""
+    """`correct --measured-area-std-mm2 1e308` printed 'inf +/- nan' with exit 0."""
     import numpy as np
 
     from filmcal.contact.film import FilmModel
@@ -124,8 +124,8 @@ def test_an_area_uncertainty_as_large_as_the_area_is_refused_before_any_solve():
                            FilmModel(get_film("HS"), "edge", "small"))
     for std in (150.0, 1e308, 75.01):  # half the area is a quarter of its radius
         with pytest.raises(ValueError, match="more than 50 %"):
-            c.correct(150.0, -3.0, 100e3, measurement_std_mm2=std)
-    assert c.correct(150.0, -3.0, 100e3, measurement_std_mm2=75.0).area_ci90_mm2[0] > 0
+            c.correct(150.0, -3.0, 100e3, measured_area_std_mm2=std)
+    assert c.correct(150.0, -3.0, 100e3, measured_area_std_mm2=75.0).area_ci90_mm2[0] > 0
 
 
 def test_roughness_multiplies_each_sample_by_a_drawn_growth_factor():

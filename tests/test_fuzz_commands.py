@@ -303,8 +303,8 @@ CASES = [
       "--study-dir", "badstudy"], ["--measured-area-mm2"]),
     (["correct", "--film", "HS", *WHEEL, "--dpi", "600", "--study-dir", "badstudy"], ["--dpi"]),
     (["correct", "--film", "HS", *WHEEL, "--scan", "cut.png", "--study-dir", "badstudy"], ["--scan"]),
-    (["correct", "--film", "HS", *WHEEL, "--measurement-std-mm2", "-1", "--study-dir", "badstudy"],
-     ["--measurement-std-mm2"]),
+    (["correct", "--film", "HS", *WHEEL, "--measured-area-std-mm2", "-1", "--study-dir", "badstudy"],
+     ["--measured-area-std-mm2"]),
     (["correct", "--film", "HS", "--force-kn", "100000", "--measured-area-mm2", "150", "--offset-mm=-3",
       "--study-dir", "badstudy"], ["--force-kn"]),
     # how a map is read, without a map: was ignored
@@ -347,6 +347,8 @@ CASES = [
     (["pipeline", "--study-dir", "badstudy"], ["badstudy/study.json"]),
     # scan
     (["scan", "missing.jpg", "--out", "s.csv"], ["missing.jpg"]),
+    # the film column was filled with any name, refused only when the batch was corrected
+    (["scan", "cut.png", "--out", "s.csv", "--film", "XYZ"], ["'XYZ'", "--films-file"]),
     (["scan", "films.toml", "--out", "s.csv"], ["films.toml"]),
     (["scan", "films.toml", "--out", "s.csv", "--min-imprint-mm2", "-1"], ["--min-imprint-mm2", "min_imprint_mm2"]),
     (["scan", "films.toml", "--out", "s.csv", "--overview", "s.txt"], ["--overview"]),

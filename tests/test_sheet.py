@@ -142,7 +142,7 @@ def test_filmcal_scan_writes_a_table_correct_batch_reads_and_an_overview(tmp_pat
     from filmcal.study.batch import read_batch
 
     header, batch_rows = read_batch(out)  # the table is a batch as it stands
-    assert len(batch_rows) == 3 and "measurement_std_mm2" in header
+    assert len(batch_rows) == 3 and "measured_area_std_mm2" in header
     blank = tmp_path / "blank.png"
     Image.fromarray(np.full((300, 400, 3), 240, dtype=np.uint8)).save(blank, dpi=(200, 200))
     p = subprocess.run([sys.executable, "-m", "filmcal.cli", "scan", str(blank), "--out", str(out)],

@@ -20,7 +20,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "default). Sphere-on-flat form: --measured-radius-mm --sphere-radius-mm --force-kn. Instead of "
                     "the measured area or radius, --scan reads a scanned imprint (PNG, TIFF or JPEG; red stain on "
                     "white, thresholded by Otsu's method): its stained area (sphere-on-flat: the radius of the "
-                    "circle of that area), whose uncertainty adds in quadrature to --measurement-std-mm2 / "
+                    "circle of that area), whose uncertainty adds in quadrature to --measured-area-std-mm2 / "
                     "--measurement-std-mm; --outline-out then writes the outline without film. Prints the "
                     "posterior mean area, its standard deviation and 90 %% interval (with --scan, --json adds "
                     "measured_area_mm2 and measured_area_std_mm2, the image's own uncertainty, and the scan's "
@@ -39,7 +39,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add(p, "offset_mm", extra="(wheel-rail)")
     add(p, "offset_std_mm", default=0.0, extra="(wheel-rail, default 0): the band includes it through the "
         "correction's slope in the offset (two more offsets solved)")
-    local(p, "--measurement-std-mm2", type=float, default=0.0,
+    local(p, "--measured-area-std-mm2", type=float, default=0.0,
           help="wheel-rail: standard uncertainty of the measured area (mm2, default 0; at most half the area)")
     add_wheel_rail_options(p)
     local(p, "--measured-radius-mm", type=float, help="sphere-on-flat: imprint radius on the film (mm)")
@@ -86,7 +86,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add(p, "json", action="store_true")
     local(p, "--batch", metavar="IN.csv",
           help="correct one measurement per row (columns film, force_kn and either measured_area_mm2, offset_mm "
-               "or measured_radius_mm, sphere_radius_mm; optional measurement_std_mm2 / measurement_std_mm, "
+               "or measured_radius_mm, sphere_radius_mm; optional measured_area_std_mm2 / measurement_std_mm, "
                "offset_std_mm, wheel_roughness_ra_um, rail_roughness_ra_um) in one process, the posteriors read "
                "once; with --out")
     local(p, "--out", metavar="OUT.csv",
@@ -94,6 +94,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                "(ok, or failed: and the reason) added, and OUT.csv.provenance.json beside it. Exit 0 when every "
                "row is corrected, 1 when some failed, 2 when the file cannot be read")
     renamed(p, "--model", "--imprint-model IMPRINT --kinematics KINEMATICS", convert=split_model)
+    renamed(p, "--measurement-std-mm2", "--measured-area-std-mm2", type=float)
     renamed(p, "--imprint", "--scan")
     renamed(p, "--loads", "--calibration-forces-kn", type=force_range)
     p.set_defaults(func=run)
@@ -204,7 +205,7 @@ def run(args: argparse.Namespace) -> int:
                                         args.measurement_std_mm)
     else:
         measurement = WheelRailMeasurement(args.measured_area_mm2, args.offset_mm, args.force_kn,
-                                           args.measurement_std_mm2, args.wheel, args.rail, args.rail_inclination,
+                                           args.measured_area_std_mm2, args.wheel, args.rail, args.rail_inclination,
                                            args.nominal_radius_mm, args.offset_std_mm)
     scan = None if args.scan is None else ScanReading(
         args.scan, args.dpi, args.mm_per_pixel, args.threshold,

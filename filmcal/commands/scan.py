@@ -28,7 +28,7 @@ def add_parser(subparsers) -> None:
     p.add_argument("sheet", metavar="SHEET", help="the scanned page")
     local(p, "--out", metavar="FILE.csv", required=True,
           help="the imprints' table (columns imprint, scan, region_px, x_mm, y_mm, film, force_kn, offset_mm, "
-               "measured_area_mm2, measurement_std_mm2, equivalent_radius_mm, halo_area_mm2, halo_coverage, "
+               "measured_area_mm2, measured_area_std_mm2, equivalent_radius_mm, halo_area_mm2, halo_coverage, "
                "scan_status)")
     local(p, "--overview", metavar="FILE.png",
           help="the overview image (default: --out with .png in place of .csv)")
@@ -38,7 +38,8 @@ def add_parser(subparsers) -> None:
                "(default 0)")
     local(p, "--min-imprint-mm2", type=float, default=5.0,
           help="least stained area of an imprint in mm2; smaller groups of dots are dust (default 5)")
-    add(p, "film", extra="(fills the film column)")
+    add(p, "film", extra="(fills the film column; checked against the built-in films and --films-file)")
+    add(p, "films_file", extra="(where --film's own film is defined)")
     add(p, "force_kn", extra="(fills the force_kn column)")
     add(p, "offset_mm", extra="(fills the offset_mm column)")
     add(p, "json", action="store_true", help="print the imprints as one JSON object")
@@ -50,6 +51,10 @@ def run(args: argparse.Namespace) -> int:
 
     from filmcal._io import check_distinct_files
 
+    if args.film:
+        from filmcal.films import get_film
+
+        get_film(args.film, args.films_file)  # an unknown name is refused before the image is read
     out = Path(args.out)
     overview = Path(args.overview) if args.overview else out.with_suffix(".png")
     check_distinct_files((args.sheet, "the scanned sheet"), (out, "--out"),

@@ -21,7 +21,7 @@ def add_parser(subparsers) -> None:
                     "area_ci90_low_mm2, area_ci90_high_mm2]], the numbers `filmcal correct` prints. The film and "
                     "options go in the request's config: {\"film\": \"HS\"} and any of imprint_model, kinematics, "
                     "calibration_forces_kn, seed, elastic_limit_mpa, measurement_std_mm (sphere), "
-                    "measurement_std_mm2, offset_std_mm, wheel_roughness_ra_um, rail_roughness_ra_um "
+                    "measured_area_std_mm2, offset_std_mm, wheel_roughness_ra_um, rail_roughness_ra_um "
                     "(wheel-rail). An answer also carries the options used, its provenance (the study's manifest "
                     "and posteriors by SHA-256, the filmcal version), the patch's size and any warning. Bad "
                     "requests get the protocol's error objects; each request's body, input and time are bounded "

@@ -64,7 +64,7 @@ MAX_SHEET_PIXELS = 60_000_000
 
 #: The columns `Sheet.rows` gives, in order; `filmcal correct --batch` takes the table as it is.
 SHEET_COLUMNS = ("imprint", "scan", "region_px", "x_mm", "y_mm", "film", "force_kn", "offset_mm",
-                 "measured_area_mm2", "measurement_std_mm2", "equivalent_radius_mm", "halo_area_mm2",
+                 "measured_area_mm2", "measured_area_std_mm2", "equivalent_radius_mm", "halo_area_mm2",
                  "halo_coverage", "scan_status")
 
 
@@ -148,7 +148,7 @@ class Sheet:
                  "region_px": " ".join(str(v) for v in imp.region_px),
                  "x_mm": fmt(imp.core.centroid_mm[0], 5), "y_mm": fmt(imp.core.centroid_mm[1], 5),
                  "film": film, "force_kn": fmt(force_kn), "offset_mm": fmt(offset_mm),
-                 "measured_area_mm2": fmt(imp.area_mm2), "measurement_std_mm2": fmt(imp.area_std_mm2, 4),
+                 "measured_area_mm2": fmt(imp.area_mm2), "measured_area_std_mm2": fmt(imp.area_std_mm2, 4),
                  "equivalent_radius_mm": fmt(imp.core.equivalent_radius_mm, 5),
                  "halo_area_mm2": fmt(imp.halo_area_mm2, 5), "halo_coverage": fmt(imp.halo_coverage, 3),
                  "scan_status": imp.status}

@@ -292,7 +292,7 @@ class WheelRailCorrector:
         film = FilmLayer(float(np.median(self.modulus_mpa_)), ft.poisson, ft.thickness_mm)
         return wheel_rail_outlines(offset_mm, force_n, film, **self.settings)
 
-    def correct(self, measured_area_mm2, offset_mm, force_n, measurement_std_mm2=0.0, rough=None,
+    def correct(self, measured_area_mm2, offset_mm, force_n, measured_area_std_mm2=0.0, rough=None,
                 offset_std_mm=0.0) -> CorrectedArea:
         """The contact area without film behind measured imprint areas (vectorised).
 
@@ -304,7 +304,7 @@ class WheelRailCorrector:
             Lateral offset eta (mm, the paper's convention).
         force_n : float or array_like
             Wheel load (N), > 0.
-        measurement_std_mm2 : float or array_like
+        measured_area_std_mm2 : float or array_like
             The user's standard uncertainty of the measured area (mm^2), >= 0.
         rough : RoughGrowth, optional
             The bodies' roughness at this offset and force (`filmcal.correction.roughness`): each sample's
@@ -316,18 +316,18 @@ class WheelRailCorrector:
             by u times a standard normal draw.
         """
         A, eta, F, u, u_eta = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in
-                                                   (measured_area_mm2, offset_mm, force_n, measurement_std_mm2,
+                                                   (measured_area_mm2, offset_mm, force_n, measured_area_std_mm2,
                                                     offset_std_mm)))
         if not np.all(np.isfinite(A)) or np.any(A <= 0):
             raise ValueError("measured_area_mm2 must be finite and > 0")
         if not np.all(np.isfinite(u)) or np.any(u < 0):
-            raise ValueError("measurement_std_mm2 must be finite and >= 0")
+            raise ValueError("measured_area_std_mm2 must be finite and >= 0")
         if not np.all(np.isfinite(u_eta)) or np.any(u_eta < 0) or np.any(u_eta > 10.0):
             raise ValueError("offset_std_mm must be finite, >= 0 and at most 10 mm (a ruler reads the offset to "
                              "about 0.5-1 mm)")
         if np.any(u > 2.0 * MAX_RELATIVE_STD * A):
             worst = float(np.max(u / A))
-            raise ValueError(f"measurement_std_mm2 is {100 * worst:.3g} % of the measured area, more than "
+            raise ValueError(f"measured_area_std_mm2 is {100 * worst:.3g} % of the measured area, more than "
                              f"{200 * MAX_RELATIVE_STD:g} % ({100 * MAX_RELATIVE_STD:g} % of its radius): an imprint "
                              "read that loosely leaves the film's own error undecided; check the units")
         rng = np.random.default_rng(self.random_state)

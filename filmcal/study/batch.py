@@ -2,7 +2,7 @@
 
 One row per measurement, in the vocabulary's names: ``film``, ``force_kn`` and either ``measured_area_mm2``,
 ``offset_mm`` (wheel-rail) or ``measured_radius_mm``, ``sphere_radius_mm`` (sphere-on-flat); optional
-``measurement_std_mm2`` / ``measurement_std_mm``, ``offset_std_mm``, ``wheel_roughness_ra_um``,
+``measured_area_std_mm2`` / ``measurement_std_mm``, ``offset_std_mm``, ``wheel_roughness_ra_um``,
 ``rail_roughness_ra_um``; the table `filmcal scan` writes is one as it stands (its other columns,
 `PASSED_COLUMNS`, are kept). Every row meets the same rules as `filmcal correct` (it is corrected by
 `correct_measurement`, with the correctors read once and their solves shared): a good row's answer is the
@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import csv
 import math
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +23,7 @@ __all__ = ["INPUT_COLUMNS", "PASSED_COLUMNS", "OUTPUT_COLUMNS", "correct_batch",
 
 #: The columns a batch row may have (film and force_kn always).
 INPUT_COLUMNS = ("film", "force_kn", "measured_area_mm2", "offset_mm", "measured_radius_mm", "sphere_radius_mm",
-                 "measurement_std_mm2", "measurement_std_mm", "offset_std_mm", "wheel_roughness_ra_um",
+                 "measured_area_std_mm2", "measurement_std_mm", "offset_std_mm", "wheel_roughness_ra_um",
                  "rail_roughness_ra_um")
 #: Columns a batch keeps as they are without reading them: those `filmcal scan` writes beside the measurement
 #: (which imprint of which sheet, where, its halo), so its table is a batch as it stands.
@@ -30,6 +31,8 @@ PASSED_COLUMNS = ("imprint", "scan", "region_px", "x_mm", "y_mm", "equivalent_ra
                   "halo_coverage", "scan_status")
 #: What a batch adds to each row.
 OUTPUT_COLUMNS = ("area_mm2", "area_std_mm2", "area_ci90_low_mm2", "area_ci90_high_mm2", "status")
+#: Old column names read for one release (each with one line naming the new one).
+RENAMED_COLUMNS = {"measurement_std_mm2": "measured_area_std_mm2"}
 #: The most rows one batch takes.
 MAX_ROWS = 100_000
 
@@ -45,6 +48,11 @@ def read_batch(path: str | Path) -> tuple[list[str], list[dict[str, str]]]:
             repeated = sorted({h for h in header if header.count(h) > 1})
             if repeated:
                 raise ValueError(f"batch {path}: column(s) {', '.join(repeated)} appear more than once")
+            for old, new in RENAMED_COLUMNS.items():
+                if old in header and new not in header:
+                    warnings.warn(FutureWarning(f"batch {path}: column {old} is renamed {new}; the old name goes "
+                                                "in the next release"), stacklevel=2)
+                    header[header.index(old)] = new
             reader.fieldnames = header
             rows = []
             for row in reader:
@@ -104,7 +112,7 @@ def _measurement(row: dict):
         return SphereMeasurement(radius, sphere, force, _number(row, "measurement_std_mm", 0.0)), None
     if area is None or offset is None:
         raise ValueError("wheel-rail needs measured_area_mm2 and offset_mm")
-    measurement = WheelRailMeasurement(area, offset, force, _number(row, "measurement_std_mm2", 0.0),
+    measurement = WheelRailMeasurement(area, offset, force, _number(row, "measured_area_std_mm2", 0.0),
                                        offset_std_mm=_number(row, "offset_std_mm", 0.0))
     return measurement, BodyRoughness(wheel_ra, rail_ra)
 

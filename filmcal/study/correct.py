@@ -45,7 +45,7 @@ class WheelRailMeasurement:
     measured_area_mm2: float | None
     offset_mm: float
     force_kn: float
-    measurement_std_mm2: float = 0.0
+    measured_area_std_mm2: float = 0.0
     wheel: str = WHEEL
     rail: str = RAIL
     rail_inclination: float = RAIL_INCLINATION
@@ -53,7 +53,7 @@ class WheelRailMeasurement:
     offset_std_mm: float = 0.0
 
     def __post_init__(self) -> None:
-        _check_value("measured_area_mm2", self.measured_area_mm2, "measurement_std_mm2", self.measurement_std_mm2)
+        _check_value("measured_area_mm2", self.measured_area_mm2, "measured_area_std_mm2", self.measured_area_std_mm2)
         _check_bounds("offset_mm", self.offset_mm, OFFSET_MM_BOUNDS)
         _check_bounds("force_kn", self.force_kn, FORCE_KN_BOUNDS)
         if not (math.isfinite(self.offset_std_mm) and 0.0 <= self.offset_std_mm <= 10.0):
@@ -269,9 +269,9 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
         results = [c.correct(radius, m.sphere_radius_mm, force_n, radius_std) for _, c, _ in parts]
     else:
         if reading is not None:
-            area, area_std = reading.area_mm2, math.hypot(m.measurement_std_mm2, reading.area_std_mm2)
+            area, area_std = reading.area_mm2, math.hypot(m.measured_area_std_mm2, reading.area_std_mm2)
         else:
-            area, area_std = m.measured_area_mm2, m.measurement_std_mm2
+            area, area_std = m.measured_area_mm2, m.measured_area_std_mm2
         parts = _correctors(cache, study, film, "wheel-rail", seed,
                             dict(wheel=m.wheel, rail=m.rail, rail_inclination=m.rail_inclination,
                                  nominal_radius_mm=m.nominal_radius_mm), match)

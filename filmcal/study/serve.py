@@ -50,7 +50,7 @@ OUTPUT_NAMES = ("area_mm2", "area_std_mm2", "area_ci90_low_mm2", "area_ci90_high
 #: The keys a request's config may hold (vocabulary names), and which model takes each.
 CONFIG_KEYS = {"film": "both", "imprint_model": "both", "kinematics": "both", "calibration_forces_kn": "both",
                "seed": "both", "elastic_limit_mpa": "both", "measurement_std_mm": "correct-sphere",
-               "measurement_std_mm2": "correct-wheelrail", "offset_std_mm": "correct-wheelrail",
+               "measured_area_std_mm2": "correct-wheelrail", "offset_std_mm": "correct-wheelrail",
                "wheel_roughness_ra_um": "correct-wheelrail", "rail_roughness_ra_um": "correct-wheelrail"}
 #: Largest request body (bytes): a request is a few hundred bytes.
 MAX_BODY_BYTES = 64 * 1024
@@ -163,7 +163,7 @@ class CorrectionServer:
         values = self._input(request, name)
         config = self._config(request, name)
         key = (name, tuple(sorted((k, v) for k, v in config.items() if k not in ("measurement_std_mm",
-                                                                                    "measurement_std_mm2",
+                                                                                    "measured_area_std_mm2",
                                                                                     "offset_std_mm", "seed"))))
         with self._guard:
             lock = self._locks.setdefault(key, threading.Lock())
@@ -197,7 +197,7 @@ class CorrectionServer:
                 roughness = None
             else:
                 measurement = WheelRailMeasurement(values[0], values[1], values[2],
-                                                   measurement_std_mm2=config["measurement_std_mm2"],
+                                                   measured_area_std_mm2=config["measured_area_std_mm2"],
                                                    offset_std_mm=config["offset_std_mm"])
                 roughness = BodyRoughness(config["wheel_roughness_ra_um"], config["rail_roughness_ra_um"])
             with lock:
@@ -263,7 +263,7 @@ class CorrectionServer:
             config["measurement_std_mm"] = _number("measurement_std_mm", given.get("measurement_std_mm", 0.0), 0.0,
                                                    1e3)
         else:
-            config["measurement_std_mm2"] = _number("measurement_std_mm2", given.get("measurement_std_mm2", 0.0),
+            config["measured_area_std_mm2"] = _number("measured_area_std_mm2", given.get("measured_area_std_mm2", 0.0),
                                                     0.0, 1e5)
             config["offset_std_mm"] = _number("offset_std_mm", given.get("offset_std_mm", 0.0), 0.0, 10.0)
             for k in ("wheel_roughness_ra_um", "rail_roughness_ra_um"):
