@@ -1290,6 +1290,26 @@ def check_dask_address(address: str) -> str:
     return text
 
 
+def _probe_tcp(address: str, timeout_s: float | None) -> None:
+    """Refuse a plain-TCP scheduler address at once when nothing listens there.
+
+    Dask's client retries a refused connection until its timeout; a refused or
+    unresolvable address is known after one attempt. Other schemes (tls, ws,
+    ucx, inproc) are left to the client.
+    """
+    import socket
+
+    if "://" in address and not address.startswith("tcp://"):
+        return
+    host, _, port = address.removeprefix("tcp://").rpartition(":")
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=timeout_s).close()
+    except (ConnectionRefusedError, socket.gaierror) as exc:
+        raise ValueError(f"cannot connect to the Dask scheduler at {address}: {exc.strerror or exc}") from None
+    except OSError:  # no answer in time, or unreachable: the client says so after its own timeout
+        return
+
+
 def _dask_cancel_probe() -> Callable[[], bool] | None:
     """A probe telling whether the Dask task running in this thread was cancelled or released."""
     try:
@@ -1364,6 +1384,7 @@ class DaskExecutor(Executor):
             connect_timeout_s = _check_timeout(connect_timeout_s)
             from distributed import Client
 
+            _probe_tcp(address, connect_timeout_s)
             try:
                 self.client = Client(address, timeout=connect_timeout_s, set_as_default=False)
             except (OSError, TimeoutError, ValueError) as exc:

@@ -423,7 +423,17 @@ def test_a_bad_dask_address_fails_fast_with_one_line(tmp_path, address):
     assert not case["store"].exists()
 
 
-@pytest.mark.slow(reason="7 s: the connect timeout")
+def test_a_refused_dask_address_fails_without_waiting_for_the_connect_timeout():
+    """Dask's client retries a refused connection until its timeout (5 s by default): with a 120 s
+    timeout, the refusal must come from the first attempt."""
+    from filmcal._parallel import DaskExecutor
+
+    start = time.monotonic()
+    with pytest.raises(ValueError, match="cannot connect to the Dask scheduler at tcp://127.0.0.1:9"):
+        DaskExecutor("tcp://127.0.0.1:9", connect_timeout_s=120.0)
+    assert time.monotonic() - start < 60.0
+
+
 def test_an_unreachable_dask_scheduler_fails_within_seconds(tmp_path):
     case = make_case(tmp_path, ["ok"])
     start = time.monotonic()
