@@ -137,6 +137,8 @@ ACCEPTANCE_TESTS: dict[str, str] = {
         "6 s: two toy calibrations",
     "test_simulators.py::test_a_python_simulator_of_another_law_recovers_its_own_modulus":
         "25 s: two calibrations on a lab's simulator (its own E recovered)",
+    "test_simulators.py::test_the_half_space_film_model_as_a_python_simulator_recovers_its_own_modulus":
+        "30 s: a calibration on the half-space film model as a lab's simulator (its own E recovered)",
     "test_simulators.py::test_a_command_simulator_fails_on_some_points_and_resumes_without_running_any_twice":
         "30 s: a calibration on an external command, killed and resumed",
     "test_simulators.py::test_the_lab_example_runs_end_to_end": "45 s: examples/lab at its fast size",

@@ -144,6 +144,34 @@ def test_a_python_simulator_of_another_law_recovers_its_own_modulus(tmp_path):
     assert out["modulus_mpa"]["median"] < e["median"]
 
 
+def test_the_half_space_film_model_as_a_python_simulator_recovers_its_own_modulus(tmp_path):
+    """Another law than the calibrated FE, with physics: filmcal's half-space film model (film springs
+    between two half-spaces, its edge reading) makes a lot at E = 1500 MPa, nu 0.33, 0.09 mm (two repeats,
+    0.01 mm scatter); calibrated through --simulator-python on that model, its own E comes back."""
+    sys.path.insert(0, str(TESTS))
+    from toymodels import halfspace_simulator
+
+    rng = np.random.default_rng(5)
+    rows = ["film,sphere_radius_mm,force_kn,measured_radius_mm,repeat"]
+    for radius, force in DATASET_CASES:
+        a = halfspace_simulator(dict(modulus_mpa=1500.0, poisson=0.33, sphere_radius_mm=radius, force_kn=force,
+                                     film_thickness_mm=0.09))["contact_radius_mm"]
+        rows += [f"HS,{radius},{force},{a + 0.01 * rng.standard_normal():.4f},{k}" for k in (1, 2)]
+    (tmp_path / "lot.csv").write_text("\n".join(rows) + "\n")
+    cmd = [sys.executable, "-m", "filmcal.cli", "calibrate", "--data", str(tmp_path / "lot.csv"), "--film", "HS",
+           "--imprint-model", "edge", "--kinematics", "small", "--study-dir", str(tmp_path / "st"),
+           "--train-runs", "30", "--test-runs", "10", "--max-steps", "3000", "--workers", "2", "--json",
+           "--simulator-python", "toymodels:halfspace_simulator"]
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=900,
+                       env={**os.environ, "PYTHONPATH": str(TESTS), "OMP_NUM_THREADS": "1"})
+    assert p.returncode == 0, p.stderr[-2000:]
+    out = json.loads(p.stdout)
+    assert out["fe_options"]["simulator"] == {"python": "toymodels:halfspace_simulator"}
+    e = out["modulus_mpa"]
+    assert e["ci90"][0] < 1500.0 < e["ci90"][1], e
+    assert abs(e["median"] / 1500.0 - 1) < 0.03, e
+
+
 SCRIPT = textwrap.dedent("""\
     import json, os, sys, time
     sys.path.insert(0, {tests!r})

@@ -34,3 +34,17 @@ def toy_simulator(params: dict) -> dict:
     p0 = 3.0 * F / (2.0 * np.pi * a**2)
     pressure = p0 * np.sqrt(np.clip(1.0 - (r / a) ** 2, 0.0, None))
     return {"contact_radius_mm": a, "radius_mm": r.tolist(), "pressure_mpa": pressure.tolist()}
+
+
+def halfspace_simulator(params: dict) -> dict:
+    """A simulator of another law than the calibrated FE: filmcal's half-space film model (the film as a
+    layer of springs between two elastic half-spaces, `filmcal.wheelrail.halfspace.sphere_on_flat_contact`),
+    sphere on flat, its edge radius sqrt(A / pi). No pressure profile: only the edge model reads it."""
+    import math
+
+    from filmcal.contact.laws import FilmLayer
+    from filmcal.wheelrail.halfspace import sphere_on_flat_contact
+
+    layer = FilmLayer(float(params["modulus_mpa"]), float(params["poisson"]), float(params["film_thickness_mm"]))
+    result = sphere_on_flat_contact(float(params["sphere_radius_mm"]), 1e3 * float(params["force_kn"]), film=layer)
+    return {"contact_radius_mm": math.sqrt(float(result.area_mm2) / math.pi)}
