@@ -100,7 +100,8 @@ def summarise(rows: list[dict]) -> dict:
                        "unit": "mm2" if kind.startswith("wheel-rail") else "mm", "mean": float(d.mean()),
                        "max_abs": float(np.abs(d).max()),
                        "max_abs_rel_pct": float(100 * max(abs(r["relative"]) for r in sel))})
-    transfer = [{k: r[k] for k in ("check", "n", "raw_mean_mm", "raw_max_mm", "mean_mm", "rms_mm", "max_mm", "std_mm")}
+    transfer = [{k: r[k] for k in ("check", "n", "raw_mean_mm", "raw_max_mm", "mean_mm", "rms_mm", "max_mm", "std_mm",
+                                   "not_converged", "one_sided")}
                 for r in rows if r["check"].startswith("transfer ")]
     return {"made": time.strftime("%Y-%m-%d"), "script": "bench/verification.py --summary",
             "fe_model_revision": FE_MODEL_REVISION, "checks": checks, "transfer": transfer}
@@ -201,7 +202,8 @@ def transfer_check(n_points: int) -> list[dict]:
         for key, r in sorted(check_transfer(fit, rows).items()):
             out.append({"check": f"transfer {key}" + ("" if region == "core" else ", whole domain"), "n": r["n"],
                         "raw_mean_mm": r["raw_mean_mm"], "raw_max_mm": r["raw_max_mm"], "mean_mm": r["mean_mm"],
-                        "rms_mm": r["rms_mm"], "max_mm": r["max_mm"], "std_mm": fit.std_mm[key]})
+                        "rms_mm": r["rms_mm"], "max_mm": r["max_mm"], "std_mm": fit.std_mm[key],
+                        "not_converged": r["not_converged"], "one_sided": r["one_sided"]})
     return out
 
 
@@ -326,10 +328,11 @@ def main(argv=None) -> int:
     transfer = transfer_check(args.points)
     print(f"\ntransfer: calibrated FE film minus applied springs, sphere-on-flat, MS/HS/HHS at {args.points} points "
           "of Table 1's region (seed 3) and of the whole domain (seed 17), radius in mm")
-    print(f"{'model':40} {'n':>4} {'raw mean':>9} {'raw max':>8} | {'mean':>8} {'rms':>7} {'max':>7} | {'term std':>8}")
+    print(f"{'model':40} {'n':>4} {'raw mean':>9} {'raw max':>8} | {'mean':>8} {'rms':>7} {'max':>7} | {'term std':>8}"
+          " | left out: FE not converged, one model records nothing")
     for r in transfer:
         print(f"{r['check']:40} {r['n']:4d} {r['raw_mean_mm']:+9.4f} {r['raw_max_mm']:8.4f} | {r['mean_mm']:+8.4f} "
-              f"{r['rms_mm']:7.4f} {r['max_mm']:7.4f} | {r['std_mm']:8.4f}")
+              f"{r['rms_mm']:7.4f} {r['max_mm']:7.4f} | {r['std_mm']:8.4f} | {r['not_converged']} {r['one_sided']}")
     rows += transfer
     if args.grid:
         grid = grid_convergence()

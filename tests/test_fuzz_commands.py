@@ -238,6 +238,9 @@ CASES = [
     (["wheelrail", *WR, "--no-film", "--rail-inclination", "1/0"], ["--rail-inclination"]),
     (["wheelrail", *WR, "--no-film", "--rail-inclination", "abc"], ["--rail-inclination"]),
     (["wheelrail", *WR, "--no-film", "--rail-inclination", "1"], ["--rail-inclination"]),
+    # a soft large-strain film ended in an IndexError; a tiny modulus blamed --offset-mm
+    (["wheelrail", *WR, "--film-modulus-mpa", "0.1", "--kinematics", "large"], ["--film-modulus-mpa"]),
+    (["wheelrail", *WR, "--film-modulus-mpa", "1e-3"], ["--film-modulus-mpa"]),
     (["wheelrail", *WR, "--no-film", "--rail", "missing.csv"], ["missing.csv"]),
     (["wheelrail", *WR, "--no-film", "--rail", "badprofile.csv"], ["badprofile.csv"]),
     (["wheelrail", *WR, "--no-film", "--rail", "binary.csv"], ["binary.csv"]),

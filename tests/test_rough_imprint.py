@@ -12,7 +12,7 @@ from filmcal.calibration.roughness import (DETECTION_SCATTER, PAPER_ROUGH_FLAT, 
                                            condition_weights, observation_likelihood, resample)
 from filmcal.contact.film import FilmModel
 from filmcal.contact.rough_imprint import (DEFAULT_ROUGHNESS_INPUTS, ROUGHNESS_PRIOR, RoughnessInputs,
-                                           coverage, coverage_level_mpa, load_roughness_inputs,
+                                           _shipped, coverage, coverage_level_mpa, load_roughness_inputs,
                                            representative_roughness_inputs, rough_recorded_area_mm2,
                                            sample_roughness_prior)
 from filmcal.correction.roughness import RoughGrowth, weighted_quantiles
@@ -20,11 +20,12 @@ from filmcal.wheelrail.rough_growth import sphere_growth
 from filmcal.films import get_film
 from filmcal.wheelrail.halfspace import sphere_on_flat_contact
 
-#: The full study's calibrated films (posterior medians under each film's preferred model, 26 Nov 2026).
-HS = FilmModel(get_film("HS"), "edge", "large")
-HHS = FilmModel(get_film("HHS"), "activation", "small")
-MS = FilmModel(get_film("MS"), "edge", "large")
-MODULUS = {"MS": 527.0, "HS": 2501.0, "HHS": 3400.0}
+#: Each film at the modulus and under the model the shipped conditioning used (its calibrated median and
+#: preferred model, recorded in filmcal/data/roughness_inputs.json), so that the tests follow a recalibration.
+SHIPPED_FILMS = {f["film"]: f for f in _shipped()["films"]}
+HS, HHS, MS = (FilmModel(get_film(name), SHIPPED_FILMS[name]["imprint"], SHIPPED_FILMS[name]["kinematics"])
+               for name in ("HS", "HHS", "MS"))
+MODULUS = {name: float(f["modulus_mpa"]) for name, f in SHIPPED_FILMS.items()}
 
 
 def test_prior_draws_cover_the_stated_ranges_and_are_reproducible():

@@ -205,14 +205,18 @@ def _groups(rows: list[dict]) -> dict[str, list[dict]]:
 def check_transfer(fit: TransferFit, rows: list[dict]) -> dict[str, dict]:
     """Residuals (mm) of rows against a fit, per ``imprint/kinematics``, without and with the term.
 
-    Returns ``{key: {"n", "raw_mean_mm", "raw_max_mm", "mean_mm", "rms_mm", "max_mm", "one_sided"}}`` (max: of
-    |.|; ``one_sided``: rows where one model records an imprint and the other none, at a peak pressure within
-    a hair of the film's level; they have no edge offset and are counted, not fitted).
+    Returns ``{key: {"n", "raw_mean_mm", "raw_max_mm", "mean_mm", "rms_mm", "max_mm", "one_sided",
+    "not_converged"}}`` (max: of |.|; ``one_sided``: rows where one model records an imprint and the other
+    none, at a peak pressure within a hair of the film's level; they have no edge offset and are counted, not
+    fitted; ``not_converged``: rows whose calibrated FE did not converge, left out and counted).
     """
     one_sided: dict[str, int] = {}
+    not_converged: dict[str, int] = {}
     for r in rows:
-        if r["converged"] and sum(_recorded(r)) == 1:
-            key = f"{r['imprint']}/{r['kinematics']}"
+        key = f"{r['imprint']}/{r['kinematics']}"
+        if not r["converged"]:
+            not_converged[key] = not_converged.get(key, 0) + 1
+        elif sum(_recorded(r)) == 1:
             one_sided[key] = one_sided.get(key, 0) + 1
     out = {}
     for key, group in _groups(rows).items():
@@ -223,7 +227,8 @@ def check_transfer(fit: TransferFit, rows: list[dict]) -> dict[str, dict]:
         res = raw - fitted
         out[key] = {"n": len(group), "raw_mean_mm": float(raw.mean()), "raw_max_mm": float(np.abs(raw).max()),
                     "mean_mm": float(res.mean()), "rms_mm": float(np.sqrt(np.mean(res**2))),
-                    "max_mm": float(np.abs(res).max()), "one_sided": one_sided.get(key, 0)}
+                    "max_mm": float(np.abs(res).max()), "one_sided": one_sided.get(key, 0),
+                    "not_converged": not_converged.get(key, 0)}
     return out
 
 
