@@ -173,3 +173,21 @@ def test_large_strain_law_stays_finite_far_beyond_the_film_modulus():
         s = law.log_compression(p)
     assert np.all(np.isfinite(s)) and np.all(np.diff(s) > 0)
     np.testing.assert_allclose(law._pressure_of_log(s), p, rtol=1e-10)
+
+
+def test_the_large_strain_film_reuses_its_last_solve_only_for_the_same_pressures():
+    """log_compression keeps its last answer (a solver asks for the closure, its slope and its integral at one
+    pressure): an array changed in place, or another array, is solved anew; answers equal a fresh law's."""
+    import numpy as np
+
+    from filmcal.contact.laws import LargeStrainFilm
+
+    p = np.linspace(0.0, 900.0, 50)
+    law = LargeStrainFilm(538.0, 0.33, 0.09)
+    first = law.closure_mm(p)
+    p *= 0.5  # the caller's array, changed in place
+    assert np.array_equal(law.closure_mm(p), LargeStrainFilm(538.0, 0.33, 0.09).closure_mm(p))
+    assert not np.array_equal(law.closure_mm(p), first)
+    s = law.log_compression(p)
+    s[:] = -1.0  # a returned array changed by the caller does not change the next answer
+    assert np.array_equal(law.log_compression(p), LargeStrainFilm(538.0, 0.33, 0.09).log_compression(p))

@@ -497,6 +497,10 @@ class LargeStrainFilm(InterfaceLaw):
         e, nu = self.modulus_mpa, self.poisson
         self._lam = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
         self._mu = e / (2.0 * (1.0 + nu))
+        self._last: tuple[np.ndarray, np.ndarray] | None = None  # the last (pressure, s) of log_compression
+
+    def __getstate__(self) -> dict:
+        return {**self.__dict__, "_last": None}  # the cache stays in its process
 
     @classmethod
     def from_film(cls, film: FilmLayer) -> "LargeStrainFilm":
@@ -527,12 +531,16 @@ class LargeStrainFilm(InterfaceLaw):
         keeps ``sinh`` and ``exp`` finite for pressures far beyond the film's modulus.
         """
         p = np.clip(np.asarray(pressure_mpa, dtype=float), 0.0, None)
+        last = self._last
+        if last is not None and last[0].shape == p.shape and np.array_equal(last[0], p):
+            return last[1].copy()  # a solver asks for the closure, its slope and its integral at one pressure
         s = np.minimum(p / self.oedometric_modulus_mpa, np.log1p(p / self._mu))
         for _ in range(100):
             step = (self._pressure_of_log(s) - p) / self._slope_of_log(s)
             s = np.maximum(s - step, 0.0)
             if np.all(np.abs(step) <= 1e-14 * (1.0 + s)):
                 break
+        self._last = (p, s.copy()) if p.ndim else None
         return s
 
     def strain(self, pressure_mpa: np.ndarray) -> np.ndarray:
