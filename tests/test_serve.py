@@ -91,6 +91,18 @@ def test_the_protocol_answers_with_the_numbers_filmcal_correct_prints(server):
     assert answer["patch"]["length_mm"] == single["wheelrail"]["patch"]["length_mm"]
 
 
+def test_the_old_name_of_the_measured_areas_uncertainty_is_read_with_a_warning(server):
+    url = server[0]
+    new = {"name": "correct-wheelrail", "input": [[150, -3, 100]],
+           "config": {"film": "HS", "offset_std_mm": 1, "measured_area_std_mm2": 3}}
+    old = {**new, "config": {"film": "HS", "offset_std_mm": 1, "measurement_std_mm2": 3}}
+    (s_new, a_new), (s_old, a_old) = _call(url, "/Evaluate", new), _call(url, "/Evaluate", old)
+    assert s_new == s_old == 200, (a_new, a_old)
+    assert a_old["output"] == a_new["output"] and a_old["config"] == a_new["config"]
+    assert any("measurement_std_mm2 is renamed measured_area_std_mm2" in w for w in a_old["warnings"])
+    assert not any("renamed" in w for w in a_new.get("warnings", []))
+
+
 def test_eight_concurrent_clients_get_the_same_answers(server):
     url, _, single = server
     want = [single["sphere"]["area_mm2"], single["sphere"]["area_std_mm2"], *single["sphere"]["area_ci90_mm2"]]

@@ -52,6 +52,8 @@ CONFIG_KEYS = {"film": "both", "imprint_model": "both", "kinematics": "both", "c
                "seed": "both", "elastic_limit_mpa": "both", "measurement_std_mm": "correct-sphere",
                "measured_area_std_mm2": "correct-wheelrail", "offset_std_mm": "correct-wheelrail",
                "wheel_roughness_ra_um": "correct-wheelrail", "rail_roughness_ra_um": "correct-wheelrail"}
+#: Old config keys read for one release (the answer's warnings name the new one).
+RENAMED_CONFIG_KEYS = {"measurement_std_mm2": "measured_area_std_mm2"}
 #: Largest request body (bytes): a request is a few hundred bytes.
 MAX_BODY_BYTES = 64 * 1024
 #: Connections served at once; more are answered "busy" (HTTP 503) at once.
@@ -162,6 +164,7 @@ class CorrectionServer:
         name = self._model(request)
         values = self._input(request, name)
         config = self._config(request, name)
+        renamed = config.pop("renamed")
         key = (name, tuple(sorted((k, v) for k, v in config.items() if k not in ("measurement_std_mm",
                                                                                     "measured_area_std_mm2",
                                                                                     "offset_std_mm", "seed"))))
@@ -183,6 +186,8 @@ class CorrectionServer:
         for extra in ("warnings", "patch", "not_included", "max_pressure_no_film_mpa"):
             if extra in answer:
                 out[extra] = answer[extra]
+        if renamed:
+            out["warnings"] = [*out.get("warnings", []), *renamed]
         return out
 
     def _correct(self, lock: threading.Lock, name: str, values: list[float], config: dict) -> dict:
@@ -235,6 +240,8 @@ class CorrectionServer:
         given = request.get("config", {})
         if not isinstance(given, dict):
             raise _RequestError("InvalidInput", "config must be a JSON object")
+        renamed = [k for k in RENAMED_CONFIG_KEYS if k in given and RENAMED_CONFIG_KEYS[k] not in given]
+        given = {RENAMED_CONFIG_KEYS[k] if k in renamed else k: v for k, v in given.items()}
         unknown = [k for k in given if CONFIG_KEYS.get(k) not in ("both", name)]
         if unknown:
             takes = [k for k, m in CONFIG_KEYS.items() if m in ("both", name)]
@@ -268,6 +275,8 @@ class CorrectionServer:
             config["offset_std_mm"] = _number("offset_std_mm", given.get("offset_std_mm", 0.0), 0.0, 10.0)
             for k in ("wheel_roughness_ra_um", "rail_roughness_ra_um"):
                 config[k] = _number(k, given.get(k, 0.0), 0.0, 30.0)
+        config["renamed"] = [f"config {k} is renamed {RENAMED_CONFIG_KEYS[k]}; the old name goes in the next release"
+                             for k in renamed]
         return config
 
 
