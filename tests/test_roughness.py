@@ -181,6 +181,48 @@ def test_law_sent_to_a_worker_reads_the_same_pressures():
     np.testing.assert_array_equal(back.closure_mm(p), law.closure_mm(p))
 
 
+@pytest.mark.parametrize("hardness", [40.0, 300.0, math.inf])
+def test_projection_onto_the_capped_pressures_of_a_given_mean(hardness):
+    """The projected-gradient step's projection against a second method: the shift mu from scipy's brentq on
+    mean(clip(x - mu, 0, H)) = mean_p, from a cold start and from a poor warm start alike."""
+    from scipy.optimize import brentq
+
+    from filmcal.contact.roughness import _project
+
+    rng = np.random.default_rng(5)
+    for trial in range(6):
+        x = rng.standard_normal((64, 64)) * rng.uniform(1.0, 200.0) + rng.uniform(-100.0, 100.0)
+        mean_p = rng.uniform(0.05, 0.9) * (hardness if math.isfinite(hardness) else 50.0)
+        mu_ref = brentq(lambda mu: np.clip(x - mu, 0.0, hardness).mean() - mean_p,
+                        x.min() - (hardness if math.isfinite(hardness) else mean_p) - 1.0, x.max() + 1.0,
+                        xtol=1e-14, rtol=1e-15)
+        reference = np.clip(x - mu_ref, 0.0, hardness)
+        for start in (None, mu_ref + rng.normal(0.0, 30.0)):
+            p, mu = _project(x, mean_p, hardness, start)
+            assert mu == pytest.approx(mu_ref, rel=1e-10, abs=1e-9)
+            assert p.mean() == pytest.approx(mean_p, rel=1e-11)
+            np.testing.assert_allclose(p, reference, rtol=0.0, atol=1e-9 * max(1.0, mean_p))
+
+
+def test_expected_stain_keeps_each_keys_means_apart():
+    """The law keeps its step means under the caller's key: a second function under its own key reads its own
+    values, and the kept means give what a fresh computation gives."""
+    surf = RoughSurface.synthetic(ra_um=1.5, seed=0, n=128, size_um=100.0, rolloff_wavelength_um=25.0)
+    law = rough_contact_law(surf, 2739.0, 0.33, 0.09)
+    p = np.linspace(0.0, 1.5 * law.saturation_pressure_mpa, 37)
+    soft = lambda q: 1.0 - np.exp(-np.asarray(q) / 30.0)  # noqa: E731
+    hard = lambda q: (np.asarray(q) > 120.0).astype(float)  # noqa: E731
+    fresh_soft, fresh_hard = law.expected_stain(soft, p), law.expected_stain(hard, p)
+    assert not np.allclose(fresh_soft, fresh_hard)
+    for _ in range(2):
+        np.testing.assert_array_equal(law.expected_stain(soft, p, key="soft"), fresh_soft)
+        np.testing.assert_array_equal(law.expected_stain(hard, p, key="hard"), fresh_hard)
+    # the step function's mean at a solved step is the fraction above its level
+    step = law.steps[len(law.steps) // 2].nominal_pressure_mpa
+    assert law.expected_stain(hard, np.array([step]), key="hard")[0] == pytest.approx(
+        law.fraction_above(120.0, np.array([step]))[0], abs=1e-12)
+
+
 def test_rough_flat_enlarges_a_sphere_contact():
     surf = RoughSurface.synthetic(ra_um=1.5, seed=0, n=128, size_um=100.0, rolloff_wavelength_um=25.0)
     law = rough_contact_law(surf, 2739.0, 0.33, 0.09)

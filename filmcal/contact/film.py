@@ -158,5 +158,6 @@ class FilmModel:
         model = get_imprint_model(self.imprint)
         p = contact.pressure_mpa
         loaded = p > 0.0
-        fraction = rough_law.expected_stain(lambda q: model.stain_probability(q, self.film), p[loaded])
+        fraction = rough_law.expected_stain(lambda q: model.stain_probability(q, self.film), p[loaded],
+                                            key=(self.imprint, repr(self.film)))
         return float(fraction.sum() * contact.grid.cell_area_mm2)

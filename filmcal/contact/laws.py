@@ -534,13 +534,21 @@ class LargeStrainFilm(InterfaceLaw):
         last = self._last
         if last is not None and last[0].shape == p.shape and np.array_equal(last[0], p):
             return last[1].copy()  # a solver asks for the closure, its slope and its integral at one pressure
+        if p.ndim:  # Newton on the loaded cells only (s = 0 where p = 0; a contact grid is mostly unloaded)
+            s = np.zeros_like(p)
+            loaded = p > 0.0
+            s[loaded] = self._newton_log(p[loaded])
+            self._last = (p, s.copy())
+            return s
+        return self._newton_log(p)
+
+    def _newton_log(self, p: np.ndarray) -> np.ndarray:
         s = np.minimum(p / self.oedometric_modulus_mpa, np.log1p(p / self._mu))
         for _ in range(100):
             step = (self._pressure_of_log(s) - p) / self._slope_of_log(s)
             s = np.maximum(s - step, 0.0)
             if np.all(np.abs(step) <= 1e-14 * (1.0 + s)):
                 break
-        self._last = (p, s.copy()) if p.ndim else None
         return s
 
     def strain(self, pressure_mpa: np.ndarray) -> np.ndarray:

@@ -245,7 +245,8 @@ def coverage(model, rough_law, nominal_pressure_mpa: np.ndarray) -> np.ndarray:
         elif model.imprint == "activation":
             c = law.fraction_above(float(model.film.activation_pressure_mpa), p)
         else:
-            c = law.expected_stain(lambda q: imprint.stain_probability(q, model.film), p)
+            c = law.expected_stain(lambda q: imprint.stain_probability(q, model.film), p,
+                                   key=(model.imprint, repr(model.film)))
         blank = blank * (1.0 - np.clip(c, 0.0, 1.0))
     return np.where(p > 0.0, 1.0 - blank, 0.0)
 

@@ -559,21 +559,37 @@ def _kkt_violation(kernel: _PeriodicKernel, heights_um: np.ndarray, p: np.ndarra
     return worst / scale
 
 
-def _project(x: np.ndarray, mean_p: float, hardness: float) -> tuple[np.ndarray, float]:
-    """Euclidean projection onto ``{0 <= p <= H, mean(p) = mean_p}``: ``clip(x - mu, 0, H)``."""
+def _project(x: np.ndarray, mean_p: float, hardness: float, mu: float | None = None) -> tuple[np.ndarray, float]:
+    """Euclidean projection onto ``{0 <= p <= H, mean(p) = mean_p}``: ``clip(x - mu, 0, H)``.
+
+    ``mean(clip(x - mu, 0, H))`` falls piecewise linearly in ``mu``, with slope minus the fraction of cells
+    strictly between the bounds: Newton steps from ``mu`` (an iteration's last shift; None: the middle of the
+    bracket) are exact once on the root's piece, and a bisection of the bracket takes over from any step that
+    would leave it.
+    """
     lo, hi = float(x.min()) - hardness - 1.0, float(x.max()) + 1.0
     if math.isinf(hardness):
         lo = float(x.min()) - mean_p - 1.0
-    for _ in range(100):
+    if mu is None or not lo < mu < hi:
         mu = 0.5 * (lo + hi)
-        if np.clip(x - mu, 0.0, hardness).mean() > mean_p:
+    y = np.empty_like(x)
+    for _ in range(200):
+        np.subtract(x, mu, out=y)
+        np.clip(y, 0.0, hardness, out=y)
+        excess = float(y.mean()) - mean_p
+        if abs(excess) <= 1e-13 * mean_p:
+            break
+        if excess > 0.0:
             lo = mu
         else:
             hi = mu
+        free = np.count_nonzero((y > 0.0) & (y < hardness))
+        newton = mu + excess * y.size / free if free else hi
+        mu = newton if lo < newton < hi else 0.5 * (lo + hi)
         if hi - lo <= 1e-13 * (1.0 + abs(mu)):
+            np.clip(x - mu, 0.0, hardness, out=y)
             break
-    mu = 0.5 * (lo + hi)
-    return np.clip(x - mu, 0.0, hardness), mu
+    return y, mu
 
 
 def _fista_step(kernel: _PeriodicKernel, heights_um: np.ndarray, mean_p: float, hardness: float,
@@ -589,7 +605,7 @@ def _fista_step(kernel: _PeriodicKernel, heights_um: np.ndarray, mean_p: float, 
     it = 0
     for it in range(1, max_iter + 1):
         grad = kernel(y) - heights_um
-        p_new, mu = _project(y - step * grad, mean_p, hardness)
+        p_new, mu = _project(y - step * grad, mean_p, hardness, mu)
         change = float(np.abs(p_new - p).sum() / total)
         t_new = 0.5 * (1.0 + math.sqrt(1.0 + 4.0 * t * t))
         if float(np.sum((y - p_new) * (p_new - p))) > 0.0:  # restart
@@ -727,6 +743,7 @@ class RoughContactLaw(TabularLaw):
         self.hardness_mpa = hardness_mpa
         self.saturation_pressure_mpa = float(top)
         self._sorted = self._sorted_pressures()
+        self._stain_means: dict = {}  # expected_stain's means over the steps, by the caller's key
 
     def _sorted_pressures(self) -> list[np.ndarray]:
         """The local pressures of each step, sorted (the distributions `fraction_above` reads)."""
@@ -734,11 +751,12 @@ class RoughContactLaw(TabularLaw):
 
     def __getstate__(self) -> dict:
         # sent to worker processes without the sorted copies (twice the maps' size, rebuilt in ms)
-        return {k: v for k, v in self.__dict__.items() if k != "_sorted"}
+        return {k: v for k, v in self.__dict__.items() if k not in ("_sorted", "_stain_means")}
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
         self._sorted = self._sorted_pressures()
+        self._stain_means = {}
 
     def contact_fraction(self, nominal_pressure_mpa: np.ndarray) -> np.ndarray:
         """Real contact fraction at nominal pressures (linear in between steps)."""
@@ -769,7 +787,7 @@ class RoughContactLaw(TabularLaw):
             out[above] = 1.0 - np.searchsorted(last, level - extra, side="right") / last.size
         return out
 
-    def expected_stain(self, stain_probability, nominal_pressure_mpa: np.ndarray) -> np.ndarray:
+    def expected_stain(self, stain_probability, nominal_pressure_mpa: np.ndarray, key=None) -> np.ndarray:
         """Mean of ``stain_probability(local pressure)`` over the nominal area.
 
         Parameters
@@ -779,6 +797,9 @@ class RoughContactLaw(TabularLaw):
             colours there (``ImprintModel.stain_probability`` bound to a film).
         nominal_pressure_mpa : array_like
             Nominal pressures (MPa).
+        key : hashable, optional
+            A name of ``stain_probability`` (one key, one function): the law
+            keeps its means over the solved steps under it for later calls.
 
         Returns
         -------
@@ -789,7 +810,11 @@ class RoughContactLaw(TabularLaw):
         """
         p = np.asarray(nominal_pressure_mpa, dtype=float)
         xs = np.array([0.0] + [s.nominal_pressure_mpa for s in self.steps])
-        ys = np.array([0.0] + [float(np.mean(stain_probability(a))) for a in self._sorted])
+        ys = self._stain_means.get(key) if key is not None else None
+        if ys is None:
+            ys = np.array([0.0] + [float(np.mean(stain_probability(a))) for a in self._sorted])
+            if key is not None:
+                self._stain_means[key] = ys
         out = np.interp(p, xs, ys)
         above = p > xs[-1]
         if np.any(above):
