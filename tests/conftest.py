@@ -129,8 +129,9 @@ ACCEPTANCE_TESTS: dict[str, str] = {
         "48 s: 12 wheel-rail solves, 3 BEM laws (the paper's film order, wheel-rail)",
     "test_roughness_sphere.py::test_rough_flat_grows_the_sphere_imprint_in_the_papers_order":
         "37 s: 3 BEM laws, 12 sphere solves (the paper's film order, sphere-on-flat)",
-    "test_surface_files.py::test_wheelrail_command_reports_the_measured_ra_of_an_x3p_and_a_profile":
-        "41 s: boundary-element laws of a measured map and a profile (Ra reported within 2 %)",
+    "test_surface_files.py::test_wheelrail_and_correct_report_the_measured_ra_of_an_x3p_and_a_profile":
+        "41 s + 30 s: boundary-element laws of a measured map and a profile in `wheelrail` and in `correct` on the "
+        "quick study (Ra reported within 2 %)",
     "test_simulators.py::test_the_design_runs_the_data_cases_so_the_surrogate_is_exact_where_the_calibration_asks":
         "5 s: two toy campaigns and GP fits",
     "test_simulators.py::test_a_posterior_on_the_design_alone_is_superseded_by_one_with_the_cases_runs":

@@ -116,7 +116,9 @@ def test_bad_surfaces_get_one_clear_line(tmp_path, surface, case, match):
         read_x3p(path)
 
 
-def test_wheelrail_command_reports_the_measured_ra_of_an_x3p_and_a_profile(tmp_path, surface):
+def test_wheelrail_and_correct_report_the_measured_ra_of_an_x3p_and_a_profile(tmp_path, surface, quick_study):
+    """The x3p map of a synthetic surface and the stylus profile of a sine (Ra = 2 A / pi) through `filmcal
+    wheelrail` and `filmcal correct` (on a study): each command reports the Ra it read within 2 %."""
     path = tmp_path / "wheel.x3p"
     write_x3p(path, surface.heights_um, surface.pixel_um)
     x = np.arange(0.0, 1.0, 0.0005)
@@ -133,6 +135,16 @@ def test_wheelrail_command_reports_the_measured_ra_of_an_x3p_and_a_profile(tmp_p
     assert out["imprint_area_mm2"] > 0
     bad = subprocess.run(base + ["--wheel-roughness-map", str(tmp_path / "none.x3p")], capture_output=True, text=True)
     assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1
+    study, _, _ = quick_study
+    p = subprocess.run([sys.executable, "-m", "filmcal.cli", "correct", "--film", "HS", "--measured-area-mm2", "150",
+                        "--offset-mm=-3", "--force-kn", "100", "--study-dir", str(study), "--json", "--progress",
+                        "quiet", "--roughness-draws", "2", "--wheel-roughness-map", str(path),
+                        "--rail-roughness-map", str(profile)], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    read = json.loads(p.stdout)["provenance"]["roughness"]
+    assert read["wheel_ra_um"] == pytest.approx(surface.ra_um, rel=0.02)
+    assert read["rail_ra_um"] == pytest.approx(2 * 1.2 / math.pi, rel=0.02)
+    assert read["wheel_map"]["file"] == str(path) and read["rail_map"]["file"] == str(profile)
 
 
 @pytest.mark.parametrize("amplitude_um, match", [(1e300, "heights reach 1e\\+300 um"), (1e8, "heights reach 1e\\+08 um"),
