@@ -217,6 +217,12 @@ def test_expected_stain_keeps_each_keys_means_apart():
     for _ in range(2):
         np.testing.assert_array_equal(law.expected_stain(soft, p, key="soft"), fresh_soft)
         np.testing.assert_array_equal(law.expected_stain(hard, p, key="hard"), fresh_hard)
+    # above the last step: the mean over every local pressure of that step, shifted by the extra pressure
+    extra = np.array([0.5, 20.0, 150.0])
+    last = law.steps[-1].pressure_mpa.astype(float).ravel()
+    direct = [soft(last + e).mean() for e in extra]
+    assert law.expected_stain(soft, law.saturation_pressure_mpa + extra, key="soft") == pytest.approx(direct,
+                                                                                                      abs=1e-4)
     # the step function's mean at a solved step is the fraction above its level
     step = law.steps[len(law.steps) // 2].nominal_pressure_mpa
     assert law.expected_stain(hard, np.array([step]), key="hard")[0] == pytest.approx(

@@ -806,7 +806,8 @@ class RoughContactLaw(TabularLaw):
         ndarray
             The coloured fraction of the nominal area; interpolated linearly
             between the solved steps, and above the last step from its local
-            pressures shifted by the extra nominal pressure.
+            pressures (1024 quantiles of them) shifted by the extra nominal
+            pressure.
         """
         p = np.asarray(nominal_pressure_mpa, dtype=float)
         xs = np.array([0.0] + [s.nominal_pressure_mpa for s in self.steps])
@@ -818,7 +819,10 @@ class RoughContactLaw(TabularLaw):
         out = np.interp(p, xs, ys)
         above = p > xs[-1]
         if np.any(above):
-            last = self._sorted[-1][:: max(1, self._sorted[-1].size // 4096)]
+            # the last step's local pressures at 1024 midpoint quantiles (against all of them, within 6e-5 for the
+            # capsule models of MS, HS and HHS: closer than every 16th of the sorted 65536 was, 1.2e-4)
+            last = self._sorted[-1]
+            last = last[((np.arange(min(1024, last.size)) + 0.5) * (last.size / min(1024, last.size))).astype(int)]
             out[above] = [float(np.mean(stain_probability(last + (q - xs[-1])))) for q in p[above]]
         return out
 

@@ -200,7 +200,9 @@ def solve_growths(models, draws: Sequence[tuple[float | None, dict]], offset_mm:
         smooth; `draw_laws`).
     solver
         A wheel-rail model (`filmcal.wheelrail.get_wheel_rail_model`). The smooth solves are made once for all
-        draws; each rough solve starts from its smooth one.
+        draws; a configuration's first rough solve starts from its smooth one, each later draw's from the draw
+        before (nearer: a quarter fewer Newton steps; over the full study's 420 growths the two starts agree within
+        4e-4 relative, median 5e-6).
     progress : callable, optional
         Called after each draw.
 
@@ -221,20 +223,22 @@ def solve_growths(models, draws: Sequence[tuple[float | None, dict]], offset_mm:
             smooth[key] = solver.solve(offset_mm, force_n, film=film0, roughness=law0, initial=bare)
             base.update({k: models[k][1].recorded_area_mm2(smooth[key]) for k in members})
     out = []
+    last: dict = {}  # each configuration's last rough solve: the next draw's start (nearer than the smooth one)
     for level, laws in draws:
         g0 = 1.0
         wavy = laws.get("waviness")
         if laws.get(None) is not None or wavy is not None:
-            g0 = nominal_rough_area_mm2(solver.solve(offset_mm, force_n, roughness=laws.get(None), initial=bare,
-                                                     waviness=wavy), bare) / float(bare.area_mm2)
+            last[None] = solver.solve(offset_mm, force_n, roughness=laws.get(None), initial=last.get(None, bare),
+                                      waviness=wavy)
+            g0 = nominal_rough_area_mm2(last[None], bare) / float(bare.area_mm2)
         gf = [1.0] * len(models)
         for key, members in groups.items():
             law = laws.get(key[0])
             if law is None and wavy is None:
                 continue
             film, solver_law, rough_law = models[members[0]][1].interface(key[2], law)
-            rough = solver.solve(offset_mm, force_n, film=film, roughness=solver_law, initial=smooth[key],
-                                 waviness=wavy)
+            rough = last[key] = solver.solve(offset_mm, force_n, film=film, roughness=solver_law,
+                                             initial=last.get(key, smooth[key]), waviness=wavy)
             for k in members:
                 if base[k] > 0.0:
                     gf[k] = models[k][1].recorded_area_mm2(rough, rough_law, level) / base[k]
