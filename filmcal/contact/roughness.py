@@ -587,8 +587,9 @@ def _project(x: np.ndarray, mean_p: float, hardness: float, mu: float | None = N
         newton = mu + excess * y.size / free if free else hi
         mu = newton if lo < newton < hi else 0.5 * (lo + hi)
         if hi - lo <= 1e-13 * (1.0 + abs(mu)):
-            np.clip(x - mu, 0.0, hardness, out=y)
             break
+    if abs(excess) > 1e-13 * mean_p:  # stopped on the bracket's width: the pressures of its last shift
+        np.clip(x - mu, 0.0, hardness, out=y)
     return y, mu
 
 
