@@ -78,8 +78,6 @@ SLOW_TESTS: dict[str, str] = {
     "test_calibration_mcmc.py::test_backend_resume_continues_the_chain": "5 s",
     "test_campaign.py::test_failures_are_recorded_with_reasons_and_retried_on_request": "6 s",
     "test_transfer.py::test_the_transfer_term_brings_the_applied_film_to_the_calibrated_one": "5-7 s: FE and half-space at six points",
-    "test_transfer.py::test_the_fit_script_reuses_every_measured_row_and_fits_them_again_to_the_same_numbers":
-        "40-60 s: the fit script at its smallest sizes, twice",
     "test_roughness_no_film.py::test_rough_hertz_contact_follows_greenwood_tripp": "5 s each: a rough law (BEM)",
     "test_roughness_no_film.py::test_with_elastic_asperities_the_nominal_growth_is_greenwood_and_tripps":
         "two rough laws (BEM) each",
@@ -119,6 +117,8 @@ FAST_TEST_LIMIT_S = 3.0
 #: Node-id prefixes of the acceptance tier (also slow): tests that reproduce an acceptance figure end to end
 #: with many boundary-element laws, solves or calibrations, run by ``.ci/run`` after the rest, with their time.
 ACCEPTANCE_TESTS: dict[str, str] = {
+    "test_transfer.py::test_the_fit_script_reuses_every_measured_row_and_fits_them_again_to_the_same_numbers":
+        "40-60 s: the transfer fit script end to end at its smallest sizes (47 FE and half-space points), three runs",
     "test_fem_edge.py::test_closing_load_edge_of_the_large_strain_film_matches_solving_again":
         "25-44 s: 26 large-strain solves (the large-strain film's closing-load edge against re-solving)",
     "test_fem_reference.py::test_production_large_strain_fe_reads_the_second_formulations_edge":
