@@ -202,21 +202,42 @@ def test_projection_onto_the_capped_pressures_of_a_given_mean(hardness):
             assert mu == pytest.approx(mu_ref, rel=1e-10, abs=1e-9)
             assert p.mean() == pytest.approx(mean_p, rel=1e-11)
             np.testing.assert_allclose(p, reference, rtol=0.0, atol=1e-9 * max(1.0, mean_p))
+    # a mean so small that the bracket's width stops the iteration: the pressures still belong to the shift
+    x = rng.standard_normal((64, 64)) * 50.0
+    p, mu = _project(x, 1e-12, hardness)
+    np.testing.assert_array_equal(p, np.clip(x - mu, 0.0, hardness))
+    assert p.mean() == pytest.approx(1e-12, rel=1e-3)
 
 
-def test_expected_stain_keeps_each_keys_means_apart():
+def test_expected_stain_keeps_each_keys_means_apart(tmp_path):
     """The law keeps its step means under the caller's key: a second function under its own key reads its own
     values, and the kept means give what a fresh computation gives."""
     surf = RoughSurface.synthetic(ra_um=1.5, seed=0, n=128, size_um=100.0, rolloff_wavelength_um=25.0)
     law = rough_contact_law(surf, 2739.0, 0.33, 0.09)
     p = np.linspace(0.0, 1.5 * law.saturation_pressure_mpa, 37)
-    soft = lambda q: 1.0 - np.exp(-np.asarray(q) / 30.0)  # noqa: E731
+    calls = []
+
+    def soft(q):
+        calls.append(np.size(q))
+        return 1.0 - np.exp(-np.asarray(q) / 30.0)
+
     hard = lambda q: (np.asarray(q) > 120.0).astype(float)  # noqa: E731
     fresh_soft, fresh_hard = law.expected_stain(soft, p), law.expected_stain(hard, p)
     assert not np.allclose(fresh_soft, fresh_hard)
     for _ in range(2):
         np.testing.assert_array_equal(law.expected_stain(soft, p, key="soft"), fresh_soft)
         np.testing.assert_array_equal(law.expected_stain(hard, p, key="hard"), fresh_hard)
+    # kept: a repeated call under its key evaluates no step's local pressures again (only the part above the top)
+    calls.clear()
+    law.expected_stain(soft, p, key="soft")
+    assert max(calls, default=0) < law.steps[0].pressure_mpa.size
+    # not sent along: a law read back (from a worker's pickle or its file) computes its means afresh
+    import pickle
+
+    from filmcal.contact.rough_law_file import load_rough_law, save_rough_law
+
+    assert pickle.loads(pickle.dumps(law))._stain_means == {}
+    assert load_rough_law(save_rough_law(law, tmp_path / "law.npz"))._stain_means == {}
     # above the last step: the mean over every local pressure of that step, shifted by the extra pressure
     extra = np.array([0.5, 20.0, 150.0])
     last = law.steps[-1].pressure_mpa.astype(float).ravel()

@@ -135,7 +135,10 @@ def test_wheelrail_and_correct_report_the_measured_ra_of_an_x3p_and_a_profile(tm
     assert out["imprint_area_mm2"] > 0
     bad = subprocess.run(base + ["--wheel-roughness-map", str(tmp_path / "none.x3p")], capture_output=True, text=True)
     assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1
-    study, _, _ = quick_study
+    import shutil
+
+    study = tmp_path / "study"  # a copy: the rough solves kept by this answer stay out of the shared study
+    shutil.copytree(quick_study[0], study)
     p = subprocess.run([sys.executable, "-m", "filmcal.cli", "correct", "--film", "HS", "--measured-area-mm2", "150",
                         "--offset-mm=-3", "--force-kn", "100", "--study-dir", str(study), "--json", "--progress",
                         "quiet", "--roughness-draws", "2", "--wheel-roughness-map", str(path),

@@ -536,7 +536,7 @@ class LargeStrainFilm(InterfaceLaw):
             return last[1].copy()  # a solver asks for the closure, its slope and its integral at one pressure
         if p.ndim:  # Newton on the loaded cells only (s = 0 where p = 0; a contact grid is mostly unloaded)
             s = np.zeros_like(p)
-            loaded = p > 0.0
+            loaded = ~(p <= 0.0)  # NaN stays in, and comes back NaN
             s[loaded] = self._newton_log(p[loaded])
             self._last = (p, s.copy())
             return s

@@ -572,7 +572,7 @@ def _project(x: np.ndarray, mean_p: float, hardness: float, mu: float | None = N
         lo = float(x.min()) - mean_p - 1.0
     if mu is None or not lo < mu < hi:
         mu = 0.5 * (lo + hi)
-    y = np.empty_like(x)
+    y = np.empty(x.shape)
     for _ in range(200):
         np.subtract(x, mu, out=y)
         np.clip(y, 0.0, hardness, out=y)
