@@ -118,6 +118,17 @@ def test_the_numpy_reader_refuses_what_load_surrogate_refuses(saved, edit, messa
             load(saved)
 
 
+@pytest.mark.parametrize("index", [0, 17])
+def test_the_numpy_reader_refuses_a_training_value_changed_by_a_thousandth(saved, index):
+    """Its log marginal likelihood tolerance (1e-4 relative, for the rounding of nearly singular kernels) still
+    sees one stored radius changed by 0.1 %: the likelihood moves by 5e-4..2e-3 (relative)."""
+    arrays = dict(np.load(saved.with_name("s.npz")))
+    arrays["y_train"][index] *= 1.001
+    np.savez(saved.with_name("s.npz"), **arrays)
+    with pytest.raises(ValueError, match="log marginal likelihood"):
+        load_saved_surrogate(saved)
+
+
 def test_prediction_and_the_correct_command_import_no_heavy_stage(saved):
     code = ("import sys, numpy as np\n"
             "import filmcal.cli as cli; cli.build_parser()\n"
