@@ -90,6 +90,10 @@ SLOW_TESTS: dict[str, str] = {
     "test_campaign.py::test_dask_cluster_gives_the_same_results_as_the_local_pool": "5 s: a Dask cluster",
     "test_campaign.py::test_killed_campaign_resumes_without_recomputing_finished_points": "4 s: kills a process",
     "test_correction_curves.py::test_bands_match_direct_solves_at_their_quantiles": "4 s",
+    "test_correction_curves.py::test_a_cell_the_model_cannot_solve_is_named_as_bad_input":
+        "4-5 s: wheel-rail solves and a rough law of a cell past the profiles' ends",
+    "test_rough_imprint.py::test_a_higher_reading_level_reads_a_smaller_rough_imprint":
+        "3-4 s: a boundary-element law and a rough sphere solve",
     "test_correction_curves.py::test_a_mixture_band_spans_the_models_it_pools": "7 s",
     "test_correction_imprint.py::test_command_rejects_bad_imprint_input": "9 s: seven processes",
     "test_correction_wheelrail.py::test_ratio_interpolates_the_film_effect_across_the_posterior": "4 s",
