@@ -264,6 +264,7 @@ class SavedSurrogate:
 #: Relative tolerance of the recomputed log marginal likelihood (module notes: rounding of nearly singular kernels).
 LML_REL_TOL = 1e-4
 
+
 def load_saved_surrogate(path: str | Path) -> SavedSurrogate:
     """Read a surrogate written by `filmcal.surrogate.io.save_surrogate`, for prediction only.
 
