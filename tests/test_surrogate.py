@@ -260,6 +260,44 @@ def test_fit_keeps_the_best_restart(train):
     assert model.log_marginal_likelihood_value_ >= single.log_marginal_likelihood_value_ - 1e-6
 
 
+def test_likelihood_and_gradient_are_scikit_learns(fitted):
+    """The fit's own likelihood of the filmcal kernel against scikit-learn's generic kernel algebra."""
+    from filmcal.surrogate.gp import _log_marginal_likelihood, _squared_differences
+
+    T = fitted.X_gp_
+    z = fitted.output_transform_.transform(fitted.y_train_)
+    reference = GaussianProcessRegressor(kernel=fitted.kernel_, alpha=0.0, optimizer=None).fit(T, z)
+    D2 = _squared_differences(T)
+    rng = np.random.default_rng(3)
+    bounds = fitted.kernel_.bounds
+    thetas = [fitted.kernel_.theta] + [rng.uniform(bounds[:, 0], bounds[:, 1]) for _ in range(5)]
+    for theta in thetas:
+        with threadpool_limits(limits=1):
+            expected, expected_gradient = reference.log_marginal_likelihood(theta, eval_gradient=True)
+        value, gradient = _log_marginal_likelihood(theta, D2, z)
+        if not np.isfinite(expected):  # not positive definite: both say so
+            assert value == -np.inf and not np.any(gradient)
+            continue
+        assert value == pytest.approx(expected, rel=1e-10, abs=1e-8)
+        # near the optimum the gradient is a difference of terms of order |value|: rounding of 1e-8 of it
+        np.testing.assert_allclose(gradient, expected_gradient, rtol=1e-7, atol=1e-8 * abs(expected))
+
+
+@pytest.mark.filterwarnings("ignore:The optimal value found:sklearn.exceptions.ConvergenceWarning")
+def test_fit_reaches_scikit_learns_own_optimum(train):
+    """From the same single start, scikit-learn's optimiser on its own likelihood ends at the same optimum."""
+    X, y = train[0][:80], train[1][:80]
+    model = make_surrogate(n_restarts=0).fit(X, y)
+    T = model.X_gp_
+    z = model.output_transform_.transform(model.y_train_)
+    with threadpool_limits(limits=1):
+        reference = GaussianProcessRegressor(kernel=model._template_kernel(4), alpha=0.0,
+                                             n_restarts_optimizer=0).fit(T, z)
+    assert model.log_marginal_likelihood_value_ == pytest.approx(reference.log_marginal_likelihood_value_,
+                                                                 rel=1e-6)
+    np.testing.assert_allclose(model.kernel_.theta, reference.kernel_.theta, atol=1e-3)
+
+
 @pytest.mark.parametrize("column", [0, 3])
 def test_nan_in_X_is_rejected(train, column):
     X, y = train[0][:20].copy(), train[1][:20]
