@@ -199,3 +199,17 @@ def test_ctrl_c_during_sampling_stops_cleanly_and_keeps_whole_steps(tmp_path):
     with h5py.File(chain) as f:
         steps = int(f["mcmc"].attrs["iteration"])
         assert steps > 0 and np.all(np.isfinite(f["mcmc"]["log_prob"][:steps]))
+
+
+def test_reading_a_calibration_result_imports_no_sampler():
+    """A finished study's posteriors are read on every rerun and correction: emcee (and through it scipy.stats,
+    half a second) loads only to run or read a chain."""
+    import subprocess
+    import sys
+
+    code = ("import sys\n"
+            "import filmcal.calibration.posterior, filmcal.calibration.sampling\n"
+            "from filmcal.calibration import SamplerSettings, load_result\n"
+            "print(sorted(m for m in sys.modules if m.startswith(('emcee', 'h5py'))))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"

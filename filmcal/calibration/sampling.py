@@ -18,20 +18,15 @@ then reported as failed with the reasons.
 Chains can live in emcee's `HDFBackend`: running again with the same file
 continues the stored chain from its last state and random state (the result
 is then the same as one uninterrupted run with the same seed); ``reset=True``
-starts afresh. The configuration of the problem is stored as JSON in the file
+starts afresh (the file: `filmcal.calibration.chain_file`). The configuration of the problem is stored as JSON in the file
 and checked before continuing. Nothing in the file is pickled.
 """
 from __future__ import annotations
 
-import errno
-import json
 import math
-import shutil
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-import emcee
-import h5py
 import numpy as np
 
 from filmcal._validation import MIN_MCMC_STEPS as MIN_STEPS
@@ -39,13 +34,8 @@ from filmcal.calibration.diagnostics import Diagnostics, compute_diagnostics
 from filmcal.calibration.likelihood import CalibrationProblem
 from filmcal.elastic import oedometric_ratio
 
-__all__ = ["SamplerSettings", "ChainRun", "StoredChain", "initial_positions", "run_chain", "read_chain",
-           "CHAIN_GROUP"]
+__all__ = ["SamplerSettings", "ChainRun", "StoredChain", "initial_positions", "run_chain", "read_chain"]
 
-#: Group of the HDF5 file holding emcee's chain.
-CHAIN_GROUP = "mcmc"
-_METADATA_ATTR = "filmcal_calibration"
-_FORMAT = "filmcal-calibration-chain"
 
 
 
@@ -225,82 +215,15 @@ def initial_positions(problem: CalibrationProblem, n_walkers: int, rng: np.rando
 
 def _tau(chain: np.ndarray) -> np.ndarray:
     """Integrated autocorrelation time of each coordinate, averaged over walkers."""
-    return np.asarray(emcee.autocorr.integrated_time(chain, c=5, tol=0, quiet=True), dtype=float)
+    from emcee.autocorr import integrated_time
+
+    return np.asarray(integrated_time(chain, c=5, tol=0, quiet=True), dtype=float)
 
 
 def _metadata(problem: CalibrationProblem, settings: SamplerSettings, seed: int) -> dict:
-    return {"format": _FORMAT, "problem": problem.describe(), "n_walkers": settings.n_walkers, "seed": seed}
+    from filmcal.calibration.chain_file import CHAIN_FORMAT
 
-
-class _ChunkedHDFBackend(emcee.backends.HDFBackend):
-    """emcee's HDF5 backend, writing the steps of a chunk at once when `flush` is called.
-
-    The parent class opens the file for every step (milliseconds each); this
-    one keeps the steps of a chunk in memory and appends them in one write.
-    The file layout is emcee's own, so `emcee.backends.HDFBackend` reads it.
-    Blobs are not supported (the calibration returns none).
-    """
-
-    def __init__(self, filename: str, name: str = CHAIN_GROUP) -> None:
-        super().__init__(filename, name=name)
-        self._pending: list = []
-
-    def save_step(self, state, accepted) -> None:
-        if state.blobs is not None:
-            raise ValueError("blobs are not supported by this backend")
-        self._pending.append((np.array(state.coords), np.array(state.log_prob), np.array(accepted),
-                              state.random_state))
-
-    def flush(self) -> None:
-        """Append the pending steps, the acceptance counts and the last random state to the file."""
-        if not self._pending:
-            return
-        coords, log_prob, accepted, random_states = zip(*self._pending)
-        # HDF5 meets a full disk inside its own buffers and reports it from object finalisers, as tracebacks
-        # that nothing can catch: a write that cannot fit is refused here first, as an error naming the file
-        needed = 2 * sum(np.asarray(c).nbytes + np.asarray(p).nbytes for c, p in zip(coords, log_prob)) + 2**16
-        free = shutil.disk_usage(Path(self.filename).resolve().parent).free
-        if free < needed:
-            raise OSError(errno.ENOSPC, "No space left on device", self.filename)
-        with self.open("a") as f:
-            g = f[self.name]
-            it = int(g.attrs["iteration"])
-            k = len(coords)
-            g["chain"][it:it + k] = np.stack(coords)
-            g["log_prob"][it:it + k] = np.stack(log_prob)
-            g["accepted"][:] += np.sum(accepted, axis=0)
-            for i, v in enumerate(random_states[-1]):
-                g.attrs[f"random_state_{i}"] = v
-            g.attrs["iteration"] = it + k
-        self._pending.clear()
-
-
-def _open_backend(path: str | Path | None, metadata: dict, reset: bool, ndim: int
-                  ) -> emcee.backends.Backend:
-    """An emcee backend: in memory, or an HDF5 file (new, reset, or checked and continued)."""
-    if path is None:
-        return emcee.backends.Backend()
-    path = Path(path)
-    if path.exists() and not h5py.is_hdf5(path):
-        raise ValueError(f"backend_path {str(path)!r} exists and is not an HDF5 file")
-    backend = _ChunkedHDFBackend(str(path))
-    fresh = reset or not backend.initialized or backend.iteration == 0
-    if not fresh:
-        stored = _read_metadata(path)
-        if stored != json.loads(json.dumps(metadata)):
-            raise ValueError(f"backend_path {str(path)!r} holds a chain of another configuration "
-                             "(film, data, priors, options, walkers or seed); pass reset=True to start afresh")
-        return backend
-    backend.reset(metadata["n_walkers"], ndim)
-    with h5py.File(path, "a") as f:
-        f.attrs[_METADATA_ATTR] = json.dumps(metadata)
-    return backend
-
-
-def _read_metadata(path: Path) -> dict | None:
-    with h5py.File(path, "r") as f:
-        text = f.attrs.get(_METADATA_ATTR)
-    return None if text is None else json.loads(text)
+    return {"format": CHAIN_FORMAT, "problem": problem.describe(), "n_walkers": settings.n_walkers, "seed": seed}
 
 
 def read_chain(path: str | Path) -> StoredChain:
@@ -318,11 +241,13 @@ def read_chain(path: str | Path) -> StoredChain:
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"no chain file at {str(path)!r}")
-    metadata = _read_metadata(path)
-    if metadata is None or metadata.get("format") != _FORMAT:
+    from filmcal.calibration.chain_file import CHAIN_FORMAT, read_metadata, read_stored
+
+    metadata = read_metadata(path)
+    if metadata is None or metadata.get("format") != CHAIN_FORMAT:
         raise ValueError(f"{str(path)!r} is not a filmcal calibration chain")
-    backend = emcee.backends.HDFBackend(str(path), name=CHAIN_GROUP, read_only=True)
-    return StoredChain(chain=backend.get_chain(), log_prob=backend.get_log_prob(), metadata=metadata)
+    chain, log_prob = read_stored(path)
+    return StoredChain(chain=chain, log_prob=log_prob, metadata=metadata)
 
 
 def _assess(problem: CalibrationProblem, chain: np.ndarray, settings: SamplerSettings, final: bool,
@@ -428,7 +353,11 @@ def run_chain(problem: CalibrationProblem, settings: SamplerSettings | None = No
     seed = int(seed)
     if settings.n_walkers < 2 * problem.ndim:
         raise ValueError(f"n_walkers must be >= 2 * {problem.ndim} coordinates, got {settings.n_walkers}")
-    backend = _open_backend(backend_path, _metadata(problem, settings, seed), reset, problem.ndim)
+    import emcee
+
+    from filmcal.calibration.chain_file import ChunkedHDFBackend, open_backend
+
+    backend = open_backend(backend_path, _metadata(problem, settings, seed), reset, problem.ndim)
     sampler = emcee.EnsembleSampler(settings.n_walkers, problem.ndim, problem.log_posterior,
                                     vectorize=True, backend=backend)
     start = sampler.iteration
@@ -451,7 +380,7 @@ def run_chain(problem: CalibrationProblem, settings: SamplerSettings | None = No
         try:
             _run_steps(sampler, state, target - n, progress, f"emcee steps {n}-{target}")
         finally:  # keep the steps done so far, also when interrupted
-            if isinstance(backend, _ChunkedHDFBackend):
+            if isinstance(backend, ChunkedHDFBackend):
                 backend.flush()
         state = None
     return ChainRun(chain=chain, log_prob=sampler.get_log_prob(), parameter_names=list(problem.parameter_names),

@@ -51,6 +51,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
+def _write_report(*args, **kwargs):
+    """`filmcal.report.write_report`, imported only when the report is written (a finished study's is not)."""
+    from filmcal.report import write_report
+
+    return write_report(*args, **kwargs)
+
+
 def run(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
@@ -83,15 +90,13 @@ def run(args: argparse.Namespace) -> int:
     study_dir = args.study_dir or ("filmcal-study" + (f"-{size}" if size else ""))
     from filmcal._progress import Progress
 
-    from filmcal.report import write_report
-
     progress = Progress(args.progress)
     if simulator is not None:
         progress.warnings.append(f"the calibration ran on {simulator.label()}; the wheel-rail curves apply "
                                  "filmcal's own film model at the calibrated modulus (with the transfer term "
                                  "fitted to filmcal's FE): valid where your model and filmcal's agree")
     summary = run_pipeline(study_dir, settings, films, args.seed, args.workers, progress,
-                           report=None if args.no_report else write_report,
+                           report=None if args.no_report else _write_report,
                            films_file=args.films_file, dataset=args.data, dask=args.dask,
                            run_store=args.run_store)
     from filmcal.calibration.pipeline import scatter_warning

@@ -709,7 +709,7 @@ class Study:
             In the order of `specs`.
         """
         from filmcal._parallel import run_tasks
-        from filmcal.calibration import Priors, SamplerSettings, load_result, save_result
+        from filmcal.calibration import load_result
         from filmcal.contact.imprint import imprint_models_for
 
         results: dict[int, tuple] = {}
@@ -729,6 +729,8 @@ class Study:
                 todo.append((i, spec, film, data, full, path))
         if not todo:
             return [results[i] for i in range(len(specs))]
+        from filmcal.calibration import Priors, SamplerSettings, save_result  # the sampler: only to calibrate
+
         models = self.radius_models([(spec.fe, output_column(spec.imprint, film.name)) for _, spec, film, *_ in todo],
                                     workers, progress)
         self._require_writer()
