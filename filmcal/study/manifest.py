@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from filmcal._errors import DamagedFileError, InputError, UntrustedArtefactError
-from filmcal._io import atomic_write_json, read_json, sha256_file
+from filmcal._io import atomic_write_text, read_json, sha256_file
 from filmcal._versions import software_versions
 
 __all__ = ["Manifest", "StudyLock", "FORMAT", "utc_now"]
@@ -91,7 +91,7 @@ class Manifest:
                 return
         except (OSError, UnicodeDecodeError):
             pass
-        atomic_write_json(self.path, self.data, indent=1)
+        atomic_write_text(self.path, text)  # the text compared: serialised once
 
     # ------------------------------------------------------------ artefacts
     def record(self, relpath: str, file: Path, kind: str, spec: dict, **extra: Any) -> None:
