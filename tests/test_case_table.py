@@ -88,3 +88,23 @@ class _NoTable:
 
     def predict(self, *args):
         return self.model.predict(*args)
+
+
+def test_predict_cases_is_predict_at_the_data_rows():
+    """The sampler's path (splines evaluated once per modulus) gives predict's numbers exactly, also where the
+    table passes points to the model (a modulus off the table, another nu)."""
+    model = ToyWithStd()
+    table = CaseTable(model, CASES, 0.33, (400.0, 20000.0))
+    rows = np.array([2, 0, 0, 1, 2])  # the data's rows as table cases, repeats included
+    R, F = (np.array([CASES[i][j] for i in rows]) for j in (0, 1))
+    np.testing.assert_array_equal(table.case_index(R, F), rows)
+    assert table.case_index(np.array([451.0]), np.array([50e3])).tolist() == [-1]
+    for E, nu in [(np.array([450.0, 2800.0, 19000.0]), 0.33), (np.array([300.0, 2800.0]), 0.33),
+                  (np.array([2800.0, 5000.0]), 0.30)]:
+        k, n = E.size, rows.size
+        want = table.predict(np.repeat(E, n), np.full(k * n, nu), np.tile(R, k), np.tile(F, k))
+        got = table.predict_cases(E, np.full(k, nu), rows)
+        np.testing.assert_array_equal(got[0], want[0].reshape(k, n))
+        np.testing.assert_array_equal(got[1], want[1].reshape(k, n))
+    with pytest.raises(ValueError, match="case indices"):
+        table.predict_cases(np.array([2800.0]), np.array([0.33]), np.array([0, -1]))

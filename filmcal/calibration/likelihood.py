@@ -275,6 +275,11 @@ class CalibrationProblem:
             self.rough_flat = rough_flat
         self.target_radius_mm = np.asarray(data.target_radius_mm, dtype=float)
         self._predictor = self._case_table()
+        # the data's rows as the table's cases: a sampler's steps then evaluate the table once per modulus
+        case_index = getattr(self._predictor, "case_index", None)
+        self._row_cases = None if case_index is None else case_index(data.sphere_radius_mm, data.force_n)
+        if self._row_cases is not None and np.any(self._row_cases < 0):
+            self._row_cases = None
         self.parameter_names = self._names()
         self.ndim = len(self.parameter_names)
 
@@ -428,8 +433,15 @@ class CalibrationProblem:
         E = np.atleast_1d(np.asarray(modulus_mpa, dtype=float))
         nu = np.broadcast_to(np.atleast_1d(np.asarray(poisson, dtype=float)), E.shape)
         k, n = E.size, R.size
-        args = (np.repeat(E, n), np.repeat(nu, n), np.tile(R, k), np.tile(F, k))
-        mean, std = self._predictor.predict(*args)
+
+        def points() -> tuple[np.ndarray, ...]:
+            return np.repeat(E, n), np.repeat(nu, n), np.tile(R, k), np.tile(F, k)
+
+        if self._row_cases is not None and sphere_radius_mm is None and force_n is None:
+            mean, std = self._predictor.predict_cases(E, nu, self._row_cases)
+            mean, std = mean.ravel(), std.ravel()
+        else:
+            mean, std = self._predictor.predict(*points())
         try:
             mean = np.broadcast_to(np.asarray(mean, dtype=float), (k * n,))
             std = np.broadcast_to(np.asarray(std, dtype=float), (k * n,))
@@ -439,6 +451,7 @@ class CalibrationProblem:
         bad = ~np.isfinite(mean) | ~np.isfinite(std) | (std < 0.0)
         if np.any(bad):
             j = int(np.flatnonzero(bad)[0])
+            args = points()
             raise ValueError(
                 f"model returned mean={float(mean[j])!r}, std={float(std[j])!r} (need finite values, std >= 0) at "
                 f"modulus_mpa={args[0][j]:g}, poisson={args[1][j]:g}, sphere_radius_mm={args[2][j]:g}, "

@@ -448,13 +448,42 @@ class CaseTable:
         mean, std = self.model.predict(E, np.full(E.shape, self.poisson), Rg, Fg)
         return np.asarray(mean, dtype=float).reshape(E.shape), np.asarray(std, dtype=float).reshape(E.shape)
 
+    def case_index(self, sphere_radius_mm, force_n) -> np.ndarray:
+        """Index of each (R, F) among `cases` (-1 where it is none of them)."""
+        r, f = np.broadcast_arrays(np.asarray(sphere_radius_mm, dtype=float), np.asarray(force_n, dtype=float))
+        case = np.full(r.shape, -1)
+        for k, (rc, fc) in enumerate(self.cases):
+            case[(r == rc) & (f == fc)] = k
+        return case
+
+    def predict_cases(self, modulus_mpa: np.ndarray, poisson: np.ndarray, case: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:
+        """Mean and std of shape (k, n) at k moduli and the n points of known `case` indices (`case_index`).
+
+        What a sampler asks for at every step: the splines are evaluated once per modulus, not once per
+        modulus and point; the same numbers as `predict` (points it cannot tabulate go there).
+        """
+        e = np.atleast_1d(np.asarray(modulus_mpa, dtype=float))
+        nu = np.broadcast_to(np.asarray(poisson, dtype=float), e.shape)
+        case = np.asarray(case)
+        if case.ndim != 1 or not np.all((case >= 0) & (case < len(self.cases))):
+            raise ValueError("case indices must be those of the table's cases (case_index >= 0)")
+        with np.errstate(divide="ignore", invalid="ignore"):
+            log_e = np.log(e)
+        if (case.size and np.all(self._defined[case])
+                and np.all(np.abs(nu - self.poisson) <= 1e-12)
+                and np.all((log_e >= self.log_modulus_mpa[0]) & (log_e <= self.log_modulus_mpa[-1]))):
+            return self._mean(log_e)[case].T, np.maximum(self._std(log_e)[case].T, 0.0)
+        R, F = (np.array([c[j] for c in self.cases])[case] for j in (0, 1))
+        n = case.size
+        mean, std = self.predict(np.repeat(e, n), np.repeat(nu, n), np.tile(R, e.size), np.tile(F, e.size))
+        return mean.reshape(e.size, n), std.reshape(e.size, n)
+
     def predict(self, modulus_mpa, poisson, sphere_radius_mm, force_n):
         e, nu, r, f = _broadcast(modulus_mpa, poisson, sphere_radius_mm, force_n)
         shape = e.shape
         e, nu, r, f = e.ravel(), nu.ravel(), r.ravel(), f.ravel()
-        case = np.full(e.shape, -1)
-        for k, (rc, fc) in enumerate(self.cases):
-            case[(r == rc) & (f == fc)] = k
+        case = self.case_index(r, f)
         with np.errstate(divide="ignore", invalid="ignore"):
             log_e = np.log(e)
         use = ((case >= 0) & self._defined[case] & (np.abs(nu - self.poisson) <= 1e-12)
