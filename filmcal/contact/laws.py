@@ -544,8 +544,14 @@ class LargeStrainFilm(InterfaceLaw):
 
     def _newton_log(self, p: np.ndarray) -> np.ndarray:
         s = np.minimum(p / self.oedometric_modulus_mpa, np.log1p(p / self._mu))
+        two_mu, lam = 2.0 * self._mu, self._lam
         for _ in range(100):
-            step = (self._pressure_of_log(s) - p) / self._slope_of_log(s)
+            # p(s) and p'(s) from one expm1: sinh s = m (2 + m) / (2 (1 + m)) with m = e^s - 1 (no cancellation
+            # at small s), cosh s = sinh s + e^-s
+            m = np.expm1(s)
+            e = 1.0 + m
+            sinh = m * (2.0 + m) / (2.0 * e)
+            step = (two_mu * sinh + lam * s * e - p) / (two_mu * (sinh + 1.0 / e) + lam * (1.0 + s) * e)
             s = np.maximum(s - step, 0.0)
             if np.all(np.abs(step) <= 1e-14 * (1.0 + s)):
                 break
