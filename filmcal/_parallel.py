@@ -114,6 +114,7 @@ NATIVE_THREAD_VARIABLES = (
 )
 _PARENT_POLL_S = 0.25  # how often a worker's watchdog looks at its parent
 _STOP_GRACE_S = 5.0  # a worker asked to stop gets this long before it is killed
+_START_ATTEMPTS = 3  # workers in a row that may die before they are ready before the pool gives up
 _TERM_GRACE_S = 0.5  # a worker sent SIGTERM (it kills its children) gets this long
 _CONNECT_TIMEOUT_S = 5.0
 
@@ -983,6 +984,7 @@ class LocalPoolExecutor(Executor):
         self._woken = False  # a wake-up byte is in the pipe
         self._wake_reader, self._wake_writer = self._context.Pipe(duplex=False)
         self._workers: list[_Worker] = []
+        self._failed_starts = 0  # workers in a row that exited before they were ready
         # Workers are started by the manager thread, which lives until they
         # are all stopped: the parent-death signal follows the thread that
         # started a process.
@@ -1167,6 +1169,8 @@ class LocalPoolExecutor(Executor):
             return
         if not worker.ready:
             worker.ready = reply == _READY
+            if worker.ready:
+                self._failed_starts = 0
             return
         task, worker.task, worker.deadline = worker.task, None, None
         if task is None:
@@ -1184,16 +1188,22 @@ class LocalPoolExecutor(Executor):
     def _handle_exit(self, worker: _Worker) -> None:
         """A worker exited on its own: fail its task and replace it.
 
-        A worker that dies before it is ready would die again (e.g. a script
-        that starts the pool without an ``if __name__ == "__main__":`` guard):
-        the pool then stops instead of restarting workers forever.
+        A worker that dies before it is ready is started again, up to
+        `_START_ATTEMPTS` times in a row: one failed start can be the
+        machine's (the interpreter's exec refused for a moment: exit code 255
+        and no message), but workers that keep dying would die forever (e.g.
+        a script that starts the pool without an ``if __name__ ==
+        "__main__":`` guard): the pool then stops.
         """
         worker.process.join(_STOP_GRACE_S)
         if worker.process.is_alive():
             _stop_process(worker.process)
         code = worker.process.exitcode
         if not worker.ready:
-            raise WorkerDiedError(f"a worker process failed to start (exit code {code})")
+            self._failed_starts += 1
+            if self._failed_starts >= _START_ATTEMPTS:
+                raise WorkerDiedError(f"a worker process failed to start {self._failed_starts} times in a row "
+                                      f"(exit code {code})")
         if worker.task is not None:
             worker.task.future.set_exception(WorkerDiedError(f"worker process died (exit code {code})"))
             worker.task = None

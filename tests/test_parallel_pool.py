@@ -106,3 +106,37 @@ def test_kept_freed_memory_spares_the_page_faults_of_repeated_temporaries():
     default, kept = faults("default"), faults("keep")
     # by default every iteration faults its temporaries in again (about 128 pages per 0.5 MB array)
     assert default > 10_000 and kept < default / 10
+
+
+def _flaky_start_pool(failures: int):
+    """A one-worker pool whose first `failures` workers exit with 255 before they are ready (an exec refused)."""
+    from filmcal._parallel import LocalPoolExecutor, _Worker
+
+    class FlakyStart(LocalPoolExecutor):
+        def _start_worker(self):
+            if self.failures_left > 0:
+                self.failures_left -= 1
+                parent_conn, child_conn = self._context.Pipe(duplex=True)
+                process = self._context.Process(target=os._exit, args=(255,), daemon=True)
+                process.start()
+                child_conn.close()
+                return _Worker(process, parent_conn)
+            return super()._start_worker()
+
+    FlakyStart.failures_left = failures  # read by the manager thread that __init__ starts
+    return FlakyStart(1)
+
+
+def test_a_worker_that_fails_to_start_once_is_started_again():
+    import math
+
+    with _flaky_start_pool(1) as pool:
+        assert pool.submit(math.sqrt, 4.0).result(timeout=60) == 2.0
+
+
+def test_workers_that_keep_failing_to_start_stop_the_pool():
+    import math
+
+    with _flaky_start_pool(10) as pool:
+        with pytest.raises(RuntimeError, match="failed to start 3 times in a row"):
+            pool.submit(math.sqrt, 4.0).result(timeout=60)

@@ -278,9 +278,10 @@ def test_likelihood_and_gradient_are_scikit_learns(fitted):
         if not np.isfinite(expected):  # not positive definite: both say so
             assert value == -np.inf and not np.any(gradient)
             continue
-        assert value == pytest.approx(expected, rel=1e-10, abs=1e-8)
-        # near the optimum the gradient is a difference of terms of order |value|: rounding of 1e-8 of it
-        np.testing.assert_allclose(gradient, expected_gradient, rtol=1e-7, atol=1e-8 * abs(expected))
+        # rounding: a random theta can make K ill-conditioned (2.6e-10 relative seen on another numpy/BLAS);
+        # near the optimum the gradient is a difference of terms of order |value|
+        assert value == pytest.approx(expected, rel=1e-8)
+        np.testing.assert_allclose(gradient, expected_gradient, rtol=1e-6, atol=1e-7 * abs(expected))
 
 
 @pytest.mark.filterwarnings("ignore:The optimal value found:sklearn.exceptions.ConvergenceWarning")
