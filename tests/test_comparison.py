@@ -164,6 +164,8 @@ def test_three_models_the_tie_shares_and_the_worse_one_stays_out(calibrated):
     assert set(d["models"]) == {"A", "B", "A2"} and d["preferred"] in ("A", "A2")
 
 
+# ArviZ's compare sorts with pandas' inplace keyword, which pandas 3.1 deprecates (its warning, not ours)
+@pytest.mark.filterwarnings("ignore:The inplace keyword in DataFrame.sort_values is deprecated")
 def test_stacking_and_pseudo_bma_agree_with_arviz(calibrated):
     """The weights computed here from the pointwise terms against ArviZ's own `compare` (a second code)."""
     from filmcal.calibration.comparison import _quiet_arviz

@@ -71,6 +71,8 @@ def test_a_damaged_fit_file_is_refused(tmp_path):
         TransferFit.from_json(path)
 
 
+# y does not depend on every GP input: scikit-learn's length scale of such an input rests at its bound and it warns
+@pytest.mark.filterwarnings("ignore:The optimal value found for dimension:sklearn.exceptions.ConvergenceWarning")
 def test_the_stored_residual_process_predicts_what_scikit_learn_predicts(tmp_path):
     """The residual process is stored as plain numbers and evaluated without scikit-learn; on a smooth
     function of three features its mean, written and read back, equals the fitted regressor's own
