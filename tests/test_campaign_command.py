@@ -633,6 +633,28 @@ def test_a_store_reached_through_a_link_takes_the_same_lock(tmp_path):
     assert lock_path_for(link) == lock_path_for(store) == tmp_path / "runs.sqlite.lock"
 
 
+def test_a_store_reached_through_a_hard_link_is_refused_while_held(tmp_path):
+    """Two names of one file (a hard link: another lock file's name) still take one lock, on the store's inode;
+    released, the other name takes it."""
+    import sqlite3
+
+    from filmcal.campaign.lock import StoreBusyError, StoreLock
+
+    store = tmp_path / "runs.sqlite"
+    sqlite3.connect(store).close()
+    (tmp_path / "other").mkdir()
+    twin = tmp_path / "other" / "twin.sqlite"
+    os.link(store, twin)
+    with StoreLock(store, "first"):
+        with pytest.raises(StoreBusyError, match="is in use"):
+            StoreLock(twin, "second").acquire()
+        with sqlite3.connect(twin) as db:  # SQLite's own locks are not flock's: the store stays usable
+            db.execute("create table if not exists t (x)")
+    with StoreLock(twin, "second"):
+        with pytest.raises(StoreBusyError, match="under another name of the same file"):
+            StoreLock(store, "first").acquire()
+
+
 def test_a_design_row_with_fewer_cells_than_columns_is_refused_before_any_run(tmp_path):
     """`850,0.33,7.5` under four column names ran with force_kn silently left out."""
     case = make_case(tmp_path, ["ok"], sleep_s=0.0)

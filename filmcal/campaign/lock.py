@@ -9,7 +9,10 @@ A second campaign on the same store is refused at once with
 ``wait_s``, waits for the holder to finish (a study on a shared run store:
 it then reuses what the holder computed instead of computing it again).
 
-``flock`` locks are reliable on local file systems; on network file systems
+The lock file is named after the store's real path (symbolic links and ``..`` resolved), and an
+existing store file is locked too, on its inode: two names of one file (a hard link, another mount)
+reach the same lock. ``flock`` locks are independent of the POSIX record locks SQLite takes, so this
+does not interfere with SQLite. ``flock`` locks are reliable on local file systems; on network file systems
 (NFS) their behaviour depends on the server, so keep stores on a local disk.
 """
 from __future__ import annotations
@@ -105,6 +108,7 @@ class StoreLock:
         self.wait_s = max(0.0, float(wait_s))
         self.on_wait = on_wait
         self._fd: int | None = None
+        self._store_fd: int | None = None
 
     @property
     def held(self) -> bool:
@@ -129,31 +133,29 @@ class StoreLock:
             raise InputError(f"--store {self.store_path}: cannot create the lock file {self.path} "
                              f"({exc.strerror or exc})") from None
         deadline = time.monotonic() + self.wait_s
-        told = False
+        store_fd = None
         try:
-            while True:
-                try:
-                    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-                    break
-                except BlockingIOError:
-                    if time.monotonic() >= deadline:
-                        raise
-                    if not told and self.on_wait is not None:
-                        self.on_wait(self._busy_holder(fd))
-                    told = True
-                    time.sleep(0.2)
+            self._flock_until(fd, deadline, fd)
+            try:  # the store itself, on its inode: another name of the same file takes the same lock
+                store_fd = os.open(self.store_path, os.O_RDONLY | os.O_CLOEXEC | os.O_NONBLOCK)
+            except FileNotFoundError:
+                pass  # a new store: nobody else can reach it under another name yet
+            if store_fd is not None:
+                self._flock_until(store_fd, deadline, fd)
         except BlockingIOError:
-            holder = self._busy_holder(fd)
-            os.close(fd)
-            who = holder.describe() if holder else "another process"
+            holder = self._busy_holder(fd) if store_fd is None else None
+            self._close(fd, store_fd)
+            who = (holder.describe() if holder else "another process" if store_fd is None
+                   else "another process, under another name of the same file (a hard link)")
             raise StoreBusyError(f"campaign store {self.store_path} is in use by {who}; "
                                  "wait for it to finish or stop it, then run again") from None
         except OSError as exc:
-            os.close(fd)
+            self._close(fd, store_fd)
             raise InputError(f"--store {self.store_path}: cannot lock {self.path} ({exc.strerror or exc})") from None
         except BaseException:  # an interrupt while waiting, or the waiting note failing: nothing left open
-            os.close(fd)
+            self._close(fd, store_fd)
             raise
+        self._store_fd = store_fd
         holder = LockHolder(os.getpid(), socket.gethostname(), self.command,
                             datetime.now(timezone.utc).isoformat(timespec="seconds"))
         data = json.dumps(holder.__dict__).encode()
@@ -161,6 +163,27 @@ class StoreLock:
         os.pwrite(fd, data, 0)
         self._fd = fd
         return self
+
+    def _flock_until(self, fd: int, deadline: float, holder_fd: int) -> None:
+        """An exclusive flock on fd, waiting until the deadline (BlockingIOError past it)."""
+        told = False
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                return
+            except BlockingIOError:
+                if time.monotonic() >= deadline:
+                    raise
+                if not told and self.on_wait is not None:
+                    self.on_wait(self._busy_holder(holder_fd))
+                told = True
+                time.sleep(0.2)
+
+    @staticmethod
+    def _close(*fds: int | None) -> None:
+        for fd in fds:
+            if fd is not None:
+                os.close(fd)
 
     @staticmethod
     def _busy_holder(fd: int) -> LockHolder | None:
@@ -181,7 +204,8 @@ class StoreLock:
         except OSError:
             pass
         fcntl.flock(fd, fcntl.LOCK_UN)
-        os.close(fd)
+        self._close(fd, self._store_fd)  # closing the store's descriptor releases its flock
+        self._store_fd = None
 
     def holder(self) -> LockHolder | None:
         """The details written by the current holder, if any (without taking the lock)."""
