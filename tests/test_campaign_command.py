@@ -445,10 +445,14 @@ def test_an_unreachable_dask_scheduler_fails_within_seconds(tmp_path):
 
 
 @pytest.mark.slow(reason="4 s: a process pool")
-def test_ctrl_c_stops_within_two_seconds_and_keeps_finished_points(tmp_path):
+@pytest.mark.parametrize("sigint_ignored", [False, True], ids=["sigint-default", "sigint-ignored"])
+def test_ctrl_c_stops_within_two_seconds_and_keeps_finished_points(tmp_path, sigint_ignored):
+    """Also when the campaign was started with SIGINT ignored (a shell's background job, `nohup ... &`): its
+    worker pool must not turn the Ctrl-C into a dead worker and an internal error."""
     case = make_case(tmp_path, ["ok"] * 4 + ["hang"] * 2 + ["ok"] * 4, sleep_s=0.3)
+    ignore = (lambda: signal.signal(signal.SIGINT, signal.SIG_IGN)) if sigint_ignored else None
     run = subprocess.Popen(cli(case, "--workers", "2", "--timeout-s", "60", "--progress", "quiet"), stdout=subprocess.PIPE,
-                           stderr=subprocess.PIPE, text=True)
+                           stderr=subprocess.PIPE, text=True, preexec_fn=ignore)
     seen: set = set()
     wait_until(lambda: bool(seen.update(descendants(run.pid)) or True) and "p05" in dict(starts(case["log"])),
                120, run)
