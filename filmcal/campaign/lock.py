@@ -149,9 +149,9 @@ class StoreLock:
                    else "another process, under another name of the same file (a hard link)")
             raise StoreBusyError(f"campaign store {self.store_path} is in use by {who}; "
                                  "wait for it to finish or stop it, then run again") from None
-        except OSError as exc:
+        except OSError as exc:  # the lock file's flock, or the store's open or flock
             self._close(fd, store_fd)
-            raise InputError(f"--store {self.store_path}: cannot lock {self.path} ({exc.strerror or exc})") from None
+            raise InputError(f"--store {self.store_path}: cannot lock it ({exc.strerror or exc})") from None
         except BaseException:  # an interrupt while waiting, or the waiting note failing: nothing left open
             self._close(fd, store_fd)
             raise
