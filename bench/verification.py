@@ -29,8 +29,11 @@ Rows:
   Areas in mm^2 (``value_mm``/``reference_mm`` hold areas there), relative differences in per cent.
 
 ``--grid``: each reading of the half-space solution with a film on S1002/60E2 (50/100 kN, eta -5..+2 mm,
-E 800-6300 MPa) at fixed grids 0.2 / 0.1 / 0.05 mm (the model's refinement of narrow patches off) against its
-Richardson extrapolation, and the observed order.
+E 800-6300 MPa) at fixed grids 0.2 / 0.1 / 0.05 mm (the model's refinement of narrow patches off), each at
+`GRID_PHASES` phases of the grid across the rail: the observed order of the phase means, their Richardson
+extrapolation, and the largest error of one phase at 0.1 mm against it; and the same readings of
+sphere-on-flat through MS/HS/HHS films at 0.2 / 0.1 / 0.05 / 0.025 mm over 8 phases of the grid in both
+directions (their observed orders).
 ``--study-dir D``: Table 1 through the application model at each film's calibrated median E and preferred
 model (residuals against the calibration's own FE at the same E; the FE's own least-squares E, one
 Gauss-Newton step from the median, with the mean residual there, and the span of the mean residual over the
@@ -210,33 +213,96 @@ def transfer_check(n_points: int) -> list[dict]:
 GRID_CASES = [(f, eta, e) for f in (50e3, 100e3) for eta in (-5.0, -1.5, 2.0) for e in (800.0, 2800.0, 6300.0)]
 
 
+#: Phases of the grid across the rail at each spacing (shifts of k / GRID_PHASES of a cell): the readings are
+#: averaged over them, so that an outline's phase in its cells (noise of the size of the differences between
+#: grids) does not hide the order of the systematic error.
+GRID_PHASES = 4
+
+
 def grid_convergence() -> list[dict]:
-    """Readings at 0.2 / 0.1 / 0.05 mm, their Richardson extrapolation (observed order) and the 0.1 mm error."""
+    """Readings at 0.2 / 0.1 / 0.05 mm averaged over the grid's phase, their Richardson extrapolation (observed
+    order) and the largest error at 0.1 mm over the phases."""
     from filmcal.contact.film import FilmModel
     from filmcal.films import get_film
     from filmcal.wheelrail import WheelRailModel
+    from filmcal.wheelrail.wheelrail import ContactRegion
 
     # fixed grids: the model's refinement of patches narrower than FILM_MIN_CELLS_ACROSS cells would refine the
     # 0.2 mm grid (in one direction or both) in every 50 kN case and at 100 kN for E 2800 and 6300 MPa
-    fixed = {h: WheelRailModel(grid_mm=h, film_min_cells_across=0) for h in (0.2, 0.1, 0.05)}
+    spacings = (0.2, 0.1, 0.05)
+    fixed = {h: WheelRailModel(grid_mm=h, film_min_cells_across=0) for h in spacings}
     out = []
     hs = get_film("HS")
     models = [FilmModel(hs, imprint, "small") for imprint in ("edge", "activation", "capsule")]
     for force, eta, e in GRID_CASES:
         solver_film, _, _ = models[0].interface(e)
-        areas = {m.imprint: [] for m in models}
-        for h in (0.2, 0.1, 0.05):
-            res = fixed[h].solve(eta, force, film=solver_film)
-            for m in models:
-                areas[m.imprint].append(m.recorded_area_mm2(res))
-        for imprint, (a2, a1, a05) in areas.items():
+        # one region for every grid: the loaded cells of the 0.2 mm solution and 1 mm around them; the grid
+        # across the rail starts at the region's side, so shifting the region shifts the grid's phase
+        base = fixed[0.2].solve(eta, force, film=solver_film).contact
+        x, y = base.grid.mesh()
+        loaded = base.pressure_mpa > 0
+        half_x = float(np.abs(x[loaded]).max()) + 1.0
+        s_lo, s_hi = float(y[loaded].min()) - 1.0, float(y[loaded].max()) + 1.0
+        areas = {m.imprint: np.empty((len(spacings), GRID_PHASES)) for m in models}
+        for i, h in enumerate(spacings):
+            for k in range(GRID_PHASES):
+                shift = h * k / GRID_PHASES
+                res = fixed[h].solve(eta, force, film=solver_film,
+                                     region=ContactRegion(half_x, s_lo + shift, s_hi + shift))
+                for m in models:
+                    areas[m.imprint][i, k] = m.recorded_area_mm2(res)
+        for imprint, a in areas.items():
+            a2, a1, a05 = a.mean(axis=1)
             d1, d2 = a2 - a1, a1 - a05
             order = math.log2(abs(d1 / d2)) if d2 != 0 and d1 / d2 > 0 else float("nan")
             p = order if 1.0 <= order <= 3.0 else 2.0
             limit = a05 - d2 / (2**p - 1)
+            worst = a[1][np.argmax(np.abs(a[1] - limit))]
             out.append({"check": f"grid {imprint}", "case": f"{force / 1e3:g} kN eta {eta:+g} E{e:g}",
-                        "areas_mm2": [a2, a1, a05], "order": order, "extrapolated_mm2": limit,
-                        "error_at_0.1_rel": a1 / limit - 1.0})
+                        "areas_mm2": [a2, a1, a05], "phase_spread_mm2": np.ptp(a, axis=1).tolist(), "order": order,
+                        "extrapolated_mm2": limit, "error_at_0.1_rel": worst / limit - 1.0})
+    return out
+
+
+#: (film, E MPa, R mm, F kN) of the sphere-on-flat grid study.
+SPHERE_GRID_CASES = [("MS", 800.0, 300.0, 20.0), ("HS", 2800.0, 450.0, 50.0), ("HHS", 6300.0, 600.0, 100.0)]
+
+
+def sphere_grid_convergence(phases: int = 8) -> list[dict]:
+    """The three readings of sphere-on-flat through a film at 0.2 / 0.1 / 0.05 / 0.025 mm, each the mean over
+    `phases` random offsets of the grid in both directions (the wheel-rail grid is centred on the contact
+    along the rail, so there only its phase across the rail can be moved): the observed orders."""
+    from filmcal.contact.film import FilmModel
+    from filmcal.films import get_film
+    from filmcal.wheelrail.halfspace import HalfSpaceContactSolver, SurfaceGrid
+
+    solver = HalfSpaceContactSolver()
+    offsets = np.random.default_rng(1).random((phases, 2))
+    spacings = (0.2, 0.1, 0.05, 0.025)
+    out = []
+    for name, e, radius, force_kn in SPHERE_GRID_CASES:
+        film = get_film(name)
+        models = [FilmModel(film, imprint, "small") for imprint in ("edge", "activation", "capsule")]
+        solver_film, _, _ = models[0].interface(e)
+        half = 1.6 * (3e3 * force_kn * radius / (4.0 * solver.contact_modulus_mpa)) ** (1.0 / 3.0)
+        areas = np.empty((len(models), len(spacings), phases))
+        for i, h in enumerate(spacings):
+            n = 2 * int(math.ceil(half / h)) + 1
+            for k, (px, py) in enumerate(offsets):
+                grid = SurfaceGrid(n, n, h, h, -(n // 2 - px) * h, -(n // 2 - py) * h)
+                x, y = grid.mesh()
+                r2 = x * x + y * y
+                res = solver.solve(r2 / (radius + np.sqrt(radius**2 - r2)), force_kn * 1e3, grid, film=solver_film,
+                                   check_resolution=False)
+                for j, m in enumerate(models):
+                    areas[j, i, k] = m.recorded_area_mm2(res)
+        for j, m in enumerate(models):
+            mean = areas[j].mean(axis=1)
+            d = -np.diff(mean)
+            orders = [math.log2(d[i] / d[i + 1]) if d[i + 1] != 0 and d[i] / d[i + 1] > 0 else float("nan")
+                      for i in range(len(d) - 1)]
+            out.append({"check": f"sphere grid {m.imprint}", "case": f"{name} E{e:g} R{radius:g} {force_kn:g} kN",
+                        "areas_mm2": mean.tolist(), "phase_sd_mm2": areas[j].std(axis=1).tolist(), "orders": orders})
     return out
 
 
@@ -336,16 +402,29 @@ def main(argv=None) -> int:
     rows += transfer
     if args.grid:
         grid = grid_convergence()
-        print("\nreadings with the HS film on S1002/60E2: areas at 0.2 / 0.1 / 0.05 mm (mm2), observed order, "
-              "error at 0.1 mm against the extrapolation")
+        print(f"\nreadings with the HS film on S1002/60E2: areas at 0.2 / 0.1 / 0.05 mm (mm2, the mean of "
+              f"{GRID_PHASES} phases of the grid; the phases' spread at 0.1 mm), observed order of the means, "
+              "largest error of one phase at 0.1 mm against the extrapolation")
         for r in grid:
             a = r["areas_mm2"]
-            print(f"{r['check']:18} {r['case']:24} {a[0]:9.3f} {a[1]:9.3f} {a[2]:9.3f}  p {r['order']:5.2f}  "
-                  f"{100 * r['error_at_0.1_rel']:+7.3f} %")
+            print(f"{r['check']:18} {r['case']:24} {a[0]:9.3f} {a[1]:9.3f} {a[2]:9.3f}  "
+                  f"spread {r['phase_spread_mm2'][1]:6.3f}  p {r['order']:5.2f}  {100 * r['error_at_0.1_rel']:+7.3f} %")
         for kind in sorted({r["check"] for r in grid}):
             worst = max(abs(r["error_at_0.1_rel"]) for r in grid if r["check"] == kind)
-            print(f"summary {kind:18} largest |error at 0.1 mm| {100 * worst:.3f} %")
+            orders = np.array([r["order"] for r in grid if r["check"] == kind])
+            finite = orders[np.isfinite(orders)]
+            print(f"summary {kind:18} largest |error at 0.1 mm| {100 * worst:.3f} %; observed order median "
+                  f"{np.median(finite):.2f}, {np.sum((finite >= 1.5) & (finite <= 2.5))} of {orders.size} cases "
+                  f"in 1.5-2.5 ({orders.size - finite.size} not monotone)")
         rows += grid
+        sphere = sphere_grid_convergence()
+        print("\nreadings of sphere-on-flat through a film: areas at 0.2 / 0.1 / 0.05 / 0.025 mm (mm2, the mean of 8 "
+              "phases of the grid in both directions), the phases' sd at 0.1 mm, observed orders of the means")
+        for r in sphere:
+            a = r["areas_mm2"]
+            print(f"{r['check']:24} {r['case']:24} " + " ".join(f"{v:9.3f}" for v in a)
+                  + f"  sd {r['phase_sd_mm2'][1]:6.4f}  p " + " ".join(f"{p:5.2f}" for p in r["orders"]))
+        rows += sphere
     if args.study_dir:
         checks = study_checks(args.study_dir)
         print(f"\nwith the posteriors of {args.study_dir}")

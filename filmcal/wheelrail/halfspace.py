@@ -74,12 +74,16 @@ estimated from the solution:
   ``l`` exceeds the cell size (a 90 um film of E = 2800 MPa between steel
   bodies: l = 2.5 mm), the hard one otherwise.
 
-A cell field taking these zero crossings is contoured by filled marching
+A cell field with these zero crossings is contoured by filled marching
 squares (contourpy); the contour rings are the contact outline (outer
 boundaries and holes, any number of patches) and their shoelace area is
 ``area_mm2``. Against Hertz (a/b = 1-5, 50-100 kN, 0.1 mm cells, 15-67
 cells per minor semi-axis) it is within 0.15 %, where the loaded-cell count
-is 0.4-1.0 % too large.
+is 0.4-1.0 % too large. Behind a compliant interface the field is ``f``
+itself, so that every edge of a cell keeps its own crossing; a field of one
+value per boundary cell (as the hard estimator's) averages the crossings of
+a cell with two unloaded neighbours, which made the outline converge at
+first order only.
 """
 from __future__ import annotations
 
@@ -492,6 +496,20 @@ def _boundary_field(mask: np.ndarray, fractions: list) -> np.ndarray:
     edge = count > 0
     phi[edge] = -ratio_sum[edge] / count[edge]
     return phi
+
+
+def _compliant_field(mask: np.ndarray, elastic_separation: np.ndarray) -> np.ndarray:
+    """Cell field, < 0 on ``mask`` and > 0 off it, whose zero crossings are those of ``f = h + u - delta``.
+
+    Behind a compliant interface ``f`` is smooth across the edge (``-c(p)`` inside, the separation outside),
+    so its own values, with their signs held to the loaded set against the solver's tolerance, put the
+    boundary at the linear zero of ``f`` on every edge between a loaded and an unloaded cell. (A field of
+    one value per boundary cell, `_boundary_field`, cannot: a cell with two unloaded neighbours holds the
+    mean of two crossings, which moved a curved outline outwards at first order in the cell size.)
+    """
+    f = np.asarray(elastic_separation, dtype=float)
+    tiny = 1e-12 * max(float(np.abs(f).max()), 1e-300)
+    return np.where(mask, np.minimum(f, -tiny), np.maximum(f, tiny))
 
 
 def _initial_pressure(gap: np.ndarray, force: float, contact_modulus: float,
@@ -939,7 +957,6 @@ class HalfSpaceContactSolver:
         # compliant edge behaviour over a length E* c'(0); below a cell, hard
         hard_edge = (self.contact_modulus_mpa * interface.edge_compliance
                      < max(grid.dx_mm, grid.dy_mm))
-        fractions = _edge_fractions(loaded, self._crossing(elastic_gap - approach, hard_edge))
         reaches_edge = bool(loaded[0].any() or loaded[-1].any() or loaded[:, 0].any()
                             or loaded[:, -1].any())
         if reaches_edge and not allow_edge:
@@ -947,7 +964,11 @@ class HalfSpaceContactSolver:
                              "covered by grid (or pass allow_edge=True)")
         if check_resolution:
             self.check_resolution(loaded, grid)
-        area, rings = _region(grid, _boundary_field(loaded, fractions))
+        if hard_edge:
+            outline_field = _boundary_field(loaded, _edge_fractions(loaded, self._hard_crossing(elastic_gap - approach)))
+        else:
+            outline_field = _compliant_field(loaded, elastic_gap - approach)
+        area, rings = _region(grid, outline_field)
         x, y = grid.mesh()
         return ContactResult(
             grid=grid, pressure_mpa=p, separation_mm=separation, force_n=force,
@@ -963,13 +984,9 @@ class HalfSpaceContactSolver:
             elapsed_s=time.perf_counter() - start, fft_count=fft_count)
 
     @staticmethod
-    def _crossing(elastic_separation: np.ndarray, hard: bool):
-        """Sub-cell boundary estimator (see the module notes)."""
+    def _hard_crossing(elastic_separation: np.ndarray):
+        """Sub-cell boundary estimator of a hard edge (see the module notes)."""
         f = elastic_separation
-
-        def compliant(idx_in: tuple, idx_out: tuple, _direction) -> np.ndarray:
-            f_in, f_out = f[idx_in], f[idx_out]
-            return -f_in / (f_out - f_in)
 
         def hard_edge(idx_in: tuple, idx_out: tuple, direction) -> np.ndarray:
             axis, step = direction
@@ -984,7 +1001,7 @@ class HalfSpaceContactSolver:
             frac[valid] = 1.0 - s1[valid] / (s2[valid] - s1[valid])
             return frac
 
-        return hard_edge if hard else compliant
+        return hard_edge
 
     def check_resolution(self, loaded: np.ndarray, grid: SurfaceGrid) -> None:
         """Raise ValueError if the loaded cells span fewer than ``min_cells_across``
