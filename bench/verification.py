@@ -83,7 +83,7 @@ REFERENCES = {
     "FE / second formulation": "biquadratic FE with the closing-load edge, extrapolated to h -> 0, films at nu 0.25-0.45",
     "FE / second formulation, large strain": "the same with neo-Hookean films in both (independent kernels), strains up to 0.5",
     "half-space / Hertz": "Hertz's closed form, no film",
-    "half-space / thin-layer BEM": "axisymmetric ring BEM of the same spring film",
+    "half-space / thin-layer BEM": "axisymmetric ring BEM of the same spring film (rings of 0.005 mm)",
     "wheel-rail / CONTACT flange": "CONTACT, refined and extrapolated: S1002 on 60E1, 10 kN, eta -3..+8 mm, an HS layer at +5 mm",
     "wheel-rail / CONTACT layer": "CONTACT's elastic layer: S1002 on 60E2, 50/100 kN, eta -5..+2 mm, no film and MS/HS/HHS",
 }
@@ -179,10 +179,12 @@ def halfspace_against_thin_layer() -> list[dict]:
 
     rows = []
     for r, f, e, nu in TRANSFER_POINTS[:3]:
+        # the half-space's outline at 0.05 mm against the middle of the BEM's ring holding the edge (rings of
+        # 0.005 mm: the reference is itself within 0.0025 mm)
         hs = sphere_on_flat_contact(r, f * 1e3, film=FilmLayer(e, nu, 0.09), spacing_mm=0.05)
-        bem = thin_layer_contact(r, f * 1e3, e, nu, 0.09, ring_width_mm=0.01)
+        bem = thin_layer_contact(r, f * 1e3, e, nu, 0.09, ring_width_mm=0.005)
         rows.append(_row("half-space / thin-layer BEM", f"R{r:g} {f:g} kN E{e:g} nu{nu:g}",
-                         math.sqrt(hs.area_cells_mm2 / math.pi), bem.contact_radius_mm))
+                         hs.equivalent_radius_mm, bem.contact_radius_mm))
     return rows
 
 

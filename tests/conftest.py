@@ -113,6 +113,8 @@ SLOW_TESTS: dict[str, str] = {
     "test_surrogate.py::test_same_random_state_same_fit_serial_or_parallel": "8 s: parallel refits",
     "test_film_law.py::test_large_strain_sphere_on_flat_matches_the_fe": "5-10 s each: FE large-strain solves",
     "test_roughness.py::test_fully_plastic_limit_is_the_bearing_area_curve": "5 s: slow projected-gradient solves",
+    "test_transfer.py::test_the_shipped_fit_is_the_fit_of_the_shipped_rows":
+        "190 s (with other work): the transfer fit, four residual GPs among it, made again from 15588 rows",
 }
 
 #: An unmarked test slower than this is named at the end of the run.

@@ -196,6 +196,7 @@ def test_nothing_recorded_gives_no_transfer_term():
 def test_the_fit_script_reuses_every_measured_row_and_fits_them_again_to_the_same_numbers(tmp_path):
     """scripts/fit-transfer at its smallest sizes (the shipped fit's way, every design and both regions): a
     second run given the first's rows measures nothing and writes the same fit; each region is held out."""
+    import gzip
     import subprocess
     import sys
     from pathlib import Path
@@ -217,13 +218,14 @@ def test_the_fit_script_reuses_every_measured_row_and_fits_them_again_to_the_sam
     assert "held out, the whole domain" in first.stdout
     # --reuse-fe: the FE's readings from the rows, the application solved again (unchanged here: the same fit)
     third = subprocess.run([sys.executable, str(script), *sizes, "--out", str(tmp_path / "c.json"), "--reuse-fe",
-                            str(tmp_path / "rows.json"), "--rows", str(tmp_path / "rows_c.json")],
+                            str(tmp_path / "rows.json"), "--rows", str(tmp_path / "rows_c.json.gz")],
                            capture_output=True, text=True, timeout=900)
     assert third.returncode == 0, third.stderr[-2000:]
     c = TransferFit.from_json(tmp_path / "c.json")
     assert c.provenance["points_with_fe_reused"] == c.provenance["points_measured"] == a.provenance["points_measured"]
     assert c.coefficients == a.coefficients and c.std_mm == a.std_mm
-    assert json.loads((tmp_path / "rows_c.json").read_text()) == json.loads((tmp_path / "rows.json").read_text())
+    rows_c = json.loads(gzip.decompress((tmp_path / "rows_c.json.gz").read_bytes()))  # .gz: written compressed
+    assert rows_c == json.loads((tmp_path / "rows.json").read_text())
 
 
 def test_the_transfer_domain_covers_every_case_the_calibration_supports():
@@ -261,3 +263,26 @@ def test_fe_rows_given_are_used_and_the_fe_is_not_solved_again(monkeypatch):
     assert [r["applied_radius_mm"] for r in again] == [r["applied_radius_mm"] for r in full]
     with pytest.raises(AssertionError, match="solved again"):  # a row missing: the FE is solved
         measure_transfer(point, films, kinematics=("small",), fe_rows=given[1:])
+
+
+def test_the_shipped_fit_is_the_fit_of_the_shipped_rows():
+    """bench/data/transfer-rows.json.gz holds the FE's and the application's readings behind the shipped fit
+    (scripts/fit-transfer --rows): fitting them again gives the shipped coefficients and stds, so that the
+    rows are the fit's data, not an older measurement, and --reuse-fe can start from them."""
+    import gzip
+    from pathlib import Path
+
+    from filmcal.correction.transfer import fit_transfer
+
+    path = Path(__file__).resolve().parent.parent / "bench" / "data" / "transfer-rows.json.gz"
+    rows = json.loads(gzip.decompress(path.read_bytes()))
+    shipped = load_transfer_fit()
+    design = shipped.provenance["design"]
+    n_core, n_whole = design["held_out"][0], design["held_out_whole"][0]
+    held = rows["held_out"]
+    split = len(held) * n_core // (n_core + n_whole)  # held-out rows: Table 1's region's points, then the whole's
+    fit = fit_transfer(rows["train"], {"core": held[:split], "whole": held[split:]}, shipped.grid_mm)
+    assert fit.coefficients.keys() == shipped.coefficients.keys()
+    for key, beta in shipped.coefficients.items():
+        np.testing.assert_allclose(fit.coefficients[key], beta, rtol=1e-9, atol=1e-12)
+        assert fit.std_mm[key] == pytest.approx(shipped.std_mm[key], rel=1e-9)
