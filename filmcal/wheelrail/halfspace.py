@@ -965,7 +965,8 @@ class HalfSpaceContactSolver:
         if check_resolution:
             self.check_resolution(loaded, grid)
         if hard_edge:
-            outline_field = _boundary_field(loaded, _edge_fractions(loaded, self._hard_crossing(elastic_gap - approach)))
+            fractions = _edge_fractions(loaded, self._hard_crossing(elastic_gap - approach))
+            outline_field = _boundary_field(loaded, fractions)
         else:
             outline_field = _compliant_field(loaded, elastic_gap - approach)
         area, rings = _region(grid, outline_field)
