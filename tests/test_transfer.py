@@ -286,3 +286,24 @@ def test_the_shipped_fit_is_the_fit_of_the_shipped_rows():
     for key, beta in shipped.coefficients.items():
         np.testing.assert_allclose(fit.coefficients[key], beta, rtol=1e-9, atol=1e-12)
         assert fit.std_mm[key] == pytest.approx(shipped.std_mm[key], rel=1e-9)
+
+
+@pytest.mark.parametrize("content", [None, "[1, 2]", "not json"])
+def test_the_fit_script_refuses_a_file_that_is_not_its_rows_in_one_line(tmp_path, content):
+    """--reuse / --reuse-fe with a missing file, a JSON list or text: exit 2, one line naming the file, no fit
+    written."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parent.parent / "scripts" / "fit-transfer"
+    rows = tmp_path / "rows.json"
+    if content is not None:
+        rows.write_text(content)
+    out = tmp_path / "fit.json"
+    for option in ("--reuse", "--reuse-fe"):
+        p = subprocess.run([sys.executable, str(script), option, str(rows), "--out", str(out)], capture_output=True,
+                           text=True, timeout=120)
+        assert p.returncode == 2, p.stderr[-2000:]
+        assert len(p.stderr.strip().splitlines()) == 1 and "rows.json" in p.stderr
+        assert not out.exists()
