@@ -37,7 +37,8 @@ directions (their observed orders).
 ``--study-dir D``: Table 1 through the application model at each film's calibrated median E and preferred
 model (residuals against the calibration's own FE at the same E; the FE's own least-squares E, one
 Gauss-Newton step from the median, with the mean residual there, and the span of the mean residual over the
-posterior's 90 % interval of E: how closely the data fix it), and the wheel-rail correction factor
+posterior's 90 % interval of E: how closely the data fix it; the median's Monte Carlo error and, for a
+posterior of two parameters, its exact median by quadrature with the mean residual there), and the wheel-rail correction factor
 A_0 / A_f at S1002/60E2, 100 kN, eta 0 per film before (the readings before the transfer term: contours of
 ``p**2``, no transfer term) and after.
 
@@ -52,6 +53,7 @@ import json
 import math
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -318,9 +320,13 @@ def study_checks(study_dir: str) -> list[dict]:
     from filmcal.films import get_film
     from filmcal.wheelrail import solve_wheel_rail
     from filmcal.wheelrail.halfspace import sphere_on_flat_contact
+    from filmcal.calibration import load_result
+    from filmcal.calibration.diagnostics import compute_diagnostics, quadrature_quantiles
+    from filmcal.study import Study
 
     with open(f"{study_dir}/summary.json", encoding="utf-8") as fh:
         summary = json.load(fh)
+    study = Study(study_dir)
     out = []
     for film_name, s in summary["films"].items():
         preferred = s.get("preferred_model") or {"model": s["model"], "modulus_mpa": s["modulus_mpa"]}
@@ -347,6 +353,14 @@ def study_checks(study_dir: str) -> list[dict]:
         # there) and the plain mean residual there; the mean residual over the posterior's 90 % interval of E
         step = float(np.sum(slope * calibrated) / np.sum(slope**2))
         lo, hi = (float(v) for v in preferred["modulus_mpa"]["ci90"])
+        # the median's own error: its Monte Carlo standard error, and the exact median of the recorded
+        # posterior by quadrature when it has two parameters (ln E, ln sigma)
+        path = Path(s["posterior_file"])
+        mcse = compute_diagnostics({"E": load_result(path).samples["modulus_mpa"]}).mcse["E"]["median"]
+        problem = study.problem(path)
+        exact = (quadrature_quantiles(problem, e)["median"]
+                 if problem.parameter_names == ["log_modulus", "log_sigma"] else None)
+        shift = float(np.mean(slope)) * math.log(exact / e) if exact is not None else math.nan
         out.append({"check": "Table 1 through the application", "case": f"{film_name} {preferred['model']} E{e:.0f}",
                     "mean_residual_mm": float(applied.mean()), "rms_mm": float(np.sqrt(np.mean(applied**2))),
                     "calibration_mean_residual_mm": float(calibrated.mean()),
@@ -354,7 +368,9 @@ def study_checks(study_dir: str) -> list[dict]:
                     "fe_least_squares_mpa": e * math.exp(step),
                     "fe_least_squares_mean_residual_mm": float(np.mean(calibrated - step * slope)),
                     "ci90_mean_residual_mm": sorted(float(np.mean(calibrated - math.log(v / e) * slope))
-                                                    for v in (lo, hi))})
+                                                    for v in (lo, hi)),
+                    "mcse_median_mpa": mcse, "mcse_mean_residual_mm": abs(float(np.mean(slope))) * mcse / e,
+                    "quadrature_median_mpa": exact, "quadrature_mean_residual_mm": float(applied.mean()) - shift})
         a0 = solve_wheel_rail(0.0, 100e3).area_mm2
         res = solve_wheel_rail(0.0, 100e3, film=solver_film, roughness=solver_law)
         after = model.recorded_area_mm2(res)
@@ -439,6 +455,10 @@ def main(argv=None) -> int:
                 print(f"        the FE's least-squares E {r['fe_least_squares_mpa']:.0f} MPa: mean residual "
                       f"{r['fe_least_squares_mean_residual_mm']:+.4f} mm; over the posterior's 90 % interval of E "
                       f"the mean residual spans {lo:+.4f} .. {hi:+.4f} mm")
+                print(f"        the median's Monte Carlo error {r['mcse_median_mpa']:.2f} MPa "
+                      f"(+/- {r['mcse_mean_residual_mm']:.4f} mm in the mean residual); the exact median "
+                      + (f"by quadrature {r['quadrature_median_mpa']:.2f} MPa: application mean residual there "
+                         f"{r['quadrature_mean_residual_mm']:+.4f} mm" if r["quadrature_median_mpa"] else "n/a"))
             else:
                 print(f"A0/Af 100 kN eta 0 {r['case']:22} before {r['before']:.4f} after {r['after']:.4f} "
                       f"({100 * (r['after'] / r['before'] - 1):+.2f} %; reading {r['reading_change_mm2']:+.2f} mm2, "

@@ -16,7 +16,7 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
                                        "combine_posteriors", "compare_models"],
     "filmcal.calibration.datasets": ["Dataset", "PACKAGED_DATASETS", "load_dataset", "load_table1"],
     "filmcal.calibration.data": ["FILM_TYPES", "RadiusErrorData", "parse_load_range"],
-    "filmcal.calibration.diagnostics": ["Diagnostics", "compute_diagnostics"],
+    "filmcal.calibration.diagnostics": ["Diagnostics", "compute_diagnostics", "quadrature_quantiles"],
     "filmcal.calibration.likelihood": ["CalibrationProblem", "Priors", "RadiusModel"],
     "filmcal.elastic": ["oedometric_ratio"],
     "filmcal.calibration.pipeline": ["calibrate", "calibrate_film"],

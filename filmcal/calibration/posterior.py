@@ -138,6 +138,12 @@ class CalibrationResult:
         return self.diagnostics.ess_tail
 
     @property
+    def mcse(self) -> dict[str, dict[str, float]]:
+        """Monte Carlo standard error of each parameter's median, 5 % and 95 % quantiles (``median``,
+        ``q05``, ``q95``; empty for results stored before it was computed)."""
+        return self.diagnostics.mcse
+
+    @property
     def rhat_max(self) -> float:
         """Worst (largest) R-hat over the parameters."""
         return self.diagnostics.worst_rhat

@@ -171,8 +171,10 @@ def run(args: argparse.Namespace) -> int:
             print("weights " + ", ".join(f"{k} {v:.2f}" for k, v in out["imprint_weights"].items()))
         print(f"E  = {m:.0f} MPa   90 % [{ci[0]:.0f}, {ci[1]:.0f}]")
         print(f"M  = {om:.0f} MPa   90 % [{oci[0]:.0f}, {oci[1]:.0f}]")
+        error = result.mcse.get("modulus_mpa", {}).get("median")
         print(f"sigma = {out['sigma_mm']['median']:.3f} mm; R-hat {out['rhat']:.4f}, ESS {out['ess']:.0f}, "
-              f"diagnostics {'ok' if out.get('diagnostics_ok', True) else 'NOT ok'}")
+              + (f"Monte Carlo error of {label}'s median E {error:.2g} MPa, " if error is not None else "")
+              + f"diagnostics {'ok' if out.get('diagnostics_ok', True) else 'NOT ok'}")
         print(f"surrogate: held-out area error RMS {100 * validation.area_rms_relative_error:.3f} %, "
               f"max {100 * validation.area_max_relative_error:.3f} %, 90 % coverage {validation.coverage90:.2f}")
         print(f"rms residual {out['rms_residual_mm']:.3f} mm, {out['ppc_inside_90']}/{out['n_data']} inside their 90 % "

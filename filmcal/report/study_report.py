@@ -534,15 +534,22 @@ def calibration_section(film: str, result, source: str, model: str = "") -> Sect
 
     s = Section(f"Calibration of {film} film" + (f" (imprint model {model})" if model else ""))
     who = f"{film} ({model})" if model else film
-    rows = [[parameter_label(name), f"{np.median(v):.4g}", f"{np.quantile(v, 0.05):.4g}",
-             f"{np.quantile(v, 0.95):.4g}", f"{result.rhat.get(name, np.nan):.4f}",
+    def with_error(value: float, name: str, key: str) -> str:
+        error = result.mcse.get(name, {}).get(key)
+        return f"{value:.4g}" if error is None else f"{value:.4g} ± {error:.2g}"
+
+    rows = [[parameter_label(name), with_error(np.median(v), name, "median"),
+             with_error(np.quantile(v, 0.05), name, "q05"), with_error(np.quantile(v, 0.95), name, "q95"),
+             f"{result.rhat.get(name, np.nan):.4f}",
              f"{result.ess_bulk.get(name, np.nan):.0f}", f"{result.ess_tail.get(name, np.nan):.0f}"]
             for name, v in ((k, np.asarray(v).ravel()) for k, v in result.samples.items())]
     verdict = ("pass" if result.diagnostics_ok else "FAIL: " + "; ".join(result.diagnostics.messages))
     s.add(f"emcee ensemble sampler, {result.n_walkers} walkers × {result.n_steps} steps (burn-in {result.burn_in}, "
           f"thinning {result.thin}), acceptance {result.acceptance_fraction:.2f}; {result.n_data} measured radii of "
           f"Table 1; the scatter σ is inferred. Diagnostics {verdict} (required: R-hat ≤ "
-          f"{result.diagnostics.max_rhat}, bulk ESS ≥ {result.diagnostics.min_ess:.0f}).",
+          f"{result.diagnostics.max_rhat}, bulk ESS ≥ {result.diagnostics.min_ess:.0f}). Each quantile is given "
+          "± its Monte Carlo standard error: how far it could move if the chain were run again, not the "
+          "posterior's width.",
           Table(["parameter", "median", "5 %", "95 %", "R-hat", "bulk ESS", "tail ESS"], rows,
                 f"Posterior of {film} (file {source})"))
     for note in result.notes:

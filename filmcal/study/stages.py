@@ -270,7 +270,8 @@ def _run_stages(study: Study, settings: PipelineSettings, films, seed: int, pool
             s.update(model=spec["model"], diagnostics_ok=bool(result.diagnostics_ok),
                      diagnostics_messages=list(result.diagnostics.messages),
                      posterior_file=str(path), predictive_hits=int(np.sum(~result.predictive.outside)),
-                     n_cases=int(len(result.predictive.outside)))
+                     n_cases=int(len(result.predictive.outside)),
+                     modulus_mcse_mpa=dict(result.mcse.get("modulus_mpa", {})))
             weights = (comparisons.get(film) or {}).get("weights")
             if weights:
                 # the answer to cite is the weighted mixture of the compared models, as `filmcal calibrate` gives
@@ -279,7 +280,8 @@ def _run_stages(study: Study, settings: PipelineSettings, films, seed: int, pool
                 from filmcal.calibration.posterior import summarize
 
                 models = results[film]
-                s["preferred_model"] = {"model": spec["model"], "modulus_mpa": d["modulus_mpa"]}
+                s["preferred_model"] = {"model": spec["model"], "modulus_mpa": d["modulus_mpa"],
+                                        "modulus_mcse_mpa": s.pop("modulus_mcse_mpa")}
                 mixture = combine_posteriors({k: r.samples for k, (r, _, _) in models.items() if k in weights},
                                              {k: w for k, w in weights.items() if k in models},
                                              random_state=seed_for(seed, f"mixture-{film}"))
