@@ -217,10 +217,12 @@ def transfer_check(n_points: int) -> list[dict]:
 GRID_CASES = [(f, eta, e) for f in (50e3, 100e3) for eta in (-5.0, -1.5, 2.0) for e in (800.0, 2800.0, 6300.0)]
 
 
-#: Phases of the grid across the rail at each spacing (shifts of k / GRID_PHASES of a cell): the readings are
-#: averaged over them, so that an outline's phase in its cells (noise of the size of the differences between
-#: grids) does not hide the order of the systematic error.
+#: Phases of the grid at each spacing: shifts of k / GRID_PHASES of a cell across the rail, paired with
+#: ALONG_PHASES[k] / GRID_PHASES of a cell along it (a Latin square's diagonal: each direction takes every
+#: phase once). The readings are averaged over them, so that an outline's phase in its cells (noise of the size
+#: of the differences between grids) does not hide the order of the systematic error.
 GRID_PHASES = 4
+ALONG_PHASES = (0, 2, 1, 3)
 
 
 def grid_convergence() -> list[dict]:
@@ -252,7 +254,8 @@ def grid_convergence() -> list[dict]:
             for k in range(GRID_PHASES):
                 shift = h * k / GRID_PHASES
                 res = fixed[h].solve(eta, force, film=solver_film,
-                                     region=ContactRegion(half_x, s_lo + shift, s_hi + shift))
+                                     region=ContactRegion(half_x, s_lo + shift, s_hi + shift,
+                                                          x_offset_mm=h * ALONG_PHASES[k] / GRID_PHASES))
                 for m in models:
                     areas[m.imprint][i, k] = m.recorded_area_mm2(res)
         for imprint, a in areas.items():

@@ -126,6 +126,29 @@ def test_repeated_solves_reuse_caches_and_batch_matches(model):
     assert again.area_mm2 == pytest.approx(single.area_mm2, rel=1e-6)
 
 
+def test_the_grid_shifts_along_the_rail_by_its_x_offset(model):
+    """A whole cell of offset gives the same cells (the gap depends on x only through x**2 about the contact) and
+    so the same area; half a cell moves the grid's phase against the patch: another area, within the reading's
+    grid error (0.1 % at 0.1 mm, docs/verification.md)."""
+    single = model.solve(-5.0, 50e3, film=HS)
+    grid = single.grid
+
+    def shifted(offset_mm: float):
+        region = ContactRegion(0.5 * (grid.nx - 1) * grid.dx_mm, grid.y0_mm, grid.y0_mm + (grid.ny - 1) * grid.dy_mm,
+                               x_offset_mm=offset_mm)
+        return model.solve(-5.0, 50e3, film=HS, region=region)
+
+    whole, half = shifted(grid.dx_mm), shifted(0.5 * grid.dx_mm)
+    # cell centres along the rail, in cells from the contact: whole numbers, and halves with half a cell
+    np.testing.assert_allclose(np.mod(whole.grid.x_mm / grid.dx_mm + 0.25, 1.0), 0.25, atol=1e-9)
+    np.testing.assert_allclose(np.mod(half.grid.x_mm / grid.dx_mm + 0.25, 1.0), 0.75, atol=1e-9)
+    assert whole.area_mm2 == pytest.approx(single.area_mm2, rel=1e-6)
+    assert half.area_mm2 == pytest.approx(single.area_mm2, rel=1e-3)
+    assert abs(half.area_mm2 / single.area_mm2 - 1.0) > 1e-6
+    with pytest.raises(ValueError, match="x_offset_mm"):
+        ContactRegion(2.0, -2.0, 2.0, x_offset_mm=float("nan"))
+
+
 @pytest.mark.parametrize("kwargs, match", [
     ({"offset_mm": 50.0, "force_n": 50e3}, "offset_mm"),
     ({"offset_mm": -3.0, "force_n": -5.0}, "force_n"),

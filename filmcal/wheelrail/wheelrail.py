@@ -149,15 +149,21 @@ class ContactRegion:
     """Rectangle of the contact plane covered by the grid (mm).
 
     ``|x| <= half_length_x_mm`` along the rail and ``s_min_mm <= s <= s_max_mm``
-    across it, ``s`` measured from the first contact point.
+    across it, ``s`` measured from the first contact point. ``x_offset_mm``
+    shifts the grid along the rail: its cells are centred at ``x_offset_mm + k
+    h`` (default 0, a cell centred on the contact; a fraction of a cell moves
+    the grid's phase against the patch, as shifting ``s_min_mm`` and
+    ``s_max_mm`` does across the rail).
     """
 
     half_length_x_mm: float
     s_min_mm: float
     s_max_mm: float
+    x_offset_mm: float = 0.0
 
     def __post_init__(self) -> None:
         check_positive("half_length_x_mm", self.half_length_x_mm)
+        as_finite("x_offset_mm", self.x_offset_mm)
         as_finite("s_min_mm", self.s_min_mm)
         if not as_finite("s_max_mm", self.s_max_mm) > self.s_min_mm:
             raise ValueError(f"s_max_mm must exceed s_min_mm, got [{self.s_min_mm:g}, "
@@ -562,7 +568,7 @@ def _grid(region: ContactRegion, spacing_mm: float, curves: _PlaneCurves,
     half_s = 0.5 * (ns - 1) * hs
     # keep the grid inside the part of the plane where both profiles are graphs
     centre = min(max(centre, lo + half_s), hi - half_s) if hi - lo > 2 * half_s else 0.5 * (lo + hi)
-    return SurfaceGrid(nx, ns, hx, hs, -half * hx, centre - half_s)
+    return SurfaceGrid(nx, ns, hx, hs, -half * hx + region.x_offset_mm, centre - half_s)
 
 
 def _transfer(previous: ContactResult, grid: SurfaceGrid) -> np.ndarray | None:
