@@ -29,9 +29,10 @@ Rows:
   Areas in mm^2 (``value_mm``/``reference_mm`` hold areas there), relative differences in per cent.
 
 ``--grid``: each reading of the half-space solution with a film on S1002/60E2 (50/100 kN, eta -5..+2 mm,
-E 800-6300 MPa) at fixed grids 0.2 / 0.1 / 0.05 mm (the model's refinement of narrow patches off), each at
-`GRID_PHASES` phases of the grid across the rail: the observed order of the phase means, their Richardson
-extrapolation, and the largest error of one phase at 0.1 mm against it; and the same readings of
+E 800-6300 MPa) at fixed grids 0.2 / 0.1 / 0.05 / 0.025 mm (the model's refinement of narrow patches off, the
+wheel's slide solved to `GRID_SLIDE_TOL_CELLS`), each at `GRID_PHASES` phases of the grid (across and along the
+rail): the observed orders of the phase means, the Richardson extrapolation of the finest three, and the
+largest error of one phase at 0.1 mm against it; and the same readings of
 sphere-on-flat through MS/HS/HHS films at 0.2 / 0.1 / 0.05 / 0.025 mm over 8 phases of the grid in both
 directions (their observed orders).
 ``--study-dir D``: Table 1 through the application model at each film's calibrated median E and preferred
@@ -223,20 +224,26 @@ GRID_CASES = [(f, eta, e) for f in (50e3, 100e3) for eta in (-5.0, -1.5, 2.0) fo
 #: of the differences between grids) does not hide the order of the systematic error.
 GRID_PHASES = 4
 ALONG_PHASES = (0, 2, 1, 3)
+#: The slide's tolerance of the grid study (cells; the model's default is `SLIDE_TOL_CELLS`, 0.02).
+GRID_SLIDE_TOL_CELLS = 1e-4
 
 
 def grid_convergence() -> list[dict]:
-    """Readings at 0.2 / 0.1 / 0.05 mm averaged over the grid's phase, their Richardson extrapolation (observed
-    order) and the largest error at 0.1 mm over the phases."""
+    """Readings at 0.2 / 0.1 / 0.05 / 0.025 mm averaged over the grid's phase: the observed orders of the coarse
+    and the fine triplet, the Richardson extrapolation of the fine one and the largest error at 0.1 mm over the
+    phases."""
     from filmcal.contact.film import FilmModel
     from filmcal.films import get_film
     from filmcal.wheelrail import WheelRailModel
     from filmcal.wheelrail.wheelrail import ContactRegion
 
     # fixed grids: the model's refinement of patches narrower than FILM_MIN_CELLS_ACROSS cells would refine the
-    # 0.2 mm grid (in one direction or both) in every 50 kN case and at 100 kN for E 2800 and 6300 MPa
-    spacings = (0.2, 0.1, 0.05)
-    fixed = {h: WheelRailModel(grid_mm=h, film_min_cells_across=0) for h in spacings}
+    # 0.2 mm grid (in one direction or both) in every 50 kN case and at 100 kN for E 2800 and 6300 MPa; and the
+    # wheel's slide solved far below its default (2 % of a cell: an error of first order in the cell, up to
+    # 0.03 % in area, which hid the readings' own order)
+    spacings = (0.2, 0.1, 0.05, 0.025)
+    fixed = {h: WheelRailModel(grid_mm=h, film_min_cells_across=0, slide_tol_cells=GRID_SLIDE_TOL_CELLS)
+             for h in spacings}
     out = []
     hs = get_film("HS")
     models = [FilmModel(hs, imprint, "small") for imprint in ("edge", "activation", "capsule")]
@@ -259,15 +266,16 @@ def grid_convergence() -> list[dict]:
                 for m in models:
                     areas[m.imprint][i, k] = m.recorded_area_mm2(res)
         for imprint, a in areas.items():
-            a2, a1, a05 = a.mean(axis=1)
-            d1, d2 = a2 - a1, a1 - a05
-            order = math.log2(abs(d1 / d2)) if d2 != 0 and d1 / d2 > 0 else float("nan")
-            p = order if 1.0 <= order <= 3.0 else 2.0
-            limit = a05 - d2 / (2**p - 1)
+            mean = a.mean(axis=1)
+            d = mean[:-1] - mean[1:]
+            orders = [math.log2(d[i] / d[i + 1]) if d[i + 1] != 0 and d[i] / d[i + 1] > 0 else float("nan")
+                      for i in range(len(d) - 1)]
+            p = orders[-1] if 1.0 <= orders[-1] <= 3.0 else 2.0
+            limit = mean[-1] - d[-1] / (2**p - 1)
             worst = a[1][np.argmax(np.abs(a[1] - limit))]
             out.append({"check": f"grid {imprint}", "case": f"{force / 1e3:g} kN eta {eta:+g} E{e:g}",
-                        "areas_mm2": [a2, a1, a05], "phase_spread_mm2": np.ptp(a, axis=1).tolist(), "order": order,
-                        "extrapolated_mm2": limit, "error_at_0.1_rel": worst / limit - 1.0})
+                        "areas_mm2": mean.tolist(), "phase_spread_mm2": np.ptp(a, axis=1).tolist(),
+                        "orders": orders, "extrapolated_mm2": limit, "error_at_0.1_rel": worst / limit - 1.0})
     return out
 
 
@@ -423,20 +431,22 @@ def main(argv=None) -> int:
     rows += transfer
     if args.grid:
         grid = grid_convergence()
-        print(f"\nreadings with the HS film on S1002/60E2: areas at 0.2 / 0.1 / 0.05 mm (mm2, the mean of "
-              f"{GRID_PHASES} phases of the grid; the phases' spread at 0.1 mm), observed order of the means, "
-              "largest error of one phase at 0.1 mm against the extrapolation")
+        print(f"\nreadings with the HS film on S1002/60E2: areas at 0.2 / 0.1 / 0.05 / 0.025 mm (mm2, the mean of "
+              f"{GRID_PHASES} phases of the grid; the phases' spread at 0.1 mm), observed orders of the means "
+              "(0.2-0.1-0.05, 0.1-0.05-0.025), largest error of one phase at 0.1 mm against the extrapolation")
         for r in grid:
-            a = r["areas_mm2"]
-            print(f"{r['check']:18} {r['case']:24} {a[0]:9.3f} {a[1]:9.3f} {a[2]:9.3f}  "
-                  f"spread {r['phase_spread_mm2'][1]:6.3f}  p {r['order']:5.2f}  {100 * r['error_at_0.1_rel']:+7.3f} %")
+            print(f"{r['check']:18} {r['case']:24} " + " ".join(f"{v:9.3f}" for v in r["areas_mm2"])
+                  + f"  spread {r['phase_spread_mm2'][1]:6.3f}  p " + " ".join(f"{p:5.2f}" for p in r["orders"])
+                  + f"  {100 * r['error_at_0.1_rel']:+7.3f} %")
         for kind in sorted({r["check"] for r in grid}):
             worst = max(abs(r["error_at_0.1_rel"]) for r in grid if r["check"] == kind)
-            orders = np.array([r["order"] for r in grid if r["check"] == kind])
-            finite = orders[np.isfinite(orders)]
-            print(f"summary {kind:18} largest |error at 0.1 mm| {100 * worst:.3f} %; observed order median "
-                  f"{np.median(finite):.2f}, {np.sum((finite >= 1.5) & (finite <= 2.5))} of {orders.size} cases "
-                  f"in 1.5-2.5 ({orders.size - finite.size} not monotone)")
+            print(f"summary {kind:18} largest |error at 0.1 mm| {100 * worst:.3f} %")
+            for j, triplet in enumerate(("0.2-0.1-0.05", "0.1-0.05-0.025")):
+                orders = np.array([r["orders"][j] for r in grid if r["check"] == kind])
+                finite = orders[np.isfinite(orders)]
+                print(f"        observed order {triplet}: median {np.median(finite):.2f}, range {finite.min():.2f} .. "
+                      f"{finite.max():.2f}, {np.sum((finite >= 1.5) & (finite <= 2.5))} of {orders.size} cases in "
+                      f"1.5-2.5 ({orders.size - finite.size} not monotone)")
         rows += grid
         sphere = sphere_grid_convergence()
         print("\nreadings of sphere-on-flat through a film: areas at 0.2 / 0.1 / 0.05 / 0.025 mm (mm2, the mean of 8 "

@@ -327,6 +327,30 @@ def test_design_pairs_are_in_physical_units(printed):
     assert r_lim[0] > 250 and r_lim[1] < 650
 
 
+def test_a_report_that_fails_leaves_the_earlier_pair_as_it_was(tmp_path, monkeypatch):
+    """The typesetter is interrupted after the figures are drawn: the earlier report.html and report.pdf are
+    unchanged and nothing else is left beside them."""
+    import typst
+
+    from filmcal.report import write_report
+
+    study = write_synthetic_study(tmp_path / "study", parts=("verification",))
+    out = study / "report"
+    out.mkdir()
+    (out / "report.html").write_text("earlier html")
+    (out / "report.pdf").write_bytes(b"%PDF earlier")
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(typst, "compile", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        write_report(study, workers=1)
+    assert (out / "report.html").read_text() == "earlier html"
+    assert (out / "report.pdf").read_bytes() == b"%PDF earlier"
+    assert sorted(p.name for p in out.iterdir()) == ["report.html", "report.pdf"]
+
+
 def test_pdf_is_typeset_without_a_browser_and_reproducibly(tmp_path, monkeypatch):
     """No Chromium on PATH: the PDF is typeset all the same, its tables as text, the same bytes twice."""
     monkeypatch.setenv("PATH", str(tmp_path / "empty-bin"))

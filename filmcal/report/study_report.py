@@ -1066,6 +1066,9 @@ def write_report(study_dir: str | Path, out_dir: str | Path | None = None, worke
                  progress: Callable[[int, int], None] | None = None) -> dict:
     """Write ``report.html`` (self-contained) and ``report.pdf`` (A4) into `out_dir` (default ``study_dir/report``).
 
+    Each file is written atomically, the PDF first and the HTML once it is done: a failure (or Ctrl-C) while
+    either is made leaves an earlier report's pair as it was.
+
     The figures are drawn in worker processes (`workers`: their number, default
     all cores, or a pool), or here with ``workers=1``; ``progress(done, total)`` is called as each part of the
     report is built.
@@ -1081,7 +1084,9 @@ def write_report(study_dir: str | Path, out_dir: str | Path | None = None, worke
     out = Path(out_dir) if out_dir is not None else Path(study_dir) / "report"
     out.mkdir(parents=True, exist_ok=True)
     html_path = out / "report.html"
+    # the pair changes together or not at all: the HTML is rendered first and written only once the PDF is
     with matplotlib.rc_context(F.REPORT_STYLE):
-        atomic_write_text(html_path, render_html(report))
+        html = render_html(report)
         pdf = write_pdf(report, out / "report.pdf", timestamp=recorded_epoch(study_dir))
+    atomic_write_text(html_path, html)
     return {"html": html_path, "pdf": pdf.path, "figures": len(report.figures), "pdf_engine": pdf.engine}
