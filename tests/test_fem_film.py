@@ -140,3 +140,19 @@ def test_radius_error_depends_on_force_times_radius():
     b = get_model(600.0).solve(film, 25e3)
     assert a.converged and b.converged
     assert a.radius_error_mm == pytest.approx(b.radius_error_mm, abs=3e-3)
+
+
+def test_the_spring_layers_edge_does_not_depend_on_its_rings():
+    """The ring model's edge is read where its pressure falls to zero between the last loaded ring and the
+    first unloaded one (linearly behind springs, as a square root without film): on rings of 0.02, 0.01 and
+    0.005 mm it moves by less than 0.0002 mm (the first unloaded ring's centre, read before, moved by up to
+    half a ring), and without film it is Hertz's within 0.0015 mm."""
+    from filmcal.hertz import hertz_radius_mm
+
+    film = [thin_layer_contact(300.0, 35e3, 1200.0, 0.40, 0.09, ring_width_mm=w, zone_mm=6.0)
+            for w in (0.02, 0.01, 0.005)]
+    radii = [r.contact_radius_mm for r in film]
+    assert max(radii) - min(radii) < 2e-4
+    assert all(r.edge_mm[0] <= r.contact_radius_mm <= r.edge_mm[1] for r in film)
+    bare = thin_layer_contact(300.0, 35e3, None, ring_width_mm=0.005, zone_mm=6.0)
+    assert bare.contact_radius_mm == pytest.approx(hertz_radius_mm(300.0, 35e3), abs=1.5e-3)

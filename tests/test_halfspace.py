@@ -14,6 +14,7 @@ from filmcal.wheelrail.halfspace import (
     sphere_on_flat_contact,
 )
 from filmcal.hertz import contact_modulus_mpa
+from filmcal.fem.thinlayer import thin_layer_contact
 from filmcal.wheelrail.hertz import hertz_elliptic
 from filmcal.contact.laws import (
     ExponentialLaw,
@@ -233,7 +234,8 @@ def test_outline_behind_a_film_takes_each_cell_edges_own_crossing():
 def test_film_outline_converges_at_second_order_over_the_grids_phases(solver):
     """Sphere-on-flat through a film at 0.2 / 0.1 / 0.05 mm, each the mean over four phases of the grid: f
     is smooth across the edge, so its interpolated zero converges at second order (observed 1.8; the mean of
-    two crossings per corner cell gave an order below 1, with the differences between grids growing)."""
+    two crossings per corner cell gave an order below 1, with the differences between grids growing), to the
+    ring model's edge (the Richardson limit within 0.0001 mm of it)."""
     film = FilmLayer(2800.0, 0.33, 0.09)
     radius, force = 450.0, 50e3
     phases = np.random.default_rng(1).random((4, 2))
@@ -249,6 +251,12 @@ def test_film_outline_converges_at_second_order_over_the_grids_phases(solver):
         means.append(np.mean(areas))
     order = math.log2((means[0] - means[1]) / (means[1] - means[2]))
     assert 1.5 <= order <= 2.5, (means, order)
+    # its limit is the edge of the same springs solved by a second formulation: axisymmetric rings of 0.005 mm,
+    # the edge read as the zero of their linear pressure (`thin_layer_contact`)
+    limit = means[2] - (means[1] - means[2]) / (2.0**order - 1.0)
+    rings = thin_layer_contact(radius, force, film.modulus_mpa, film.poisson, film.thickness_mm, ring_width_mm=0.005,
+                               zone_mm=8.0)
+    assert math.sqrt(limit / math.pi) == pytest.approx(rings.contact_radius_mm, abs=5e-4)
 
 
 def test_film_depends_on_e_and_nu_only_through_oedometric_modulus(solver):
