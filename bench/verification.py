@@ -14,8 +14,9 @@ Rows:
   MS's calibrated modulus at 100 kN (through-thickness strain 0.5);
 * ``half-space / Hertz``: the wheel-rail model's half-space solver on a sphere without film (area-equivalent
   radius of its zero-pressure outline);
-* ``half-space / thin-layer BEM``: the half-space with film springs against the axisymmetric ring BEM of the
-  same spring film (a second formulation of the same model);
+* ``half-space / thin-layer BEM``: the half-space with film springs (its outline's limit in the grid: 4
+  phases at 0.2 / 0.1 / 0.05 mm, extrapolated) against the axisymmetric ring BEM of the same spring film (a
+  second formulation of the same model);
 * ``transfer`` per imprint model and kinematics: the film as a wheel-rail answer applies it (springs in
   series, read by `FilmModel.recorded_area_mm2`, plus the shipped transfer term of
   `filmcal.contact.transfer`) against the film the calibration runs (the continuum FE, read by the same
@@ -86,7 +87,8 @@ REFERENCES = {
     "FE / second formulation": "biquadratic FE with the closing-load edge, extrapolated to h -> 0, films at nu 0.25-0.45",
     "FE / second formulation, large strain": "the same with neo-Hookean films in both (independent kernels), strains up to 0.5",
     "half-space / Hertz": "Hertz's closed form, no film",
-    "half-space / thin-layer BEM": "axisymmetric ring BEM of the same spring film (rings of 0.005 mm)",
+    "half-space / thin-layer BEM": "axisymmetric ring BEM of the same spring film (rings of 0.005 mm), against the "
+                                   "half-space outline's limit in the grid",
     "wheel-rail / CONTACT flange": "CONTACT, refined and extrapolated: S1002 on 60E1, 10 kN, eta -3..+8 mm, an HS layer at +5 mm",
     "wheel-rail / CONTACT layer": "CONTACT's elastic layer: S1002 on 60E2, 50/100 kN, eta -5..+2 mm, no film and MS/HS/HHS",
 }
@@ -178,16 +180,34 @@ def halfspace_against_hertz() -> list[dict]:
 def halfspace_against_thin_layer() -> list[dict]:
     from filmcal.contact.laws import FilmLayer
     from filmcal.fem.thinlayer import thin_layer_contact
-    from filmcal.wheelrail.halfspace import sphere_on_flat_contact
+    from filmcal.wheelrail.halfspace import HalfSpaceContactSolver, SurfaceGrid
 
+    solver = HalfSpaceContactSolver()
+    phases = np.random.default_rng(1).random((4, 2))
     rows = []
     for r, f, e, nu in TRANSFER_POINTS[:3]:
-        # the half-space's outline at 0.05 mm against the middle of the BEM's ring holding the edge (rings of
-        # 0.005 mm: the reference is itself within 0.0025 mm)
-        hs = sphere_on_flat_contact(r, f * 1e3, film=FilmLayer(e, nu, 0.09), spacing_mm=0.05)
+        # the half-space's outline in the limit of the grid (the Richardson extrapolation of its means over four
+        # phases at 0.2 / 0.1 / 0.05 mm at their observed order) against the ring model's edge (rings of 0.005 mm,
+        # the zero of its linear pressure: within 0.0001 mm of finer rings)
+        film = FilmLayer(e, nu, 0.09)
+        half = 1.6 * (3e3 * f * r / (4.0 * solver.contact_modulus_mpa)) ** (1.0 / 3.0)
+        means = []
+        for h in (0.2, 0.1, 0.05):
+            n = 2 * int(math.ceil(half / h)) + 1
+            areas = []
+            for px, py in phases:
+                grid = SurfaceGrid(n, n, h, h, -(n // 2 - px) * h, -(n // 2 - py) * h)
+                x, y = grid.mesh()
+                r2 = x * x + y * y
+                areas.append(solver.solve(r2 / (r + np.sqrt(r * r - r2)), f * 1e3, grid, film=film,
+                                          check_resolution=False).area_mm2)
+            means.append(float(np.mean(areas)))
+        d1, d2 = means[0] - means[1], means[1] - means[2]
+        order = math.log2(d1 / d2) if d1 / d2 > 0 else 2.0
+        limit = means[2] - d2 / (2.0 ** min(max(order, 1.0), 3.0) - 1.0)
         bem = thin_layer_contact(r, f * 1e3, e, nu, 0.09, ring_width_mm=0.005)
         rows.append(_row("half-space / thin-layer BEM", f"R{r:g} {f:g} kN E{e:g} nu{nu:g}",
-                         hs.equivalent_radius_mm, bem.contact_radius_mm))
+                         math.sqrt(limit / math.pi), bem.contact_radius_mm))
     return rows
 
 
