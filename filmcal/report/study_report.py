@@ -382,8 +382,13 @@ def _reference_checks() -> list:
     except (OSError, ValueError):
         return ["The summary of the independent references (filmcal/data/verification.json) is missing or "
                 "unreadable: run python bench/verification.py --summary."]
-    rows = [[c["check"], c["reference"], str(c["n"]), f"{c['mean']:+.4f} {c['unit']}",
-             f"{c['max_abs']:.4f} {c['unit']}", f"{c['max_abs_rel_pct']:.3f}"] for c in doc["checks"]]
+    def small(value: float, unit: str, signed: bool) -> str:  # below the table's last digit: said so, unsigned
+        return (f"< 0.0001 {unit}" if abs(value) < 5e-5 else f"{value:+.4f} {unit}" if signed
+                else f"{value:.4f} {unit}")
+
+    rows = [[c["check"], c["reference"], str(c["n"]), small(c["mean"], c["unit"], True),
+             small(c["max_abs"], c["unit"], False),
+             "< 0.001" if c["max_abs_rel_pct"] < 5e-4 else f"{c['max_abs_rel_pct']:.3f}"] for c in doc["checks"]]
     rows += [[t["check"], "the calibrated FE film, sphere-on-flat off the fit's designs (raw: without the term)",
               str(t["n"]), f"{t['mean_mm']:+.4f} mm (raw {t['raw_mean_mm']:+.4f})", f"{t['max_mm']:.4f} mm", ""]
              for t in doc["transfer"]]
