@@ -177,10 +177,27 @@ def halfspace_against_hertz() -> list[dict]:
     return rows
 
 
+def sphere_phase_solves(solver, radius_mm: float, force_n: float, film, spacing_mm: float, offsets):
+    """Sphere-on-flat on a square grid of `spacing_mm` at each of `offsets` (fractions of a cell in x and y,
+    the grid's phases), covering 1.6 Hertz radii: the contact results, one per phase."""
+    from filmcal.wheelrail.halfspace import SurfaceGrid
+
+    half = 1.6 * (3.0 * force_n * radius_mm / (4.0 * solver.contact_modulus_mpa)) ** (1.0 / 3.0)
+    n = 2 * int(math.ceil(half / spacing_mm)) + 1
+    out = []
+    for px, py in offsets:
+        grid = SurfaceGrid(n, n, spacing_mm, spacing_mm, -(n // 2 - px) * spacing_mm, -(n // 2 - py) * spacing_mm)
+        x, y = grid.mesh()
+        r2 = x * x + y * y
+        out.append(solver.solve(r2 / (radius_mm + np.sqrt(radius_mm**2 - r2)), force_n, grid, film=film,
+                                check_resolution=False))
+    return out
+
+
 def halfspace_against_thin_layer() -> list[dict]:
     from filmcal.contact.laws import FilmLayer
     from filmcal.fem.thinlayer import thin_layer_contact
-    from filmcal.wheelrail.halfspace import HalfSpaceContactSolver, SurfaceGrid
+    from filmcal.wheelrail.halfspace import HalfSpaceContactSolver
 
     solver = HalfSpaceContactSolver()
     phases = np.random.default_rng(1).random((4, 2))
@@ -190,18 +207,8 @@ def halfspace_against_thin_layer() -> list[dict]:
         # phases at 0.2 / 0.1 / 0.05 mm at their observed order) against the ring model's edge (rings of 0.005 mm,
         # the zero of its linear pressure: within 0.0001 mm of finer rings)
         film = FilmLayer(e, nu, 0.09)
-        half = 1.6 * (3e3 * f * r / (4.0 * solver.contact_modulus_mpa)) ** (1.0 / 3.0)
-        means = []
-        for h in (0.2, 0.1, 0.05):
-            n = 2 * int(math.ceil(half / h)) + 1
-            areas = []
-            for px, py in phases:
-                grid = SurfaceGrid(n, n, h, h, -(n // 2 - px) * h, -(n // 2 - py) * h)
-                x, y = grid.mesh()
-                r2 = x * x + y * y
-                areas.append(solver.solve(r2 / (r + np.sqrt(r * r - r2)), f * 1e3, grid, film=film,
-                                          check_resolution=False).area_mm2)
-            means.append(float(np.mean(areas)))
+        means = [float(np.mean([res.area_mm2 for res in sphere_phase_solves(solver, r, f * 1e3, film, h, phases)]))
+                 for h in (0.2, 0.1, 0.05)]
         d1, d2 = means[0] - means[1], means[1] - means[2]
         order = math.log2(d1 / d2) if d1 / d2 > 0 else 2.0
         limit = means[2] - d2 / (2.0 ** min(max(order, 1.0), 3.0) - 1.0)
@@ -315,7 +322,7 @@ def sphere_grid_convergence(phases: int = 8) -> list[dict]:
     along the rail, so there only its phase across the rail can be moved): the observed orders."""
     from filmcal.contact.film import FilmModel
     from filmcal.films import get_film
-    from filmcal.wheelrail.halfspace import HalfSpaceContactSolver, SurfaceGrid
+    from filmcal.wheelrail.halfspace import HalfSpaceContactSolver
 
     solver = HalfSpaceContactSolver()
     offsets = np.random.default_rng(1).random((phases, 2))
@@ -325,16 +332,9 @@ def sphere_grid_convergence(phases: int = 8) -> list[dict]:
         film = get_film(name)
         models = [FilmModel(film, imprint, "small") for imprint in ("edge", "activation", "capsule")]
         solver_film, _, _ = models[0].interface(e)
-        half = 1.6 * (3e3 * force_kn * radius / (4.0 * solver.contact_modulus_mpa)) ** (1.0 / 3.0)
         areas = np.empty((len(models), len(spacings), phases))
         for i, h in enumerate(spacings):
-            n = 2 * int(math.ceil(half / h)) + 1
-            for k, (px, py) in enumerate(offsets):
-                grid = SurfaceGrid(n, n, h, h, -(n // 2 - px) * h, -(n // 2 - py) * h)
-                x, y = grid.mesh()
-                r2 = x * x + y * y
-                res = solver.solve(r2 / (radius + np.sqrt(radius**2 - r2)), force_kn * 1e3, grid, film=solver_film,
-                                   check_resolution=False)
+            for k, res in enumerate(sphere_phase_solves(solver, radius, force_kn * 1e3, solver_film, h, offsets)):
                 for j, m in enumerate(models):
                     areas[j, i, k] = m.recorded_area_mm2(res)
         for j, m in enumerate(models):
