@@ -314,3 +314,35 @@ def test_law_lies_above_the_rigid_plastic_bearing_curve_and_tends_to_it():
         assert np.all(c >= 0.99 * bearing)
     assert np.all(closures[0] > closures[1]) and np.all(closures[1] > closures[2])
     assert closures[2] == pytest.approx(bearing, rel=0.10)
+
+
+def test_mostly_plastic_steps_meet_the_contact_conditions_whatever_the_path(monkeypatch):
+    """A stiff film under a soft cap: the CG fails at the first load and the later loads go straight to the
+    projected gradient. Every step still meets the contact conditions, and its closure is the one of that load
+    solved alone from a cold start (the problem is strictly convex: one solution)."""
+    from filmcal.contact import roughness
+
+    surf = RoughSurface.synthetic(ra_um=1.5, seed=0, n=128, size_um=100.0, rolloff_wavelength_um=25.0)
+    hardness = 50.0
+    loads = np.geomspace(0.5, 45.0, 6)
+    film = dict(film_modulus_mpa=2800.0, film_poisson=0.33, film_thickness_mm=0.09, hardness_mpa=hardness)
+    cg = []
+    real = roughness._pk_step
+
+    def counted(*args, **kwargs):
+        out = real(*args, **kwargs)
+        cg.append(out[3])
+        return out
+
+    monkeypatch.setattr(roughness, "_pk_step", counted)
+    steps = solve_periodic_contact(surf, loads, **film)
+    assert cg == [False]  # the CG ran once, failed, and was not tried again
+    kernel = roughness._PeriodicKernel(surf.heights_um.shape, surf.pixel_um, 2800.0, 0.33, 90.0,
+                                       roughness.STEEL_MODULUS_MPA, roughness.STEEL_POISSON)
+    for load, step in zip(loads, steps):
+        p = step.pressure_mpa.astype(float)
+        assert p.mean() == pytest.approx(load, rel=1e-5)
+        assert roughness._kkt_violation(kernel, surf.heights_um, p, hardness) < 1e-3
+        alone = solve_periodic_contact(surf, [load], **film)[0]
+        assert step.closure_mm == pytest.approx(alone.closure_mm, rel=1e-5)
+    assert steps[-1].plastic_fraction > 0.5
