@@ -245,6 +245,9 @@ def test_correct_of_a_quick_study_keeps_its_solves_and_refuses_a_changed_cache(q
     assert manifest["artefacts"] == artefacts  # a correction makes no artefact: the report stays current
     kept = [rel for rel, e in manifest["caches"].items() if e["kind"] == "wheel-rail-supports"]
     assert len(kept) == 1 and (study / kept[0]).exists()
+    from filmcal.contact.names import APPLICATION_MODEL_REVISION  # another revision's solves are not read
+
+    assert manifest["caches"][kept[0]]["spec"]["application_model_revision"] == APPLICATION_MODEL_REVISION
     warm, imported = run(wheel)
     assert warm == cold  # read from the study: the same answer
     assert not heavy(imported) and not {m for m in imported if m.startswith(("scipy", "filmcal.wheelrail.halfspace"))}

@@ -301,6 +301,29 @@ def test_curves_name_the_transfer_fit_they_were_made_with(quick_study, monkeypat
     assert curve_spec(study, "HS", settings)["transfer"] != recorded["transfer"]
 
 
+def test_what_the_application_makes_names_its_revision(quick_study, monkeypatch):
+    """A study keeps what the application model made (curves, the rough wheel's laws and growths, outlines)
+    under specs that name the application's revision: a filmcal whose readings or solvers changed (another
+    revision) finds none of them current and makes them again, instead of serving the old numbers."""
+    from filmcal.contact import names
+    from filmcal.study import PipelineSettings, Study
+    from filmcal.study.stages import curve_spec
+
+    study_dir, _, _ = quick_study
+    study = Study(study_dir)
+    made = {"curves": 0, "curves-part": 0, "curves-growth": 0, "rough-law": 0, "outlines": 0}
+    for entry in study.manifest.data["artefacts"].values():
+        if entry["kind"] in made:
+            assert entry["spec"]["application_model_revision"] == names.APPLICATION_MODEL_REVISION, entry["kind"]
+            made[entry["kind"]] += 1
+    assert all(made.values()), made
+    settings = PipelineSettings.quick()
+    recorded = study.manifest.entry("curves/curves-HS.csv")["spec"]["application_model_revision"]
+    assert curve_spec(study, "HS", settings)["application_model_revision"] == recorded
+    monkeypatch.setattr(names, "APPLICATION_MODEL_REVISION", names.APPLICATION_MODEL_REVISION + 1)
+    assert curve_spec(study, "HS", settings)["application_model_revision"] != recorded
+
+
 def test_a_study_made_before_the_cases_runs_goes_on_with_its_own_design(tmp_path):
     """A full study recorded without ``moduli_per_case`` (made before the runs at the data's cases) is continued
     with its own design, said in one line, not refused; other settings still differ and are refused as before."""

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 __all__ = ["IMPRINT_MODELS", "DEFAULT_IMPRINT_MODEL", "MIXTURE", "KINEMATICS", "DEFAULT_KINEMATICS",
-           "FE_MODEL_REVISION", "FILM_LAYERS"]
+           "FE_MODEL_REVISION", "APPLICATION_MODEL_REVISION", "FILM_LAYERS"]
 
 #: Names of the imprint models, in the order of the comparison.
 IMPRINT_MODELS: tuple[str, ...] = ("edge", "activation", "capsule")
@@ -20,6 +20,12 @@ DEFAULT_KINEMATICS = "small"
 #: 3: the film's volumetric term at the element centres and the closing-load edge; 4: a large-strain
 #: film's indefinite tangent (heavy compression on fine meshes) solved by LU instead of stopping.
 FE_MODEL_REVISION = 4
+#: Revision of the application model's numbers (the half-space contact with the film law, its readings and the
+#: rough bodies' boundary-element laws): part of the spec of every study artefact the application makes (the
+#: curves, the rough wheel's laws and growths, the outlines, the kept wheel-rail supports), so that a change
+#: of a reading or a solver makes them again. 1: the outline behind a film read on every cell edge; the rough
+#: laws' loads after a stalled conjugate gradient solved by the projected gradient.
+APPLICATION_MODEL_REVISION = 1
 #: Element layers through the film by default. One bilinear layer (the paper's
 #: mesh) reads the edge 0.004 mm inside the converged contact on average and
 #: up to 0.012 mm for nu >= 0.4; two read within 0.0053 mm of the second

@@ -1288,8 +1288,8 @@ class _StudySupports:
 
     ``posteriors/<key>-supports.json`` beside the posteriors, ``<key>`` the
     hash of its spec: the posteriors (their SHA-256), the film and
-    kinematics, the transfer fit, the wheel-rail settings (a profile file by its SHA-256), the
-    support moduli, the offset and the force. The manifest records each file
+    kinematics, the transfer fit, the application model's revision, the wheel-rail settings (a profile file
+    by its SHA-256), the support moduli, the offset and the force. The manifest records each file
     with its spec and SHA-256 under ``caches``, not among the artefacts: a
     cache is no result of the study (the report and its inputs, and a
     pipeline run, ignore it). A recorded file is verified as an artefact is
@@ -1306,11 +1306,13 @@ class _StudySupports:
         self.pending: list = []  # solves kept by `flush`, once the answer they served is given
 
     def _spec(self, offset_mm: float, force_n: float, support) -> dict:
+        from filmcal.contact import names
         from filmcal.contact.transfer import load_transfer_fit
 
         settings = {k: (_profile_spec(v) if k in ("wheel", "rail") else v) for k, v in support.settings.items()}
         transfer = load_transfer_fit()
         return _json_roundtrip({"kind": self.KIND, "film": support.models[0].film.to_dict(),
+                                "application_model_revision": names.APPLICATION_MODEL_REVISION,
                                 "transfer": {m.label: transfer.digest(m.label) for m in support.models},
                                 "kinematics": support.models[0].kinematics,
                                 "posteriors": {m.label: self.posteriors[m.label] for m in support.models},
@@ -1345,8 +1347,9 @@ class StudyGrowths:
 
     ``posteriors/<key>-roughness.json``, ``<key>`` the hash of its spec: the posteriors (SHA-256), the
     wheel-rail settings, the offset and force, the bodies (each Ra, a measured surface by its fingerprint),
-    the draws of the roughness inputs (shipped, or the study's own). Recorded under the manifest's
-    ``caches`` and verified like `_StudySupports`; written only when the writer lock is free.
+    the draws of the roughness inputs (shipped, or the study's own), the application model's revision.
+    Recorded under the manifest's ``caches`` and verified like `_StudySupports`; written only when the writer
+    lock is free.
     """
 
     KIND = "wheel-rail-roughness"
@@ -1357,6 +1360,7 @@ class StudyGrowths:
         self.pending: list = []  # growths kept by `flush`, once the answer they served is given
 
     def spec(self, offset_mm: float, force_n: float, bodies: dict, draws: list) -> dict:
+        from filmcal.contact import names
         from filmcal.contact.waviness import WAVINESS_CUTOFF_CELLS
         from filmcal.wheelrail.settings import FILM_MIN_CELLS_ACROSS
 
@@ -1367,7 +1371,8 @@ class StudyGrowths:
                                 "wheel_rail": settings, "offset_mm": float(offset_mm), "force_n": float(force_n),
                                 "bodies": bodies, "draws": [d.to_dict() for d in draws],
                                 "waviness_cutoff_cells": WAVINESS_CUTOFF_CELLS,
-                                "film_min_cells_across": FILM_MIN_CELLS_ACROSS})
+                                "film_min_cells_across": FILM_MIN_CELLS_ACROSS,
+                                "application_model_revision": names.APPLICATION_MODEL_REVISION})
 
     def _path(self, spec: dict) -> Path:
         key = spec_key(spec)

@@ -572,7 +572,9 @@ def _profile(res) -> dict:
 def curve_spec(study: Study, film: str, settings: PipelineSettings, rough=None) -> dict:
     """Everything that sets a film's curves: its chosen posteriors and their weights, the grid of loads and
     offsets, the rough wheel's inputs (`rough`, a `RoughConfiguration`) and the shipped transfer term of each
-    chosen model (its digest: curves made with another fit are made again)."""
+    chosen model (its digest: curves made with another fit are made again), and the application model's
+    revision (`filmcal.contact.names.APPLICATION_MODEL_REVISION`)."""
+    from filmcal.contact import names
     from filmcal.contact.transfer import load_transfer_fit
     from filmcal.study.core import chosen_posteriors
 
@@ -581,7 +583,8 @@ def curve_spec(study: Study, film: str, settings: PipelineSettings, rough=None) 
     spec = {"posteriors": sorted(p.name for _, p, _ in chosen),
             "weights": {s["model"]: w for w, _, s in chosen}, "offsets_mm": list(settings.offsets_mm),
             "forces_kn": list(settings.forces_kn), "rough_ra_um": settings.rough_ra_um,
-            "transfer": {s["model"]: transfer.digest(s["model"]) for _, _, s in chosen}}
+            "transfer": {s["model"]: transfer.digest(s["model"]) for _, _, s in chosen},
+            "application_model_revision": names.APPLICATION_MODEL_REVISION}
     if rough is not None:  # the rough bodies' inputs (their spectra, hardnesses and reading levels)
         spec["rough_draws"] = [d.to_dict() for d in rough.draws]
     return spec
@@ -675,6 +678,7 @@ def _rough_growths(study: Study, settings: PipelineSettings, rough, models: list
     contact without film's growths), so that an interrupted run resumes with the missing ones only."""
     from filmcal._io import atomic_write_json
     from filmcal._parallel import run_tasks
+    from filmcal.contact import names
     from filmcal.wheelrail.settings import FILM_MIN_CELLS_ACROSS
     from filmcal.contact.waviness import WAVINESS_CUTOFF_CELLS
     from filmcal.correction import curve_growths, growth_task
@@ -692,7 +696,7 @@ def _rough_growths(study: Study, settings: PipelineSettings, rough, models: list
                                      "draws": [d.to_dict() for d in draws], "rough_ra_um": settings.rough_ra_um,
                                      "waviness_cutoff_cells": WAVINESS_CUTOFF_CELLS,
                                      "film_min_cells_across": FILM_MIN_CELLS_ACROSS, "force_kn": force,
-                                     "offset_mm": eta}
+                                     "offset_mm": eta, "application_model_revision": names.APPLICATION_MODEL_REVISION}
                 part = study.layout.curves_part(spec_key(specs[film, cell]))
                 if study.verified(part, kind="curves-growth", spec=specs[film, cell]):
                     solved[film, cell] = read_json(part)["growths"]
@@ -751,6 +755,7 @@ def _rough_laws(study: Study, settings: PipelineSettings, rough, films: dict, dr
     import hashlib
 
     from filmcal._parallel import run_tasks
+    from filmcal.contact import names
     from filmcal.contact.rough_law_file import save_rough_law
     from filmcal.study.layout import spec_key
 
@@ -766,7 +771,8 @@ def _rough_laws(study: Study, settings: PipelineSettings, rough, films: dict, dr
         for name in [*films, None]:
             spec = {"film": None if name is None else films[name][0].to_dict(),
                     "modulus_mpa": None if name is None else films[name][1], "rough_ra_um": settings.rough_ra_um,
-                    "rough_inputs": d.to_dict(), "wheel_surface_sha256": surface}
+                    "rough_inputs": d.to_dict(), "wheel_surface_sha256": surface,
+                    "application_model_revision": names.APPLICATION_MODEL_REVISION}
             path = study.layout.rough_law(spec_key(spec))
             paths.setdefault(d, {})[name] = path
             specs[d, name] = spec
@@ -833,8 +839,12 @@ def _crossval_stage(study: Study, settings: PipelineSettings, results: dict, com
 
 
 def _outlines_stage(study: Study, settings: PipelineSettings, medians: dict, st):
+    from filmcal.contact import names
+
     path = study.layout.outlines
-    if _current(study, path, {"films": medians, "force_kn": settings.outline_force_kn}):
+    spec = {"films": medians, "force_kn": settings.outline_force_kn,
+            "application_model_revision": names.APPLICATION_MODEL_REVISION}
+    if _current(study, path, spec):
         return None, False
     from filmcal.contact.film import FilmModel
     from filmcal.wheelrail import solve_wheel_rail
@@ -857,7 +867,7 @@ def _outlines_stage(study: Study, settings: PipelineSettings, medians: dict, st)
             case[film] = {"area_mm2": res.area_mm2, "outline_mm": res.outline_mm}
         cases.append(case)
     atomic_write_json(path, {"force_n": force, "films": medians, "cases": cases}, indent=None)
-    study.record(path, "outlines", {"films": medians, "force_kn": settings.outline_force_kn})
+    study.record(path, "outlines", spec)
     return None, True
 
 
