@@ -629,14 +629,16 @@ def _solve_step(kernel: _PeriodicKernel, heights_um: np.ndarray, mean_p: float, 
     method from where it stopped when it has not converged in 150 iterations.
 
     ``conjugate=False`` starts with the projected gradient. The last value returned says whether the
-    CG alone converged."""
-    its = 0
+    next load should try the CG: not once it has stalled (run out of iterations), as it does when many
+    spots sit at the hardness."""
+    its, stalled = 0, not conjugate
     if conjugate:
         p, approach, its, ok = _pk_step(kernel, heights_um, mean_p, hardness, p, tol, min(max_iter, 150))
         if ok and _kkt_violation(kernel, heights_um, p, hardness) <= 1e-3:
             return p, approach, its, ok, True
+        stalled = not ok
     p2, approach, its2, ok = _fista_step(kernel, heights_um, mean_p, hardness, p, tol, 10 * max_iter)
-    return p2, approach, its + its2, ok, False
+    return p2, approach, its + its2, ok, not stalled
 
 
 def solve_periodic_contact(surface: RoughSurface, nominal_pressures_mpa: np.ndarray, *,
@@ -691,9 +693,9 @@ def solve_periodic_contact(surface: RoughSurface, nominal_pressures_mpa: np.ndar
     # start: the highest part of the surface carries the first load
     p = np.where(h >= np.quantile(h, 0.99), 1.0, 0.0)
     out = []
-    # once the CG has failed at a load (many spots at the hardness: each one that reaches it restarts the CG),
+    # once the CG has stalled at a load (many spots at the hardness: each one that reaches it restarts the CG),
     # the higher loads, with more spots there, start with the projected gradient: the same pressures within
-    # the tolerance, 4 times faster on a stiff film (7e-7 of the closure, tests/test_roughness.py)
+    # the tolerance, 2.6-6 times faster on a stiff film (2e-6 of the closure, bench/rough_law_speed.py)
     conjugate = True
     for load in loads:
         p = np.minimum(p * (load / p.mean()), hard)
