@@ -687,3 +687,28 @@ def test_verification_lists_every_shipped_reference_check_and_says_when_it_is_st
     assert doc["made"] in text and "earlier revision" not in text
     monkeypatch.setattr(names, "FE_MODEL_REVISION", doc["fe_model_revision"] + 1)
     assert "earlier revision" in study_report._reference_checks()[0]
+
+
+def test_curves_of_an_earlier_wheel_rail_model_are_said_to_be_so(quick_study, tmp_path):
+    """A study whose curves and outlines an earlier revision of the wheel-rail model made (an older filmcal's)
+    is reported with a line naming them; this filmcal's own are not."""
+    import shutil
+
+    from filmcal.report.study_report import read_study, wheel_rail_section
+
+    study, _, _ = quick_study
+    data = read_study(study)
+    assert data.curves and data.earlier_application == []
+    text = " ".join(b for b in wheel_rail_section(data.curves, data.outlines).blocks if isinstance(b, str))
+    assert "earlier revision" not in text
+    copy = tmp_path / "older"
+    shutil.copytree(study, copy, ignore=shutil.ignore_patterns("*.lock", "report"))
+    manifest = json.loads((copy / "study.json").read_text())
+    for rel in ("curves/curves-HS.csv", "wheelrail-outlines.json"):
+        del manifest["artefacts"][rel]["spec"]["application_model_revision"]  # as made before revisions were
+    (copy / "study.json").write_text(json.dumps(manifest))
+    older = read_study(copy)
+    assert sorted(older.earlier_application) == ["curves-HS.csv", "wheelrail-outlines.json"]
+    section = wheel_rail_section(older.curves, older.outlines, older.earlier_application)
+    first = next(b for b in section.blocks if isinstance(b, str))
+    assert first.startswith("curves-HS.csv, wheelrail-outlines.json were made by an earlier revision")

@@ -78,9 +78,23 @@ class StudyData:
     modulus_range_mpa: tuple[float, float] = (400.0, 20000.0)
     crossval: dict = field(default_factory=dict)  # film -> CaseCrossValidation
     outlines: dict | None = None
+    earlier_application: list = field(default_factory=list)  # files the wheel-rail model made at an earlier revision
     imprint_comparison: dict | None = None  # film -> comparison dict
     files: list[tuple[str, int, str]] = field(default_factory=list)  # relative path, bytes, SHA-256
     problems: list[str] = field(default_factory=list)
+
+
+def _earlier_application(study, paths) -> list[str]:
+    """The files among `paths` that the wheel-rail model made at an earlier revision than this filmcal's
+    (`filmcal.contact.names.APPLICATION_MODEL_REVISION`; none recorded: made before revisions were)."""
+    from filmcal.contact.names import APPLICATION_MODEL_REVISION
+
+    out = []
+    for path in paths:
+        entry = study.manifest.entry(study.layout.relative(path)) if path is not None and path.exists() else None
+        if entry is not None and entry["spec"].get("application_model_revision") != APPLICATION_MODEL_REVISION:
+            out.append(path.name)
+    return out
 
 
 def _read_json(path: Path | None) -> dict | None:
@@ -195,6 +209,7 @@ def read_study(study_dir: str | Path) -> StudyData:
                      if (cv := attempt(path.name, lambda path=path: CaseCrossValidation.from_dict(
                          _read_json(verified(path))))) is not None}
     data.outlines = attempt("wheelrail-outlines.json", lambda: _read_json(verified(view["outlines"])))
+    data.earlier_application = _earlier_application(study, [*view["curves"].values(), view["outlines"]])
     comparisons = {film: d for film, path in view["comparison"].items()
                    if (d := attempt(path.name, lambda path=path: _read_json(verified(path)))) is not None}
     data.imprint_comparison = comparisons or None
@@ -792,11 +807,18 @@ def elastic_limit_note(curves: dict) -> str:
             "larger (plastic); filmcal correct warns the same way.")
 
 
-def wheel_rail_section(curves: dict, outlines: dict | None) -> Section:
-    """Correction curves (Fig. 6), the correction factor, the tables per film and the outlines (Fig. 7)."""
+def wheel_rail_section(curves: dict, outlines: dict | None, earlier: list[str] = ()) -> Section:
+    """Correction curves (Fig. 6), the correction factor, the tables per film and the outlines (Fig. 7);
+    `earlier` names the files an earlier revision of the wheel-rail model made."""
+    from filmcal.contact.names import APPLICATION_MODEL_REVISION
+
     s = Section("Wheel-rail correction curves (Figs. 6 and 7)")
     if not curves:
         return _missing(s, "curves-<film>.csv")
+    if earlier:
+        s.add(f"{', '.join(earlier)} {'was' if len(earlier) == 1 else 'were'} made by an earlier revision of the "
+              f"wheel-rail model than this filmcal's (revision {APPLICATION_MODEL_REVISION}): run filmcal pipeline "
+              "again to make them with this one.")
     s.add("Each film's posterior of E is propagated through the wheel-rail model (boundary elements on "
           "half-spaces, the film as springs in series, each imprint model reading the solved pressure): the film "
           "area is interpolated in log E from solves at three moduli spanning the posterior and checked by one "
@@ -957,7 +979,7 @@ SECTION_BUILDERS: list[Callable[[StudyData], Section | list[Section]]] = [
     calibration_sections,
     lambda d: film_records_section(d.imprint_comparison, d.curves),
     lambda d: crossval_section(d.crossval),
-    lambda d: wheel_rail_section(d.curves, d.outlines),
+    lambda d: wheel_rail_section(d.curves, d.outlines, d.earlier_application),
     lambda d: glossary_section(),
     lambda d: provenance_section(d.folder, d.settings_hash, d.seed, d.films, d.settings, d.files, d.problems,
                                  d.software, d.software_later),
