@@ -96,7 +96,7 @@ REFERENCES = {
 
 def summarise(rows: list[dict]) -> dict:
     """Per check: cases, mean and largest difference (mm or mm2), largest relative difference (%)."""
-    from filmcal.contact.names import FE_MODEL_REVISION
+    from filmcal.contact.names import APPLICATION_MODEL_REVISION, FE_MODEL_REVISION
 
     checks = []
     for kind in REFERENCES:
@@ -112,7 +112,8 @@ def summarise(rows: list[dict]) -> dict:
                                    "not_converged", "one_sided")}
                 for r in rows if r["check"].startswith("transfer ")]
     return {"made": time.strftime("%Y-%m-%d"), "script": "bench/verification.py --summary",
-            "fe_model_revision": FE_MODEL_REVISION, "checks": checks, "transfer": transfer}
+            "fe_model_revision": FE_MODEL_REVISION, "application_model_revision": APPLICATION_MODEL_REVISION,
+            "checks": checks, "transfer": transfer}
 
 
 #: (R mm, F kN, E MPa, nu): films across the supported nu range, off the fits' designs.

@@ -672,7 +672,7 @@ def test_quick_study_pdf_page_one_agrees_with_the_study_files(quick_study):
 
 def test_verification_lists_every_shipped_reference_check_and_says_when_it_is_stale(monkeypatch):
     """The report's table of independent references is the shipped summary of bench/verification.py, row by
-    row, and a summary measured for another FE revision says so instead of passing as current."""
+    row, and a summary measured for another FE or wheel-rail revision says so instead of passing as current."""
     import json as _json
     from importlib import resources
 
@@ -685,8 +685,10 @@ def test_verification_lists_every_shipped_reference_check_and_says_when_it_is_st
     text, table = study_report._reference_checks()
     assert [r[0] for r in table.rows] == [c["check"] for c in doc["checks"]] + [t["check"] for t in doc["transfer"]]
     assert doc["made"] in text and "earlier revision" not in text
+    monkeypatch.setattr(names, "APPLICATION_MODEL_REVISION", doc["application_model_revision"] + 1)
+    assert "earlier revision of the wheel-rail model" in study_report._reference_checks()[0]
     monkeypatch.setattr(names, "FE_MODEL_REVISION", doc["fe_model_revision"] + 1)
-    assert "earlier revision" in study_report._reference_checks()[0]
+    assert "earlier revision of the FE and the wheel-rail model" in study_report._reference_checks()[0]
 
 
 def test_curves_of_an_earlier_wheel_rail_model_are_said_to_be_so(quick_study, tmp_path):

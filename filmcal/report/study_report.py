@@ -390,7 +390,7 @@ def _reference_checks() -> list:
     """The shipped summary of `bench/verification.py`: every model against its independent reference."""
     from importlib import resources
 
-    from filmcal.contact.names import FE_MODEL_REVISION
+    from filmcal.contact.names import APPLICATION_MODEL_REVISION, FE_MODEL_REVISION
 
     try:
         doc = json.loads((resources.files("filmcal.data") / "verification.json").read_text(encoding="utf-8"))
@@ -407,10 +407,14 @@ def _reference_checks() -> list:
     rows += [[t["check"], "the calibrated FE film, sphere-on-flat off the fit's designs (raw: without the term)",
               str(t["n"]), f"{t['mean_mm']:+.4f} mm (raw {t['raw_mean_mm']:+.4f})", f"{t['max_mm']:.4f} mm", ""]
              for t in doc["transfer"]]
-    stale = doc.get("fe_model_revision") != FE_MODEL_REVISION
+    stale = [name for name, key, now in (("FE", "fe_model_revision", FE_MODEL_REVISION),
+                                         ("wheel-rail", "application_model_revision", APPLICATION_MODEL_REVISION))
+             if doc.get(key) != now]
     text = (f"Every contact model against an independent reference, as python bench/verification.py --summary "
-            f"measured it on {doc['made']}" + (" for an earlier revision of the FE model: run it again." if stale else
-                                               f" (FE revision {FE_MODEL_REVISION}, this report's).")
+            f"measured it on {doc['made']}"
+            + (f" for an earlier revision of the {' and the '.join(stale)} model: run it again." if stale else
+               f" (FE revision {FE_MODEL_REVISION} and wheel-rail revision {APPLICATION_MODEL_REVISION}, this "
+               "report's).")
             + " Differences are the model's minus the reference's, in radius (mm) or area (mm²); the transfer rows "
               "are what the wheel-rail answers carry as their transfer term's spread.")
     return [text, Table(["check", "reference", "cases", "mean difference", "largest |difference|", "largest |rel.| (%)"],
