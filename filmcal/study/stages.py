@@ -609,17 +609,23 @@ def _curves_stage(study: Study, settings: PipelineSettings, films, workers, st):
     if settings.rough_ra_um:
         rough = RoughConfiguration(float(settings.rough_ra_um), None,
                                    tuple(study.roughness_inputs()[0][:settings.rough_draws]))
-    specs, components, rows = {}, {}, {}
+    specs, components, rows, earlier = {}, {}, {}, []
     for film in films:
         specs[film] = curve_spec(study, film, settings, rough)
         path = study.layout.curves(film)
         entry = study.manifest.entry(study.layout.relative(path)) if path.exists() else None
         if entry and entry["spec"] == specs[film] and study.verified(path):
             continue
+        if entry and entry["spec"].get("application_model_revision") != specs[film]["application_model_revision"]:
+            earlier.append(film)
         part = study.layout.curves_part(spec_key({**specs[film], "film": film}))
         if study.verified(part):
             rows[film] = read_json(part)["rows"]
         components[film] = curve_components(study, film)
+
+    if earlier:
+        st.log(f"[curves] {', '.join(earlier)}: the curves were made by an earlier revision of the wheel-rail model; "
+               f"made again with revision {specs[earlier[0]]['application_model_revision']}")
 
     def finish(film: str) -> None:
         path = study.layout.curves(film)
