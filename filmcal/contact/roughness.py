@@ -695,7 +695,7 @@ def solve_periodic_contact(surface: RoughSurface, nominal_pressures_mpa: np.ndar
     out = []
     # once the CG has stalled at a load (many spots at the hardness: each one that reaches it restarts the CG),
     # the higher loads, with more spots there, start with the projected gradient: the same pressures within
-    # the tolerance, 2.6-6 times faster on a stiff film (2e-6 of the closure, bench/rough_law_speed.py)
+    # the tolerance, 1.5-6.5 times faster on a stiff film (within 1.3e-6 of the closure, bench/rough_law_speed.py)
     conjugate = True
     for load in loads:
         p = np.minimum(p * (load / p.mean()), hard)
