@@ -16,8 +16,7 @@ from pathlib import Path
 
 import pytest
 
-import filmcal._parallel as parallel
-from filmcal._parallel import SerialExecutor, pid_alive, run_guarded
+from filmcal._parallel import SerialExecutor, guarded, pid_alive, processes, run_guarded
 from filmcal.campaign import Campaign, CommandModel, RunStore
 from filmcal.campaign.command import ModelFailure
 
@@ -99,26 +98,26 @@ def test_a_grandchild_started_without_the_mark_outlives_the_run_but_does_not_hol
 def test_a_run_inside_a_run_keeps_the_outer_runs_mark(tmp_path, monkeypatch):
     """filmcal inside a guarded command: the inner command's processes carry both marks, so the outer sweep
     reaches them too."""
-    monkeypatch.setenv(parallel.RUN_MARK_VARIABLE, "outer")
-    run = run_guarded([sys.executable, "-c", f"import os; print(os.environ['{parallel.RUN_MARK_VARIABLE}'])"])
+    monkeypatch.setenv(processes.RUN_MARK_VARIABLE, "outer")
+    run = run_guarded([sys.executable, "-c", f"import os; print(os.environ['{processes.RUN_MARK_VARIABLE}'])"])
     outer, inner = run.stdout.strip().split(":")
     assert outer == "outer" and len(inner) == 24
 
 
 def test_a_cancelled_task_still_stops_its_command(tmp_path):
-    parallel._task_context.cancelled = lambda: True
+    guarded._task_context.cancelled = lambda: True
     try:
         start = time.monotonic()
         run = run_guarded("sleep 30 & echo $! > bg.pid; wait", shell=True, cwd=tmp_path)
     finally:
-        parallel._task_context.cancelled = None
+        guarded._task_context.cancelled = None
     assert run.timed_out and run.returncode is None
     assert time.monotonic() - start < 5.0
     assert wait_dead(int((tmp_path / "bg.pid").read_text()))
 
 
 def test_run_guarded_keeps_the_end_of_a_stream_longer_than_the_cap(tmp_path, monkeypatch):
-    monkeypatch.setattr(parallel, "OUTPUT_CAP_BYTES", 1000)
+    monkeypatch.setattr(guarded, "OUTPUT_CAP_BYTES", 1000)
     run = run_guarded([sys.executable, "-c", "import sys; print('x' * 6000); print('{\"r_mm\": 1.0}'); "
                        "sys.stderr.write('é' * 1000 + 'a')"])
     assert (run.stdout_bytes, run.stdout_truncated, len(run.stdout.encode())) == (6015, True, 1000)
@@ -130,7 +129,7 @@ def test_run_guarded_keeps_the_end_of_a_stream_longer_than_the_cap(tmp_path, mon
 
 
 def test_more_stdout_than_filmcal_reads_fails_the_point_with_its_size(tmp_path, monkeypatch):
-    monkeypatch.setattr(parallel, "OUTPUT_CAP_BYTES", 1000)
+    monkeypatch.setattr(guarded, "OUTPUT_CAP_BYTES", 1000)
     record, folder = run_point(tmp_path, "print('x' * 6000); print('{\"r_mm\": 1.0}')")
     assert record.status == "failed", record.outputs
     assert "the command wrote 5.9 KiB on stdout, more than the 1000 bytes filmcal reads" in record.reason
@@ -140,14 +139,14 @@ def test_more_stdout_than_filmcal_reads_fails_the_point_with_its_size(tmp_path, 
 
 
 def test_long_output_is_fine_when_the_answer_is_in_outputs_json(tmp_path, monkeypatch):
-    monkeypatch.setattr(parallel, "OUTPUT_CAP_BYTES", 1000)
+    monkeypatch.setattr(guarded, "OUTPUT_CAP_BYTES", 1000)
     record, _ = run_point(tmp_path, "import sys; open('outputs.json', 'w').write('{\"r_mm\": 4.0}'); "
                                     "print('x' * 6000); sys.stderr.write('y' * 6000)")
     assert (record.status, record.outputs) == ("ok", {"r_mm": 4.0})
 
 
 def test_a_failure_with_long_stderr_reports_its_end(tmp_path, monkeypatch):
-    monkeypatch.setattr(parallel, "OUTPUT_CAP_BYTES", 1000)
+    monkeypatch.setattr(guarded, "OUTPUT_CAP_BYTES", 1000)
     record, folder = run_point(tmp_path, "import sys; print('x' * 6000); "
                                          "sys.stderr.write('\\n'.join(f'line {i}' for i in range(500))); sys.exit(1)")
     assert record.status == "failed"
@@ -157,7 +156,7 @@ def test_a_failure_with_long_stderr_reports_its_end(tmp_path, monkeypatch):
 
 
 def test_a_model_failure_names_the_size_when_called_directly(tmp_path, monkeypatch):
-    monkeypatch.setattr(parallel, "OUTPUT_CAP_BYTES", 2**20)
+    monkeypatch.setattr(guarded, "OUTPUT_CAP_BYTES", 2**20)
     model = CommandModel(f"{sys.executable} -c \"print('x' * (3 * 2**20))\"", tmp_path / "work")
     with pytest.raises(ModelFailure, match=r"wrote 3 MiB on stdout, more than the 1 MiB filmcal reads"):
         model({"x": 1.0}, point_id="p1")
@@ -167,13 +166,13 @@ def test_a_model_failure_names_the_size_when_called_directly(tmp_path, monkeypat
 def test_the_sweep_kills_a_process_that_carries_the_mark_among_others_and_no_other():
     import subprocess
 
-    env = dict(os.environ, **{parallel.RUN_MARK_VARIABLE: "outer:inner"})
+    env = dict(os.environ, **{processes.RUN_MARK_VARIABLE: "outer:inner"})
     marked = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"], env=env)
     try:
         time.sleep(0.2)
-        assert parallel._kill_marked("other") == 0 and parallel._kill_marked("inn") == 0
+        assert processes._kill_marked("other") == 0 and processes._kill_marked("inn") == 0
         assert marked.poll() is None
-        assert parallel._kill_marked("outer") >= 1
+        assert processes._kill_marked("outer") >= 1
         assert marked.wait(timeout=5) == -signal.SIGKILL
     finally:
         marked.kill()
@@ -187,11 +186,11 @@ def test_the_sweep_reads_no_process_in_uninterruptible_sleep_and_kills_it_when_i
     import builtins
     import subprocess
 
-    env = dict(os.environ, **{parallel.RUN_MARK_VARIABLE: "sleeper"})
+    env = dict(os.environ, **{processes.RUN_MARK_VARIABLE: "sleeper"})
     marked = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"], env=env)
     pid = str(marked.pid)
     wakes_at = time.monotonic() + 0.35
-    real_state, real_open, reads_asleep = parallel._process_state, builtins.open, []
+    real_state, real_open, reads_asleep = processes._process_state, builtins.open, []
 
     def state(entry):
         return "D" if entry.name == pid and time.monotonic() < wakes_at else real_state(entry)
@@ -201,14 +200,14 @@ def test_the_sweep_reads_no_process_in_uninterruptible_sleep_and_kills_it_when_i
             reads_asleep.append(path)
         return real_open(path, *args, **kwargs)
 
-    monkeypatch.setattr(parallel, "_process_state", state)
+    monkeypatch.setattr(processes, "_process_state", state)
     monkeypatch.setattr(builtins, "open", watched_open)
     try:
         time.sleep(0.2)
-        assert parallel._kill_marked("sleeper", asleep_wait_s=0.0) == 0  # asleep past the wait: left alone
+        assert processes._kill_marked("sleeper", asleep_wait_s=0.0) == 0  # asleep past the wait: left alone
         assert marked.poll() is None
         wakes_at = time.monotonic() + 0.35
-        assert parallel._kill_marked("sleeper", asleep_wait_s=2.0) == 1
+        assert processes._kill_marked("sleeper", asleep_wait_s=2.0) == 1
         assert marked.wait(timeout=5) == -signal.SIGKILL
         assert reads_asleep == []
     finally:

@@ -110,7 +110,7 @@ def test_kept_freed_memory_spares_the_page_faults_of_repeated_temporaries():
 
 def _flaky_start_pool(failures: int):
     """A one-worker pool whose first `failures` workers exit with 255 before they are ready (an exec refused)."""
-    from filmcal._parallel import LocalPoolExecutor, _Worker
+    from filmcal._parallel.pool import LocalPoolExecutor, _Worker
 
     class FlakyStart(LocalPoolExecutor):
         def _start_worker(self):

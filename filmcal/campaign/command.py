@@ -59,9 +59,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
 
-from filmcal import _parallel
 from filmcal._errors import InputError
-from filmcal._parallel import run_guarded
+from filmcal._parallel import guarded, run_guarded
 from filmcal.campaign.design import DesignValue
 
 __all__ = ["ModelFailure", "CommandModel", "render_template", "placeholders_of", "parse_outputs"]
@@ -149,7 +148,7 @@ def _kept_output(text: str, truncated: bool, n_bytes: int) -> str:
     if not truncated:
         return text
     return (f"[filmcal: the command wrote {_size_text(n_bytes)} here; only the last "
-            f"{_size_text(_parallel.OUTPUT_CAP_BYTES)} were read and are kept below]\n{text}")
+            f"{_size_text(guarded.OUTPUT_CAP_BYTES)} were read and are kept below]\n{text}")
 
 
 def _tail(text: str) -> str:
@@ -347,7 +346,7 @@ class CommandModel:
         else:
             if run.stdout_truncated:  # its JSON object cannot be told from a part of one
                 raise ModelFailure(f"the command wrote {_size_text(run.stdout_bytes)} on stdout, more than the "
-                                   f"{_size_text(_parallel.OUTPUT_CAP_BYTES)} filmcal reads (write the outputs "
+                                   f"{_size_text(guarded.OUTPUT_CAP_BYTES)} filmcal reads (write the outputs "
                                    f"to {OUTPUTS_FILE} instead, or print less){said}")
             obj = _json_object(run.stdout)
             if obj is None:
