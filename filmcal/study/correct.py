@@ -284,25 +284,8 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
     result = _pool(results, parts, seed)
     rough_out, kept = None, None
     if not sphere and roughness is not None and not roughness.smooth:
-        from filmcal.correction.roughness import RoughGrowth, corrector_growths
-        from filmcal.study.core import StudyGrowths
-
-        inputs, inputs_source = study.roughness_inputs()
-        draws = inputs[:roughness.n_draws]
-        kept = StudyGrowths(study, parts)
-        spec = kept.spec(m.offset_mm, force_n, roughness.fingerprint(), draws)
-        stored = kept.get(spec)
-        if stored is not None:  # solved before for these posteriors, bodies and draws
-            w = np.full(len(draws), 1.0 / len(draws))
-            growths = {c.film.label: RoughGrowth(np.asarray(stored[s["model"]]["film"], float),
-                                                 np.asarray(stored[s["model"]]["no_film"], float), w, draws)
-                       for _, c, s in parts}
-        else:
-            growths = corrector_growths([c for _, c, _ in parts], [w for w, _, _ in parts], m.offset_mm, force_n,
-                                        draws, wheel=roughness.wheel(), rail=roughness.rail(), progress=progress)
-            kept.put(spec, {s["model"]: {"film": growths[c.film.label].film.tolist(),
-                                         "no_film": growths[c.film.label].no_film.tolist()} for _, c, s in parts})
         smooth = result
+        growths, draws, inputs_source, kept = _rough_growths(study, parts, m, force_n, roughness, progress)
         results = [c.correct(area, m.offset_mm, force_n, area_std, rough=growths[c.film.label],
                              offset_std_mm=m.offset_std_mm)
                    for _, c, _ in parts]
@@ -332,27 +315,19 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
     peak = _no_film_peak_mpa(measurement, parts, sphere)
     out["max_pressure_no_film_mpa"] = peak
     if peak > elastic_limit_mpa:
-        import warnings
-
-        text = (f"the contact without film reaches a peak pressure of {peak:.0f} MPa, above the steel's elastic "
-                f"limit of {elastic_limit_mpa:.0f} MPa (--elastic-limit-mpa): the elastic model is outside its "
-                "validity and the real contact is larger (plastic)")
-        out.setdefault("warnings", []).append(text)
-        warnings.warn(ElasticLimitWarning(text), stacklevel=2)
+        _warn(out, f"the contact without film reaches a peak pressure of {peak:.0f} MPa, above the steel's elastic "
+                   f"limit of {elastic_limit_mpa:.0f} MPa (--elastic-limit-mpa): the elastic model is outside its "
+                   "validity and the real contact is larger (plastic)")
     if rough_out is not None:
         from filmcal.correction.roughness import waviness_peak_mpa
 
         crest = waviness_peak_mpa(draws[0], m.offset_mm, force_n, parts[0][1].settings, wheel=roughness.wheel(),
                                   rail=roughness.rail())
         if crest is not None and crest > elastic_limit_mpa:
-            import warnings
-
-            text = (f"the measured surface's waviness (wavelengths over the contact grid's few cells) stripes the "
-                    f"contact: without film its crests carry up to {crest:.0f} MPa, above the steel's elastic limit "
-                    f"of {elastic_limit_mpa:.0f} MPa (--elastic-limit-mpa); the real crests flatten, so the "
-                    "contact without film is larger than solved and the corrected area is a lower bound")
-            out.setdefault("warnings", []).append(text)
-            warnings.warn(ElasticLimitWarning(text), stacklevel=2)
+            _warn(out, f"the measured surface's waviness (wavelengths over the contact grid's few cells) stripes the "
+                       f"contact: without film its crests carry up to {crest:.0f} MPa, above the steel's elastic "
+                       f"limit of {elastic_limit_mpa:.0f} MPa (--elastic-limit-mpa); the real crests flatten, so the "
+                       "contact without film is larger than solved and the corrected area is a lower bound")
         rough_out["waviness_peak_pressure_mpa"] = crest
         out["roughness"] = rough_out
         out["provenance"]["roughness"] = {**roughness.describe(), "n_draws": rough_out["n_draws"]}
@@ -361,19 +336,7 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
     if not sphere and not m.offset_std_mm:
         out.setdefault("not_included", []).append(OFFSET_NOT_INCLUDED)
     if reading is not None:
-        details = {k: v for k, v in reading.to_dict().items() if k not in ("area_mm2", "area_std_mm2")}
-        out.update(measured_area_mm2=reading.area_mm2, measured_area_std_mm2=reading.area_std_mm2,
-                   scan={"file": str(scan.path), **details})
-        if scan.outline_out is not None:
-            from filmcal.correction import correct_outline
-
-            model = None
-            if not sphere:  # the outline's shift round the patch comes from the weightiest model
-                corrector = max(parts, key=lambda part: part[0])[1]
-                model = corrector.outline_model(m.offset_mm, force_n)
-            outline = correct_outline(reading.outlines_mm, result, model, field_side=scan.field_side)
-            outline.write_csv(Path(scan.outline_out))
-            out.update(outline_file=str(scan.outline_out), outline_rule=outline.rule)
+        out.update(_scanned(reading, scan, result, None if sphere else (parts, m.offset_mm, force_n)))
     if not sphere:  # the answer stands: the study keeps its solves (a refused input keeps nothing)
         for cache_ in {id(c.supports.cache): c.supports.cache for _, c, _ in parts}.values():
             if cache_ is not None:
@@ -381,6 +344,61 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
         if kept is not None:
             kept.flush()
     return out, reading
+
+
+def _rough_growths(study, parts, m: WheelRailMeasurement, force_n: float, roughness: BodyRoughness, progress):
+    """Each pooled model's rough/smooth growths at the measurement, as the study kept them or solved now.
+
+    Returns ``(growths by film label, draws, the draws' source, the study's store of growths)``; the store is
+    flushed once the answer stands."""
+    from filmcal.correction.roughness import RoughGrowth, corrector_growths
+    from filmcal.study.core import StudyGrowths
+
+    inputs, inputs_source = study.roughness_inputs()
+    draws = inputs[:roughness.n_draws]
+    kept = StudyGrowths(study, parts)
+    spec = kept.spec(m.offset_mm, force_n, roughness.fingerprint(), draws)
+    stored = kept.get(spec)
+    if stored is not None:  # solved before for these posteriors, bodies and draws
+        w = np.full(len(draws), 1.0 / len(draws))
+        growths = {c.film.label: RoughGrowth(np.asarray(stored[s["model"]]["film"], float),
+                                             np.asarray(stored[s["model"]]["no_film"], float), w, draws)
+                   for _, c, s in parts}
+    else:
+        growths = corrector_growths([c for _, c, _ in parts], [w for w, _, _ in parts], m.offset_mm, force_n,
+                                    draws, wheel=roughness.wheel(), rail=roughness.rail(), progress=progress)
+        kept.put(spec, {s["model"]: {"film": growths[c.film.label].film.tolist(),
+                                     "no_film": growths[c.film.label].no_film.tolist()} for _, c, s in parts})
+    return growths, draws, inputs_source, kept
+
+
+def _warn(out: dict, text: str) -> None:
+    """Add `text` to the answer's ``warnings`` and issue it as an `ElasticLimitWarning` (to the caller's caller)."""
+    import warnings
+
+    out.setdefault("warnings", []).append(text)
+    warnings.warn(ElasticLimitWarning(text), stacklevel=3)
+
+
+def _scanned(reading, scan: ScanReading, result, wheel_rail: tuple | None) -> dict[str, Any]:
+    """What the answer says of a scanned imprint, and its corrected outline written when asked.
+
+    ``wheel_rail`` is ``(parts, offset_mm, force_n)`` of a wheel-rail answer, None for a sphere."""
+    details = {k: v for k, v in reading.to_dict().items() if k not in ("area_mm2", "area_std_mm2")}
+    out = dict(measured_area_mm2=reading.area_mm2, measured_area_std_mm2=reading.area_std_mm2,
+               scan={"file": str(scan.path), **details})
+    if scan.outline_out is not None:
+        from filmcal.correction import correct_outline
+
+        model = None
+        if wheel_rail is not None:  # the outline's shift round the patch comes from the weightiest model
+            parts, offset_mm, force_n = wheel_rail
+            corrector = max(parts, key=lambda part: part[0])[1]
+            model = corrector.outline_model(offset_mm, force_n)
+        outline = correct_outline(reading.outlines_mm, result, model, field_side=scan.field_side)
+        outline.write_csv(Path(scan.outline_out))
+        out.update(outline_file=str(scan.outline_out), outline_rule=outline.rule)
+    return out
 
 
 def _correctors(cache: dict | None, study, film: str, kind: str, seed: int, wheel_rail: dict | None, match: dict):
