@@ -47,6 +47,7 @@ import math
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -219,90 +220,117 @@ def _parse(raw: bytes, name: str, source: str) -> Dataset:
         records = list(csv.reader([line for _, line in numbered], strict=True))
     except csv.Error as exc:
         raise where.error(f"not valid CSV ({exc})") from None
-    header_line, header = numbered[0][0], [h.strip() for h in records[0]]
+    header, measured_column = _header(where, numbered[0][0], records[0])
+    if len(records) < 2:
+        raise where.error("holds a header but no rows")
+    cols: dict[str, list] = {c: [] for c in ("film", "sphere_radius_mm", "force_n", "measured", "repeat",
+                                             *_ROW_DEFAULTS)}
+    lines = []
+    for (line, _), record in zip(numbered[1:], records[1:]):
+        if len(record) != len(header):
+            raise where.error(f"has {len(record)} fields, the header has {len(header)}", line)
+        for column, value in _row(where, line, dict(zip(header, (v.strip() for v in record))),
+                                  measured_column).items():
+            cols[column].append(value)
+        lines.append(line)
+    arrays = {k: np.asarray(v, dtype=float) for k, v in cols.items() if k not in ("film", "repeat")}
+    hertz, radius = _radii(where, lines, arrays, measured_column)
+    data = RadiusErrorData(
+        film=np.asarray(cols["film"]), sphere_radius_mm=arrays["sphere_radius_mm"], force_n=arrays["force_n"],
+        radius_error_mm=arrays["measured"] if measured_column == "radius_error_mm" else radius - hertz,
+        hertz_radius_mm=hertz, measured_radius_mm=radius,
+        measurement_std_mm=arrays["measurement_std_mm"], flat_ra_um=arrays["flat_ra_um"],
+        sphere_modulus_mpa=arrays["sphere_modulus_mpa"], sphere_poisson=arrays["sphere_poisson"],
+        flat_modulus_mpa=arrays["flat_modulus_mpa"], flat_poisson=arrays["flat_poisson"])
+    repeat = _repeats(where, lines, data, cols["repeat"])
+    data = RadiusErrorData(**{**{f: getattr(data, f) for f in _FIELDS}, "repeat": repeat})
+    return Dataset(name=name, source=source, sha256=sha256, measured_column=measured_column,
+                   columns=tuple(header), data=data)
+
+
+def _header(where: _Where, line: int, record: list[str]) -> tuple[list[str], str]:
+    """The header's column names, checked, and the one measured column among them."""
+    header = [h.strip() for h in record]
     known = REQUIRED_COLUMNS + MEASURED_COLUMNS + OPTIONAL_COLUMNS
     duplicated = sorted({h for h in header if header.count(h) > 1})
     if duplicated:
-        raise where.error(f"column(s) {', '.join(duplicated)} appear more than once", header_line)
+        raise where.error(f"column(s) {', '.join(duplicated)} appear more than once", line)
     unknown = [h for h in header if h not in known]
     if unknown:
         hint = ("; a film's thickness is part of its definition: give thickness_mm in a --films-file, under a film "
                 "name of its own" if any("thickness" in h for h in unknown) else "")
         raise where.error(f"unknown column(s) {', '.join(map(repr, unknown))}; known: {', '.join(known)}{hint}",
-                          header_line)
+                          line)
     missing = [c for c in REQUIRED_COLUMNS if c not in header]
     if missing:
-        raise where.error(f"missing required column(s) {', '.join(missing)}", header_line)
+        raise where.error(f"missing required column(s) {', '.join(missing)}", line)
     measured = [c for c in MEASURED_COLUMNS if c in header]
     if len(measured) != 1:
         raise where.error(f"needs exactly one of {', '.join(MEASURED_COLUMNS)}, got "
-                          f"{', '.join(measured) if measured else 'none'}", header_line)
-    measured_column = measured[0]
-    if len(records) < 2:
-        raise where.error("holds a header but no rows")
+                          f"{', '.join(measured) if measured else 'none'}", line)
+    return header, measured[0]
 
-    defaults = {"measurement_std_mm": 0.0, "flat_ra_um": math.nan, "sphere_modulus_mpa": STEEL_MODULUS_MPA,
-                "sphere_poisson": STEEL_POISSON, "flat_modulus_mpa": STEEL_MODULUS_MPA,
-                "flat_poisson": STEEL_POISSON}
-    cols: dict[str, list] = {c: [] for c in ("film", "sphere_radius_mm", "force_n", "measured", "repeat",
-                                             *defaults)}
-    lines = []
-    for (line, _), record in zip(numbered[1:], records[1:]):
-        if len(record) != len(header):
-            raise where.error(f"has {len(record)} fields, the header has {len(header)}", line)
-        cell = {h: v.strip() for h, v in zip(header, record)}
-        film = cell["film"]
-        if not film:
-            raise where.error("is empty; give the film's name", line, "film")
+
+#: The optional columns of a row: their values when left empty, and their limits (low, high, low open, words).
+_ROW_DEFAULTS = {"measurement_std_mm": 0.0, "flat_ra_um": math.nan, "sphere_modulus_mpa": STEEL_MODULUS_MPA,
+                 "sphere_poisson": STEEL_POISSON, "flat_modulus_mpa": STEEL_MODULUS_MPA,
+                 "flat_poisson": STEEL_POISSON}
+_ROW_LIMITS = {"measurement_std_mm": (0.0, math.inf, False, "finite and >= 0 mm"),
+               "flat_ra_um": (0.0, math.inf, False, "finite and >= 0 um"),
+               "sphere_modulus_mpa": (0.0, math.inf, True, "finite and > 0 MPa"),
+               "flat_modulus_mpa": (0.0, math.inf, True, "finite and > 0 MPa"),
+               "sphere_poisson": (-1.0, 0.5, True, "in (-1, 0.5)"),
+               "flat_poisson": (-1.0, 0.5, True, "in (-1, 0.5)")}
+
+
+def _row(where: _Where, line: int, cell: dict[str, str], measured_column: str) -> dict[str, Any]:
+    """One row's values, checked: film, sphere radius, force (N), measured value, repeat and the optional ones."""
+    film = cell["film"]
+    if not film:
+        raise where.error("is empty; give the film's name", line, "film")
+    try:
+        FilmType(film)
+    except ValueError as exc:
+        raise where.error(str(exc), line, "film") from None
+    out: dict[str, Any] = {"film": film}
+    # the command line's bounds: a sphere of 1 mm to 100 m, 1 N to 2 MN (beyond them a unit error)
+    out["sphere_radius_mm"] = _number(where, line, "sphere_radius_mm", cell["sphere_radius_mm"],
+                                      SPHERE_RADIUS_MM_BOUNDS[0], SPHERE_RADIUS_MM_BOUNDS[1], False, True,
+                                      f"in {SPHERE_RADIUS_MM_BOUNDS[0]:g}-{SPHERE_RADIUS_MM_BOUNDS[1]:g} mm")
+    out["force_n"] = 1000.0 * _number(where, line, "force_kn", cell["force_kn"], FORCE_KN_BOUNDS[0],
+                                      FORCE_KN_BOUNDS[1], False, True,
+                                      f"in {FORCE_KN_BOUNDS[0]:g}-{FORCE_KN_BOUNDS[1]:g} kN")
+    if measured_column == "radius_error_mm":
+        out["measured"] = _number(where, line, measured_column, cell[measured_column])
+    else:
+        out["measured"] = _number(where, line, measured_column, cell[measured_column], 0.0,
+                                  what="finite and > 0")
+    rep = cell.get("repeat", "")
+    out["repeat"] = None
+    if rep:
         try:
-            FilmType(film)
-        except ValueError as exc:
-            raise where.error(str(exc), line, "film") from None
-        cols["film"].append(film)
-        # the command line's bounds: a sphere of 1 mm to 100 m, 1 N to 2 MN (beyond them a unit error)
-        cols["sphere_radius_mm"].append(_number(where, line, "sphere_radius_mm", cell["sphere_radius_mm"],
-                                                SPHERE_RADIUS_MM_BOUNDS[0], SPHERE_RADIUS_MM_BOUNDS[1], False, True,
-                                                f"in {SPHERE_RADIUS_MM_BOUNDS[0]:g}-{SPHERE_RADIUS_MM_BOUNDS[1]:g} mm"))
-        cols["force_n"].append(1000.0 * _number(where, line, "force_kn", cell["force_kn"], FORCE_KN_BOUNDS[0],
-                                                FORCE_KN_BOUNDS[1], False, True,
-                                                f"in {FORCE_KN_BOUNDS[0]:g}-{FORCE_KN_BOUNDS[1]:g} kN"))
-        if measured_column == "radius_error_mm":
-            value = _number(where, line, measured_column, cell[measured_column])
-        else:
-            value = _number(where, line, measured_column, cell[measured_column], 0.0,
-                            what="finite and > 0")
-        cols["measured"].append(value)
-        rep = cell.get("repeat", "")
-        if rep:
-            try:
-                rep_value = plain_int(rep)
-            except ValueError:
-                raise where.error(f"must be an integer >= 1, got {rep!r}", line, "repeat") from None
-            if not 1 <= rep_value <= MAX_REPEAT:
-                raise where.error(f"must be an integer in 1-{MAX_REPEAT}, got {rep!r}", line, "repeat")
-            cols["repeat"].append(rep_value)
-        else:
-            cols["repeat"].append(None)
-        limits = {"measurement_std_mm": (0.0, math.inf, False, "finite and >= 0 mm"),
-                  "flat_ra_um": (0.0, math.inf, False, "finite and >= 0 um"),
-                  "sphere_modulus_mpa": (0.0, math.inf, True, "finite and > 0 MPa"),
-                  "flat_modulus_mpa": (0.0, math.inf, True, "finite and > 0 MPa"),
-                  "sphere_poisson": (-1.0, 0.5, True, "in (-1, 0.5)"),
-                  "flat_poisson": (-1.0, 0.5, True, "in (-1, 0.5)")}
-        for column, default in defaults.items():
-            text = cell.get(column, "")
-            if not text:
-                cols[column].append(default)
-                continue
-            low, high, low_open, what = limits[column]
-            value = _number(where, line, column, text, low, high, low_open, True, what)
-            if column == "flat_ra_um" and not (value == 0.0 or MIN_RA_UM <= value <= MAX_RA_UM):
-                raise where.error(f"must be 0 (smooth) or in [{MIN_RA_UM:g}, {MAX_RA_UM:g}] um, got {text!r}", line,
-                                  column)
-            cols[column].append(value)
-        lines.append(line)
+            out["repeat"] = plain_int(rep)
+        except ValueError:
+            raise where.error(f"must be an integer >= 1, got {rep!r}", line, "repeat") from None
+        if not 1 <= out["repeat"] <= MAX_REPEAT:
+            raise where.error(f"must be an integer in 1-{MAX_REPEAT}, got {rep!r}", line, "repeat")
+    for column, default in _ROW_DEFAULTS.items():
+        text = cell.get(column, "")
+        if not text:
+            out[column] = default
+            continue
+        low, high, low_open, what = _ROW_LIMITS[column]
+        value = _number(where, line, column, text, low, high, low_open, True, what)
+        if column == "flat_ra_um" and not (value == 0.0 or MIN_RA_UM <= value <= MAX_RA_UM):
+            raise where.error(f"must be 0 (smooth) or in [{MIN_RA_UM:g}, {MAX_RA_UM:g}] um, got {text!r}", line,
+                              column)
+        out[column] = value
+    return out
 
-    arrays = {k: np.asarray(v, dtype=float) for k, v in cols.items() if k not in ("film", "repeat")}
+
+def _radii(where: _Where, lines: list[int], arrays: dict[str, np.ndarray],
+           measured_column: str) -> tuple[np.ndarray, np.ndarray]:
+    """The Hertz and the measured radius of every row (mm), the measured ones checked against Hertz's."""
     hertz = hertz_radius_mm(arrays["sphere_radius_mm"], arrays["force_n"], arrays["sphere_modulus_mpa"],
                             arrays["sphere_poisson"], arrays["flat_modulus_mpa"], arrays["flat_poisson"])
     hertz = np.atleast_1d(np.asarray(hertz, dtype=float))
@@ -329,15 +357,11 @@ def _parse(raw: bytes, name: str, source: str) -> Dataset:
         raise where.error(f"gives a measured radius {radius[i]:g} mm where a film imprint lies within "
                           f"{lo[i]:.2f}-{hi[i]:.2f} mm (Hertz radius {hertz[i]:.3f} mm): check the units",
                           lines[i], measured_column)
-    data = RadiusErrorData(
-        film=np.asarray(cols["film"]), sphere_radius_mm=arrays["sphere_radius_mm"], force_n=arrays["force_n"],
-        radius_error_mm=arrays["measured"] if measured_column == "radius_error_mm" else radius - hertz,
-        hertz_radius_mm=hertz, measured_radius_mm=radius,
-        measurement_std_mm=arrays["measurement_std_mm"], flat_ra_um=arrays["flat_ra_um"],
-        sphere_modulus_mpa=arrays["sphere_modulus_mpa"], sphere_poisson=arrays["sphere_poisson"],
-        flat_modulus_mpa=arrays["flat_modulus_mpa"], flat_poisson=arrays["flat_poisson"])
-    # repeats: numbered where given, unique within a case; unnumbered rows take the next free numbers
-    given = cols["repeat"]
+    return hertz, radius
+
+
+def _repeats(where: _Where, lines: list[int], data: RadiusErrorData, given: list[int | None]) -> np.ndarray:
+    """Each row's repeat number: as given, unique within a case; unnumbered rows take the next free numbers."""
     repeat = np.zeros(len(data), dtype=int)
     used: dict[int, dict[int, int]] = {}
     for i, (case, rep) in enumerate(zip(data.case_index, given)):
@@ -359,9 +383,7 @@ def _parse(raw: bytes, name: str, source: str) -> Dataset:
             taken[nxt] = lines[i]
             repeat[i] = nxt
             next_free[int(case)] = nxt + 1
-    data = RadiusErrorData(**{**{f: getattr(data, f) for f in _FIELDS}, "repeat": repeat})
-    return Dataset(name=name, source=source, sha256=sha256, measured_column=measured_column,
-                   columns=tuple(header), data=data)
+    return repeat
 
 
 def load_table1(film: str | None = None, loads: str | tuple[float, float] | None = None) -> RadiusErrorData:
