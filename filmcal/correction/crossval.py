@@ -247,6 +247,53 @@ def _corrector_samples(problem, theta: np.ndarray) -> dict[str, np.ndarray]:
             "sigma_mm": np.sqrt(p["sigma_mm"] ** 2 + p["case_sigma_mm"] ** 2)}
 
 
+def _draws_per_model(models: Mapping[str, tuple], weights: Mapping[str, float] | None,
+                     n_draws: int) -> tuple[list[str], np.ndarray]:
+    """The models' names and how many of the `n_draws` each gives a fold (by weight, largest remainders),
+    after checking that the models hold the same data."""
+    if not models:
+        raise ValueError("models must hold at least one (problem, posterior) pair")
+    names = list(models)
+    if weights is not None and set(weights) != set(names):
+        raise ValueError(f"weights must name the same models as models: {sorted(weights)} vs {sorted(names)}")
+    w = np.ones(len(names)) if weights is None else np.array([float(weights[n]) for n in names])
+    if not np.all(np.isfinite(w)) or np.any(w < 0) or w.sum() <= 0:
+        raise ValueError(f"weights must be finite, >= 0 and not all 0, got {weights}")
+    w = w / w.sum()
+    if not (isinstance(n_draws, (int, np.integer)) and n_draws >= 10):
+        raise ValueError(f"n_draws must be an integer >= 10, got {n_draws!r}")
+    ref = models[names[0]][0]
+    for n in names[1:]:
+        if not (np.array_equal(models[n][0].target_radius_mm, ref.target_radius_mm)
+                and np.array_equal(models[n][0].case_index, ref.case_index)):
+            raise ValueError(f"model {n!r} holds other data than {names[0]!r}")
+    counts = np.floor(w * n_draws).astype(int)
+    counts[np.argsort(-(w * n_draws - counts), kind="stable")[:n_draws - counts.sum()]] += 1
+    return names, counts
+
+
+def _fold_areas(problem, data, samples: dict, count: int, rows: np.ndarray, seed: int) -> np.ndarray:
+    """Corrected area samples (rows x draws) of a left-out case's rows, from one model's fold posterior."""
+    corrector = SphereCorrector(problem.model, samples, max_samples=count, random_state=seed)
+    out = corrector.correct(problem.target_radius_mm[rows], data.sphere_radius_mm[rows], data.force_n[rows],
+                            data.measurement_std_mm[rows])
+    # back from the steel-equivalent radius to the row's bodies (no change for steel)
+    shift = data.hertz_radius_mm[rows] - data.steel_hertz_radius_mm[rows]
+    radius = np.sqrt(out.samples_mm2 / np.pi) + shift[:, None]
+    return np.pi * np.clip(radius, 0.0, None) ** 2
+
+
+def _fold_row(data, row: int, a: np.ndarray, modulus: np.ndarray, pareto_k: float, refitted: bool) -> dict:
+    """One left-out row's answer: its pooled area samples summarised, with the fold's modulus and Pareto k."""
+    return {"sphere_radius_mm": float(data.sphere_radius_mm[row]), "force_n": float(data.force_n[row]),
+            "measured_radius_mm": float(data.measured_radius_mm[row]),
+            "hertz_area_mm2": float(np.pi * data.hertz_radius_mm[row] ** 2),
+            "area_mm2": float(a.mean()), "area_std_mm2": float(a.std(ddof=1)),
+            "area_ci90_mm2": [float(x) for x in np.quantile(a, [0.05, 0.95])],
+            "modulus_median_mpa": float(np.median(modulus)), "pareto_k": float(pareto_k),
+            "refit": refitted}
+
+
 def psis_leave_one_case_out(models: Mapping[str, tuple], weights: Mapping[str, float] | None = None,
                             refit: Callable[[str, object], object] | None = None, *, film: str | None = None,
                             n_draws: int = 2000, k_threshold: float = PARETO_K_REFIT,
@@ -292,27 +339,11 @@ def psis_leave_one_case_out(models: Mapping[str, tuple], weights: Mapping[str, f
         ``method="psis"``, the Pareto k of each fold and which folds were
         refitted (``n_refits``).
     """
-    if not models:
-        raise ValueError("models must hold at least one (problem, posterior) pair")
-    names = list(models)
-    if weights is not None and set(weights) != set(names):
-        raise ValueError(f"weights must name the same models as models: {sorted(weights)} vs {sorted(names)}")
-    w = np.ones(len(names)) if weights is None else np.array([float(weights[n]) for n in names])
-    if not np.all(np.isfinite(w)) or np.any(w < 0) or w.sum() <= 0:
-        raise ValueError(f"weights must be finite, >= 0 and not all 0, got {weights}")
-    w = w / w.sum()
-    if not (isinstance(n_draws, (int, np.integer)) and n_draws >= 10):
-        raise ValueError(f"n_draws must be an integer >= 10, got {n_draws!r}")
+    names, counts = _draws_per_model(models, weights, n_draws)
     problems = {n: models[n][0] for n in names}
     ref = problems[names[0]]
-    for n in names[1:]:
-        if not (np.array_equal(problems[n].target_radius_mm, ref.target_radius_mm)
-                and np.array_equal(problems[n].case_index, ref.case_index)):
-            raise ValueError(f"model {n!r} holds other data than {names[0]!r}")
     rng = np.random.default_rng(random_state)
     data = ref.data
-    counts = np.floor(w * n_draws).astype(int)
-    counts[np.argsort(-(w * n_draws - counts), kind="stable")[:n_draws - counts.sum()]] += 1
 
     thetas = {n: _as_theta(problems[n], models[n][1]) for n in names}
     case_ll = {n: problems[n].case_log_likelihood(thetas[n].reshape(-1, problems[n].ndim))
@@ -349,27 +380,11 @@ def psis_leave_one_case_out(models: Mapping[str, tuple], weights: Mapping[str, f
                 ks.append(k)
             samples = _corrector_samples(problem, draws)
             moduli.append(samples["modulus_mpa"])
-            corrector = SphereCorrector(problem.model, samples, max_samples=count,
-                                        random_state=int(rng.integers(2**31)))
-            r_target = problem.target_radius_mm[rows]
-            out = corrector.correct(r_target, data.sphere_radius_mm[rows], data.force_n[rows],
-                                    data.measurement_std_mm[rows])
-            # back from the steel-equivalent radius to the row's bodies (no change for steel)
-            shift = data.hertz_radius_mm[rows] - data.steel_hertz_radius_mm[rows]
-            radius = np.sqrt(out.samples_mm2 / np.pi) + shift[:, None]
-            area_samples.append(np.pi * np.clip(radius, 0.0, None) ** 2)
+            area_samples.append(_fold_areas(problem, data, samples, count, rows, int(rng.integers(2**31))))
         pooled = np.concatenate(area_samples, axis=1)
         modulus = np.concatenate(moduli)
-        for j, row in enumerate(rows):
-            a = pooled[j]
-            rows_out.append((row, {
-                "sphere_radius_mm": float(data.sphere_radius_mm[row]), "force_n": float(data.force_n[row]),
-                "measured_radius_mm": float(data.measured_radius_mm[row]),
-                "hertz_area_mm2": float(np.pi * data.hertz_radius_mm[row] ** 2),
-                "area_mm2": float(a.mean()), "area_std_mm2": float(a.std(ddof=1)),
-                "area_ci90_mm2": [float(x) for x in np.quantile(a, [0.05, 0.95])],
-                "modulus_median_mpa": float(np.median(modulus)), "pareto_k": float(max(ks)),
-                "refit": refitted}))
+        rows_out.extend((row, _fold_row(data, row, pooled[j], modulus, max(ks), refitted))
+                        for j, row in enumerate(rows))
     rows_out.sort(key=lambda t: t[0])
     folds = [f for _, f in rows_out]
     label = film if film is not None else ",".join(dict.fromkeys(data.film.tolist()))
