@@ -156,3 +156,36 @@ def test_the_spring_layers_edge_does_not_depend_on_its_rings():
     assert all(r.edge_mm[0] <= r.contact_radius_mm <= r.edge_mm[1] for r in film)
     bare = thin_layer_contact(300.0, 35e3, None, ring_width_mm=0.005, zone_mm=6.0)
     assert bare.contact_radius_mm == pytest.approx(hertz_radius_mm(300.0, 35e3), abs=1.5e-3)
+
+
+@pytest.mark.parametrize("poisson", [0.25, 0.45])
+def test_the_axis_node_carries_the_one_point_rules_share_and_the_profile_reads_it_out(poisson):
+    """The film's volumetric term at one point per element gives the element on the axis equal nodal shares
+    (1/2, 1/2) where the consistent ones are (1/3, 2/3): the axis node's nodal pressure is high by lambda / (2 M)
+    = nu / (2 (1 - nu)) of it, at any mesh; the profile's reading of the first two nodes (p = a + b r^2 through the
+    third and fourth) removes it. Without a film the nodal pressures are the profile."""
+    from filmcal.fem import solve_sphere_on_flat
+
+    film = solve_sphere_on_flat(300.0, 60e3, Film(2800.0, poisson))
+    share = poisson / (2.0 * (1.0 - poisson))
+    # exact for a uniform stress in the axis element; its stress varies a little (3.5 % off at nu 0.45)
+    assert film.max_pressure_mpa / film.pressure_profile_mpa[0] - 1.0 == pytest.approx(share, rel=0.05)
+    assert np.array_equal(film.pressure_profile_mpa[2:], film.pressure_mpa[2:])
+    bare = solve_sphere_on_flat(300.0, 60e3)
+    assert np.array_equal(bare.pressure_profile_mpa, bare.pressure_mpa)
+    assert bare.peak_pressure_mpa == bare.max_pressure_mpa
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("poisson", [0.25, 0.33, 0.45])
+def test_the_peak_pressure_under_a_film_is_the_second_formulations(poisson):
+    """The biquadratic second formulation (`filmcal.fem.reference`, full integration, its own L2 pressure
+    recovery) has no one-point rule: its peak is the film's. The profile's peak is within 0.5 % of it (the mesh's
+    own difference; 0.1-0.4 % measured), where the axis node's nodal pressure was 16-39 % above."""
+    from filmcal.fem import solve_sphere_on_flat
+    from filmcal.fem.reference import QuadraticSphereOnFlat
+
+    ours = solve_sphere_on_flat(300.0, 60e3, Film(2800.0, poisson))
+    reference = QuadraticSphereOnFlat(300.0, element_size_mm=0.1).solve(60e3, 2800.0, poisson)
+    assert ours.peak_pressure_mpa == pytest.approx(reference.max_pressure_mpa, rel=0.005)
+    assert ours.max_pressure_mpa > 1.15 * reference.max_pressure_mpa

@@ -44,7 +44,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
           help="also report the imprint of a film that colours above P MPa")
     add(p, "imprint_model", default=DEFAULT_IMPRINT_MODEL, extra=f"(default {DEFAULT_IMPRINT_MODEL})")
     add(p, "films_file")
-    local(p, "--pressure-csv", metavar="FILE", help="write the pressure distribution p(r) to a CSV file")
+    local(p, "--pressure-csv", metavar="FILE", help="write the pressure distribution p(r) to a CSV file (with a film, the two nodes nearest the "
+                                     "axis read from the profile beyond them: FEResult.pressure_profile_mpa)")
     local(p, "--plot", metavar="PNG", help="plot the pressure distribution against Hertz to a PNG")
     add(p, "json", action="store_true")
     renamed(p, "--radius-mm", "--sphere-radius-mm", type=float)
@@ -118,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
         import numpy as np
         from filmcal._io import atomic_open
         with atomic_open(args.pressure_csv, "w") as fh:
-            np.savetxt(fh, np.column_stack([res.r_mm, res.pressure_mpa, res.film_strain]),
+            np.savetxt(fh, np.column_stack([res.r_mm, res.pressure_profile_mpa, res.film_strain]),
                        delimiter=",", header="r_mm,pressure_mpa,film_strain", comments="", fmt="%.8g")
     if args.plot:
         from filmcal.report.figures import plot_pressure_profile
@@ -136,7 +137,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"contact radius  {res.contact_radius_mm:.4f} mm   (Hertz {res.hertz_radius_mm:.4f} mm, "
               f"difference {res.radius_error_mm:+.4f} mm)")
         print(f"contact area    {res.contact_area_mm2:.2f} mm2")
-        print(f"max pressure    {res.max_pressure_mpa:.1f} MPa")
+        print(f"peak pressure   {res.peak_pressure_mpa:.1f} MPa")
         if film is not None:
             print(f"film strain     {100 * res.film_strain_max:.1f} % (max through-thickness compression)")
         if res.imprint_radius_mm is not None:

@@ -56,7 +56,7 @@ def plot_pressure_profile(result, path: str) -> None:
     ax.plot(rr, hertz_pressure_mpa(rr, result.sphere_radius_mm, result.force_n), "k--", lw=1, label="Hertz, no film")
     label = "FE, no film" if result.film_modulus_mpa is None else (
         f"FE, film E = {result.film_modulus_mpa:g} MPa, nu = {result.film_poisson:g}")
-    ax.plot(r, result.pressure_mpa, ".-", ms=3, lw=1, label=label)
+    ax.plot(r, result.pressure_profile_mpa, ".-", ms=3, lw=1, label=label)
     ax.axvline(result.contact_radius_mm, color="C0", lw=0.8, ls=":", label=f"a = {result.contact_radius_mm:.3f} mm")
     ax.axvline(result.hertz_radius_mm, color="k", lw=0.8, ls=":", label=f"a Hertz = {result.hertz_radius_mm:.3f} mm")
     ax.set_xlim(0, 1.25 * max(result.contact_radius_mm, result.hertz_radius_mm))

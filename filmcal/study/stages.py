@@ -565,7 +565,7 @@ def _verification_stage(study: Study, settings: PipelineSettings, seed: int, med
 
 
 def _profile(res) -> dict:
-    return {"r_mm": res.r_mm, "pressure_mpa": res.pressure_mpa, "contact_radius_mm": res.contact_radius_mm,
+    return {"r_mm": res.r_mm, "pressure_mpa": res.pressure_profile_mpa, "contact_radius_mm": res.contact_radius_mm,
             "hertz_radius_mm": res.hertz_radius_mm}
 
 
