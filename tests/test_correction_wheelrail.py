@@ -210,6 +210,28 @@ def test_a_correction_beyond_the_elastic_limit_says_so(quick_study):
     assert "warnings" not in cool and cool["max_pressure_no_film_mpa"] < 1000
 
 
+def test_a_wheel_rail_contact_outside_the_transfers_sizes_says_so(quick_study):
+    """The transfer term was fitted on spheres of 150-1500 mm at 9-165 kN (Hertz radii 2.06-11.7 mm); S1002 /
+    60E2 at 2 kN, eta -3 mm, has a contact without film of about 10 mm2 (1.8 mm): the answer says its transfer
+    is extrapolated. At 100 kN (138 mm2, 6.6 mm) it says nothing of it."""
+    from filmcal.hertz import hertz_radius_mm
+
+    study, _, _ = quick_study
+    assert hertz_radius_mm(150.0, 9e3) == pytest.approx(2.06, abs=0.01)
+    base = [sys.executable, "-m", "filmcal.cli", "correct", "--film", "HS", "--study-dir", str(study), "--json",
+            "--offset-mm=-3"]
+    out = {}
+    for force, measured in (("2", "16"), ("100", "190")):
+        p = subprocess.run(base + ["--force-kn", force, "--measured-area-mm2", measured], capture_output=True,
+                           text=True)
+        assert p.returncode == 0, p.stderr
+        out[force] = (json.loads(p.stdout), p.stderr)
+    (small, err), (usual, usual_err) = out["2"], out["100"]
+    assert any("extrapolated" in w and "smaller" in w for w in small["warnings"])
+    assert "OutsideDomainWarning" in err
+    assert not any("extrapolated" in w for w in usual.get("warnings", [])) and "OutsideDomain" not in usual_err
+
+
 def test_the_corrected_patch_has_a_length_width_and_position_with_bands(quick_study):
     """S1002 / 60E2, 100 kN, eta 0: the patch without film's extents (its solved outline, exact to the grid)
     scaled by sqrt(corrected area / its area); the lateral position is its centroid on the rail."""

@@ -237,6 +237,14 @@ class TransferFit:
     provenance: dict
     residual_gp: dict = field(default_factory=dict)
 
+    def hertz_radius_range_mm(self) -> tuple[float, float]:
+        """The smallest and largest Hertz radius (mm, steel on steel, no film) of the sphere-on-flat contacts of
+        `domain`: the contact sizes the fit was made and verified on."""
+        from filmcal.hertz import hertz_radius_mm
+
+        (r0, r1), (f0, f1) = self.domain["sphere_radius_mm"], self.domain["force_kn"]
+        return float(hertz_radius_mm(r0, 1e3 * f0)), float(hertz_radius_mm(r1, 1e3 * f1))
+
     @classmethod
     def from_json(cls, path: str | Path) -> "TransferFit":
         """Read a fit written by `to_json` (plain JSON, no code)."""

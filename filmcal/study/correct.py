@@ -20,7 +20,7 @@ from filmcal.contact.names import MIXTURE
 from filmcal.wheelrail.settings import NOMINAL_RADIUS_MM, RAIL, RAIL_INCLINATION, WHEEL
 
 __all__ = ["SphereMeasurement", "WheelRailMeasurement", "ScanReading", "BodyRoughness", "correct_measurement",
-           "ELASTIC_LIMIT_MPA", "ElasticLimitWarning"]
+           "ELASTIC_LIMIT_MPA", "CorrectionWarning", "ElasticLimitWarning", "OutsideDomainWarning"]
 
 
 @dataclass(frozen=True)
@@ -163,9 +163,18 @@ def _check_value(name: str, value: float | None, std_name: str, std: float) -> N
 
 
 
-class ElasticLimitWarning(UserWarning):
+class CorrectionWarning(UserWarning):
+    """An answer stands, with a reason to doubt it (also in its ``warnings``)."""
+
+
+class ElasticLimitWarning(CorrectionWarning):
     """The corrected contact's peak pressure exceeds the steel's elastic limit: the elastic model is outside its
     validity."""
+
+
+class OutsideDomainWarning(CorrectionWarning):
+    """The wheel-rail contact is smaller or larger than every sphere-on-flat contact the film's transfer to the
+    wheel-rail model was fitted and verified on: its systematic term is extrapolated."""
 
 
 #: What a smooth wheel-rail answer does not carry: the bodies' roughness.
@@ -318,6 +327,18 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
         _warn(out, f"the contact without film reaches a peak pressure of {peak:.0f} MPa, above the steel's elastic "
                    f"limit of {elastic_limit_mpa:.0f} MPa (--elastic-limit-mpa): the elastic model is outside its "
                    "validity and the real contact is larger (plastic)")
+    if not sphere:
+        from filmcal.contact.transfer import load_transfer_fit
+
+        fit = load_transfer_fit()
+        lo, hi = fit.hertz_radius_range_mm()
+        a0 = math.sqrt(_no_film(measurement, parts)["area_mm2"] / math.pi)
+        if not lo <= a0 <= hi:
+            (r0, r1), (f0, f1) = fit.domain["sphere_radius_mm"], fit.domain["force_kn"]
+            _warn(out, f"the contact without film is {'smaller' if a0 < lo else 'larger'} than any the film's transfer "
+                       f"to the wheel-rail model was fitted and verified on: its equivalent radius is {a0:.2f} mm, "
+                       f"theirs {lo:.2f}-{hi:.2f} mm (spheres of {r0:g}-{r1:g} mm at {f0:g}-{f1:g} kN); the "
+                       "transfer term, and so the answer and its band, are extrapolated", OutsideDomainWarning)
     if rough_out is not None:
         from filmcal.correction.roughness import waviness_peak_mpa
 
@@ -372,12 +393,12 @@ def _rough_growths(study, parts, m: WheelRailMeasurement, force_n: float, roughn
     return growths, draws, inputs_source, kept
 
 
-def _warn(out: dict, text: str) -> None:
-    """Add `text` to the answer's ``warnings`` and issue it as an `ElasticLimitWarning` (to the caller's caller)."""
+def _warn(out: dict, text: str, category: type[CorrectionWarning] = ElasticLimitWarning) -> None:
+    """Add `text` to the answer's ``warnings`` and issue it as a `category` warning (to the caller's caller)."""
     import warnings
 
     out.setdefault("warnings", []).append(text)
-    warnings.warn(ElasticLimitWarning(text), stacklevel=3)
+    warnings.warn(category(text), stacklevel=3)
 
 
 def _scanned(reading, scan: ScanReading, result, wheel_rail: tuple | None) -> dict[str, Any]:

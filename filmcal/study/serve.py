@@ -105,7 +105,7 @@ class CorrectionServer:
                  request_timeout_s: float = 120.0) -> None:
         from filmcal._errors import InputError
         from filmcal.study import Study
-        from filmcal.study.correct import ElasticLimitWarning
+        from filmcal.study.correct import CorrectionWarning
 
         self.study = Study(study_dir, read_only=True)
         self.request_timeout_s = float(request_timeout_s)
@@ -116,7 +116,7 @@ class CorrectionServer:
         self._slots = threading.BoundedSemaphore(MAX_CONNECTIONS)
         self._pending = threading.BoundedSemaphore(MAX_CONNECTIONS)  # corrections submitted, not yet done
         # an answer's warnings travel in its JSON; the warnings module is not one thread's
-        warnings.simplefilter("ignore", ElasticLimitWarning)
+        warnings.simplefilter("ignore", CorrectionWarning)
         try:
             self.httpd = _Server((host, int(port)), _handler(self))
         except OSError as exc:  # an unknown host, a port in use or not allowed
