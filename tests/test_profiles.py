@@ -398,3 +398,32 @@ def test_a_profile_in_metres_is_refused_with_the_units(tmp_path, capsys):
     assert main(["profile", str(path), "--json"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "0.07 mm across" in err[0] and "not m" in err[0], err
+
+
+@pytest.mark.parametrize("rail", ["60E1", "60E2"])
+def test_a_cant_of_one_in_twenty_cuts_the_field_flank_it_turns_vertical(rail):
+    """The heads' flanks lean 1:20 from the vertical (87.14 deg), so a cant of 1/20 turns one of them vertical and
+    the inclined profile was refused as not single-valued, though `--rail-inclination` offers 1/20. The flank is
+    cut where it stands steeper than 89 deg, far below any wheel contact: a cropped profile evaluates as the whole
+    one inside its range, the first contact is where the whole rail puts it, and S1002 solves there."""
+    from filmcal.wheelrail import solve_wheel_rail
+    from filmcal.wheelrail.profiles import get_profile
+
+    whole = get_profile(rail)
+    assert math.degrees(math.atan(float(np.max(np.abs(whole.slope(whole.points(0.1)[0])))))) > 87.0
+    lo, hi = whole.y_range_mm
+    part = whole.cropped(lo + 5.0, hi - 5.0)
+    y = np.linspace(lo + 5.0, hi - 5.0, 301)
+    assert np.array_equal(part.z(y), whole.z(y)) and part.y_range_mm == (lo + 5.0, hi - 5.0)
+    steep = place_wheel_on_rail(rail=rail, offset_mm=-3.0, rail_inclination=0.05)
+    assert steep.rail.y_range_mm != whole.y_range_mm  # cut
+    gentle = place_wheel_on_rail(rail=rail, offset_mm=-3.0, rail_inclination=1 / 40)
+    assert gentle.rail.y_range_mm == whole.y_range_mm  # the default cant keeps the rail whole
+    # the same first contact as on a rail cut by hand well below the head, at a cant both accept
+    cut = whole.cropped(lo + 8.0, hi - 8.0)
+    a = place_wheel_on_rail(rail=whole, offset_mm=-3.0, rail_inclination=1 / 40).contact_points[0]
+    b = place_wheel_on_rail(rail=cut, offset_mm=-3.0, rail_inclination=1 / 40).contact_points[0]
+    # the lift is flat at its top: its position is found to ~1e-5 mm, its height to rounding
+    assert a.y_mm == pytest.approx(b.y_mm, abs=1e-4) and a.separation_mm == pytest.approx(b.separation_mm, abs=1e-9)
+    for eta in (-3.0, 0.0, 2.0):
+        assert solve_wheel_rail(eta, 100e3, rail=rail, rail_inclination=0.05).area_mm2 > 50.0

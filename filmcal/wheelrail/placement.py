@@ -94,7 +94,9 @@ def offset_range_mm(wheel: Profile, rail: Profile, rail_inclination: float = RAI
     (low, high) : tuple of float
         Allowed range of `offset_mm` (mm) for `place_wheel_on_rail`.
     """
-    c, s = _cos_sin(check_range("rail_inclination", rail_inclination, 0.0, 0.2, low_open=False, high_open=False))
+    incl = check_range("rail_inclination", rail_inclination, 0.0, 0.2, low_open=False, high_open=False)
+    c, s = _cos_sin(incl)
+    rail = _single_valued(rail, incl)
     ylo, yhi = rail.y_range_mm
     rail_lo = ylo * c - rail.z(ylo) * s
     rail_hi = yhi * c - rail.z(yhi) * s
@@ -225,13 +227,36 @@ def _rail_own_y(rail: Profile, inclination: float, y: np.ndarray) -> np.ndarray:
     return u
 
 
-def _check_single_valued(rail: Profile, inclination: float) -> None:
-    """The inclined rail must stay a function z(y): no flank may overhang."""
+#: Steepest tangent of the inclined rail kept (deg): a wheel touches the rail up to the flange's contact angle
+#: (about 70 deg on S1002), never a flank below the head. At the default cant of 1/40 the flanks of 60E1 and 60E2
+#: stand at 88.6 deg and are kept whole.
+MAX_RAIL_ANGLE_DEG = 89.0
+
+
+def _single_valued(rail: Profile, inclination: float) -> Profile:
+    """The inclined rail as a function z(y): cut where a flank turns steeper than `MAX_RAIL_ANGLE_DEG`.
+
+    A rail head's flanks lean about 1:20 from the vertical (60E1, 60E2), so that a cant of 1/20 turns the field
+    flank vertical; that part lies below the head, where no wheel reaches. The cut keeps the stretch around the
+    crown's top; a profile with no such steep part is returned as it is.
+    """
     c, s = _cos_sin(inclination)
     u, _ = rail.points(0.1)
-    if np.any(c - np.asarray(rail.slope(u)) * s <= 0):
-        raise ValueError(f"rail_inclination {inclination:g} tilts a flank of rail {rail.name} past "
-                         "the vertical; the inclined profile is not single-valued")
+    slope = np.asarray(rail.slope(u), dtype=float)
+    # the inclined tangent's angle to the track plane: atan(slope) + theta (the rail leans towards the centre)
+    angle = np.degrees(np.abs(np.arctan(slope) + math.atan(inclination)))
+    steep = (angle > MAX_RAIL_ANGLE_DEG) | (c - slope * s <= 0)
+    if not steep.any():
+        return rail
+    top = int(np.argmax(np.asarray(rail.z(u)) * c + u * s))
+    if steep[top]:
+        raise ValueError(f"rail_inclination {inclination:g} tilts the crown of rail {rail.name} past "
+                         f"{MAX_RAIL_ANGLE_DEG:g} deg; the inclined profile is not single-valued")
+    left = np.flatnonzero(steep[:top])
+    right = np.flatnonzero(steep[top:]) + top
+    lo = u[left[-1] + 1] if left.size else u[0]
+    hi = u[right[0] - 1] if right.size else u[-1]
+    return rail.cropped(lo, hi)
 
 
 def _resolve(profile: Profile | str, kind: str) -> Profile:
@@ -281,7 +306,7 @@ def place_wheel_on_rail(wheel: Profile | str = WHEEL, rail: Profile | str = RAIL
     r0 = check_positive("nominal_radius_mm", nominal_radius_mm)
     tol = check_range("tolerance_mm", tolerance_mm, 0.0, math.inf, low_open=False)
     res = check_range("resolution_mm", resolution_mm, 1e-4, 1.0, low_open=False, high_open=False)
-    _check_single_valued(r, incl)
+    r = _single_valued(r, incl)
     if r0 + min(np.asarray(w.z(w.points(0.5)[0]))) <= 0:
         raise ValueError(f"nominal_radius_mm {r0:g} is too small for the depth of wheel profile {w.name}")
     lo_eta, hi_eta = offset_range_mm(w, r, incl)

@@ -312,6 +312,19 @@ class Profile:
         """
         return self._apply(y, "curvature")
 
+    def cropped(self, y_start_mm: float, y_end_mm: float) -> "Profile":
+        """The same profile over [y_start_mm, y_end_mm] only (inside its range): its sections cut there."""
+        from dataclasses import replace
+
+        lo, hi = self.y_range_mm
+        a, b = max(float(y_start_mm), lo), min(float(y_end_mm), hi)
+        if not a < b:
+            raise ValueError(f"cannot crop profile {self.name} to [{y_start_mm:g}, {y_end_mm:g}] mm: it spans "
+                             f"[{lo:g}, {hi:g}] mm")
+        sections = tuple(replace(s, y_start_mm=max(s.y_start_mm, a), y_end_mm=min(s.y_end_mm, b))
+                         for s in self.sections if s.y_end_mm > a and s.y_start_mm < b)
+        return replace(self, sections=sections)
+
     def points(self, step_mm: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
         """Points along the profile spaced about `step_mm` apart in arc length.
 
