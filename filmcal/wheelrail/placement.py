@@ -228,26 +228,28 @@ def _rail_own_y(rail: Profile, inclination: float, y: np.ndarray) -> np.ndarray:
 
 
 #: Steepest tangent of the inclined rail kept (deg): a wheel touches the rail up to the flange's contact angle
-#: (about 70 deg on S1002), never a flank below the head. At the default cant of 1/40 the flanks of 60E1 and 60E2
-#: stand at 88.6 deg and are kept whole.
+#: (about 70 deg on S1002), never a flank below the head. Applied only to a rail that would overhang (60E1 and
+#: 60E2 from a cant of 1/20); at the default 1/40 their flanks stand at 88.6 deg and are kept whole.
 MAX_RAIL_ANGLE_DEG = 89.0
 
 
 def _single_valued(rail: Profile, inclination: float) -> Profile:
-    """The inclined rail as a function z(y): cut where a flank turns steeper than `MAX_RAIL_ANGLE_DEG`.
+    """The inclined rail as a function z(y): where a flank would overhang, cut where it turns steeper than
+    `MAX_RAIL_ANGLE_DEG`.
 
     A rail head's flanks lean about 1:20 from the vertical (60E1, 60E2), so that a cant of 1/20 turns the field
     flank vertical; that part lies below the head, where no wheel reaches. The cut keeps the stretch around the
-    crown's top; a profile with no such steep part is returned as it is.
+    crown's top; a profile that stays single-valued is returned whole.
     """
     c, s = _cos_sin(inclination)
     u, _ = rail.points(0.1)
     slope = np.asarray(rail.slope(u), dtype=float)
     # the inclined tangent's angle to the track plane: atan(slope) + theta (the rail leans towards the centre)
     angle = np.degrees(np.abs(np.arctan(slope) + math.atan(inclination)))
-    steep = (angle > MAX_RAIL_ANGLE_DEG) | (c - slope * s <= 0)
-    if not steep.any():
+    overhang = c - slope * s <= 0
+    if not overhang.any():  # single-valued as it is: kept whole (at the default cant, and wherever it was solved)
         return rail
+    steep = (angle > MAX_RAIL_ANGLE_DEG) | overhang
     top = int(np.argmax(np.asarray(rail.z(u)) * c + u * s))
     if steep[top]:
         raise ValueError(f"rail_inclination {inclination:g} tilts the crown of rail {rail.name} past "
