@@ -407,7 +407,8 @@ def _pixel_size(dpi, mm_per_pixel, info: dict, path: Path) -> tuple[float, str]:
     if dpi is not None or mm_per_pixel is not None:
         h = (MM_PER_INCH / check_positive("dpi", dpi) if dpi is not None
              else check_positive("mm_per_pixel", mm_per_pixel))
-        software_default = round(0.5 * (xd + yd)) in (72, 96)  # written by software, not by a scanner
+        # written by software, not by a scanner (nothing recorded: nothing to compare)
+        software_default = recorded and round(0.5 * (xd + yd)) in (72, 96)
         if recorded and not software_default and abs(h / (MM_PER_INCH / (0.5 * (xd + yd))) - 1.0) > 0.01:
             import warnings
 

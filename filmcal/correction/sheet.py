@@ -6,8 +6,8 @@ A lab tapes several imprints on one page, labels them by hand and scans the page
    yellow tape, the grey scanner lid, pencil, black pen and blue ink read as paper.
 2. *Imprints.* A pixel is a stained dot where its intensity exceeds `DOT_INTENSITY`. The dots' local
    fraction, averaged over a Gaussian of `FIND_SCALE_MM`, marks an imprint where it reaches
-   `FIND_COVERAGE`: connected regions of at least ``min_imprint_mm2`` are the imprints, smaller ones are
-   dust or stray marks. An imprint is its *dense core* inside a *halo* of isolated dots.
+   `FIND_COVERAGE` above the paper's own (a noisy scan dots the paper too: `find_level`): connected regions
+   of at least ``min_imprint_mm2`` are the imprints, smaller ones are dust or stray marks. An imprint is its *dense core* inside a *halo* of isolated dots.
 3. *Core.* A Prescale imprint is a field of developed microcapsules: the core is densely dotted, the halo
    sparsely, and the paper not at all. Within each imprint the stain intensity averaged over a Gaussian of
    `CORE_SCALE_MM` (several dot spacings, well under the core's radius) falls in two classes, core and
@@ -55,6 +55,11 @@ DOT_INTENSITY = 0.02
 #: Scale (Gaussian standard deviation, mm) and dot fraction at which imprints are found on the page.
 FIND_SCALE_MM = 2.0
 FIND_COVERAGE = 0.05
+#: Most of the dot fraction of blank paper taken as the scan's noise (`find_imprints`): a noisy flatbed scan
+#: (grey levels scattered by 2-3 of 255) dots 5-10 % of the paper above `DOT_INTENSITY`.
+MAX_NOISE_COVERAGE = 0.15
+#: Side (mm) of the square over which the paper's own dot fraction is taken (`find_level`): several imprints wide.
+BACKGROUND_MM = 40.0
 #: Scale (Gaussian standard deviation, mm) over which the stain is averaged to tell the core from the halo.
 CORE_SCALE_MM = 0.5
 #: The factors applied to `CORE_SCALE_MM` for the averaging scale's part of the uncertainty.
@@ -161,6 +166,26 @@ def _gaussian(image: np.ndarray, sigma_px: float) -> np.ndarray:
     return ndimage.gaussian_filter(image, sigma_px, mode="nearest", truncate=3.0)
 
 
+def find_level(coverage: np.ndarray, pixel_size_mm: float) -> np.ndarray | float:
+    """The dot fraction at which an imprint begins, pixel by pixel: `FIND_COVERAGE` above the paper's own.
+
+    A scanner's noise dots paper more where it is tinted (tape, the lid's shadow) than where it is white; most of
+    any `BACKGROUND_MM` square of a page is paper, so the median dot fraction over it is the paper's there (0 on a
+    clean scan, which leaves `FIND_COVERAGE`), taken up to `MAX_NOISE_COVERAGE`. Without it, noise that dots 6 % of
+    the paper joined every imprint of a page into one, cut off by its edges.
+    """
+    from scipy import ndimage
+
+    if not np.any(coverage >= FIND_COVERAGE * 0.5):
+        return FIND_COVERAGE
+    step = max(1, int(round(1.0 / pixel_size_mm)))  # about 1 mm cells: the coverage is smooth over FIND_SCALE_MM
+    coarse = coverage[::step, ::step]
+    size = max(3, int(round(BACKGROUND_MM / (step * pixel_size_mm))) | 1)
+    background = ndimage.median_filter(coarse, size=size, mode="nearest")
+    full = np.repeat(np.repeat(background, step, axis=0), step, axis=1)[:coverage.shape[0], :coverage.shape[1]]
+    return FIND_COVERAGE + np.minimum(full, MAX_NOISE_COVERAGE)
+
+
 def find_imprints(intensity: np.ndarray, pixel_size_mm: float, *, min_imprint_mm2: float = 5.0
                   ) -> tuple[np.ndarray, list[tuple[slice, slice]]]:
     """Label the imprints of a page's stain intensity (module notes, step 2).
@@ -177,7 +202,7 @@ def find_imprints(intensity: np.ndarray, pixel_size_mm: float, *, min_imprint_mm
     h = check_positive("pixel_size_mm", pixel_size_mm)
     dots = (np.asarray(intensity) > DOT_INTENSITY).astype(np.float32)
     coverage = _gaussian(dots, FIND_SCALE_MM / h)
-    labels, n = ndimage.label(coverage >= FIND_COVERAGE, structure=np.ones((3, 3), dtype=int))
+    labels, n = ndimage.label(coverage >= find_level(coverage, h), structure=np.ones((3, 3), dtype=int))
     if n == 0:
         return labels, []
     # an imprint must hold a core: stain at least min_imprint_mm2 of dots, not only a smear of dust
