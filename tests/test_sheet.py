@@ -76,6 +76,18 @@ def _layer(rgb: np.ndarray, mask: np.ndarray, optical_density) -> None:
     rgb[mask] *= 10 ** -np.asarray(optical_density, dtype=float)
 
 
+def _dotted_cores(rgb: np.ndarray, x: np.ndarray, y: np.ndarray, cores, rng) -> None:
+    """Stain `rgb` with imprints: a core of radius rc dotted at 70 %, a halo thinning from 8 % to none at 2.8 rc."""
+    rows, cols = rgb.shape[:2]
+    for cx, cy, rc in cores:
+        r = np.hypot(x - cx, y - cy)
+        cells = rng.random((rows, cols))
+        stained = np.where(r <= rc, cells < 0.7, np.where(r <= 2.8 * rc, cells < 0.08 * (1 - (r - rc) / (1.8 * rc)),
+                                                           False))
+        depth = rng.uniform(0.15, 0.45, size=(rows, cols))
+        rgb[stained] *= 10 ** -(depth[stained, None] * np.array(DYE_OPTICAL_DENSITY))
+
+
 def synthetic_sheet(path: Path, dpi: float = 300.0, seed: int = 0, noise: float = 1.5) -> list[tuple[float, float, float]]:
     """A page of three imprints (dotted core of known radius in a halo of sparse dots) among tape, ink and text.
 
@@ -89,13 +101,7 @@ def synthetic_sheet(path: Path, dpi: float = 300.0, seed: int = 0, noise: float 
     _layer(rgb, (x > 170) | (y > 110), 0.05 * np.array(NEUTRAL_OPTICAL_DENSITY) + [0.02, 0.0, 0.0])  # grey-blue lid
     cores = [(40.0, 80.0, 4.0), (110.0, 82.0, 5.0), (60.0, 30.0, 3.5)]
     dot = 0.12  # mm: a developed capsule's dot
-    for cx, cy, rc in cores:
-        r = np.hypot(x - cx, y - cy)
-        cells = rng.random((rows, cols))
-        stained = np.where(r <= rc, cells < 0.7, np.where(r <= 2.8 * rc, cells < 0.08 * (1 - (r - rc) / (1.8 * rc)),
-                                                           False))
-        depth = rng.uniform(0.15, 0.45, size=(rows, cols))
-        rgb[stained] *= 10 ** -(depth[stained, None] * np.array(DYE_OPTICAL_DENSITY))
+    _dotted_cores(rgb, x, y, cores, rng)
     assert h < dot * 1.5
     _layer(rgb, (np.abs(x - 75) < 6) & (y > 60) & (y < 100), 0.25 * np.array(YELLOW_OPTICAL_DENSITY))  # tape
     _layer(rgb, (np.abs(x - 150) < 7) & (y > 15) & (y < 100), 0.3 * np.array(YELLOW_OPTICAL_DENSITY))
@@ -222,13 +228,7 @@ def test_a_noisy_lossless_scan_reads_each_imprint_apart(tmp_path, noise):
     y, x = (rows - 0.5 - np.arange(rows))[:, None] * h, (np.arange(cols) + 0.5)[None, :] * h
     rgb = np.full((rows, cols, 3), 1.0)
     cores = [(30.0, 60.0, 4.0), (90.0, 60.0, 5.0), (60.0, 25.0, 3.5)]
-    for cx, cy, rc in cores:
-        r = np.hypot(x - cx, y - cy)
-        cells = rng.random((rows, cols))
-        stained = np.where(r <= rc, cells < 0.7, np.where(r <= 2.8 * rc, cells < 0.08 * (1 - (r - rc) / (1.8 * rc)),
-                                                           False))
-        depth = rng.uniform(0.15, 0.45, size=(rows, cols))
-        rgb[stained] *= 10 ** -(depth[stained, None] * np.array(DYE_OPTICAL_DENSITY))
+    _dotted_cores(rgb, x, y, cores, rng)
     path = tmp_path / "noisy.png"
     Image.fromarray(np.clip(255 * rgb + rng.normal(0, noise, rgb.shape), 0, 255).astype(np.uint8)).save(
         path, dpi=(dpi, dpi))
