@@ -107,6 +107,12 @@ def test_correctors_from_the_study(quick_study, tmp_path):
     assert abs(np.median(corrected.samples_mm2) / row["area_no_film_mm2"] - 1) < 0.01
     with pytest.raises(InputError, match="no posterior of MS"):
         correctors(s, "MS", "wheel-rail")
+    # the way to make a missing one is the calibration at the study's own sizes: `calibrate`'s defaults (200 + 100
+    # runs) would start a full-size campaign beside the quick study's 40 + 12
+    with pytest.raises(InputError) as missing:
+        correctors(s, "HS", "wheel-rail", kinematics="large")
+    assert ("filmcal calibrate --film HS --study-dir" in str(missing.value) and "--kinematics large --train-runs 40 "
+            "--test-runs 12 --moduli-per-case 0 --max-steps 10000" in str(missing.value))
     # unpinned: every compared model with its stacking weight
     mixture = correctors(s, "HS", "sphere")
     assert len(mixture) == 2 and abs(sum(w for w, _, _ in mixture) - 1) < 1e-9

@@ -234,6 +234,12 @@ def output_column(imprint: str, film: str) -> str:
     return EDGE_COLUMN if imprint == "edge" else f"radius_{imprint}_{film}_mm"
 
 
+#: The `filmcal calibrate` option of each key a posterior is matched by.
+_MATCH_OPTIONS = {"imprint": "--imprint-model", "kinematics": "--kinematics", "poisson": "--poisson",
+                  "loads": "--forces-kn"}
+_MATCH_WORDS = {"imprint": "imprint model", "kinematics": "kinematics", "poisson": "nu", "loads": "forces (kN)"}
+
+
 class Study:
     """A study folder: its manifest, its artefacts and the stages that make them.
 
@@ -1004,6 +1010,26 @@ class Study:
             out = [(p, s) for p, s in out if s.get("loads") is None]  # no load range asked: all loads first
         return _without_superseded(out)
 
+    def calibrate_command(self, film: str, **match: Any) -> str:
+        """The `filmcal calibrate` command that makes the posterior of `film` matching `match` in this study, at
+        the FE design sizes, seed and step cap its pipeline recorded (`calibration_spec`: the same spec)."""
+        import shlex
+
+        recorded = self.manifest.data.get("settings") or {}
+        pipeline = recorded.get("pipeline") or {}
+        words = ["filmcal", "calibrate", "--film", film, "--study-dir", str(self.root)]
+        for key, value in match.items():
+            if value is not None and key in _MATCH_OPTIONS:
+                words += [_MATCH_OPTIONS[key], str(value)]
+        if pipeline:
+            words += ["--train-runs", str(pipeline.get("train_runs", 200)), "--test-runs",
+                      str(pipeline.get("test_runs", 100)), "--moduli-per-case", str(pipeline.get("moduli_per_case", 0))]
+            if pipeline.get("max_steps") is not None:
+                words += ["--max-steps", str(pipeline["max_steps"])]
+        if recorded.get("seed", 0):
+            words += ["--seed", str(recorded["seed"])]
+        return shlex.join(words)
+
     def posterior(self, film: str, **match: Any):
         """The one recorded posterior of `film` matching `match`; a clear error when none or several.
 
@@ -1016,9 +1042,9 @@ class Study:
         self.film(film)
         found = self.posteriors(film, **match)
         if not found:
-            asked = ", ".join(f"{k}={v}" for k, v in match.items() if v is not None) or "any settings"
-            raise InputError(f"study {self.root} has no posterior of {film} with {asked}: run `filmcal calibrate "
-                             f"--film {film} --study-dir {self.root}` (or `filmcal pipeline`) first")
+            asked = ", ".join(f"{_MATCH_WORDS.get(k, k)} {v}" for k, v in match.items() if v is not None)
+            raise InputError(f"study {self.root} has no posterior of {film}" + (f" with {asked}" if asked else "")
+                             + f": make it with `{self.calibrate_command(film, **match)}` first")
         if len(found) > 1:
             keys = sorted({k for _, s in found for k in _spec_fields(s)
                            if len({json_key(_spec_fields(t).get(k)) for _, t in found}) > 1})
