@@ -72,8 +72,8 @@ def studies(quick_study, tmp_path_factory):
     """Copies of the quick study: intact, one posterior's number changed, one posterior a link out of the study."""
     study, _, _ = quick_study
     root = tmp_path_factory.mktemp("trust")
-    intact, tampered, linked = root / "intact", root / "tampered", root / "linked"
-    for folder in (intact, tampered, linked):
+    intact, tampered, linked, missing = root / "intact", root / "tampered", root / "linked", root / "missing"
+    for folder in (intact, tampered, linked, missing):
         shutil.copytree(study, folder)
     # the posteriors the study recorded (other tests may have kept correction caches beside them)
     posteriors = sorted(rel for rel, e in json.loads((study / "study.json").read_text())["artefacts"].items()
@@ -82,6 +82,8 @@ def studies(quick_study, tmp_path_factory):
         data = json.loads(path.read_text())
         data["modulus_mpa"]["median"] = 10 * data["modulus_mpa"]["median"]
         path.write_text(json.dumps(data))
+    for path in (missing / rel for rel in posteriors):
+        path.unlink()
     outside = root / "elsewhere"
     outside.mkdir()
     for path in (linked / rel for rel in posteriors):
@@ -102,6 +104,18 @@ def test_a_tampered_or_linked_study_is_refused(studies, tmp_path, command, state
     assert p.stdout == ""
     assert _snapshot(studies) == before  # the study and its neighbours unchanged
     assert list(tmp_path.iterdir()) == []  # no report, no partial file
+
+
+@pytest.mark.parametrize("command", ["correct", "curves"])
+def test_a_changed_or_missing_posterior_says_which_command_makes_it_again(studies, tmp_path, command):
+    """`correct` and `curves` only read a study: 'delete it and run again' sent a user round in a circle (the
+    deleted posterior then read 'No such file or directory; check the name'). Both now name the command that
+    computes it again."""
+    for state, says in (("tampered", "was changed after the study wrote it"),
+                        ("missing", "is recorded in the study but missing")):
+        p = _run(_commands(studies / state, tmp_path)[command], cwd=tmp_path)
+        assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr[-2000:]
+        assert says in p.stderr and f"filmcal pipeline --study-dir {studies / state}" in p.stderr, p.stderr
 
 
 @pytest.mark.parametrize("command", ["correct", "curves", "report"])

@@ -1264,6 +1264,11 @@ def chosen_posteriors(study: Study, film: str, *, model: str | None = None,
     found = sorted(study.posteriors(film, model=model, **match), key=lambda ps: (ps[1]["model"], ps[0].name))
     if not found:
         study.posterior(film, model=model, **match)  # raises the message that says what to run
+    for path, _ in found:
+        if not path.is_file():  # recorded, then deleted: only the command that made it makes it again
+            from filmcal.study.manifest import remake_hint
+
+            raise InputError(f"{path} is recorded in the study but missing; {remake_hint(study.root, 'posterior')}")
     if len(found) == 1:
         return [(1.0, found[0][0], found[0][1])]
     weights = comparison_weights(study, film) if model is None else {}

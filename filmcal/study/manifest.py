@@ -20,7 +20,7 @@ from filmcal._errors import DamagedFileError, InputError, UntrustedArtefactError
 from filmcal._io import atomic_write_text, read_json, sha256_file
 from filmcal._versions import software_versions
 
-__all__ = ["Manifest", "StudyLock", "FORMAT", "utc_now"]
+__all__ = ["Manifest", "StudyLock", "FORMAT", "utc_now", "remake_hint"]
 
 FORMAT = "filmcal-study/1"
 
@@ -125,18 +125,21 @@ class Manifest:
             kind or spec than expected.
         """
         entry = self.entry(relpath)
+        again = remake_hint(self.path.parent, None if entry is None else entry.get("kind"))
         if entry is None:
             raise UntrustedArtefactError(f"{file}: not recorded in the study's manifest {self.path.name}; "
-                                         "delete it and run again to recompute it")
+                                         f"delete it and {again}")
         if kind is not None and entry.get("kind") != kind:
             raise UntrustedArtefactError(f"{file} is recorded as a {entry.get('kind')!r}, not the {kind!r} "
-                                         "read here; delete it and run again to recompute it")
+                                         f"read here; delete it and {again}")
         if spec is not None and entry.get("spec") != spec:
             raise UntrustedArtefactError(f"{file} was made with other settings than its manifest entry says "
-                                         "are read here; delete it and run again to recompute it")
+                                         f"are read here; delete it and {again}")
+        if not Path(file).is_file():
+            raise UntrustedArtefactError(f"{file} is recorded in the study but missing; {again}")
         if sha256_file(file) != entry["sha256"]:
             raise UntrustedArtefactError(f"{file} was changed after the study wrote it (SHA-256 differs from the "
-                                         "manifest); delete it and run again to recompute it")
+                                         f"manifest); delete it and {again}")
         return entry
 
     def artefacts(self, kind: str) -> dict[str, dict]:
@@ -179,3 +182,15 @@ class StudyLock:
     @property
     def held(self) -> bool:
         return self._fh is not None
+
+
+def remake_hint(root: Path, kind: str | None) -> str:
+    """How to make a study's artefact of `kind` again (`correct`, `curves` and `report` only read a study)."""
+    where = f"--study-dir {root}"
+    if kind == "report":
+        return f"run `filmcal report {where}` to write it again"
+    if kind in ("curves", "curves-part", "curves-growth", "rough-law"):
+        return f"run `filmcal pipeline {where}` (or the `filmcal curves` that made it) to compute it again"
+    if kind in ("posterior", "radius-surrogate", "chain", "comparison"):
+        return f"run `filmcal pipeline {where}` (or the `filmcal calibrate` that made it) to compute it again"
+    return f"run `filmcal pipeline {where}` to compute it again"
