@@ -231,3 +231,21 @@ def test_a_named_film_reports_its_transfer_term(capsys):
     code, out, err = _run(capsys, "--offset-mm=-3", "--force-kn", "100", "--film", "HS", "--film-modulus-mpa", "2800")
     assert code == 0, err
     assert "as calibrated" in out and "transfer term" in out
+
+
+def test_the_wheelrail_command_warns_beyond_the_elastic_limit_as_fem_and_correct_do():
+    """At 2000 kN S1002/60E2 peaks at about 3000 MPa without film and `filmcal wheelrail` said nothing, where
+    `fem`, `correct` and `curves` warn above 1250 MPa; at 100 kN, eta -3 mm (about 1100 MPa) it still says
+    nothing."""
+
+    import subprocess
+    import sys
+
+    base = [sys.executable, "-m", "filmcal.cli", "wheelrail", "--offset-mm=-3", "--no-film", "--json", "--force-kn"]
+    hot = subprocess.run(base + ["2000"], capture_output=True, text=True, timeout=300)
+    cool = subprocess.run(base + ["100"], capture_output=True, text=True, timeout=300)
+    assert hot.returncode == 0 and cool.returncode == 0, hot.stderr + cool.stderr
+    hot_out, cool_out = json.loads(hot.stdout), json.loads(cool.stdout)
+    assert hot_out["max_pressure_mpa"] > 2500 and "elastic limit" in hot_out["warnings"][0]
+    assert "ElasticLimitWarning" in hot.stderr
+    assert cool_out["max_pressure_mpa"] < 1250 and "warnings" not in cool_out and "Warning" not in cool.stderr

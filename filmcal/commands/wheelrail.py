@@ -88,6 +88,13 @@ def run(args: argparse.Namespace) -> int:
                                      rail=args.rail, rail_inclination=inclination,
                                      nominal_radius_mm=args.nominal_radius_mm, grid_mm=args.grid_mm,
                                      plot_path=args.plot)
+    if out.get("warnings"):
+        import warnings
+
+        from filmcal.study.correct import ElasticLimitWarning
+
+        for text in out["warnings"]:
+            warnings.warn(ElasticLimitWarning(text), stacklevel=1)
     if args.json:
         print_json(out)
         return 0 if result.converged else 1

@@ -263,6 +263,12 @@ def solve_film_contact(offset_mm: float, force_n: float, case: FilmContactCase,
             out["activation_pressure_mpa"] = film_type.activation_pressure_mpa
         if hasattr(law, "expected_stain"):
             out["stained_area_mm2"] = model.stained_area_mm2(result, law)
+    from filmcal.hertz import ELASTIC_LIMIT_MPA
+
+    if result.max_pressure_mpa > ELASTIC_LIMIT_MPA:  # as `filmcal fem` and `filmcal correct` say it
+        out["warnings"] = [f"the peak pressure {result.max_pressure_mpa:.0f} MPa exceeds the steel's elastic limit "
+                           f"({ELASTIC_LIMIT_MPA:.0f} MPa): the bodies would yield, and the elastic model does not "
+                           "hold"]
     return result, out
 
 
