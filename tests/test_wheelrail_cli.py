@@ -237,7 +237,6 @@ def test_the_wheelrail_command_warns_beyond_the_elastic_limit_as_fem_and_correct
     """At 2000 kN S1002/60E2 peaks at about 3000 MPa without film and `filmcal wheelrail` said nothing, where
     `fem`, `correct` and `curves` warn above 1250 MPa; at 100 kN, eta -3 mm (about 1100 MPa) it still says
     nothing."""
-
     import subprocess
     import sys
 
