@@ -30,7 +30,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
           help="the whole path at its smallest size (20+5 FE runs, one offset, short chains, no cross-validation; "
                "./filmcal-study-smoke): checks that an installation runs the job; its numbers are not a "
                "calibration")
-    add(p, "films", extra="(default MS,HS,HHS, or the films of --data)")
+    add(p, "films", extra="(default MS,HS,HHS, or the films of --data); added to the films an existing study "
+                          "already holds, which its summary and report keep")
     local(p, "--data", metavar="CSV", help="your own sphere-on-flat dataset (the format of `filmcal calibrate "
                                            "--data`); default the paper's Table 1. --films then defaults to the "
                                            "dataset's films")

@@ -227,8 +227,12 @@ def _run_stages(study: Study, settings: PipelineSettings, films, seed: int, pool
         settings = _kept_design(study, settings)
         study.set_settings({"pipeline": settings.record(), "seed": seed})
         known = list(study.manifest.data.get("pipeline_films", []))
+        kept = [f for f in known if f not in films]
         films = known + [f for f in films if f not in known]
         study.manifest.data["pipeline_films"] = films
+        if kept:  # a study answers for every film it holds: its report and summary cover them all
+            progress.log(f"the study also holds {', '.join(kept)} from earlier runs: kept in its summary and report "
+                         "(read, not computed again); a study of other films alone needs another --study-dir")
         t0 = time.perf_counter()
         summary: dict = {"study_dir": str(study.root), "films": {}, "stages_s": {}}
 
