@@ -16,7 +16,7 @@ from filmcal.surrogate.radius import MAX_MODULI_PER_CASE, MODULI_PER_CASE
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "calibrate", help="calibrate the film modulus E of MS, HS or HHS against Table 1 (emcee)",
+        "calibrate", help="calibrate a film type's modulus E (MS, HS, HHS or a lab's own) against Table 1 or a lab's data (emcee)",
         description="Bayesian calibration of the film's Young's modulus against the paper's Table 1 "
                     "(measured radius = Hertz radius + tabulated error): measured radius = FE radius(E, nu, R, F) "
                     "+ noise, with the noise level sigma inferred and the surrogate's uncertainty in the "

@@ -16,7 +16,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "correct", help="correct a contact area measured with film (wheel-rail or sphere-on-flat imprint)",
         description="Remove the film's enlargement from a measured imprint, using the film type's calibrated "
                     "posterior from the study folder (never recalibrated: when the study compared imprint models, "
-                    "their stacking-weighted mixture, unless --imprint-model / --kinematics pin one). Wheel-rail form: --measured-area-mm2 --offset-mm --force-kn (S1002 on 60E2 by "
+                    "their mixture by pseudo-BMA+ weights, unless --imprint-model / --kinematics pin one). Wheel-rail form: --measured-area-mm2 --offset-mm --force-kn (S1002 on 60E2 by "
                     "default). Sphere-on-flat form: --measured-radius-mm --sphere-radius-mm --force-kn. Instead of "
                     "the measured area or radius, --scan reads a scanned imprint (PNG, TIFF or JPEG; red stain on "
                     "white, thresholded by Otsu's method): its stained area (sphere-on-flat: the radius of the "

@@ -31,7 +31,7 @@ def add_parser(subparsers) -> None:
           help="address to listen on (default 127.0.0.1: this machine only; the protocol has no "
                "authentication, so another address lets anyone who reaches it use the server)")
     local(p, "--port", type=int, default=4242, help="port (default 4242, UM-Bridge's; 0 picks a free one)")
-    add(p, "workers", default=2, extra="(threads running corrections; default 2)")
+    add(p, "workers", default=2, help="threads running corrections at once (default 2)")
     local(p, "--request-timeout-s", type=float, default=120.0,
           help="longest wait for one answer in s (default 120): a wheel-rail correction at a new offset or load "
                "solves first; past it the request gets an error and the solve goes on")
