@@ -229,7 +229,8 @@ def preflight(args: argparse.Namespace, actions: dict[str, argparse.Action]) -> 
     writable; plots must end in .png, .pdf or .svg; output folders must not be
     files; read-only inputs (a profile option's only when it names a file)
     must be existing regular files no larger than their cap
-    (`INPUT_FILE_CAPS_MIB`, else `filmcal._io.INPUT_FILE_MAX_MIB`).
+    (`INPUT_FILE_CAPS_MIB`, else `filmcal._io.INPUT_FILE_MAX_MIB`); no two
+    of them may name one file.
 
     Raises
     ------
@@ -237,7 +238,8 @@ def preflight(args: argparse.Namespace, actions: dict[str, argparse.Action]) -> 
         Naming the option.
     """
     from filmcal._errors import InputError
-    from filmcal._io import INPUT_FILE_MAX_MIB, check_input_file, check_output_dir, check_output_file
+    from filmcal._io import (INPUT_FILE_MAX_MIB, check_distinct_files, check_input_file, check_output_dir,
+                             check_output_file)
 
     options = _option_strings(actions)
 
@@ -274,6 +276,10 @@ def preflight(args: argparse.Namespace, actions: dict[str, argparse.Action]) -> 
     for dest in INPUT_FILE_DESTS:
         for value in path_values(dest):
             check_input_file(value, opt(dest), INPUT_FILE_CAPS_MIB.get(dest, INPUT_FILE_MAX_MIB))
+    # one file for two options: an output written over another, or over an input (each command adds the files
+    # it derives, such as a provenance beside its table)
+    check_distinct_files(*[(value, opt(dest)) for dest in (*INPUT_FILE_DESTS, *OUTPUT_FILE_DESTS)
+                           for value in path_values(dest)])
     for dest in PROFILE_DESTS:
         value = path_value(dest)
         if value is not None and _names_a_profile_file(value):
