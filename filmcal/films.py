@@ -212,6 +212,9 @@ def load_films_file(path: str | Path) -> dict[str, FilmType]:
     for name, table in data.items():
         if not isinstance(table, dict):
             raise ValueError(f"films file {path}: {name!r} must be a table ([{name}])")
+        if table and all(isinstance(v, dict) for v in table.values()):  # [films.LOT7]: a level too deep
+            raise ValueError(f"films file {path}: [{name}] holds tables ({', '.join(table)}); each film is a table "
+                             f"of its own at the top: [{next(iter(table))}], not [{name}.{next(iter(table))}]")
         try:
             films[name] = FilmType.from_dict(name, table)
         except (TypeError, ValueError) as exc:

@@ -91,6 +91,8 @@ def make_folder(tmp_path: Path, bomb_png: bytes) -> Path:
     (tmp_path / "decreasing.csv").write_text("closure_um,pressure_mpa\n0,0\n2,10\n1,20\n")
     (tmp_path / "films.toml").write_text('[LOT7]\nthickness_mm = "thick"\n')
     (tmp_path / "notoml.toml").write_bytes(b"[[[\x00")
+    (tmp_path / "nested.toml").write_text("[films.XX]\nrange_mpa = [50, 130]\n")
+    (tmp_path / "badact.toml").write_text("[XX]\nactivation_pressure_mpa = -5\n")
     (tmp_path / "garbled.sqlite").write_bytes(os.urandom(4096))
     (tmp_path / "empty.sqlite").write_bytes(b"")
     with sqlite3.connect(tmp_path / "other.sqlite") as conn:  # a database, not a campaign store
@@ -220,6 +222,11 @@ CASES = [
      ["--forces-kn", "at least 2"]),
     (["calibrate", "--film", "LOT7", "--films-file", "films.toml", "--study-dir", "emptystudy"], ["films.toml"]),
     (["calibrate", "--film", "LOT7", "--films-file", "notoml.toml", "--study-dir", "emptystudy"], ["notoml.toml"]),
+    # a film one table too deep was 'film films: unknown key(s) XX'
+    (["calibrate", "--film", "XX", "--films-file", "nested.toml", "--study-dir", "emptystudy"], ["not [films.XX]"]),
+    # a bad value in the file was told as if of --activation-pressure-mpa, an option not given
+    (["fem", "--sphere-radius-mm", "300", "--force-kn", "60", "--film-modulus-mpa", "2800", "--film", "XX",
+      "--films-file", "badact.toml"], ["error: films file"]),
     (["calibrate", "--film", "HS", "--data", "binary.csv", "--study-dir", "emptystudy"], ["binary.csv"]),
     (["calibrate", "--film", "HS", "--data", "wrongcols.csv", "--study-dir", "emptystudy"], ["wrongcols.csv"]),
     (["calibrate", "--film", "HS", "--study-dir", "badstudy"], ["badstudy/study.json"]),
