@@ -92,8 +92,13 @@ def test_command_uses_the_study_posterior_and_refuses_nonsense(quick_study, tmp_
 
     assert prov["transfer_fit"]["sha256"] == {model: load_transfer_fit().digest(model) for model in out["models"]}
     assert any("roughness" in what for what in out["not_included"])  # the band does not hold it: said so
+    # the measured area came without its own uncertainty: the band holds none of it, and says so
+    assert any("measured area's own uncertainty" in what for what in out["not_included"])
     text = subprocess.run(base[:-1] + ["--film", "HS", "--study-dir", str(study)], capture_output=True, text=True)
     assert text.returncode == 0 and "not included: the bodies' roughness" in text.stdout
+    given = subprocess.run(base + ["--film", "HS", "--study-dir", str(study), "--measured-area-std-mm2", "3"],
+                           capture_output=True, text=True)
+    assert not any("own uncertainty" in what for what in json.loads(given.stdout)["not_included"])
     cases = {"a negative area": ["--film", "HS", "--study-dir", str(study), "--measured-area-mm2", "-1"],
              "a stray space": ["--film", " HS", "--study-dir", str(study)],
              "an absurd area": ["--film", "HS", "--study-dir", str(study), "--measured-area-mm2", "1e9"],

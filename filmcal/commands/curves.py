@@ -123,7 +123,7 @@ def run(args: argparse.Namespace) -> int:
     offsets = parse_grid("offsets_mm", args.offsets_mm, 200)
     lo, hi = FORCE_KN_BOUNDS
     if any(not (lo <= f <= hi) for f in forces):
-        raise ValueError(f"--forces-kn must lie in [{lo:g}, {hi:g}] kN (a larger load is a unit error), "
+        raise ValueError(f"--forces-kn must lie in [{lo:g}, {hi:g}] kN (a load outside is a unit error), "
                          f"got {args.forces_kn!r}")
     lo, hi = OFFSET_MM_BOUNDS  # as correct and serve take them; an offset the profiles do not allow names its cell
     if any(not (lo <= e <= hi) for e in offsets):

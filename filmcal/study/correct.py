@@ -183,6 +183,13 @@ ROUGHNESS_NOT_INCLUDED = ("the bodies' roughness: wheel and rail are taken as sm
                           "--rail-roughness-ra-um)")
 
 
+#: What an answer from a measured value given without its uncertainty does not carry (a scan reads its own).
+AREA_READING_NOT_INCLUDED = ("the measured area's own uncertainty: it is taken as exact; reading an imprint's "
+                             "outline costs a few percent of its area (give --measured-area-std-mm2, or --scan)")
+SPHERE_READING_NOT_INCLUDED = ("the measured radius's own uncertainty: it is taken as exact (give "
+                               "--measurement-std-mm, or --scan)")
+
+
 #: What an answer with an exact offset does not carry.
 OFFSET_NOT_INCLUDED = ("the offset's uncertainty: eta is taken as exact; a ruler or gauge reads it to about 0.5-1 mm "
                        "(give --offset-std-mm)")
@@ -356,6 +363,8 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
         out["not_included"] = [ROUGHNESS_NOT_INCLUDED]
     if not sphere and not m.offset_std_mm:
         out.setdefault("not_included", []).append(OFFSET_NOT_INCLUDED)
+    if reading is None and not (m.measurement_std_mm if sphere else m.measured_area_std_mm2):
+        out.setdefault("not_included", []).append(SPHERE_READING_NOT_INCLUDED if sphere else AREA_READING_NOT_INCLUDED)
     if reading is not None:
         out.update(_scanned(reading, scan, result, None if sphere else (parts, m.offset_mm, force_n)))
     if not sphere:  # the answer stands: the study keeps its solves (a refused input keeps nothing)
