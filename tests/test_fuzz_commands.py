@@ -334,6 +334,8 @@ CASES = [
     (["correct", "--film", "HS", *WHEEL, "--roughness-draws", "2", "--study-dir", "badstudy"], ["--roughness-draws"]),
     (["curves", "--film", "HS", "--csv", "same.png", "--plot", "same.png", "--study-dir", "emptystudy"],
      ["is the file of --csv"]),
+    # an option the command ignored: a standard profile's kind
+    (["profile", "60E1", "--kind", "wheel"], ["rail profile"]),
     # every command's output options, not only those that checked them: the CSV was written over by the plot
     (["fem", "--sphere-radius-mm", "300", "--force-kn", "60", "--no-film", "--plot", "same.png", "--pressure-csv",
       "same.png"], ["is the file of --plot"]),

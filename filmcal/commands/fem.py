@@ -39,7 +39,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
           help="element size in the contact zone in mm (default: the paper's contact-zone elements, "
                "filmcal.fem.MeshSettings)")
     imprint = p.add_mutually_exclusive_group()
-    add(imprint, "film", extra="; also report its imprint (imprint_radius_mm, imprint_area_mm2)")
+    add(imprint, "film", extra="; also report its imprint (imprint_radius_mm, imprint_area_mm2); with --no-film, "
+                               "the imprint of a film too thin to matter (where the contact without film exceeds "
+                               "its activation pressure)")
     local(imprint, "--activation-pressure-mpa", type=float, metavar="P",
           help="also report the imprint of a film that colours above P MPa")
     add(p, "imprint_model", default=DEFAULT_IMPRINT_MODEL, extra=f"(default {DEFAULT_IMPRINT_MODEL})")

@@ -34,7 +34,7 @@ def add_parser(subparsers) -> None:
                                      "with columns y_mm,z_mm")
     local(parser, "--step-mm", type=float, default=0.5,
                         help="spacing of the points along the profile in mm (default 0.5)")
-    local(parser, "--kind", choices=PROFILE_KINDS, default="rail",
+    local(parser, "--kind", choices=PROFILE_KINDS, default=None,
                         help="for a CSV file: whether it is a wheel or a rail profile (default rail)")
     fmt = parser.add_mutually_exclusive_group()
     local(fmt, "--csv", action="store_true",
@@ -48,10 +48,13 @@ def add_parser(subparsers) -> None:
     parser.set_defaults(func=run)
 
 
-def _load(name: str, kind: str) -> Profile:
+def _load(name: str, kind: str | None) -> Profile:
     if name.lower().endswith(".csv"):
-        return load_profile_csv(name, kind=kind)
-    return get_profile(name)
+        return load_profile_csv(name, kind=kind or "rail")
+    profile = get_profile(name)
+    if kind is not None and kind != profile.kind:
+        raise ValueError(f"--kind {kind}: {profile.name} is a {profile.kind} profile (--kind applies to a CSV file)")
+    return profile
 
 
 def write_points_csv(y_mm: np.ndarray, z_mm: np.ndarray, stream: TextIO) -> None:
