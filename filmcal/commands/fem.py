@@ -136,6 +136,10 @@ def run(args: argparse.Namespace) -> int:
         state = "converged" if res.converged else f"NOT converged: {res.reason}"
         print(f"R = {res.sphere_radius_mm:g} mm, F = {res.force_n / 1e3:g} kN, "
               + ("no film" if film is None else f"film E = {film.modulus_mpa:g} MPa, nu = {film.poisson:g}"))
+        if not res.converged:  # its numbers are no solution (FEResult): not printed as one
+            print(f"{state} in {res.iterations} iterations, {res.elapsed_s:.3f} s; no contact radius, area or "
+                  "pressure to report")
+            return 1
         print(f"contact radius  {res.contact_radius_mm:.4f} mm   (Hertz {res.hertz_radius_mm:.4f} mm, "
               f"difference {res.radius_error_mm:+.4f} mm)")
         print(f"contact area    {res.contact_area_mm2:.2f} mm2")

@@ -129,7 +129,10 @@ class FEResult:
         from filmcal.hertz import ELASTIC_LIMIT_MPA
 
         out = []
-        if self.kinematics == "small" and self.film_strain_max > SMALL_STRAIN_LIMIT:
+        if self.kinematics == "small" and self.film_strain_max >= 1.0:  # more than its thickness: no film left
+            out.append(f"the small-strain film collapses (compressed by more than its thickness), far beyond the "
+                       f"{100 * SMALL_STRAIN_LIMIT:g} % it models: solve it with --kinematics large")
+        elif self.kinematics == "small" and self.film_strain_max > SMALL_STRAIN_LIMIT:
             out.append(f"the film is compressed by {100 * self.film_strain_max:.1f} %, beyond the small-strain film's "
                        f"{100 * SMALL_STRAIN_LIMIT:g} %: solve it with --kinematics large")
         if self.peak_pressure_mpa > ELASTIC_LIMIT_MPA:
