@@ -118,7 +118,7 @@ def _pressure_profile_png(folder):
     from filmcal.report.figures import plot_pressure_profile
 
     r = np.linspace(0.0, 2.0, 9)
-    result = SimpleNamespace(r_mm=r, pressure_mpa=np.maximum(1.0 - r**2, 0.0), sphere_radius_mm=50.0,
+    result = SimpleNamespace(r_mm=r, pressure_profile_mpa=np.maximum(1.0 - r**2, 0.0), sphere_radius_mm=50.0,
                              force_n=1e3, film_modulus_mpa=None, film_poisson=0.3, contact_radius_mm=1.0,
                              hertz_radius_mm=1.1)
     plot_pressure_profile(result, str(folder / "pressure.png"))
