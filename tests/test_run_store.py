@@ -154,3 +154,13 @@ def test_two_studies_at_once_on_one_store_compute_each_run_once(two_labs):
     assert "waiting for the shared run store" in err_second
     runs = _runs(two_labs)
     assert len(runs) == 32 and {r[1] for r in runs} == {"ok"} and {r[2] for r in runs} == {1}
+
+
+def test_calibrate_shows_its_fe_runs_as_they_finish(two_labs, capsys):
+    """`calibrate` printed nothing until it was done (minutes on a new dataset); its FE runs now advance a
+    progress display like the pipeline's (`--progress log`: plain lines)."""
+    status = cli.main(["calibrate", "--data", str(two_labs / "a.csv"), "--study-dir", str(two_labs / "shown"),
+                       "--run-store", str(two_labs / "store"), *SMALL, "--progress", "log"])
+    err = capsys.readouterr().err
+    assert status == 0, err
+    assert "[calibrate] HS edge/small: the FE runs" in err and "32/32 done" in err and "(FE runs)" in err

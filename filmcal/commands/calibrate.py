@@ -63,6 +63,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
           help=f"cap on MCMC steps per walker (default: until converged) [allowed {MIN_MCMC_STEPS} to {10**7}]")
     local(p, "--plots", metavar="DIR", help="write trace, corner, per-case (Fig. 3) and predictive plots")
     add(p, "json", action="store_true")
+    add(p, "progress", default="auto")
     renamed(p, "--imprint", "--imprint-model", type=lambda t: MIXTURE if t == "stacked" else t)
     renamed(p, "--loads", "--forces-kn", type=force_range)
     renamed(p, "--large-strain", "--kinematics large", "kinematics", flag_value="large")
@@ -112,12 +113,16 @@ def run(args: argparse.Namespace) -> int:
         imprints = list(imprint_models_for(film)) if mixture else [args.imprint_model]
         # enough data? refused before anything is written
         study.dataset_rows(film.name, args.forces_kn, args.data, compared=mixture and len(imprints) > 1)
-        with study.writing("filmcal calibrate"):
+        from filmcal._progress import Progress
+
+        with study.writing("filmcal calibrate"), Progress(args.progress).stage("calibrate") as stage:
             calibrated = {}
             for imprint in imprints:
                 one = replace(spec, imprint=imprint)
+                stage.log(f"[calibrate] {film.name} {one.model_label}: the FE runs (kept ones are read), the surrogate, "
+                          "then the sampler")
                 calibrated[one.model_label] = study.calibrate(one, dataset=args.data, workers=workers,
-                                                              progress=False)
+                                                              progress=_fe_runs(stage))
             if mixture and len(calibrated) > 1:
                 comparison, _ = study.compare(film.name, calibrated, workers=workers, max_steps=spec.max_steps,
                                               seed=args.seed)
@@ -181,6 +186,21 @@ def run(args: argparse.Namespace) -> int:
               f"predictive interval, ELPD-LOO {out['elpd_loo']:.1f} +/- {out['elpd_loo_se']:.1f}")
         print(f"posterior saved to {path}")
     return 0
+
+
+def _fe_runs(stage):
+    """``progress(done, total, what)`` of one calibration's FE runs (`Study.calibrate`), shown on `stage`."""
+    last = 0
+
+    def show(done: int, total: int, what: str = "FE run") -> None:
+        nonlocal last
+        if done < last:  # another model's campaign
+            last = 0
+        stage.set_total(total)
+        stage.advance(done - last, note=f"{what}s")
+        last = done
+
+    return show
 
 
 def _plots(result, folder: Path, tag: str) -> None:

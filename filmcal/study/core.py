@@ -705,7 +705,7 @@ class Study:
         workers : int or filmcal._parallel.Executor, optional
             Worker processes (default: all cores), or the pool to run in (`filmcal._parallel.SharedPool`).
         progress : callable, optional
-            ``progress(done, total)`` of the FE runs.
+            ``progress(done, total, what)`` of the FE runs.
         on_done : callable, optional
             ``on_done(spec, result)`` as each new posterior is recorded.
 
