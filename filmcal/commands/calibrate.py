@@ -119,8 +119,7 @@ def run(args: argparse.Namespace) -> int:
             calibrated = {}
             for imprint in imprints:
                 one = replace(spec, imprint=imprint)
-                stage.log(f"[calibrate] {film.name} {one.model_label}: the FE runs (kept ones are read), the surrogate, "
-                          "then the sampler")
+                # nothing shown before the FE runs start: a refusal before any work stays one line
                 calibrated[one.model_label] = study.calibrate(one, dataset=args.data, workers=workers,
                                                               progress=_fe_runs(stage))
             if mixture and len(calibrated) > 1:
