@@ -7,7 +7,8 @@ A lab tapes several imprints on one page, labels them by hand and scans the page
 2. *Imprints.* A pixel is a stained dot where its intensity exceeds `DOT_INTENSITY`. The dots' local
    fraction, averaged over a Gaussian of `FIND_SCALE_MM`, marks an imprint where it reaches
    `FIND_COVERAGE` above the paper's own (a noisy scan dots the paper too: `find_level`): connected regions
-   of at least ``min_imprint_mm2`` are the imprints, smaller ones are dust or stray marks. An imprint is its *dense core* inside a *halo* of isolated dots.
+   of at least ``min_imprint_mm2`` are the imprints, smaller ones are dust or stray marks. An imprint is its
+   *dense core* inside a *halo* of isolated dots.
 3. *Core.* A Prescale imprint is a field of developed microcapsules: the core is densely dotted, the halo
    sparsely, and the paper not at all. Within each imprint the stain intensity averaged over a Gaussian of
    `CORE_SCALE_MM` (several dot spacings, well under the core's radius) falls in two classes, core and
