@@ -154,6 +154,8 @@ ACCEPTANCE_TESTS: dict[str, str] = {
     "test_pipeline_dask.py::": "about 2 min: two quick pipelines (one on a local Dask cluster), a killed smoke one",
     "test_dask_commands.py::test_calibrate_and_curves_on_a_local_dask_cluster_give_the_results_of_a_local_run":
         "45 s: two smoke-size calibrations and curves, one of each on a local Dask cluster",
+    "test_correction_wheelrail.py::test_a_rough_correction_keeps_each_law_as_it_solves_it_and_reads_the_pipelines":
+        "15-25 s: four BEM roughness laws, solved across an interrupt",
     "test_correction_wheelrail.py::test_command_with_a_rough_wheel_widens_the_band_and_reports_the_roughness_share":
         "117 s: BEM roughness laws over the conditioned draws (the roughness share of a wheel-rail band)",
     "test_fem_imprint.py::test_film_edge_matches_the_finest_mesh":

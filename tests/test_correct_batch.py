@@ -134,3 +134,47 @@ def test_the_old_std_option_sets_the_new_one_with_one_note():
     assert out.returncode == 2
     assert "--measurement-std-mm2 is renamed --measured-area-std-mm2" in lines[0]
     assert "measured_area_std_mm2" in lines[-1] or "measured-area-std-mm2" in lines[-1], lines
+
+
+def test_an_interrupted_batch_writes_the_rows_it_corrected_and_marks_the_others(quick_study, tmp_path, monkeypatch,
+                                                                               capsys):
+    """Ctrl-C in the third of four distinct rows wrote nothing: an hour of rough rows was lost with the table.
+    Now --out holds the rows corrected (as an uninterrupted batch gives them), the others with empty numbers
+    and their status saying why, the provenance says how many were not reached, and the exit is 130."""
+    import shutil
+
+    import filmcal.study.correct as correct_module
+    from filmcal.cli import main
+
+    study = tmp_path / "study"
+    shutil.copytree(quick_study[0], study)
+    src, out, whole = tmp_path / "day.csv", tmp_path / "out.csv", tmp_path / "whole.csv"
+    src.write_text("film,force_kn,measured_area_mm2,offset_mm\nHS,100,150,-3\nHS,100,140,-3\nHS,100,150,0\n"
+                   "HS,100,130,-3\n")
+    args = ["correct", "--study-dir", str(study), "--batch", str(src), "--progress", "quiet"]
+    assert main(args + ["--out", str(whole)]) == 0
+    real, calls = correct_module.correct_measurement, []
+
+    def interrupted_at_the_third(*a, **k):
+        calls.append(1)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real(*a, **k)
+
+    monkeypatch.setattr(correct_module, "correct_measurement", interrupted_at_the_third)
+    capsys.readouterr()
+    assert main(args + ["--out", str(out)]) == 130
+    err = capsys.readouterr().err
+    assert "interrupted after 2 of 4 rows" in err and "run the same command again" in err
+    with open(out, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    with open(whole, newline="") as fh:
+        expected = list(csv.DictReader(fh))
+    assert rows[:2] == expected[:2] and [r["status"] for r in rows] == ["ok", "ok"] + 2 * ["not corrected: interrupted"]
+    assert all(r["area_mm2"] == "" and r["measured_area_mm2"] for r in rows[2:])
+    provenance = json.loads((tmp_path / "out.csv.provenance.json").read_text())
+    assert provenance["not_reached"] == 2 and provenance["failed"] == 0 and provenance["rows"] == 4
+    monkeypatch.setattr(correct_module, "correct_measurement", real)
+    assert main(args + ["--out", str(out)]) == 0  # run again: the whole table
+    with open(out, newline="") as fh:
+        assert list(csv.DictReader(fh)) == expected

@@ -157,3 +157,38 @@ def test_a_report_of_a_read_only_study_without_out_dir_is_refused_before_any_fig
     assert p.returncode == 2, p.stderr[-2000:]
     assert len(p.stderr.strip().splitlines()) == 1 and "--out-dir" in p.stderr, p.stderr
     assert _snapshot(study) == before
+
+
+def test_a_report_into_the_study_other_than_its_report_folder_is_refused(studies, tmp_path):
+    """`report --out-dir STUDY/figs` wrote unrecorded files among the study's own; STUDY/report, the default,
+    stays allowed when given."""
+    study = studies / "intact"
+    before = _snapshot(study)
+    p = _run(["report", "--study-dir", str(study), "--out-dir", str(study / "figs")], cwd=tmp_path)
+    assert p.returncode == 2 and "lies inside the study folder" in p.stderr, p.stderr[-2000:]
+    assert len(p.stderr.strip().splitlines()) == 1 and _snapshot(study) == before
+
+
+def test_a_kept_cache_is_adopted_as_an_artefact_only_when_it_is_the_file_the_study_wrote(tmp_path):
+    """`filmcal correct` keeps its rough laws under the manifest's caches; the pipeline takes such a law over as
+    its artefact (the entry moves, the file stays) instead of solving it again, but not one of another spec
+    and not one changed since it was written."""
+    from filmcal._errors import InputError
+    from filmcal.study import Study
+    from filmcal.study.core import _write_cache
+
+    study = Study(tmp_path / "study", create=True)
+    spec = {"kind": "rough-law", "film": None, "modulus_mpa": None}
+    path = study.layout.rough_law("k1")
+    _write_cache(study, path, spec, {"law": 1}, "a test")
+    with study.writing("a test"):
+        assert study.adopt(path, "rough-law", {**spec, "modulus_mpa": 1.0}) is None  # another spec
+        assert study.adopt(path, "rough-law", spec) == path
+        assert study.verified(path, kind="rough-law", spec=spec) == path
+        assert study.layout.relative(path) not in study.manifest.data.get("caches", {})
+        assert study.adopt(path, "rough-law", spec) is None  # an artefact already
+    changed = study.layout.rough_law("k2")
+    _write_cache(study, changed, spec, {"law": 2}, "a test")
+    changed.write_text('{"law": 3}')
+    with study.writing("a test"), pytest.raises(InputError, match="changed after the study wrote it"):
+        study.adopt(changed, "rough-law", spec)

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import sys
 
 from filmcal.commands._common import print_json
 from filmcal.commands._options import (STUDY_IMPRINT_MODELS, add, add_roughness_map_reading, add_scan_resolution,
@@ -27,7 +28,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "details). The wheel-rail form solves the contact without film and with the film at three "
                     "moduli spanning the posteriors (one solve serves every imprint model of a film kinematics); "
                     "the study keeps those solved areas when no other process is writing it, so correcting again "
-                    "at the same offset and force reads them instead of solving.")
+                    "at the same offset and force reads them instead of solving. On rough bodies it keeps each "
+                    "boundary-element law of the roughness draws as soon as it is solved (most of the time of a "
+                    "rough answer): interrupted and run again, only the missing laws are solved.")
     add(p, "film", help="film type: MS, HS, HHS, or a film of the study's --films-file",
         extra="(required, except with --batch whose rows name their film)")
     add(p, "imprint_model", choices=STUDY_IMPRINT_MODELS, default=MIXTURE,
@@ -127,10 +130,10 @@ def _rough_progress(mode: str, smooth: bool):
 
 
 def run_batch(args: argparse.Namespace) -> int:
-    """Correct every row of --batch into --out; exit 1 when some rows failed."""
-    from filmcal._io import atomic_open, atomic_write_json
+    """Correct every row of --batch into --out; exit 1 when some rows failed, 130 when interrupted (the rows
+    corrected are written)."""
     from filmcal.study import Study
-    from filmcal.study.batch import OUTPUT_COLUMNS, correct_batch, read_batch
+    from filmcal.study.batch import OUTPUT_COLUMNS, BatchInterrupted, correct_batch, read_batch
 
     if args.out is None:
         raise ValueError("--batch needs --out")
@@ -151,15 +154,20 @@ def run_batch(args: argparse.Namespace) -> int:
         from filmcal._progress import Progress
 
         stage = stack.enter_context(Progress(args.progress).stage("batch", len(rows)))
-        out, provenance = correct_batch(study, rows, seed=args.seed, elastic_limit_mpa=args.elastic_limit_mpa,
-                                        progress=lambda k, n: stage.advance())
-    import csv
+        try:
+            out, provenance = correct_batch(study, rows, seed=args.seed, elastic_limit_mpa=args.elastic_limit_mpa,
+                                            progress=lambda k, n: stage.advance())
+        except BatchInterrupted as stop:  # what was corrected is written, the other rows marked
+            from filmcal.cli import EXIT_INTERRUPTED
 
-    with atomic_open(args.out, "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=header + list(OUTPUT_COLUMNS))
-        writer.writeheader()
-        writer.writerows(out)
-    atomic_write_json(f"{args.out}.provenance.json", {**provenance, "batch": str(args.batch)})
+            stack.close()
+            _write_batch(args, header + list(OUTPUT_COLUMNS), stop.rows, stop.provenance)
+            done = len(rows) - stop.provenance["not_reached"]
+            sys.stderr.write(f"filmcal correct: interrupted after {done} of {len(rows)} rows; {args.out} holds "
+                             f"them, the others marked '{stop.rows[-1]['status']}': run the same command again "
+                             "to finish (the study kept the corrected rows' solves)\n")
+            return EXIT_INTERRUPTED
+    _write_batch(args, header + list(OUTPUT_COLUMNS), out, provenance)
     failed = provenance["failed"]
     if args.json:
         print_json({"out": str(args.out), "provenance": f"{args.out}.provenance.json", "rows": len(rows),
@@ -168,6 +176,19 @@ def run_batch(args: argparse.Namespace) -> int:
         print(f"{len(rows) - failed} of {len(rows)} rows corrected into {args.out}"
               + (f"; {failed} failed (status column)" if failed else ""))
     return 1 if failed else 0
+
+
+def _write_batch(args: argparse.Namespace, columns: list[str], rows: list[dict], provenance: dict) -> None:
+    """--out and its provenance beside it, each written whole or not at all."""
+    import csv
+
+    from filmcal._io import atomic_open, atomic_write_json
+
+    with atomic_open(args.out, "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=columns)
+        writer.writeheader()
+        writer.writerows(rows)
+    atomic_write_json(f"{args.out}.provenance.json", {**provenance, "batch": str(args.batch)})
 
 
 def run(args: argparse.Namespace) -> int:

@@ -20,7 +20,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "needed). Reads the study's files only; the figures are drawn on every core "
                     "(docs/pipeline.md gives measured times).")
     add(p, "study_dir", default="filmcal-study", help="study folder (default ./filmcal-study)")
-    local(p, "--out-dir", default=None, help="output folder (default STUDY_DIR/report)")
+    local(p, "--out-dir", default=None, help="output folder outside the study (default STUDY_DIR/report)")
     add(p, "json", action="store_true", help="print the written paths as one JSON object")
     p.set_defaults(func=run)
 
@@ -38,6 +38,10 @@ def run(args: argparse.Namespace) -> int:
 
     if args.out_dir is not None:
         check_output_dir(args.out_dir, "--out-dir")
+        if Path(args.out_dir).resolve() != (Path(args.study_dir) / "report").resolve():
+            from filmcal.study.layout import check_outside_study
+
+            check_outside_study(args.out_dir, "--out-dir", args.study_dir)  # STUDY_DIR/report, or elsewhere
     else:  # STUDY_DIR/report: a read-only study (an archive, a colleague's) needs --out-dir elsewhere
         try:
             check_output_dir(Path(args.study_dir) / "report", "--study-dir")

@@ -146,7 +146,7 @@ def growth_modulus_mpa(components) -> float:
 
 
 def draw_laws(draw: RoughnessInputs | None, films: dict, *, wheel=None, rail=None, law=None,
-              grid_mm: float | None = None) -> dict:
+              grid_mm: float | None = None, keep: Callable | None = None) -> dict:
     """The rough laws of one draw on the wheel-rail contact: ``{film name: its law against the film, None: the
     law without film, "waviness": the bodies' long-wave heights}``.
 
@@ -155,6 +155,9 @@ def draw_laws(draw: RoughnessInputs | None, films: dict, *, wheel=None, rail=Non
     wheel-rail model's): the laws take the micro part, the solves the waviness (none for surfaces no longer
     than the cut-off, such as the synthetic ones), laid at a phase of the draw's own (its seed). With ``draw`` None, ``law`` is a measured film-wheel law
     taken as it is for every film, and the contact without film stays smooth (None).
+
+    ``keep(bodies, film, modulus_mpa, solve)``, when given, returns each law (``film`` None: steel on steel)
+    instead of ``solve()``: a store that reads back the laws it kept (`filmcal.study.core.StudyRoughLaws.law`).
     """
     from filmcal.contact.waviness import WAVINESS_CUTOFF_CELLS
     from filmcal.wheelrail.settings import GRID_MM
@@ -167,18 +170,23 @@ def draw_laws(draw: RoughnessInputs | None, films: dict, *, wheel=None, rail=Non
         return {**{name: None for name in films}, None: None, "waviness": None}
     # where the crests fall on the patch is unknown: each draw lays the waviness at its own phase
     wavy = None if bodies.waviness is None else bodies.waviness.shifted([int(draw.seed), 7])
-    return {**{name: bodies.film_law(float(m), f.poisson, f.thickness_mm) for name, (f, m) in films.items()},
-            None: bodies.steel_law(), "waviness": wavy}
+
+    def solved(film, modulus, solve):
+        return solve() if keep is None else keep(bodies, film, modulus, solve)
+
+    return {**{name: solved(f, float(m), lambda f=f, m=m: bodies.film_law(float(m), f.poisson, f.thickness_mm))
+               for name, (f, m) in films.items()},
+            None: solved(None, None, bodies.steel_law), "waviness": wavy}
 
 
 def waviness_peak_mpa(draw: RoughnessInputs, offset_mm: float, force_n: float, settings: dict, *, wheel=None,
-                      rail=None) -> float | None:
+                      rail=None, keep: Callable | None = None) -> float | None:
     """Peak pressure (MPa) of the rough contact without film when the bodies carry waviness (`draw_laws`), or
     None without it: the elastic macro solve puts the load on the crests, and above the steel's elastic limit
     the real crests flatten (a larger contact than solved)."""
     from filmcal.wheelrail import get_wheel_rail_model
 
-    laws = draw_laws(draw, {}, wheel=wheel, rail=rail, grid_mm=settings.get("grid_mm"))
+    laws = draw_laws(draw, {}, wheel=wheel, rail=rail, grid_mm=settings.get("grid_mm"), keep=keep)
     if laws.get("waviness") is None:
         return None
     result = get_wheel_rail_model(**settings).solve(offset_mm, force_n, roughness=laws.get(None),
@@ -251,19 +259,21 @@ def solve_growths(models, draws: Sequence[tuple[float | None, dict]], offset_mm:
 def corrector_growths(correctors: Sequence, weights: Sequence[float], offset_mm: float, force_n: float,
                       draws: Sequence[RoughnessInputs], *, wheel=None,
                       rail=None,
-                      progress: Callable[[int, int], None] | None = None) -> dict[str, RoughGrowth]:
+                      progress: Callable[[int, int], None] | None = None,
+                      keep: Callable | None = None, modulus_mpa: float | None = None) -> dict[str, RoughGrowth]:
     """`RoughGrowth` of each wheel-rail corrector's film model (by its label) at one offset and force.
 
-    Every model is solved at one modulus, the weighted median of all the posteriors' moduli
-    (`growth_modulus_mpa`), so that one rough law per draw serves all; models of one kinematics share their
+    Every model is solved at one modulus, ``modulus_mpa`` or else the weighted median of the correctors'
+    moduli (`growth_modulus_mpa`), so that one rough law per draw serves all; models of one kinematics share their
     rough solves and read them each with its own imprint model (`solve_growths`, as the correction curves
-    do). Repeated draws are solved once.
+    do). Repeated draws are solved once. ``keep`` is `draw_laws`'.
     """
     from filmcal.wheelrail import get_wheel_rail_model
 
     correctors = list(correctors)
     solver = get_wheel_rail_model(**correctors[0].settings)
-    modulus = growth_modulus_mpa([(c.film, c.modulus_mpa_, w) for c, w in zip(correctors, weights)])
+    modulus = (growth_modulus_mpa([(c.film, c.modulus_mpa_, w) for c, w in zip(correctors, weights)])
+               if modulus_mpa is None else float(modulus_mpa))
     film = correctors[0].film.film
     models = [(film.name, c.film, modulus) for c in correctors]
     unique = list(dict.fromkeys(draws))
@@ -278,7 +288,7 @@ def corrector_growths(correctors: Sequence, weights: Sequence[float], offset_mm:
     laws = []
     for d in unique:  # the laws (boundary elements) first, then the solves: each half of the work
         laws.append((d.reading_level, draw_laws(d, {film.name: (film, modulus)}, wheel=wheel, rail=rail,
-                                                grid_mm=correctors[0].settings.get("grid_mm"))))
+                                                grid_mm=correctors[0].settings.get("grid_mm"), keep=keep)))
         step()
     solved = dict(zip(unique, solve_growths(models, laws, offset_mm, force_n, solver, step)))
     out = {}

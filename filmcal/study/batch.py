@@ -19,7 +19,7 @@ from typing import Any
 
 from filmcal._validation import plain_float
 
-__all__ = ["INPUT_COLUMNS", "PASSED_COLUMNS", "OUTPUT_COLUMNS", "correct_batch", "read_batch"]
+__all__ = ["INPUT_COLUMNS", "PASSED_COLUMNS", "OUTPUT_COLUMNS", "BatchInterrupted", "correct_batch", "read_batch"]
 
 #: The columns a batch row may have (film and force_kn always).
 INPUT_COLUMNS = ("film", "force_kn", "measured_area_mm2", "offset_mm", "measured_radius_mm", "sphere_radius_mm",
@@ -35,6 +35,24 @@ OUTPUT_COLUMNS = ("area_mm2", "area_std_mm2", "area_ci90_low_mm2", "area_ci90_hi
 RENAMED_COLUMNS = {"measurement_std_mm2": "measured_area_std_mm2"}
 #: The most rows one batch takes.
 MAX_ROWS = 100_000
+
+
+#: The status of the rows a batch did not reach before it was interrupted.
+INTERRUPTED_STATUS = "not corrected: interrupted"
+
+
+class BatchInterrupted(KeyboardInterrupt):
+    """Ctrl-C during `correct_batch`: the rows and provenance as far as it got, the rows it did not reach
+    with empty numbers and the status `INTERRUPTED_STATUS`, so that what was corrected can be written.
+
+    A `KeyboardInterrupt`: a caller that does not look for it is interrupted as by any Ctrl-C.
+    """
+
+    def __init__(self, rows: list[dict[str, Any]], provenance: dict[str, Any]) -> None:
+        super().__init__(f"interrupted after {provenance['rows'] - provenance['not_reached']} of "
+                         f"{provenance['rows']} rows")
+        self.rows = rows
+        self.provenance = provenance
 
 
 def read_batch(path: str | Path) -> tuple[list[str], list[dict[str, str]]]:
@@ -123,15 +141,42 @@ def correct_batch(study, rows: list[dict[str, str]], *, seed: int = 0, elastic_l
 
     A row that fails keeps empty numbers and its reason in ``status``; the others are ``ok`` (or ``ok:
     warning ...`` when the answer carries one, e.g. beyond the elastic limit).
-    """
-    import warnings
 
-    from filmcal._errors import InputError
+    Raises
+    ------
+    BatchInterrupted
+        On Ctrl-C, with every row: those corrected, and the others marked `INTERRUPTED_STATUS`. The study has
+        kept the solves of the rows corrected, so the same batch run again reads them.
+    """
     from filmcal._versions import __version__
-    from filmcal.study.correct import ELASTIC_LIMIT_MPA, correct_measurement
 
     cache: dict = {}
     out, posteriors = [], {}
+
+    def provenance() -> dict[str, Any]:
+        return {"filmcal": __version__, "study": str(Path(study.root).resolve()),
+                "manifest_sha256": study.manifest_sha256, "seed": seed,
+                "posteriors": posteriors, "rows": len(rows),
+                "failed": sum(1 for r in out if r["status"].startswith("failed")),
+                "not_reached": sum(1 for r in out if r["status"] == INTERRUPTED_STATUS)}
+
+    try:
+        _correct_rows(study, rows, out, posteriors, seed, elastic_limit_mpa, cache, progress)
+    except KeyboardInterrupt:
+        out.extend({**row, **{name: "" for name in OUTPUT_COLUMNS[:-1]}, "status": INTERRUPTED_STATUS}
+                   for row in rows[len(out):])
+        raise BatchInterrupted(out, provenance()) from None
+    return out, provenance()
+
+
+def _correct_rows(study, rows, out: list, posteriors: dict, seed: int, elastic_limit_mpa, cache: dict,
+                  progress) -> None:
+    """`correct_batch`'s loop: each row's answer appended to `out` as it is known."""
+    import warnings
+
+    from filmcal._errors import InputError
+    from filmcal.study.correct import ELASTIC_LIMIT_MPA, correct_measurement
+
     answered: dict[tuple, dict[str, Any]] = {}  # a repeated measurement has the same answer: computed once
     for k, row in enumerate(rows, 1):
         result = dict(row)
@@ -160,8 +205,3 @@ def correct_batch(study, rows: list[dict[str, str]], *, seed: int = 0, elastic_l
         out.append(result)
         if progress is not None:
             progress(k, len(rows))
-    provenance = {"filmcal": __version__, "study": str(Path(study.root).resolve()),
-                  "manifest_sha256": study.manifest_sha256, "seed": seed,
-                  "posteriors": posteriors, "rows": len(rows),
-                  "failed": sum(1 for r in out if r["status"].startswith("failed"))}
-    return out, provenance

@@ -361,6 +361,26 @@ class Study:
         self.manifest.write()
         return path
 
+    def adopt(self, path: Path, kind: str, spec: dict) -> Path | None:
+        """`path` recorded as an artefact of `kind` if it is a cache the study kept with this spec (its entry
+        moves from the manifest's ``caches`` to its artefacts, the file unchanged); None if it is not one.
+
+        Raises
+        ------
+        InputError
+            If the cache was changed after the study wrote it.
+        """
+        self._require_writer()
+        relpath = self.layout.relative(path)
+        entry = (self.manifest.data.get("caches") or {}).get(relpath)
+        if self.manifest.entry(relpath) is not None or _read_cache(self, path, spec, read=lambda p: p) is None:
+            return None
+        self.manifest.data["artefacts"][relpath] = {"kind": kind, "spec": spec, "sha256": entry["sha256"],
+                                                    "written_utc": entry.get("written_utc", utc_now())}
+        del self.manifest.data["caches"][relpath]
+        self.manifest.write()
+        return path
+
     def verified(self, path: Path, kind: str | None = None, spec: dict | None = None) -> Path | None:
         """`path` if it exists and is the file the study recorded; None if missing.
 
@@ -1299,6 +1319,17 @@ def curve_components(study: Study, film: str, *, model: str | None = None, **mat
     return out
 
 
+def growth_modulus_of(study: Study, parts: list) -> float:
+    """The modulus (MPa) at which the rough growths of these correctors' film are solved
+    (`filmcal.correction.roughness.growth_modulus_mpa`), from their whole posteriors as the pipeline's rough
+    curves take it (`curve_components`): the two then share their rough laws (`StudyRoughLaws`)."""
+    from filmcal.correction.roughness import growth_modulus_mpa
+    from filmcal.correction.wheelrail import nominal_modulus_mpa
+
+    return growth_modulus_mpa([(c.film, nominal_modulus_mpa(_posterior_samples(study.root / s["posterior_file"]),
+                                                            c.film.film.poisson), w) for w, c, s in parts])
+
+
 def _posterior_samples(path: Path) -> dict[str, np.ndarray]:
     """The posterior samples of a recorded calibration result (`read_posterior_samples`: the one reader)."""
     from filmcal.calibration.result_file import read_posterior_samples
@@ -1424,9 +1455,68 @@ class StudyGrowths:
         self.pending.clear()
 
 
-def _read_cache(study: Study, path: Path, spec: dict):
-    """A cache file the study recorded with this spec (None when absent or made for another spec); a file
-    changed since is refused, naming it."""
+def rough_law_spec(bodies, film: FilmType | None, modulus_mpa: float | None) -> dict:
+    """What makes one rough boundary-element law (`filmcal.contact.roughness.Roughness.film_law`, or
+    ``steel_law`` with ``film`` None): the bodies' micro surfaces (the SHA-256 of their heights and pixel), the
+    film, its modulus and hardness, and the application model's revision. The pipeline's rough curves and
+    `filmcal correct` key their laws by it, so that each reuses the other's (``roughlaws/<key>.npz``)."""
+    import hashlib
+
+    from filmcal.contact import names
+
+    def surface(s) -> str | None:
+        if s is None:
+            return None
+        digest = hashlib.sha256(np.ascontiguousarray(s.heights_um, dtype=float).tobytes())
+        digest.update(repr((s.heights_um.shape, float(s.pixel_um))).encode())
+        return digest.hexdigest()
+
+    return _json_roundtrip({"kind": StudyRoughLaws.KIND, "film": None if film is None else film.to_dict(),
+                            "modulus_mpa": None if film is None else float(modulus_mpa),
+                            "hardness_mpa": None if film is None else float(bodies.film_hardness_mpa),
+                            "surfaces_sha256": [surface(bodies.wheel), surface(bodies.rail)],
+                            "application_model_revision": names.APPLICATION_MODEL_REVISION})
+
+
+class StudyRoughLaws:
+    """The rough bodies' boundary-element laws kept in a study, one ``roughlaws/<key>.npz`` per
+    `rough_law_spec`, each kept as soon as it is solved: a rough correction interrupted after some of its
+    laws (each is seconds to minutes) solves only the others when run again.
+
+    A law the pipeline recorded (kind ``rough-law``, an artefact) is read as it is; one solved by `filmcal
+    correct` is recorded under the manifest's ``caches`` (written only when the writer lock is free, as
+    `StudyGrowths`), and the pipeline takes it over as its artefact (`Study.adopt`).
+    """
+
+    KIND = "rough-law"
+
+    def __init__(self, study: Study) -> None:
+        self.study = study
+        self.solved = 0  # laws solved here (not read back)
+
+    def law(self, bodies, film: FilmType | None, modulus_mpa: float | None, solve):
+        """The law of `rough_law_spec`: read back from the study, or ``solve()`` and kept."""
+        from filmcal.contact.rough_law_file import load_rough_law, save_rough_law
+
+        spec = rough_law_spec(bodies, film, modulus_mpa)
+        path = self.study.layout.rough_law(spec_key(spec))
+        relpath = self.study.layout.relative(path)
+        if self.study.manifest.entry(relpath) is not None:  # the pipeline's
+            if self.study.verified(path, kind=self.KIND, spec=spec):
+                return load_rough_law(path)
+        else:
+            law = _read_cache(self.study, path, spec, read=load_rough_law)
+            if law is not None:
+                return law
+        law = solve()
+        self.solved += 1
+        _write_cache(self.study, path, spec, law, "keeping a rough law", write=save_rough_law)
+        return law
+
+
+def _read_cache(study: Study, path: Path, spec: dict, read=None):
+    """A cache file the study recorded with this spec, read by ``read`` (default: as JSON); None when absent or
+    made for another spec. A file changed since is refused, naming it."""
     from filmcal._io import read_json, sha256_file
 
     entry = (study.manifest.data.get("caches") or {}).get(study.layout.relative(path))
@@ -1435,18 +1525,21 @@ def _read_cache(study: Study, path: Path, spec: dict):
     if sha256_file(path) != entry.get("sha256"):
         raise InputError(f"{path} was changed after the study wrote it (SHA-256 differs from the manifest); "
                          "delete it and run again to recompute it")
-    return read_json(path)
+    return (read or read_json)(path)
 
 
-def _write_cache(study: Study, path: Path, spec: dict, data: dict, what: str) -> None:
-    """Keep `data` in the study under the manifest's ``caches`` (kind, spec, SHA-256); when the writer lock is
-    taken or the folder is read-only, nothing is kept."""
+def _write_cache(study: Study, path: Path, spec: dict, data: Any, what: str, write=None) -> None:
+    """Keep `data` in the study under the manifest's ``caches`` (kind, spec, SHA-256), written by ``write(data,
+    path)`` (default: as JSON); when the writer lock is taken or the folder is read-only, nothing is kept."""
     from filmcal._io import atomic_write_json, sha256_file
 
     try:
         with study.writing(f"filmcal correct: {what}"):
             path.parent.mkdir(parents=True, exist_ok=True)
-            atomic_write_json(path, data)
+            if write is None:
+                atomic_write_json(path, data)
+            else:
+                write(data, path)
             caches = study.manifest.data.setdefault("caches", {})
             caches[study.layout.relative(path)] = {"kind": spec["kind"], "spec": spec, "sha256": sha256_file(path),
                                                    "written_utc": utc_now()}

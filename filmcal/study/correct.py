@@ -348,9 +348,10 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
                        "transfer term, and so the answer and its band, are extrapolated", OutsideDomainWarning)
     if rough_out is not None:
         from filmcal.correction.roughness import waviness_peak_mpa
+        from filmcal.study.core import StudyRoughLaws
 
         crest = waviness_peak_mpa(draws[0], m.offset_mm, force_n, parts[0][1].settings, wheel=roughness.wheel(),
-                                  rail=roughness.rail())
+                                  rail=roughness.rail(), keep=StudyRoughLaws(study).law)
         if crest is not None and crest > elastic_limit_mpa:
             _warn(out, f"the measured surface's waviness (wavelengths over the contact grid's few cells) stripes the "
                        f"contact: without film its crests carry up to {crest:.0f} MPa, above the steel's elastic "
@@ -382,7 +383,7 @@ def _rough_growths(study, parts, m: WheelRailMeasurement, force_n: float, roughn
     Returns ``(growths by film label, draws, the draws' source, the study's store of growths)``; the store is
     flushed once the answer stands."""
     from filmcal.correction.roughness import RoughGrowth, corrector_growths
-    from filmcal.study.core import StudyGrowths
+    from filmcal.study.core import StudyGrowths, StudyRoughLaws, growth_modulus_of
 
     inputs, inputs_source = study.roughness_inputs()
     draws = inputs[:roughness.n_draws]
@@ -394,9 +395,10 @@ def _rough_growths(study, parts, m: WheelRailMeasurement, force_n: float, roughn
         growths = {c.film.label: RoughGrowth(np.asarray(stored[s["model"]]["film"], float),
                                              np.asarray(stored[s["model"]]["no_film"], float), w, draws)
                    for _, c, s in parts}
-    else:
+    else:  # each law kept as soon as it is solved: run again after an interrupt, only the missing are solved
         growths = corrector_growths([c for _, c, _ in parts], [w for w, _, _ in parts], m.offset_mm, force_n,
-                                    draws, wheel=roughness.wheel(), rail=roughness.rail(), progress=progress)
+                                    draws, wheel=roughness.wheel(), rail=roughness.rail(), progress=progress,
+                                    keep=StudyRoughLaws(study).law, modulus_mpa=growth_modulus_of(study, parts))
         kept.put(spec, {s["model"]: {"film": growths[c.film.label].film.tolist(),
                                      "no_film": growths[c.film.label].no_film.tolist()} for _, c, s in parts})
     return growths, draws, inputs_source, kept

@@ -762,11 +762,9 @@ def _rough_laws(study: Study, settings: PipelineSettings, rough, films: dict, dr
     (``roughlaws/<key>.npz``, kind ``rough-law``), kept as soon as it is computed, so an interrupted run resumes
     with the missing laws only; the laws are computed in parallel and read back from their files by the tasks
     that use them (the same law to the bit)."""
-    import hashlib
-
     from filmcal._parallel import run_tasks
-    from filmcal.contact import names
     from filmcal.contact.rough_law_file import save_rough_law
+    from filmcal.study.core import StudyRoughLaws, rough_law_spec
     from filmcal.study.layout import spec_key
 
     from filmcal.contact.waviness import WAVINESS_CUTOFF_CELLS
@@ -776,18 +774,15 @@ def _rough_laws(study: Study, settings: PipelineSettings, rough, films: dict, dr
     for d in draws:
         # the micro part of the bodies (the synthetic surfaces are all micro-roughness: 200 um < the cut-off)
         bodies = d.bodies(rough.wheel, rough.rail).split(1e3 * WAVINESS_CUTOFF_CELLS * GRID_MM)
-        # what makes a law: the film and its modulus (or steel), the draw's inputs and the wheel's very heights
-        surface = hashlib.sha256(np.ascontiguousarray(bodies.wheel.heights_um).tobytes()).hexdigest()
         for name in [*films, None]:
-            spec = {"film": None if name is None else films[name][0].to_dict(),
-                    "modulus_mpa": None if name is None else films[name][1], "rough_ra_um": settings.rough_ra_um,
-                    "rough_inputs": d.to_dict(), "wheel_surface_sha256": surface,
-                    "application_model_revision": names.APPLICATION_MODEL_REVISION}
+            f = films.get(name)
+            spec = rough_law_spec(bodies, None if f is None else f[0], None if f is None else f[1])
             path = study.layout.rough_law(spec_key(spec))
             paths.setdefault(d, {})[name] = path
             specs[d, name] = spec
-            if not study.verified(path, kind="rough-law", spec=spec):
-                f = films.get(name)
+            # a law that `filmcal correct` solved and kept is taken over as it is
+            if not (study.adopt(path, StudyRoughLaws.KIND, spec)
+                    or study.verified(path, kind=StudyRoughLaws.KIND, spec=spec)):
                 tasks[d, name] = ((bodies.steel_law, ()) if name is None else
                                   (bodies.film_law, (f[1], f[0].poisson, f[0].thickness_mm)))
     st.set_total(len(tasks) + after)
@@ -799,7 +794,7 @@ def _rough_laws(study: Study, settings: PipelineSettings, rough, films: dict, dr
         path = paths[key[0]][key[1]]
         path.parent.mkdir(parents=True, exist_ok=True)
         save_rough_law(law, path)
-        study.record(path, "rough-law", specs[key])
+        study.record(path, StudyRoughLaws.KIND, specs[key])
         st.advance(note=f"rough law, {key[1] or 'without film'}")
 
     run_tasks(tasks, workers, keep)
