@@ -30,7 +30,7 @@ _EXPORTS = {
     "filmcal.surrogate.radius": ["SurrogateRadiusModel", "FERadiusModel", "SurrogateDomain"],
     "filmcal.study": ["Study", "FESettings", "CalibrationSpec", "PipelineSettings", "run_pipeline",
                       "correct_measurement", "SphereMeasurement", "WheelRailMeasurement", "ScanReading",
-                      "BodyRoughness", "correct_batch"],
+                      "BodyRoughness", "correct_batch", "BatchInterrupted"],
     "filmcal.contact.roughness": ["RoughSurface", "Roughness"],
     "filmcal.contact.rough_imprint": ["RoughnessInputs", "ROUGHNESS_PRIOR", "load_roughness_inputs",
                                       "sample_roughness_prior"],

@@ -133,7 +133,7 @@ def run_batch(args: argparse.Namespace) -> int:
     """Correct every row of --batch into --out; exit 1 when some rows failed, 130 when interrupted (the rows
     corrected are written)."""
     from filmcal.study import Study
-    from filmcal.study.batch import OUTPUT_COLUMNS, BatchInterrupted, correct_batch, read_batch
+    from filmcal.study.batch import INTERRUPTED_STATUS, OUTPUT_COLUMNS, BatchInterrupted, correct_batch, read_batch
 
     if args.out is None:
         raise ValueError("--batch needs --out")
@@ -164,7 +164,7 @@ def run_batch(args: argparse.Namespace) -> int:
             _write_batch(args, header + list(OUTPUT_COLUMNS), stop.rows, stop.provenance)
             done = len(rows) - stop.provenance["not_reached"]
             sys.stderr.write(f"filmcal correct: interrupted after {done} of {len(rows)} rows; {args.out} holds "
-                             f"them, the others marked '{stop.rows[-1]['status']}': run the same command again "
+                             f"them, the others marked '{INTERRUPTED_STATUS}': run the same command again "
                              "to finish (the study kept the corrected rows' solves)\n")
             return EXIT_INTERRUPTED
     _write_batch(args, header + list(OUTPUT_COLUMNS), out, provenance)

@@ -7,7 +7,7 @@ layout (`StudyLayout`). `run_pipeline` is the whole job as declared stages.
 No stage imports this package.
 """
 from filmcal.study.core import (IMPRINT_MODELS, KINEMATICS, CalibrationSpec, FESettings, Study, correctors, output_column, seed_for)
-from filmcal.study.batch import correct_batch, read_batch
+from filmcal.study.batch import BatchInterrupted, correct_batch, read_batch
 from filmcal.study.correct import (BodyRoughness, ScanReading, SphereMeasurement, WheelRailMeasurement,
                                    correct_measurement)
 from filmcal.study.layout import StudyLayout, spec_key
@@ -16,4 +16,4 @@ from filmcal.study.stages import STAGES, PipelineSettings, run_pipeline
 __all__ = ["Study", "StudyLayout", "FESettings", "CalibrationSpec", "PipelineSettings", "run_pipeline", "STAGES",
            "IMPRINT_MODELS", "KINEMATICS", "seed_for", "spec_key", "output_column", "correctors",
            "correct_measurement", "SphereMeasurement", "WheelRailMeasurement", "ScanReading", "BodyRoughness",
-           "correct_batch", "read_batch"]
+           "correct_batch", "read_batch", "BatchInterrupted"]

@@ -19,7 +19,8 @@ from typing import Any
 
 from filmcal._validation import plain_float
 
-__all__ = ["INPUT_COLUMNS", "PASSED_COLUMNS", "OUTPUT_COLUMNS", "BatchInterrupted", "correct_batch", "read_batch"]
+__all__ = ["INPUT_COLUMNS", "PASSED_COLUMNS", "OUTPUT_COLUMNS", "INTERRUPTED_STATUS", "BatchInterrupted", "correct_batch",
+           "read_batch"]
 
 #: The columns a batch row may have (film and force_kn always).
 INPUT_COLUMNS = ("film", "force_kn", "measured_area_mm2", "offset_mm", "measured_radius_mm", "sphere_radius_mm",
