@@ -222,6 +222,25 @@ def _option_strings(actions: dict[str, argparse.Action]) -> dict[str, str]:
     return options
 
 
+def unrecognized_message(parser: argparse.ArgumentParser, prog: str, unknown: list[str]) -> str:
+    """What a command says of arguments it does not take: them, the nearest option of its own to each
+    unknown option, and where its options are listed."""
+    import difflib
+
+    own = [s for a in parser._actions if a.help != argparse.SUPPRESS for s in a.option_strings
+           if s.startswith("--")]
+    near = {}
+    for arg in unknown:
+        name = arg.split("=", 1)[0]
+        if name.startswith("--"):
+            match = difflib.get_close_matches(name, own, n=1, cutoff=0.75)
+            if match:
+                near[name] = match[0]
+    hint = "; ".join(f"{old}: did you mean {new}?" for old, new in near.items())
+    return (f"unrecognized arguments: {' '.join(unknown)} ({hint + '; ' if hint else ''}"
+            f"`{prog} --help` lists its options)")
+
+
 def preflight(args: argparse.Namespace, actions: dict[str, argparse.Action]) -> None:
     """Check the path options of a parsed command line before any work.
 
@@ -604,7 +623,7 @@ def _main(argv: list[str] | None) -> int:
             sys.stderr.write(f"filmcal: error: a command is required ({', '.join(command_modules())}; "
                              "filmcal --help says what each does)\n")
             return EXIT_USER
-        args = parser.parse_args(argv)
+        args, unknown = parser.parse_known_args(argv)
     except KeyboardInterrupt:
         sys.stderr.write("filmcal: interrupted\n")
         return EXIT_INTERRUPTED
@@ -614,6 +633,9 @@ def _main(argv: list[str] | None) -> int:
         return EXIT_USER
     path = [args.command] + ([args.action] if isinstance(getattr(args, "action", None), str) else [])
     prog = "filmcal " + " ".join(path)
+    if unknown:
+        sys.stderr.write(f"{prog}: error: {unrecognized_message(_command_parser(parser, path), prog, unknown)}\n")
+        return EXIT_USER
     missing = missing_required(_command_parser(parser, path), args)
     if missing:
         sys.stderr.write(f"{prog}: error: the following arguments are required: {', '.join(missing)}\n")

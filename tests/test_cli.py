@@ -86,6 +86,25 @@ def test_no_command_is_one_line_naming_the_commands(capsys):
     assert len(err) == 1 and "pipeline" in err[0] and "correct" in err[0]
 
 
+
+@pytest.mark.parametrize("argv, says", [
+    (["correct", "--film", "HS", "--force-kn", "10", "--measured-area-mm2", "100", "--ofset-mm", "0"],
+     "filmcal correct: error: unrecognized arguments: --ofset-mm 0 (--ofset-mm: did you mean --offset-mm?; "
+     "`filmcal correct --help` lists its options)"),
+    (["curves", "--film", "HS", "--out", "c.csv"],
+     "filmcal curves: error: unrecognized arguments: --out c.csv (`filmcal curves --help` lists its options)"),
+    (["campaign", "status", "--store", "s", "--jsno"], "filmcal campaign status: error: unrecognized arguments: --jsno "
+                                              "(--jsno: did you mean --json?;")])
+def test_an_unknown_argument_is_named_by_its_command_with_the_nearest_option(argv, says, capsys):
+    """They were refused as 'filmcal: error: unrecognized arguments', naming neither the command nor a
+    nearby option; nothing is run."""
+    from filmcal import cli
+
+    assert cli.main(argv) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and len(captured.err.strip().splitlines()) == 1
+    assert captured.err.startswith(says), captured.err
+
 @pytest.mark.parametrize("wrapped", [False, True])
 def test_a_full_disk_is_named_and_never_called_damage(wrapped):
     """A full disk was reported as "study.json is damaged (No space left on device); delete it and rerun"."""
