@@ -62,6 +62,8 @@ SLOW_FIXTURES: frozenset[str] = frozenset({
 #: the idle time) by ``python3 -m pytest -q --durations=60 -p no:cacheprovider``.
 SLOW_TESTS: dict[str, str] = {
     "test_sheet.py::test_a_resolution_given_against_the_files_own_is_said": "6 s: four scans of the real page, each a command in a process",
+    "test_sheet.py::test_the_real_sheet_scanned_with_a_noisy_sensor_reads_its_six_imprints":
+        "10 s: the real page with noise added, written as PNG and read",
     "test_run_store.py::": "3-6 s each: calibrations on 32 FE runs, two of them sharing a run store",
     "test_study_heal.py::": "10-20 s each: a quick study rerun after losing a surrogate or its curves",
     "test_fuzz_datasets.py::test_data_that_cannot_be_calibrated_are_refused_before_any_work":

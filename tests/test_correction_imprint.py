@@ -80,6 +80,26 @@ def test_stain_intensity_follows_the_dye_and_ignores_tape_ink_and_grey():
     assert stain_intensity(grey16)[0, 0] == pytest.approx(0.75, abs=1e-4)
 
 
+
+@pytest.mark.parametrize("layer, sigma", [("dye", 4.0), ("dye on tape", 6.0), ("dye", 0.0)])
+def test_intensity_noise_is_the_scatter_of_the_stain_intensity_of_a_uniform_page(layer, sigma):
+    """A uniform lightly stained page (no clipping at paper) with Gaussian noise of `sigma` grey levels in each
+    channel: `intensity_noise`, carried through the unmixing to first order, is the standard deviation of the
+    page's `stain_intensity` measured over its pixels (a second way, by sampling), within 5 %; a noiseless page
+    reads 0."""
+    from filmcal.correction.imprint import intensity_noise
+
+    dye, yellow = np.array(DYE_OPTICAL_DENSITY), np.array(YELLOW_OPTICAL_DENSITY)
+    density = 0.3 * dye + (0.3 * yellow if layer == "dye on tape" else 0.0)
+    rng = np.random.default_rng(5)
+    rgb = 255 * 10 ** -density + rng.normal(0.0, sigma, (400, 600, 3))
+    page = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
+    measured = float(np.std(stain_intensity(page)))
+    if sigma == 0.0:
+        assert intensity_noise(page) == 0.0
+    else:
+        assert intensity_noise(page) == pytest.approx(measured, rel=0.05)
+
 @pytest.mark.parametrize("antialiased", [True, False])
 def test_disc_area_centroid_and_outline(antialiased):
     h = 0.05

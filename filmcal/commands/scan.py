@@ -47,7 +47,7 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from filmcal.correction.sheet import scan_sheet
+    from filmcal.correction.sheet import DOT_INTENSITY, DOT_NOISE_SIGMAS, scan_sheet
 
     from filmcal._io import check_distinct_files
 
@@ -65,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json({"sheet": str(args.sheet), "table": str(out), "overview": str(overview),
                     "pixel_size_mm": sheet.pixel_size_mm, "pixel_size_source": sheet.pixel_size_source,
-                    "rotate_deg": sheet.rotate_deg,
+                    "rotate_deg": sheet.rotate_deg, "dot_intensity": sheet.dot_intensity,
                     "imprints": [{**imp.core.to_dict(), "number": imp.number, "region_px": list(imp.region_px),
                                   "area_std_scale_mm2": imp.area_std_scale_mm2, "halo_area_mm2": imp.halo_area_mm2,
                                   "halo_coverage": imp.halo_coverage, "status": imp.status}
@@ -73,6 +73,9 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(f"{len(sheet.imprints)} imprints on {Path(args.sheet).name} ({sheet.pixel_size_mm:.4g} mm per pixel, "
           f"{sheet.pixel_size_source}); areas are the dense cores', halos beside them")
+    if sheet.dot_intensity > DOT_INTENSITY:
+        print(f"a noisy scan: a dot is read above {sheet.dot_intensity:.3f} of stain ({DOT_NOISE_SIGMAS:g} times "
+              f"the scan's noise, instead of {DOT_INTENSITY:g}), so the halos' faintest dots are not counted")
     for imp in sheet.imprints:
         x, y = imp.core.centroid_mm
         print(f"  {imp.number:2d}  at ({x:6.1f}, {y:6.1f}) mm   area {imp.area_mm2:8.2f} +/- {imp.area_std_mm2:.2f} mm2"

@@ -61,7 +61,8 @@ from filmcal._errors import DamagedFileError, damaged
 from filmcal._validation import as_finite, check_positive, check_range
 from filmcal.correction.outline import _signed_area_mm2, outline_centroid_mm, outline_perimeter_mm
 
-__all__ = ["Imprint", "read_imprint", "measure_imprint", "stain_intensity", "otsu_threshold", "load_scan"]
+__all__ = ["Imprint", "read_imprint", "measure_imprint", "stain_intensity", "intensity_noise", "otsu_threshold",
+           "load_scan"]
 
 MM_PER_INCH = 25.4
 # Largest scan read (pixels): 30 million is a 600 dpi scan of 23 cm x 23 cm or a 1200 dpi scan of
@@ -215,6 +216,38 @@ def stain_intensity(pixels) -> np.ndarray:
             value = alpha * value + (1.0 - alpha)
         density -= np.float32(weight) * np.log10(np.maximum(value, floor))
     return -np.expm1(np.float32(-math.log(10.0)) * np.maximum(density, 0.0))
+
+
+def intensity_noise(pixels) -> float:
+    """Standard deviation of blank paper's `stain_intensity` caused by the scan's own noise (a colour scan).
+
+    Each channel's noise is read from the differences of horizontally neighbouring pixels, whose median
+    absolute deviation divided by sqrt(2) is a pixel's standard deviation where the page itself is smooth
+    (paper, tape, the inside of a core: most of a page; the edges and dots are too few to move the median).
+    It is carried through `stain_intensity`'s unmixing at the page's median colour (first order: each
+    channel's density moves by sigma / (ln 10 value)). A clean or JPEG-smoothed 8-bit scan, whose neighbours
+    mostly agree to the level, reads 0.
+
+    Parameters
+    ----------
+    pixels : array_like
+        ``(rows, columns, 3)`` RGB or ``(rows, columns, 4)`` RGBA, as `stain_intensity` takes them.
+    """
+    pixels = np.asarray(pixels)
+    if pixels.ndim != 3 or pixels.shape[2] not in (3, 4):
+        raise ValueError(f"the noise of a colour scan is read from (rows, columns, 3|4) pixels, got {pixels.shape}")
+    scale = _full_scale(pixels)
+    every = max(1, pixels.shape[0] // 512)  # some 512 rows: the median is settled long before
+    variance = 0.0
+    for k, weight in enumerate(_DYE_UNMIXING):
+        rows = pixels[::every, :, k].astype(np.float32) / np.float32(scale)
+        steps = np.diff(rows, axis=1)
+        sigma = 1.4826 * float(np.median(np.abs(steps - np.median(steps)))) / math.sqrt(2.0)
+        value = max(float(np.median(rows)), 0.5 / scale)
+        variance += (weight * sigma / (math.log(10.0) * value)) ** 2
+    # stain_intensity = 1 - 10**(-c): its slope ln 10 (1 - intensity) at the paper's intensity
+    paper = float(np.median(stain_intensity(pixels[::every, ::every])))
+    return math.log(10.0) * (1.0 - paper) * math.sqrt(variance)
 
 
 def otsu_threshold(values, bins: int = 256) -> float:

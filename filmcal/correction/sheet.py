@@ -4,7 +4,8 @@ A lab tapes several imprints on one page, labels them by hand and scans the page
 
 1. *Dye.* The stain intensity of every pixel is unmixed by the dye's colour (`stain_intensity`), so the
    yellow tape, the grey scanner lid, pencil, black pen and blue ink read as paper.
-2. *Imprints.* A pixel is a stained dot where its intensity exceeds `DOT_INTENSITY`. The dots' local
+2. *Imprints.* A pixel is a stained dot where its intensity exceeds `DOT_INTENSITY`, or `DOT_NOISE_SIGMAS`
+   times the scan's own noise where that is higher (`dot_intensity`: a noisy scanner or camera). The dots' local
    fraction, averaged over a Gaussian of `FIND_SCALE_MM`, marks an imprint where it reaches
    `FIND_COVERAGE` above the paper's own (a noisy scan dots the paper too: `find_level`): connected regions
    of at least ``min_imprint_mm2`` are the imprints, smaller ones are dust or stray marks. An imprint is its
@@ -42,17 +43,20 @@ from filmcal._validation import check_positive
 from filmcal.correction.imprint import (
     Imprint,
     _pixel_size,
+    intensity_noise,
     load_scan,
     measure_imprint,
     otsu_threshold,
     stain_intensity,
 )
 
-__all__ = ["Sheet", "SheetImprint", "read_sheet", "find_imprints", "write_sheet_table", "plot_sheet", "scan_sheet",
-           "SHEET_COLUMNS"]
+__all__ = ["Sheet", "SheetImprint", "read_sheet", "find_imprints", "dot_intensity", "write_sheet_table", "plot_sheet",
+           "scan_sheet", "SHEET_COLUMNS"]
 
 #: Stain intensity above which a pixel is a developed dot (the paper's noise on a flatbed scan is ~0.005).
 DOT_INTENSITY = 0.02
+#: A dot stands this many standard deviations of the scan's noise above blank paper (`dot_intensity`).
+DOT_NOISE_SIGMAS = 2.0
 #: Scale (Gaussian standard deviation, mm) and dot fraction at which imprints are found on the page.
 FIND_SCALE_MM = 2.0
 FIND_COVERAGE = 0.05
@@ -131,6 +135,8 @@ class Sheet:
         How the page was turned before reading (counter-clockwise).
     intensity : ndarray
         The turned page's stain intensity (for the overview).
+    dot_intensity : float
+        The stain intensity above which a pixel was read as a dot (`dot_intensity`).
     """
 
     path: Path
@@ -139,6 +145,7 @@ class Sheet:
     pixel_size_source: str
     rotate_deg: int
     intensity: np.ndarray = field(repr=False)
+    dot_intensity: float = DOT_INTENSITY
 
     def rows(self, *, film: str = "", force_kn: float | None = None, offset_mm: float | None = None) -> list[dict]:
         """One row per imprint in `SHEET_COLUMNS`, as `filmcal correct --batch` reads them.
@@ -167,6 +174,14 @@ def _gaussian(image: np.ndarray, sigma_px: float) -> np.ndarray:
     return ndimage.gaussian_filter(image, sigma_px, mode="nearest", truncate=3.0)
 
 
+def dot_intensity(noise: float) -> float:
+    """The stain intensity above which a pixel is a dot on a scan whose blank paper scatters by ``noise``
+    (`filmcal.correction.imprint.intensity_noise`): `DOT_INTENSITY`, or `DOT_NOISE_SIGMAS` times the noise
+    where that is higher. Without it, a scan whose grey levels scatter by 5 of 255 dotted a third of its paper
+    and read 46 imprints on a page of 6."""
+    return max(DOT_INTENSITY, DOT_NOISE_SIGMAS * float(noise))
+
+
 def find_level(coverage: np.ndarray, pixel_size_mm: float) -> np.ndarray | float:
     """The dot fraction at which an imprint begins, pixel by pixel: `FIND_COVERAGE` above the paper's own.
 
@@ -187,9 +202,10 @@ def find_level(coverage: np.ndarray, pixel_size_mm: float) -> np.ndarray | float
     return FIND_COVERAGE + np.minimum(full, MAX_NOISE_COVERAGE)
 
 
-def find_imprints(intensity: np.ndarray, pixel_size_mm: float, *, min_imprint_mm2: float = 5.0
-                  ) -> tuple[np.ndarray, list[tuple[slice, slice]]]:
-    """Label the imprints of a page's stain intensity (module notes, step 2).
+def find_imprints(intensity: np.ndarray, pixel_size_mm: float, *, min_imprint_mm2: float = 5.0,
+                  dot_intensity: float = DOT_INTENSITY) -> tuple[np.ndarray, list[tuple[slice, slice]]]:
+    """Label the imprints of a page's stain intensity (module notes, step 2); a dot is a pixel above
+    ``dot_intensity`` (the function `dot_intensity` gives it for a scan's noise).
 
     Returns
     -------
@@ -201,7 +217,7 @@ def find_imprints(intensity: np.ndarray, pixel_size_mm: float, *, min_imprint_mm
     from scipy import ndimage
 
     h = check_positive("pixel_size_mm", pixel_size_mm)
-    dots = (np.asarray(intensity) > DOT_INTENSITY).astype(np.float32)
+    dots = (np.asarray(intensity) > dot_intensity).astype(np.float32)
     coverage = _gaussian(dots, FIND_SCALE_MM / h)
     labels, n = ndimage.label(coverage >= find_level(coverage, h), structure=np.ones((3, 3), dtype=int))
     if n == 0:
@@ -230,7 +246,7 @@ def _reading_order(boxes: list[tuple[slice, slice]]) -> list[int]:
     return [i for row in rows for i in sorted(row, key=lambda j: boxes[j][1].start)]
 
 
-def _read_one(intensity: np.ndarray, region: np.ndarray, h: float, shape: tuple[int, int]
+def _read_one(intensity: np.ndarray, region: np.ndarray, h: float, dot_level: float
               ) -> tuple[Imprint, float, float, float, list[np.ndarray]]:
     """The core (with the scale's uncertainty), the halo's area, coverage and outline of one imprint.
 
@@ -253,7 +269,7 @@ def _read_one(intensity: np.ndarray, region: np.ndarray, h: float, shape: tuple[
     core.area_std_mm2 = float(math.hypot(core.area_std_mm2, std_scale))
     halo = measure_imprint(region.astype(float), h, threshold=0.5, min_region_mm2=0.5, min_contrast=0.0)
     ring = region & ~core.mask
-    coverage = float(np.mean(intensity[ring] > DOT_INTENSITY)) if ring.any() else 0.0
+    coverage = float(np.mean(intensity[ring] > dot_level)) if ring.any() else 0.0
     # back to the window's frame: the pad's column on the left and row at the bottom (y up) move x and y by h
     core.mask = core.mask[1:-1, 1:-1]
     core.outlines_mm = [ring_mm - h for ring_mm in core.outlines_mm]
@@ -298,10 +314,11 @@ def read_sheet(path, *, dpi: float | None = None, mm_per_pixel: float | None = N
                          "and paper by its colour; scan the sheet in colour (RGB)")
     h, source = _pixel_size(dpi, mm_per_pixel, info, path)
     stored = stain_intensity(pixels)
+    level = dot_intensity(intensity_noise(pixels))
     del pixels
     turns = rotate_deg // 90
     intensity = np.ascontiguousarray(np.rot90(stored, turns))
-    labels, boxes = find_imprints(intensity, h, min_imprint_mm2=min_imprint_mm2)
+    labels, boxes = find_imprints(intensity, h, min_imprint_mm2=min_imprint_mm2, dot_intensity=level)
     if not boxes:
         raise ValueError(f"{path.name}: no imprint found (no group of dye-coloured dots of at least "
                          f"{min_imprint_mm2:g} mm2); is it a colour scan of Prescale film?")
@@ -315,7 +332,7 @@ def read_sheet(path, *, dpi: float | None = None, mm_per_pixel: float | None = N
         c0, c1 = max(box[1].start - margin, 0), min(box[1].stop + margin, cols)
         region = labels[r0:r1, c0:c1] == index + 1
         core, std_scale, halo_area, coverage, halo_outlines = _read_one(intensity[r0:r1, c0:c1], region, h,
-                                                                        intensity.shape)
+                                                                        level)
         # window coordinates -> page coordinates (x right, y up from the turned page's lower-left corner)
         shift = np.array([c0 * h, (rows - r1) * h])
         core.outlines_mm = [ring + shift for ring in core.outlines_mm]
@@ -330,7 +347,7 @@ def read_sheet(path, *, dpi: float | None = None, mm_per_pixel: float | None = N
         if progress is not None:
             progress(number, len(order))
     return Sheet(path=path, imprints=imprints, pixel_size_mm=h, pixel_size_source=source, rotate_deg=rotate_deg,
-                 intensity=intensity)
+                 intensity=intensity, dot_intensity=level)
 
 
 def _stored_box(box: tuple[int, int, int, int], turns: int, stored_shape: tuple[int, int]) -> tuple[int, ...]:
