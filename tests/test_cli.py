@@ -141,3 +141,13 @@ def test_a_read_only_study_can_be_read(tmp_path, monkeypatch):
     assert Study(tmp_path / "s").manifest.data["format"] == "filmcal-study/1"  # opened for reading
     with pytest.raises(InputError, match="not writable"):
         Study(tmp_path / "s", create=True)  # a writer is still refused before any work
+
+
+def test_the_old_progress_value_is_noted_by_its_command(tmp_path, capsys):
+    """`--progress live` said 'filmcal: note: ...' from whichever command it was given to."""
+    from filmcal import cli
+
+    assert cli.main(["curves", "--film", "HS", "--study-dir", str(tmp_path / "none"), "--progress", "live"]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err[0] == ("filmcal curves: note: --progress live is renamed --progress bar; the old name goes in the "
+                      "next release")

@@ -38,6 +38,8 @@ class Concept:
     choices : tuple, optional
         The allowed values.
     metavar : str, optional
+    action : argparse.Action subclass, optional
+        Parses the option instead of ``type`` (one that needs its parser, e.g. to name its command).
     """
 
     dest: str
@@ -46,10 +48,24 @@ class Concept:
     bounds: tuple[float, float] | None = None
     choices: tuple[str, ...] | None = None
     metavar: str | None = None
+    action: type[argparse.Action] | None = None
 
     @property
     def flag(self) -> str:
         return "--" + self.dest.replace("_", "-")
+
+
+class _ProgressMode(argparse.Action):
+    """``--progress``: one of `PROGRESS_MODES` (the old ``live`` is ``bar``, said once, naming the command)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        if values == "live":
+            sys.stderr.write(f"{parser.prog}: note: --progress live is renamed --progress bar; the old name goes "
+                             "in the next release\n")
+            values = "bar"
+        if values not in PROGRESS_MODES:
+            parser.error(f"argument --progress: must be one of {', '.join(PROGRESS_MODES)}, got {values!r}")
+        setattr(namespace, self.dest, values)
 
 
 def _concepts(*items: Concept) -> dict[str, Concept]:
@@ -113,8 +129,8 @@ VOCABULARY: dict[str, Concept] = _concepts(
     Concept("umbridge_model", "the model's name on the UM-Bridge server", metavar="NAME"),
     Concept("dask", "address of a Dask distributed scheduler (tcp://host:port) to run on", metavar="ADDRESS"),
     Concept("progress", "progress on stderr: bar (live bars on a terminal), log (plain lines, a heartbeat at "
-            "least every 10 s), quiet, or auto (bar on a terminal, log otherwise)", type=lambda t: progress_mode(t),
-            metavar="{" + ",".join(PROGRESS_MODES) + "}"),
+            "least every 10 s), quiet, or auto (bar on a terminal, log otherwise)",
+            metavar="{" + ",".join(PROGRESS_MODES) + "}", action=_ProgressMode),
     Concept("study_dir", "study folder", metavar="DIR"),
     Concept("run_store", "folder of FE (or simulator) run stores shared by studies: a study given it reuses every "
             "run of the same settings that another study made there, and records the SHA-256 of the runs it used "
@@ -177,7 +193,11 @@ def add(parser, dest: str, help: str | None = None, *, extra: str = "", **kwargs
     """
     concept = VOCABULARY[dest]
     options: dict[str, Any] = {"dest": dest}
-    if "action" not in kwargs:
+    if "action" not in kwargs and concept.action is not None:
+        options["action"] = concept.action
+        if concept.metavar is not None:
+            options["metavar"] = concept.metavar
+    elif "action" not in kwargs:
         if concept.type is not None:
             options["type"] = _bounded(concept)
         if concept.choices is not None:
@@ -359,17 +379,6 @@ def force_range(text: str) -> str:
     if match is None or (match.group(2) is not None and float(match.group(1)) > float(match.group(2))):
         raise argparse.ArgumentTypeError(f"must be a force range in kN such as 50-100 (low <= high) or 75, "
                                          f"got {text!r}")
-    return text
-
-
-def progress_mode(text: str) -> str:
-    """``--progress``'s value (the old ``live`` is ``bar``)."""
-    if text == "live":
-        sys.stderr.write("filmcal: note: --progress live is renamed --progress bar; the old name goes in the next "
-                         "release\n")
-        return "bar"
-    if text not in PROGRESS_MODES:
-        raise argparse.ArgumentTypeError(f"must be one of {', '.join(PROGRESS_MODES)}, got {text!r}")
     return text
 
 
