@@ -48,7 +48,7 @@ import filmcal.commands
 from filmcal._errors import DamagedFileError
 from filmcal._validation import SPHERE_RADIUS_MM_BOUNDS, arg_finite, arg_float_in, arg_grid, arg_int, arg_int_in
 from filmcal._versions import VersionNote
-from filmcal.commands._options import bounds_text, missing_required
+from filmcal.commands._options import bounds_text, missing_required, take_notes
 
 __all__ = ["main", "build_parser", "preflight", "SIZE_BOUNDS",
            "EXIT_OK", "EXIT_USER", "EXIT_INTERNAL", "EXIT_INTERRUPTED"]
@@ -623,6 +623,7 @@ def _main(argv: list[str] | None) -> int:
             sys.stderr.write(f"filmcal: error: a command is required ({', '.join(command_modules())}; "
                              "filmcal --help says what each does)\n")
             return EXIT_USER
+        take_notes()  # none of an earlier parse in this process
         args, unknown = parser.parse_known_args(argv)
     except KeyboardInterrupt:
         sys.stderr.write("filmcal: interrupted\n")
@@ -634,12 +635,18 @@ def _main(argv: list[str] | None) -> int:
     path = [args.command] + ([args.action] if isinstance(getattr(args, "action", None), str) else [])
     prog = "filmcal " + " ".join(path)
     if unknown:
-        sys.stderr.write(f"{prog}: error: {unrecognized_message(_command_parser(parser, path), prog, unknown)}\n")
+        # before the command's name they are the top level's
+        first = next((i for i, a in enumerate(argv) if a == unknown[0]), len(argv))
+        where = "filmcal" if first < argv.index(args.command) else prog
+        message = unrecognized_message(_command_parser(parser, path if where == prog else []), where, unknown)
+        sys.stderr.write(f"{where}: error: {_one_line(message)}\n")
         return EXIT_USER
     missing = missing_required(_command_parser(parser, path), args)
     if missing:
         sys.stderr.write(f"{prog}: error: the following arguments are required: {', '.join(missing)}\n")
         return EXIT_USER
+    for note in take_notes():  # old spellings, said once the command line stands
+        sys.stderr.write(note + "\n")
     actions = _command_actions(parser, path)
     options = _option_strings(actions)
     try:

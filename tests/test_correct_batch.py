@@ -165,7 +165,7 @@ def test_an_interrupted_batch_writes_the_rows_it_corrected_and_marks_the_others(
     capsys.readouterr()
     assert main(args + ["--out", str(out)]) == 130
     err = capsys.readouterr().err
-    assert "interrupted after 2 of 4 rows" in err and "run the same command again" in err
+    assert "interrupted after 2 of 4 rows" in err and "the same command run again finishes it" in err
     with open(out, newline="") as fh:
         rows = list(csv.DictReader(fh))
     with open(whole, newline="") as fh:
@@ -174,6 +174,14 @@ def test_an_interrupted_batch_writes_the_rows_it_corrected_and_marks_the_others(
     assert all(r["area_mm2"] == "" and r["measured_area_mm2"] for r in rows[2:])
     provenance = json.loads((tmp_path / "out.csv.provenance.json").read_text())
     assert provenance["not_reached"] == 2 and provenance["failed"] == 0 and provenance["rows"] == 4
+    def interrupted_at_once(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(correct_module, "correct_measurement", interrupted_at_once)
+    before = out.read_bytes()
+    capsys.readouterr()
+    assert main(args + ["--out", str(out)]) == 130  # interrupted at its first row: the earlier table is kept
+    assert "before any row was corrected" in capsys.readouterr().err and out.read_bytes() == before
     monkeypatch.setattr(correct_module, "correct_measurement", real)
     assert main(args + ["--out", str(out)]) == 0  # run again: the whole table
     with open(out, newline="") as fh:

@@ -192,3 +192,14 @@ def test_a_kept_cache_is_adopted_as_an_artefact_only_when_it_is_the_file_the_stu
     changed.write_text('{"law": 3}')
     with study.writing("a test"), pytest.raises(InputError, match="changed after the study wrote it"):
         study.adopt(changed, "rough-law", spec)
+    # the pipeline does not stop there: a changed kept law, or a file recorded nowhere (a write interrupted
+    # before its record), is not held, and is solved again
+    from filmcal.study.core import StudyRoughLaws
+
+    stray = study.layout.rough_law("k3")
+    stray.write_text("half a law")
+    with study.writing("a test"):
+        store = StudyRoughLaws(study)
+        assert not store.held(changed, spec) and not store.held(stray, spec)
+        assert study.layout.relative(changed) not in study.manifest.data["caches"]
+        assert store.held(path, spec)  # the adopted one

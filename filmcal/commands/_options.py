@@ -10,7 +10,6 @@ use an old name of a concept.
 from __future__ import annotations
 
 import argparse
-import sys
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -55,13 +54,29 @@ class Concept:
         return "--" + self.dest.replace("_", "-")
 
 
+#: Notes on old spellings met while parsing, said by the command line once the parse has succeeded (a refused
+#: command line says one line only).
+_NOTES: list[str] = []
+
+
+def note_renamed(prog: str, old: str, new: str) -> None:
+    """Keep the note that `old` is renamed `new` for `take_notes`."""
+    _NOTES.append(f"{prog}: note: {old} is renamed {new}; the old name goes in the next release")
+
+
+def take_notes() -> list[str]:
+    """The notes kept since the last call (`note_renamed`), forgotten here."""
+    notes = list(_NOTES)
+    _NOTES.clear()
+    return notes
+
+
 class _ProgressMode(argparse.Action):
     """``--progress``: one of `PROGRESS_MODES` (the old ``live`` is ``bar``, said once, naming the command)."""
 
     def __call__(self, parser, namespace, values, option_string=None):
         if values == "live":
-            sys.stderr.write(f"{parser.prog}: note: --progress live is renamed --progress bar; the old name goes "
-                             "in the next release\n")
+            note_renamed(parser.prog, "--progress live", "--progress bar")
             values = "bar"
         if values not in PROGRESS_MODES:
             parser.error(f"argument --progress: must be one of {', '.join(PROGRESS_MODES)}, got {values!r}")
@@ -235,8 +250,7 @@ class _Renamed(argparse.Action):
         super().__init__(option_strings, dest, help=argparse.SUPPRESS, **kwargs)
 
     def __call__(self, parser, namespace, values, option_string=None):
-        sys.stderr.write(f"{parser.prog}: note: {option_string} is renamed {self.new}; the old name goes in the "
-                         "next release\n")
+        note_renamed(parser.prog, option_string, self.new)
         for dest, value in self.convert(values).items():
             setattr(namespace, dest, value)
 

@@ -161,11 +161,16 @@ def run_batch(args: argparse.Namespace) -> int:
             from filmcal.cli import EXIT_INTERRUPTED
 
             stack.close()
-            _write_batch(args, header + list(OUTPUT_COLUMNS), stop.rows, stop.provenance)
             done = len(rows) - stop.provenance["not_reached"]
+            if not done:  # nothing to keep: an --out of an earlier run stays as it was
+                sys.stderr.write(f"filmcal correct: interrupted before any row was corrected; {args.out} was not "
+                                 "written\n")
+                return EXIT_INTERRUPTED
+            _write_batch(args, header + list(OUTPUT_COLUMNS), stop.rows, stop.provenance)
             sys.stderr.write(f"filmcal correct: interrupted after {done} of {len(rows)} rows; {args.out} holds "
-                             f"them, the others marked '{INTERRUPTED_STATUS}': run the same command again "
-                             "to finish (the study kept the corrected rows' solves)\n")
+                             f"them, the others marked '{INTERRUPTED_STATUS}': the same command run again "
+                             "finishes it, reading the corrected rows' solves from the study where it could keep "
+                             "them (no other process writing it)\n")
             return EXIT_INTERRUPTED
     _write_batch(args, header + list(OUTPUT_COLUMNS), out, provenance)
     failed = provenance["failed"]

@@ -208,14 +208,23 @@ def stain_intensity(pixels) -> np.ndarray:
         if alpha is not None:  # composite over white paper
             value = alpha * value + (1.0 - alpha)
         return 1.0 - value
-    floor = np.float32(0.5 / scale if scale > 1 else 1.0 / 65535.0)
     density = np.zeros(channels.shape[:2], dtype=np.float32)
-    for k, weight in enumerate(_DYE_UNMIXING):
+    for weight, value in zip(_DYE_UNMIXING, _colour_values(channels)):
+        density -= np.float32(weight) * np.log10(value)
+    return -np.expm1(np.float32(-math.log(10.0)) * np.maximum(density, 0.0))
+
+
+def _colour_values(channels: np.ndarray):
+    """Each colour channel of RGB(A) pixels as a fraction of white, composited over white paper where
+    transparent and floored at half a level (the logarithm of `stain_intensity` stays finite)."""
+    scale = np.float32(_full_scale(channels))
+    floor = np.float32(0.5 / scale if scale > 1 else 1.0 / 65535.0)
+    alpha = channels[:, :, 3].astype(np.float32) / scale if channels.shape[2] == 4 else None
+    for k in range(3):
         value = channels[:, :, k].astype(np.float32) / scale
         if alpha is not None:
             value = alpha * value + (1.0 - alpha)
-        density -= np.float32(weight) * np.log10(np.maximum(value, floor))
-    return -np.expm1(np.float32(-math.log(10.0)) * np.maximum(density, 0.0))
+        yield np.maximum(value, floor)
 
 
 def intensity_noise(pixels) -> float:
@@ -234,19 +243,17 @@ def intensity_noise(pixels) -> float:
         ``(rows, columns, 3)`` RGB or ``(rows, columns, 4)`` RGBA, as `stain_intensity` takes them.
     """
     pixels = np.asarray(pixels)
-    if pixels.ndim != 3 or pixels.shape[2] not in (3, 4):
-        raise ValueError(f"the noise of a colour scan is read from (rows, columns, 3|4) pixels, got {pixels.shape}")
-    scale = _full_scale(pixels)
-    every = max(1, pixels.shape[0] // 512)  # some 512 rows: the median is settled long before
+    if pixels.ndim != 3 or pixels.shape[2] not in (3, 4) or min(pixels.shape[:2]) < 3:
+        raise ValueError(f"the noise of a colour scan is read from (rows, columns, 3|4) pixels, at least 3 x 3, "
+                         f"got {pixels.shape}")
+    rows = pixels[::max(1, pixels.shape[0] // 512)]  # some 512 whole rows: the median is settled long before
     variance = 0.0
-    for k, weight in enumerate(_DYE_UNMIXING):
-        rows = pixels[::every, :, k].astype(np.float32) / np.float32(scale)
-        steps = np.diff(rows, axis=1)
+    for weight, value in zip(_DYE_UNMIXING, _colour_values(rows)):
+        steps = np.diff(value, axis=1)
         sigma = 1.4826 * float(np.median(np.abs(steps - np.median(steps)))) / math.sqrt(2.0)
-        value = max(float(np.median(rows)), 0.5 / scale)
-        variance += (weight * sigma / (math.log(10.0) * value)) ** 2
+        variance += (weight * sigma / (math.log(10.0) * float(np.median(value)))) ** 2
     # stain_intensity = 1 - 10**(-c): its slope ln 10 (1 - intensity) at the paper's intensity
-    paper = float(np.median(stain_intensity(pixels[::every, ::every])))
+    paper = float(np.median(stain_intensity(rows)))
     return math.log(10.0) * (1.0 - paper) * math.sqrt(variance)
 
 

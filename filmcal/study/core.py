@@ -1409,7 +1409,8 @@ class StudyGrowths:
 
     ``posteriors/<key>-roughness.json``, ``<key>`` the hash of its spec: the posteriors (SHA-256), the
     wheel-rail settings, the offset and force, the bodies (each Ra, a measured surface by its fingerprint),
-    the draws of the roughness inputs (shipped, or the study's own), the application model's revision.
+    the draws of the roughness inputs (shipped, or the study's own), the modulus the growths were solved at
+    (`growth_modulus_of`), the application model's revision.
     Recorded under the manifest's ``caches`` and verified like `_StudySupports`; written only when the writer
     lock is free.
     """
@@ -1421,7 +1422,7 @@ class StudyGrowths:
         self.parts = parts
         self.pending: list = []  # growths kept by `flush`, once the answer they served is given
 
-    def spec(self, offset_mm: float, force_n: float, bodies: dict, draws: list) -> dict:
+    def spec(self, offset_mm: float, force_n: float, bodies: dict, draws: list, modulus_mpa: float) -> dict:
         from filmcal.contact import names
         from filmcal.contact.waviness import WAVINESS_CUTOFF_CELLS
         from filmcal.wheelrail.settings import FILM_MIN_CELLS_ACROSS
@@ -1432,6 +1433,7 @@ class StudyGrowths:
                                                                   for _, _, s in self.parts},
                                 "wheel_rail": settings, "offset_mm": float(offset_mm), "force_n": float(force_n),
                                 "bodies": bodies, "draws": [d.to_dict() for d in draws],
+                                "growth_modulus_mpa": float(modulus_mpa),
                                 "waviness_cutoff_cells": WAVINESS_CUTOFF_CELLS,
                                 "film_min_cells_across": FILM_MIN_CELLS_ACROSS,
                                 "application_model_revision": names.APPLICATION_MODEL_REVISION})
@@ -1498,6 +1500,8 @@ class StudyRoughLaws:
         """The law of `rough_law_spec`: read back from the study, or ``solve()`` and kept."""
         from filmcal.contact.rough_law_file import load_rough_law, save_rough_law
 
+        if bodies.wheel is None and bodies.rail is None:  # no micro part (a measured surface all waviness)
+            return solve()
         spec = rough_law_spec(bodies, film, modulus_mpa)
         path = self.study.layout.rough_law(spec_key(spec))
         relpath = self.study.layout.relative(path)
@@ -1512,6 +1516,19 @@ class StudyRoughLaws:
         self.solved += 1
         _write_cache(self.study, path, spec, law, "keeping a rough law", write=save_rough_law)
         return law
+
+    def held(self, path: Path, spec: dict) -> bool:
+        """Whether the pipeline (holding the writer lock) has the law of `spec` at `path` as its artefact: its
+        own, or one `law` kept, taken over (`Study.adopt`). A file recorded nowhere (a write interrupted before
+        its record) or a kept law changed since is not held: the pipeline solves it again and records it."""
+        relpath = self.study.layout.relative(path)
+        if self.study.manifest.entry(relpath) is not None:
+            return self.study.verified(path, kind=self.KIND, spec=spec) is not None
+        try:
+            return self.study.adopt(path, self.KIND, spec) is not None
+        except InputError:  # changed since it was kept: solved again
+            self.study.manifest.data["caches"].pop(relpath, None)
+            return False
 
 
 def _read_cache(study: Study, path: Path, spec: dict, read=None):
@@ -1535,6 +1552,8 @@ def _write_cache(study: Study, path: Path, spec: dict, data: Any, what: str, wri
 
     try:
         with study.writing(f"filmcal correct: {what}"):
+            if study.manifest.entry(study.layout.relative(path)) is not None:
+                return  # an artefact of the study's own since it was read (a pipeline's): never overwritten
             path.parent.mkdir(parents=True, exist_ok=True)
             if write is None:
                 atomic_write_json(path, data)

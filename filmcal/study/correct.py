@@ -388,7 +388,8 @@ def _rough_growths(study, parts, m: WheelRailMeasurement, force_n: float, roughn
     inputs, inputs_source = study.roughness_inputs()
     draws = inputs[:roughness.n_draws]
     kept = StudyGrowths(study, parts)
-    spec = kept.spec(m.offset_mm, force_n, roughness.fingerprint(), draws)
+    modulus = growth_modulus_of(study, parts)
+    spec = kept.spec(m.offset_mm, force_n, roughness.fingerprint(), draws, modulus)
     stored = kept.get(spec)
     if stored is not None:  # solved before for these posteriors, bodies and draws
         w = np.full(len(draws), 1.0 / len(draws))
@@ -398,7 +399,7 @@ def _rough_growths(study, parts, m: WheelRailMeasurement, force_n: float, roughn
     else:  # each law kept as soon as it is solved: run again after an interrupt, only the missing are solved
         growths = corrector_growths([c for _, c, _ in parts], [w for w, _, _ in parts], m.offset_mm, force_n,
                                     draws, wheel=roughness.wheel(), rail=roughness.rail(), progress=progress,
-                                    keep=StudyRoughLaws(study).law, modulus_mpa=growth_modulus_of(study, parts))
+                                    keep=StudyRoughLaws(study).law, modulus_mpa=modulus)
         kept.put(spec, {s["model"]: {"film": growths[c.film.label].film.tolist(),
                                      "no_film": growths[c.film.label].no_film.tolist()} for _, c, s in parts})
     return growths, draws, inputs_source, kept

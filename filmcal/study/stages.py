@@ -771,6 +771,7 @@ def _rough_laws(study: Study, settings: PipelineSettings, rough, films: dict, dr
     from filmcal.wheelrail.settings import GRID_MM
 
     paths, specs, tasks = {}, {}, {}
+    store = StudyRoughLaws(study)
     for d in draws:
         # the micro part of the bodies (the synthetic surfaces are all micro-roughness: 200 um < the cut-off)
         bodies = d.bodies(rough.wheel, rough.rail).split(1e3 * WAVINESS_CUTOFF_CELLS * GRID_MM)
@@ -780,9 +781,7 @@ def _rough_laws(study: Study, settings: PipelineSettings, rough, films: dict, dr
             path = study.layout.rough_law(spec_key(spec))
             paths.setdefault(d, {})[name] = path
             specs[d, name] = spec
-            # a law that `filmcal correct` solved and kept is taken over as it is
-            if not (study.adopt(path, StudyRoughLaws.KIND, spec)
-                    or study.verified(path, kind=StudyRoughLaws.KIND, spec=spec)):
+            if not store.held(path, spec):  # a law `filmcal correct` solved and kept is taken over as it is
                 tasks[d, name] = ((bodies.steel_law, ()) if name is None else
                                   (bodies.film_law, (f[1], f[0].poisson, f[0].thickness_mm)))
     st.set_total(len(tasks) + after)
@@ -794,6 +793,7 @@ def _rough_laws(study: Study, settings: PipelineSettings, rough, films: dict, dr
         path = paths[key[0]][key[1]]
         path.parent.mkdir(parents=True, exist_ok=True)
         save_rough_law(law, path)
+        study.manifest.data.get("caches", {}).pop(study.layout.relative(path), None)  # one changed since kept
         study.record(path, StudyRoughLaws.KIND, specs[key])
         st.advance(note=f"rough law, {key[1] or 'without film'}")
 
