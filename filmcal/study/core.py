@@ -1494,7 +1494,6 @@ class StudyRoughLaws:
 
     def __init__(self, study: Study) -> None:
         self.study = study
-        self.solved = 0  # laws solved here (not read back)
 
     def law(self, bodies, film: FilmType | None, modulus_mpa: float | None, solve):
         """The law of `rough_law_spec`: read back from the study, or ``solve()`` and kept."""
@@ -1513,7 +1512,6 @@ class StudyRoughLaws:
             if law is not None:
                 return law
         law = solve()
-        self.solved += 1
         _write_cache(self.study, path, spec, law, "keeping a rough law", write=save_rough_law)
         return law
 
