@@ -165,3 +165,22 @@ def test_a_profile_with_implausible_heights_is_refused_in_one_line_naming_it(tmp
     p = subprocess.run([sys.executable, "-m", "filmcal.cli", "wheelrail", "--offset-mm=-3", "--force-kn", "100",
                         "--no-film", "--wheel-roughness-map", str(path)], capture_output=True, text=True)
     assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and "odd.csv" in p.stderr, p.stderr
+
+
+def test_a_jpeg_or_other_binary_map_is_refused_saying_what_is_read(tmp_path):
+    """A JPEG height map read as a CSV said 'not a text file of heights ('utf-8' codec can't decode byte 0xff ...)'.
+    JPEG's lossy compression alters heights, so it is refused by name; other binary files say which formats are
+    read."""
+    from PIL import Image
+
+    grey = Image.fromarray((np.random.default_rng(0).random((64, 64)) * 255).astype(np.uint8))
+    grey.save(tmp_path / "map.jpg")
+    grey.save(tmp_path / "map.bmp")
+    with pytest.raises(ValueError, match="JPEG's lossy compression alters the heights; save the map as a 16-bit PNG"):
+        read_surface_file(tmp_path / "map.jpg", pixel_um=2.0)
+    with pytest.raises(ValueError, match="a binary file, not a text file of heights .*PNG or TIFF.*x3p"):
+        read_surface_file(tmp_path / "map.bmp", pixel_um=2.0)
+    p = subprocess.run([sys.executable, "-m", "filmcal.cli", "wheelrail", "--offset-mm=-3", "--force-kn", "100",
+                        "--no-film", "--wheel-roughness-map", str(tmp_path / "map.jpg"), "--roughness-pixel-um", "2"],
+                       capture_output=True, text=True)
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and "map.jpg" in p.stderr, p.stderr

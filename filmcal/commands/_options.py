@@ -126,7 +126,7 @@ VOCABULARY: dict[str, Concept] = _concepts(
             arg_zero_or_in(MIN_RA_UM, MAX_RA_UM)),
     Concept("wheel_roughness_map", "a measured surface of the wheel: an x3p map or profile, a stylus line "
             "profile across the lay (CSV with x_um or x_mm and z_um or z_nm columns), a CSV of heights or a "
-            "greyscale PNG/TIFF (these two with --roughness-pixel-um)", metavar="FILE"),
+            "greyscale PNG/TIFF, not JPEG (these two with --roughness-pixel-um)", metavar="FILE"),
     Concept("rail_roughness_map", "a measured surface of the rail (the formats of --wheel-roughness-map)",
             metavar="FILE"),
     Concept("roughness_pixel_um", "pixel size in um of a CSV or image roughness map", float, (0.001, 100.0)),

@@ -288,8 +288,11 @@ class RoughSurface:
             text = path.read_text()
         except FileNotFoundError:
             raise ValueError(f"height map {path}: not found") from None
-        except (IsADirectoryError, UnicodeDecodeError) as exc:
-            raise ValueError(f"height map {path}: not a text file of heights ({exc})") from None
+        except IsADirectoryError:
+            raise ValueError(f"height map {path}: a folder, not a file of heights") from None
+        except UnicodeDecodeError:
+            raise ValueError(f"height map {path}: a binary file, not a text file of heights (greyscale images are "
+                             f"read from PNG or TIFF files, measured surfaces from x3p files)") from None
         rows = []
         for k, line in enumerate(text.splitlines()):
             items = [s for s in line.replace(",", " ").replace(";", " ").split() if s]

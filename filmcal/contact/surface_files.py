@@ -356,6 +356,9 @@ def read_surface_file(path: str | Path, pixel_um: float | None = None, height_sc
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"roughness map {path}: not found")
+    if path.suffix.lower() in (".jpg", ".jpeg"):
+        raise ValueError(f"roughness map {path}: a JPEG's lossy compression alters the heights; save the map as "
+                         f"a 16-bit PNG or TIFF, a CSV of heights or an x3p file")
     check_map_pixels(path)
     kind = surface_file_kind(path)
     if kind == "x3p":
