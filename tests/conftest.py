@@ -372,3 +372,27 @@ def quick_study(request):
     err = (started["folder"] / "stderr").read_text()
     assert process.returncode == 0, err[-3000:]
     return started["study"], json.loads((started["folder"] / "stdout").read_text()), started["cmd"]
+
+
+@pytest.fixture
+def rough_law_solves(monkeypatch):
+    """The boundary-element laws solved in this process, in order (``"film_law"``, ``"steel_law"``); setting
+    ``stop_at`` on the returned list (``solved.stop_at = n``) raises KeyboardInterrupt at the (n+1)-th solve, as
+    Ctrl-C would."""
+    from filmcal.contact.roughness import Roughness
+
+    class Solves(list):
+        stop_at = None
+
+    solved = Solves()
+    for name in ("film_law", "steel_law"):
+        real = getattr(Roughness, name)
+
+        def law(self, *args, name=name, real=real):
+            if solved.stop_at is not None and len(solved) == solved.stop_at:
+                raise KeyboardInterrupt
+            solved.append(name)
+            return real(self, *args)
+
+        monkeypatch.setattr(Roughness, name, law)
+    return solved

@@ -199,3 +199,43 @@ def test_curves_takes_the_offsets_correct_takes(tmp_path):
     assert p.returncode == 2 and "--offsets-mm must lie in [-60, 60] mm" in p.stderr, p.stderr
     p = subprocess.run(cli + ["--offsets-mm=12"], capture_output=True, text=True)
     assert p.returncode == 2 and "must lie in" not in p.stderr and "does not exist" in p.stderr, p.stderr
+
+
+@pytest.mark.slow
+def test_rough_curves_keep_each_law_as_it_solves_it_and_read_the_pipelines(quick_study, tmp_path, capsys,
+                                                                            rough_law_solves):
+    """`filmcal curves` on rough bodies solved its boundary-element laws in a temporary folder: Ctrl-C lost them,
+    and the pipeline's own Ra was solved again. Each law is now read from the study or kept there as it is solved
+    (as `filmcal correct` keeps them): an interrupted run solves only the missing laws again and its rows equal
+    an uninterrupted run's; the pipeline's laws (wheel Ra 1.5 um, its draws) are read, not solved."""
+    import json
+    import shutil
+
+    from filmcal import cli
+
+    studies = {}
+    for name in ("interrupted", "whole"):
+        studies[name] = tmp_path / name
+        shutil.copytree(quick_study[0], studies[name])
+    solved = rough_law_solves
+
+    def curves(study, ra_um, stop_at=None):
+        solved.stop_at = stop_at
+        status = cli.main(["curves", "--film", "HS", "--study-dir", str(study), "--offsets-mm=-3", "--forces-kn",
+                           "100", "--wheel-roughness-ra-um", str(ra_um), "--roughness-draws", "2", "--workers", "1",
+                           "--json", "--progress", "quiet"])
+        out = capsys.readouterr().out
+        return status, (json.loads(out)["rows"] if status == 0 else None)
+
+    status, _ = curves(studies["whole"], 1.5)
+    assert status == 0 and solved == [], "the pipeline's laws were solved again"
+    status, _ = curves(studies["interrupted"], 2.0, stop_at=2)  # the first draw's two laws, then Ctrl-C
+    assert status == 130
+    kept = {k: v for k, v in json.loads((studies["interrupted"] / "study.json").read_text())["caches"].items()
+            if v["kind"] == "rough-law"}
+    assert len(kept) == 2 and all((studies["interrupted"] / k).is_file() for k in kept)
+    solved.clear()
+    status, resumed = curves(studies["interrupted"], 2.0)
+    assert status == 0 and solved == ["film_law", "steel_law"]  # the second draw's only
+    status, whole = curves(studies["whole"], 2.0)
+    assert status == 0 and resumed == whole

@@ -292,14 +292,14 @@ def test_a_refused_measurement_writes_nothing_and_a_load_without_imprint_is_refu
         assert snapshot() == before, what
 
 
-def test_a_rough_correction_keeps_each_law_as_it_solves_it_and_reads_the_pipelines(quick_study, tmp_path):
+def test_a_rough_correction_keeps_each_law_as_it_solves_it_and_reads_the_pipelines(quick_study, tmp_path,
+                                                                                     rough_law_solves):
     """The boundary-element laws are nearly all of a rough correction's time. Each is kept in the study as soon
     as it is solved: run again after an interrupt, only the missing laws are solved, and the answer is the one
     an uninterrupted run gives. A law the pipeline solved for its rough curves (the same bodies and film at the
     same modulus) is read, not solved again."""
     import shutil
 
-    from filmcal.contact.roughness import Roughness
     from filmcal.study import Study
     from filmcal.study.correct import BodyRoughness, WheelRailMeasurement, correct_measurement
 
@@ -307,26 +307,12 @@ def test_a_rough_correction_keeps_each_law_as_it_solves_it_and_reads_the_pipelin
     for name in ("interrupted", "whole"):
         studies[name] = tmp_path / name
         shutil.copytree(quick_study[0], studies[name])
-    solved = []
-    real = {"film_law": Roughness.film_law, "steel_law": Roughness.steel_law}
-
-    def counting(name, stop_at=None):
-        def law(self, *args):
-            if stop_at is not None and len(solved) == stop_at:
-                raise KeyboardInterrupt
-            solved.append(name)
-            return real[name](self, *args)
-        return law
+    solved = rough_law_solves
 
     def correct(study, ra_um, draws, stop_at=None):
-        for name in real:
-            setattr(Roughness, name, counting(name, stop_at))
-        try:
-            answer, _ = correct_measurement(Study(study), "HS", WheelRailMeasurement(150.0, -3.0, 100.0),
-                                            roughness=BodyRoughness(ra_um, None, draws))
-        finally:
-            for name, f in real.items():
-                setattr(Roughness, name, f)
+        solved.stop_at = stop_at
+        answer, _ = correct_measurement(Study(study), "HS", WheelRailMeasurement(150.0, -3.0, 100.0),
+                                        roughness=BodyRoughness(ra_um, None, draws))
         return answer
 
     # the quick pipeline's rough curves: wheel Ra 1.5 um, 2 draws, the laws against HS and steel of each

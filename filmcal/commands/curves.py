@@ -21,7 +21,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "posterior quantiles; the interpolation error, checked at one more, is a column beside the "
                     "bands. Rough bodies multiply each sample by one draw's rough/smooth growths (with and "
                     "without film), so their bands hold the roughness law's uncertainty. About a second per (load, "
-                    "offset) with smooth bodies; rough bodies add a few seconds per draw and (load, offset).")
+                    "offset) with smooth bodies; rough bodies add a few seconds per draw and (load, offset), and "
+                    "first the draws' roughness laws (seconds to minutes each), each kept in the study as it is "
+                    "solved, so a run interrupted and started again, or a correction on the same bodies, reads it.")
     add(p, "film", help="film type: MS, HS, HHS, or a film of the study's --films-file", required=True)
     add(p, "forces_kn", default="50,100", extra="(default 50,100)")
     add(p, "offsets_mm", default="-7:2:1", extra="(default -7:2:1)")
@@ -138,7 +140,7 @@ def run(args: argparse.Namespace) -> int:
         check_outside_study(path, option, args.study_dir)
     check_distinct_files(*outputs)
     from filmcal.correction import CURVE_COLUMNS, curve_table, write_curves_csv
-    from filmcal.study.core import chosen_posteriors, curve_components
+    from filmcal.study.core import StudyRoughLaws, chosen_posteriors, curve_components
 
     with parallel_work(args.workers, args.dask) as workers:  # a Dask scheduler is reached before anything is written
         study = Study(args.study_dir)
@@ -154,7 +156,8 @@ def run(args: argparse.Namespace) -> int:
         if args.progress != "quiet":
             for label in ["smooth"] + [c.label for c in rough]:
                 sys.stderr.write(f"[curves] {film}, {label}: {len(forces)} loads x {len(offsets)} offsets\n")
-        rows = curve_table(film, components, offsets, forces, rough, workers)
+        rows = curve_table(film, components, offsets, forces, rough, workers,
+                           StudyRoughLaws(study, command="filmcal curves"))
     from filmcal.hertz import ELASTIC_LIMIT_MPA
 
     peak = CURVE_COLUMNS.index("max_pressure_no_film_mpa")

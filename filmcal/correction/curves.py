@@ -350,12 +350,6 @@ class RoughConfiguration:
     def distinct(self) -> list:
         return [None] if self.law is not None else list(dict.fromkeys(self.draws))
 
-    def laws(self, draw, films: dict) -> dict:
-        """`filmcal.correction.roughness.draw_laws` of one distinct draw for these films."""
-        from filmcal.correction.roughness import draw_laws
-
-        return draw_laws(draw, films, wheel=self.wheel, rail=self.rail, law=self.law)
-
 
 def growth_task(models, draws, laws, offset_mm: float, force_n: float, wheel_rail: dict) -> dict:
     """The growths of every distinct draw at one cell (a task for `filmcal._parallel.run_tasks`).
@@ -405,13 +399,13 @@ def curve_growths(models, configuration: RoughConfiguration, solved: dict) -> di
             for cell, by_draw in solved.items()}
 
 
-def curve_table(film: str, components, offsets_mm, forces_kn, rough=(), workers=None) -> list[list]:
+def curve_table(film: str, components, offsets_mm, forces_kn, rough=(), workers=None, store=None) -> list[list]:
     """Correction curves of one film, smooth and on rough bodies, as CSV rows (`CURVE_COLUMNS`), in parallel.
 
     The rows are those of `curve_rows` (loads, then offsets within a load; the smooth wheel, then each rough
-    configuration) wherever the work runs: for each rough configuration one task per distinct draw (its laws,
-    kept in files) and one per load and offset (`growth_task`: every draw's rough solves there), then one task
-    per load and offset (the curves).
+    configuration) wherever the work runs: for each rough configuration one task per law to solve
+    (`rough_law_files`), and one per load and offset (`growth_task`: every draw's rough solves there), then one
+    task per load and offset (the curves).
 
     Parameters
     ----------
@@ -421,32 +415,24 @@ def curve_table(film: str, components, offsets_mm, forces_kn, rough=(), workers=
     workers : int or filmcal._parallel.Executor, optional
         Local worker processes (default: all cores; 1: everything in this process), or the executor to run
         on (a `filmcal._parallel.DaskExecutor`: a Dask cluster).
+    store : optional
+        Where the rough laws are read back and kept as each is solved (`rough_law_files`), such as a study's
+        `filmcal.study.core.StudyRoughLaws`; without one they are solved into a temporary folder.
     """
     import tempfile
 
-    from filmcal._parallel import DaskExecutor, run_tasks
-    from filmcal.contact.rough_law_file import save_rough_law
+    from filmcal._parallel import run_tasks
     from filmcal.correction.roughness import growth_modulus_mpa
 
     modulus = growth_modulus_mpa(components)
     models = [(film, model, modulus) for model, _, _ in components]
     films = {film: (components[0][0].film, modulus)}
-    remote = isinstance(workers, DaskExecutor)
     cells = [(1e3 * float(force), float(eta)) for force in forces_kn for eta in offsets_mm]
     growths = []
     with tempfile.TemporaryDirectory(prefix="filmcal-laws-") as tmp:
         for r, configuration in enumerate(rough):
-            # the draws' laws, each kept in a file that the cells' tasks read (not sent to every task)
             draws = configuration.distinct()
-            paths: dict = {}
-
-            def keep(key, laws, k, r=r, paths=paths, draws=draws):
-                # a Dask cluster's workers may not see this file system: they get the laws themselves
-                paths[draws[key]] = {name: str(save_rough_law(law, Path(tmp) / f"{r}-{key}-{name}.npz"))
-                                     if hasattr(law, "fraction_above") and not remote else law
-                                     for name, law in laws.items()}
-
-            run_tasks({k: (configuration.laws, (d, films)) for k, d in enumerate(draws)}, workers, keep)
+            paths = rough_law_files(configuration, films, workers, Path(tmp) / str(r), store)
             solved: dict = {}
             run_tasks({cell: (growth_task, (models, draws, paths, cell[1], cell[0], {})) for cell in cells}, workers,
                       lambda key, value, k, solved=solved: solved.update({key: value}))
@@ -460,6 +446,54 @@ def curve_table(film: str, components, offsets_mm, forces_kn, rough=(), workers=
     n = len(rough) + 1
     return [row for w in range(n) for force in forces_kn for eta in offsets_mm
             for row in rows[force, eta][w::n]]
+
+
+def rough_law_files(configuration: RoughConfiguration, films: dict, workers, folder: Path, store=None) -> dict:
+    """Each distinct draw's laws (`filmcal.correction.roughness.draw_laws`) as `growth_task` takes them: ``{draw:
+    {film name or None: the law's file, "waviness": ...}}``, one task per law to solve.
+
+    With a ``store`` (``kept(bodies, film, modulus_mpa)`` -> the file of a law it has, or None; ``keep(bodies,
+    film, modulus_mpa, law)`` -> the file it kept the law in, or None), a law it has is read from there and each
+    one solved is kept there as it arrives, so an interrupted run solves only the others again; the rest go to
+    files in ``folder``. On a Dask cluster, whose workers may not see this file system, the tasks get the laws
+    themselves."""
+    from filmcal._parallel import DaskExecutor, run_tasks
+    from filmcal.contact.rough_law_file import load_rough_law, save_rough_law
+    from filmcal.correction.roughness import draw_bodies, draw_laws
+
+    remote = isinstance(workers, DaskExecutor)
+    out: dict = {}
+    tasks: dict = {}
+    bodies_of: dict = {}
+    for d in configuration.distinct():
+        if d is None:  # a measured law, taken as it is
+            out[d] = draw_laws(None, films, law=configuration.law)
+            continue
+        bodies, wavy = draw_bodies(d, wheel=configuration.wheel, rail=configuration.rail)
+        out[d] = {"waviness": wavy}
+        bodies_of[d] = bodies
+        for name in [*films, None]:
+            film, modulus = films[name] if name is not None else (None, None)
+            path = None if store is None or bodies.smooth else store.kept(bodies, film, modulus)
+            if bodies.smooth:
+                out[d][name] = None
+            elif path is not None:
+                out[d][name] = load_rough_law(path) if remote else str(path)
+            else:
+                tasks[d, name] = ((bodies.steel_law, ()) if name is None else
+                                  (bodies.film_law, (float(modulus), film.poisson, film.thickness_mm)))
+
+    def keep(key, law, k):
+        d, name = key
+        film, modulus = films[name] if name is not None else (None, None)
+        path = None if store is None or law is None else store.keep(bodies_of[d], film, modulus, law)
+        if path is None and law is not None and not remote:
+            folder.mkdir(parents=True, exist_ok=True)
+            path = save_rough_law(law, folder / f"{k}.npz")
+        out[d][name] = law if remote or path is None else str(path)
+
+    run_tasks(tasks, workers, keep)
+    return out
 
 
 def write_curves_csv(path: str | Path, rows: list[list]) -> Path:

@@ -26,7 +26,7 @@ from filmcal.contact.rough_imprint import RoughnessInputs
 from filmcal.wheelrail.rough_growth import sphere_growth
 
 __all__ = ["RoughGrowth", "sphere_growths", "wheel_rail_growth", "corrector_growths", "weighted_quantiles",
-           "growth_modulus_mpa", "draw_laws", "solve_growths", "waviness_peak_mpa"]
+           "growth_modulus_mpa", "draw_bodies", "draw_laws", "solve_growths", "waviness_peak_mpa"]
 
 
 def weighted_quantiles(values: np.ndarray, weights: np.ndarray, q: Sequence[float]) -> np.ndarray:
@@ -145,31 +145,37 @@ def growth_modulus_mpa(components) -> float:
     return float(weighted_quantiles(e, w if w.sum() > 0 else np.ones_like(w), [0.5])[0])
 
 
+def draw_bodies(draw: RoughnessInputs, *, wheel=None, rail=None, grid_mm: float | None = None) -> tuple:
+    """The rough bodies of one draw as `draw_laws` solves them: ``(micro bodies, waviness)``, the bodies split at
+    `filmcal.contact.waviness.WAVINESS_CUTOFF_CELLS` cells of the contact grid (``grid_mm``, default the
+    wheel-rail model's) and the waviness laid at the draw's own phase (None without it)."""
+    from filmcal.contact.waviness import WAVINESS_CUTOFF_CELLS
+    from filmcal.wheelrail.settings import GRID_MM
+
+    cutoff_um = 1e3 * WAVINESS_CUTOFF_CELLS * (GRID_MM if grid_mm is None else float(grid_mm))
+    bodies = draw.bodies(wheel, rail).split(cutoff_um)
+    # where the crests fall on the patch is unknown: each draw lays the waviness at its own phase
+    return bodies, None if bodies.waviness is None else bodies.waviness.shifted([int(draw.seed), 7])
+
+
 def draw_laws(draw: RoughnessInputs | None, films: dict, *, wheel=None, rail=None, law=None,
               grid_mm: float | None = None, keep: Callable | None = None) -> dict:
     """The rough laws of one draw on the wheel-rail contact: ``{film name: its law against the film, None: the
     law without film, "waviness": the bodies' long-wave heights}``.
 
-    ``films`` maps each film's name to ``(FilmType, modulus_mpa)``. The bodies are split at
-    `filmcal.contact.waviness.WAVINESS_CUTOFF_CELLS` cells of the contact grid (``grid_mm``, default the
-    wheel-rail model's): the laws take the micro part, the solves the waviness (none for surfaces no longer
-    than the cut-off, such as the synthetic ones), laid at a phase of the draw's own (its seed). With ``draw`` None, ``law`` is a measured film-wheel law
-    taken as it is for every film, and the contact without film stays smooth (None).
+    ``films`` maps each film's name to ``(FilmType, modulus_mpa)``. The bodies are split as `draw_bodies` splits
+    them: the laws take the micro part, the solves the waviness (none for surfaces no longer than the cut-off,
+    such as the synthetic ones). With ``draw`` None, ``law`` is a measured film-wheel law taken as it is for
+    every film, and the contact without film stays smooth (None).
 
     ``keep(bodies, film, modulus_mpa, solve)``, when given, returns each law (``film`` None: steel on steel)
     instead of ``solve()``: a store that reads back the laws it kept (`filmcal.study.core.StudyRoughLaws.law`).
     """
-    from filmcal.contact.waviness import WAVINESS_CUTOFF_CELLS
-    from filmcal.wheelrail.settings import GRID_MM
-
     if draw is None:
         return {**{name: law for name in films}, None: None, "waviness": None}
-    cutoff_um = 1e3 * WAVINESS_CUTOFF_CELLS * (GRID_MM if grid_mm is None else float(grid_mm))
-    bodies = draw.bodies(wheel, rail).split(cutoff_um)
+    bodies, wavy = draw_bodies(draw, wheel=wheel, rail=rail, grid_mm=grid_mm)
     if bodies.smooth:
         return {**{name: None for name in films}, None: None, "waviness": None}
-    # where the crests fall on the patch is unknown: each draw lays the waviness at its own phase
-    wavy = None if bodies.waviness is None else bodies.waviness.shifted([int(draw.seed), 7])
 
     def solved(film, modulus, solve):
         return solve() if keep is None else keep(bodies, film, modulus, solve)

@@ -1400,7 +1400,7 @@ class _StudySupports:
     def flush(self) -> None:
         """Write the solves kept since the last flush into the study."""
         for path, spec, areas in self.pending:
-            _write_cache(self.study, path, spec, areas, "keeping wheel-rail solves")
+            _write_cache(self.study, path, spec, areas, "filmcal correct: keeping wheel-rail solves")
         self.pending.clear()
 
 
@@ -1453,7 +1453,7 @@ class StudyGrowths:
     def flush(self) -> None:
         """Write the growths kept since the last flush into the study."""
         for path, spec, data in self.pending:
-            _write_cache(self.study, path, spec, data, "keeping rough wheel-rail solves")
+            _write_cache(self.study, path, spec, data, "filmcal correct: keeping rough wheel-rail solves")
         self.pending.clear()
 
 
@@ -1492,27 +1492,42 @@ class StudyRoughLaws:
 
     KIND = "rough-law"
 
-    def __init__(self, study: Study) -> None:
+    def __init__(self, study: Study, command: str = "filmcal correct") -> None:
         self.study = study
+        self.command = command
+
+    def kept(self, bodies, film: FilmType | None, modulus_mpa: float | None) -> Path | None:
+        """The file of the law of `rough_law_spec` when the study has it (the pipeline's, or one kept and
+        unchanged since), else None. Bodies without a micro part (all waviness) have none."""
+        if bodies.wheel is None and bodies.rail is None:
+            return None
+        spec = rough_law_spec(bodies, film, modulus_mpa)
+        path = self.study.layout.rough_law(spec_key(spec))
+        if self.study.manifest.entry(self.study.layout.relative(path)) is not None:  # the pipeline's
+            return path if self.study.verified(path, kind=self.KIND, spec=spec) else None
+        return path if _read_cache(self.study, path, spec, read=lambda p: p) is not None else None
+
+    def keep(self, bodies, film: FilmType | None, modulus_mpa: float | None, law) -> Path | None:
+        """Keep a solved law under its `rough_law_spec`: the file that now holds it, or None where it could not be
+        kept (the writer lock taken, a read-only folder, no micro part)."""
+        from filmcal.contact.rough_law_file import save_rough_law
+
+        if bodies.wheel is None and bodies.rail is None:
+            return None
+        spec = rough_law_spec(bodies, film, modulus_mpa)
+        path = self.study.layout.rough_law(spec_key(spec))
+        _write_cache(self.study, path, spec, law, f"{self.command}: keeping a rough law", write=save_rough_law)
+        return self.kept(bodies, film, modulus_mpa)
 
     def law(self, bodies, film: FilmType | None, modulus_mpa: float | None, solve):
         """The law of `rough_law_spec`: read back from the study, or ``solve()`` and kept."""
-        from filmcal.contact.rough_law_file import load_rough_law, save_rough_law
+        from filmcal.contact.rough_law_file import load_rough_law
 
-        if bodies.wheel is None and bodies.rail is None:  # no micro part (a measured surface all waviness)
-            return solve()
-        spec = rough_law_spec(bodies, film, modulus_mpa)
-        path = self.study.layout.rough_law(spec_key(spec))
-        relpath = self.study.layout.relative(path)
-        if self.study.manifest.entry(relpath) is not None:  # the pipeline's
-            if self.study.verified(path, kind=self.KIND, spec=spec):
-                return load_rough_law(path)
-        else:
-            law = _read_cache(self.study, path, spec, read=load_rough_law)
-            if law is not None:
-                return law
+        path = self.kept(bodies, film, modulus_mpa)
+        if path is not None:
+            return load_rough_law(path)
         law = solve()
-        _write_cache(self.study, path, spec, law, "keeping a rough law", write=save_rough_law)
+        self.keep(bodies, film, modulus_mpa, law)
         return law
 
     def held(self, path: Path, spec: dict) -> bool:
@@ -1549,7 +1564,7 @@ def _write_cache(study: Study, path: Path, spec: dict, data: Any, what: str, wri
     from filmcal._io import atomic_write_json, sha256_file
 
     try:
-        with study.writing(f"filmcal correct: {what}"):
+        with study.writing(what):
             if study.manifest.entry(study.layout.relative(path)) is not None:
                 return  # an artefact of the study's own since it was read (a pipeline's): never overwritten
             path.parent.mkdir(parents=True, exist_ok=True)
