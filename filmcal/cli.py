@@ -290,7 +290,7 @@ def preflight(args: argparse.Namespace, actions: dict[str, argparse.Action]) -> 
     for dest in OUTPUT_DIR_DESTS:
         value = path_value(dest)
         if value is not None:
-            # a study folder may be only read (correct, curves): its writer checks it further
+            # a study folder's results may be only read (correct, curves): its writer checks it further
             check_output_dir(value, opt(dest), writable=dest != "study_dir")
     for dest in INPUT_FILE_DESTS:
         for value in path_values(dest):

@@ -239,3 +239,20 @@ def test_rough_curves_keep_each_law_as_it_solves_it_and_read_the_pipelines(quick
     assert status == 0 and solved == ["film_law", "steel_law"]  # the second draw's only
     status, whole = curves(studies["whole"], 2.0)
     assert status == 0 and resumed == whole
+
+
+def test_the_draws_of_a_measured_map_share_its_law_without_film(rough_law_solves, tmp_path):
+    """A measured map is the same micro surface in every draw of the roughness inputs, and the law without film
+    (steel on steel) depends on nothing else (`rough_law_spec`): its minutes-long solve was repeated per draw.
+    It is solved once; the laws against the film differ with each draw's film hardness."""
+    from filmcal.contact.rough_imprint import load_roughness_inputs
+    from filmcal.contact.roughness import RoughSurface
+    from filmcal.correction.curves import RoughConfiguration, rough_law_files
+
+    draws = tuple(load_roughness_inputs()[:2])
+    assert draws[0].film_hardness_mpa != draws[1].film_hardness_mpa
+    surface = RoughSurface.synthetic(ra_um=1.0, n=64, seed=5)
+    laws = rough_law_files(RoughConfiguration(surface, None, draws), {"HS": (get_film("HS"), 2500.0)}, 1,
+                           tmp_path / "laws")
+    assert sorted(rough_law_solves) == ["film_law", "film_law", "steel_law"]
+    assert laws[draws[0]][None] == laws[draws[1]][None] and laws[draws[0]]["HS"] != laws[draws[1]]["HS"]

@@ -180,7 +180,9 @@ def test_a_jpeg_or_other_binary_map_is_refused_saying_what_is_read(tmp_path):
         read_surface_file(tmp_path / "map.jpg", pixel_um=2.0)
     with pytest.raises(ValueError, match="a binary file, not a text file of heights .*PNG or TIFF.*x3p"):
         read_surface_file(tmp_path / "map.bmp", pixel_um=2.0)
-    p = subprocess.run([sys.executable, "-m", "filmcal.cli", "wheelrail", "--offset-mm=-3", "--force-kn", "100",
-                        "--no-film", "--wheel-roughness-map", str(tmp_path / "map.jpg"), "--roughness-pixel-um", "2"],
-                       capture_output=True, text=True)
-    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and "map.jpg" in p.stderr, p.stderr
+    for reading in (["--roughness-pixel-um", "2"], ["--roughness-pixel-um", "2", "--roughness-height-range-um", "10"]):
+        p = subprocess.run([sys.executable, "-m", "filmcal.cli", "wheelrail", "--offset-mm=-3", "--force-kn", "100",
+                            "--no-film", "--wheel-roughness-map", str(tmp_path / "map.jpg"), *reading],
+                           capture_output=True, text=True)
+        assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
+        assert "map.jpg: a JPEG's lossy compression" in p.stderr, p.stderr

@@ -90,11 +90,9 @@ def _waviness_note(configuration) -> str | None:
     """What the rough rows do not hold when a measured surface carries waviness (as `filmcal correct` says)."""
     if configuration.law is not None or not configuration.draws:
         return None
-    from filmcal.contact.waviness import WAVINESS_CUTOFF_CELLS
-    from filmcal.wheelrail.settings import GRID_MM
+    from filmcal.correction.roughness import draw_bodies
 
-    bodies = configuration.draws[0].bodies(configuration.wheel, configuration.rail)
-    if bodies.split(1e3 * WAVINESS_CUTOFF_CELLS * GRID_MM).waviness is None:
+    if draw_bodies(configuration.draws[0], wheel=configuration.wheel, rail=configuration.rail)[1] is None:
         return None
     return ("the measured surface's waviness stripes the contact without film; the elastic solve puts the load on "
             "the crests, which can exceed the steel's elastic limit (filmcal correct says by how much): there the "

@@ -335,9 +335,18 @@ READING_OPTIONS = {"x3p": (), "line profile": (), "csv map": ("pixel_um", "heigh
 
 
 def surface_file_kind(path: str | Path) -> str:
-    """Which reader `read_surface_file` takes for `path`: a key of `READING_OPTIONS`."""
+    """Which reader `read_surface_file` takes for `path`: a key of `READING_OPTIONS`.
+
+    Raises
+    ------
+    ValueError
+        For a JPEG: its lossy compression alters the heights.
+    """
     path = Path(path)
     suffix = path.suffix.lower()
+    if suffix in (".jpg", ".jpeg"):
+        raise ValueError(f"roughness map {path}: a JPEG's lossy compression alters the heights; save the map as "
+                         f"a 16-bit PNG or TIFF, a CSV of heights or an x3p file")
     if suffix == ".x3p":
         return "x3p"
     if suffix in (".png", ".tif", ".tiff"):
@@ -356,11 +365,8 @@ def read_surface_file(path: str | Path, pixel_um: float | None = None, height_sc
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"roughness map {path}: not found")
-    if path.suffix.lower() in (".jpg", ".jpeg"):
-        raise ValueError(f"roughness map {path}: a JPEG's lossy compression alters the heights; save the map as "
-                         f"a 16-bit PNG or TIFF, a CSV of heights or an x3p file")
-    check_map_pixels(path)
     kind = surface_file_kind(path)
+    check_map_pixels(path)
     if kind == "x3p":
         return read_x3p(path)
     if kind == "line profile":

@@ -450,9 +450,10 @@ def curve_table(film: str, components, offsets_mm, forces_kn, rough=(), workers=
 
 def rough_law_files(configuration: RoughConfiguration, films: dict, workers, folder: Path, store=None) -> dict:
     """Each distinct draw's laws (`filmcal.correction.roughness.draw_laws`) as `growth_task` takes them: ``{draw:
-    {film name or None: the law's file, "waviness": ...}}``, one task per law to solve.
+    {film name or None: the law's file, "waviness": ...}}``, one task per distinct law to solve (the draws of a
+    measured map share its law without film).
 
-    With a ``store`` (``kept(bodies, film, modulus_mpa)`` -> the file of a law it has, or None; ``keep(bodies,
+    With a ``store`` (``kept(bodies, film, modulus_mpa)`` -> the file of a law it has, or None; ``add(bodies,
     film, modulus_mpa, law)`` -> the file it kept the law in, or None), a law it has is read from there and each
     one solved is kept there as it arrives, so an interrupted run solves only the others again; the rest go to
     files in ``folder``. On a Dask cluster, whose workers may not see this file system, the tasks get the laws
@@ -464,33 +465,36 @@ def rough_law_files(configuration: RoughConfiguration, films: dict, workers, fol
     remote = isinstance(workers, DaskExecutor)
     out: dict = {}
     tasks: dict = {}
-    bodies_of: dict = {}
+    users: dict = {}  # each distinct law: its bodies, film and modulus, and the (draw, name) that use it
     for d in configuration.distinct():
         if d is None:  # a measured law, taken as it is
             out[d] = draw_laws(None, films, law=configuration.law)
             continue
         bodies, wavy = draw_bodies(d, wheel=configuration.wheel, rail=configuration.rail)
         out[d] = {"waviness": wavy}
-        bodies_of[d] = bodies
+        micro = bodies.wheel is not None or bodies.rail is not None
         for name in [*films, None]:
             film, modulus = films[name] if name is not None else (None, None)
-            path = None if store is None or bodies.smooth else store.kept(bodies, film, modulus)
-            if bodies.smooth:
+            path = store.kept(bodies, film, modulus) if store is not None and micro else None
+            if not micro:  # smooth, or all waviness: no law
                 out[d][name] = None
             elif path is not None:
                 out[d][name] = load_rough_law(path) if remote else str(path)
             else:
-                tasks[d, name] = ((bodies.steel_law, ()) if name is None else
-                                  (bodies.film_law, (float(modulus), film.poisson, film.thickness_mm)))
+                key = (name, *(None if s is None else s.fingerprint() for s in (bodies.wheel, bodies.rail)),
+                       None if name is None else float(bodies.film_hardness_mpa))
+                users.setdefault(key, (bodies, film, modulus, []))[3].append((d, name))
+                tasks[key] = ((bodies.steel_law, ()) if name is None else
+                              (bodies.film_law, (float(modulus), film.poisson, film.thickness_mm)))
 
     def keep(key, law, k):
-        d, name = key
-        film, modulus = films[name] if name is not None else (None, None)
-        path = None if store is None or law is None else store.keep(bodies_of[d], film, modulus, law)
+        bodies, film, modulus, where = users[key]
+        path = None if store is None or law is None else store.add(bodies, film, modulus, law)
         if path is None and law is not None and not remote:
             folder.mkdir(parents=True, exist_ok=True)
             path = save_rough_law(law, folder / f"{k}.npz")
-        out[d][name] = law if remote or path is None else str(path)
+        for d, name in where:
+            out[d][name] = law if remote or path is None else str(path)
 
     run_tasks(tasks, workers, keep)
     return out

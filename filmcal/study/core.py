@@ -275,7 +275,8 @@ class Study:
         if run_store is None and create and not self.layout.manifest.exists():
             run_store = default_run_store()  # a new study: the user's shared store (a study made before keeps its own)
         self._run_store = None if run_store is None else Path(run_store).resolve()
-        # a study that is only read (correct, curves, report) may be read-only: a colleague's, an archive
+        # a study whose results are only read (correct, curves, report) may be read-only: a colleague's, an
+        # archive (their caches are then not kept)
         check_output_dir(self.root, "--study-dir", must_exist=not create, writable=create)
         self.manifest_sha256 = None
         if self.layout.manifest.exists():
@@ -1460,8 +1461,9 @@ class StudyGrowths:
 def rough_law_spec(bodies, film: FilmType | None, modulus_mpa: float | None) -> dict:
     """What makes one rough boundary-element law (`filmcal.contact.roughness.Roughness.film_law`, or
     ``steel_law`` with ``film`` None): the bodies' micro surfaces (the SHA-256 of their heights and pixel), the
-    film, its modulus and hardness, and the application model's revision. The pipeline's rough curves and
-    `filmcal correct` key their laws by it, so that each reuses the other's (``roughlaws/<key>.npz``)."""
+    film, its modulus and hardness, and the application model's revision. The pipeline's rough curves,
+    `filmcal correct` and `filmcal curves` key their laws by it, so that each reuses the others'
+    (``roughlaws/<key>.npz``)."""
     import hashlib
 
     from filmcal.contact import names
@@ -1482,12 +1484,13 @@ def rough_law_spec(bodies, film: FilmType | None, modulus_mpa: float | None) -> 
 
 class StudyRoughLaws:
     """The rough bodies' boundary-element laws kept in a study, one ``roughlaws/<key>.npz`` per
-    `rough_law_spec`, each kept as soon as it is solved: a rough correction interrupted after some of its
-    laws (each is seconds to minutes) solves only the others when run again.
+    `rough_law_spec`, each kept as soon as it is solved: a rough correction or curve interrupted after some
+    of its laws (each is seconds to minutes) solves only the others when run again.
 
     A law the pipeline recorded (kind ``rough-law``, an artefact) is read as it is; one solved by `filmcal
-    correct` is recorded under the manifest's ``caches`` (written only when the writer lock is free, as
-    `StudyGrowths`), and the pipeline takes it over as its artefact (`Study.adopt`).
+    correct` or `filmcal curves` (``command``: the writer lock's label) is recorded under the manifest's
+    ``caches`` (written only when the writer lock is free, as `StudyGrowths`), and the pipeline takes it over
+    as its artefact (`Study.adopt`).
     """
 
     KIND = "rough-law"
@@ -1498,26 +1501,31 @@ class StudyRoughLaws:
 
     def kept(self, bodies, film: FilmType | None, modulus_mpa: float | None) -> Path | None:
         """The file of the law of `rough_law_spec` when the study has it (the pipeline's, or one kept and
-        unchanged since), else None. Bodies without a micro part (all waviness) have none."""
+        unchanged since), else None: a kept law changed since is solved again, as the pipeline does (`held`);
+        a changed artefact of the pipeline's is refused. Bodies without a micro part (all waviness) have none."""
         if bodies.wheel is None and bodies.rail is None:
             return None
         spec = rough_law_spec(bodies, film, modulus_mpa)
         path = self.study.layout.rough_law(spec_key(spec))
         if self.study.manifest.entry(self.study.layout.relative(path)) is not None:  # the pipeline's
             return path if self.study.verified(path, kind=self.KIND, spec=spec) else None
-        return path if _read_cache(self.study, path, spec, read=lambda p: p) is not None else None
+        try:
+            return path if _read_cache(self.study, path, spec, read=lambda p: p) is not None else None
+        except InputError:  # changed since it was kept (not a result of the study's): solved again
+            return None
 
-    def keep(self, bodies, film: FilmType | None, modulus_mpa: float | None, law) -> Path | None:
-        """Keep a solved law under its `rough_law_spec`: the file that now holds it, or None where it could not be
-        kept (the writer lock taken, a read-only folder, no micro part)."""
+    def add(self, bodies, film: FilmType | None, modulus_mpa: float | None, law) -> Path | None:
+        """Keep a solved law under its `rough_law_spec`: the file written, or None where none was (the writer lock
+        taken, a read-only folder, an artefact of the pipeline's there since, no micro part)."""
         from filmcal.contact.rough_law_file import save_rough_law
 
         if bodies.wheel is None and bodies.rail is None:
             return None
         spec = rough_law_spec(bodies, film, modulus_mpa)
         path = self.study.layout.rough_law(spec_key(spec))
-        _write_cache(self.study, path, spec, law, f"{self.command}: keeping a rough law", write=save_rough_law)
-        return self.kept(bodies, film, modulus_mpa)
+        written = _write_cache(self.study, path, spec, law, f"{self.command}: keeping a rough law",
+                               write=save_rough_law)
+        return path if written else None
 
     def law(self, bodies, film: FilmType | None, modulus_mpa: float | None, solve):
         """The law of `rough_law_spec`: read back from the study, or ``solve()`` and kept."""
@@ -1527,7 +1535,7 @@ class StudyRoughLaws:
         if path is not None:
             return load_rough_law(path)
         law = solve()
-        self.keep(bodies, film, modulus_mpa, law)
+        self.add(bodies, film, modulus_mpa, law)
         return law
 
     def held(self, path: Path, spec: dict) -> bool:
@@ -1558,15 +1566,16 @@ def _read_cache(study: Study, path: Path, spec: dict, read=None):
     return (read or read_json)(path)
 
 
-def _write_cache(study: Study, path: Path, spec: dict, data: Any, what: str, write=None) -> None:
+def _write_cache(study: Study, path: Path, spec: dict, data: Any, what: str, write=None) -> bool:
     """Keep `data` in the study under the manifest's ``caches`` (kind, spec, SHA-256), written by ``write(data,
-    path)`` (default: as JSON); when the writer lock is taken or the folder is read-only, nothing is kept."""
+    path)`` (default: as JSON), under the writer lock taken as `what`; whether it was kept (not when the lock is
+    taken, the folder is read-only or the study has its own artefact there)."""
     from filmcal._io import atomic_write_json, sha256_file
 
     try:
         with study.writing(what):
             if study.manifest.entry(study.layout.relative(path)) is not None:
-                return  # an artefact of the study's own since it was read (a pipeline's): never overwritten
+                return False  # an artefact of the study's own since it was read (a pipeline's): never overwritten
             path.parent.mkdir(parents=True, exist_ok=True)
             if write is None:
                 atomic_write_json(path, data)
@@ -1576,8 +1585,9 @@ def _write_cache(study: Study, path: Path, spec: dict, data: Any, what: str, wri
             caches[study.layout.relative(path)] = {"kind": spec["kind"], "spec": spec, "sha256": sha256_file(path),
                                                    "written_utc": utc_now()}
             study.manifest.write()
+        return True
     except (InputError, OSError):
-        pass  # the writer lock is taken or the folder is read-only: nothing is kept
+        return False  # the writer lock is taken or the folder is read-only: nothing is kept
 
 
 def _results_sha256(manifest: dict) -> str:

@@ -185,7 +185,8 @@ class StudyLock:
 
 
 def remake_hint(root: Path, kind: str | None) -> str:
-    """How to make a study's artefact of `kind` again (`correct`, `curves` and `report` only read a study)."""
+    """How to make a study's artefact of `kind` again (`correct`, `curves` and `report` only read a study's
+    results)."""
     where = f"--study-dir {root}"
     if kind == "report":
         return f"run `filmcal report {where}` to write it again"

@@ -764,17 +764,15 @@ def _rough_laws(study: Study, settings: PipelineSettings, rough, films: dict, dr
     that use them (the same law to the bit)."""
     from filmcal._parallel import run_tasks
     from filmcal.contact.rough_law_file import save_rough_law
+    from filmcal.correction.roughness import draw_bodies
     from filmcal.study.core import StudyRoughLaws, rough_law_spec
     from filmcal.study.layout import spec_key
-
-    from filmcal.contact.waviness import WAVINESS_CUTOFF_CELLS
-    from filmcal.wheelrail.settings import GRID_MM
 
     paths, specs, tasks = {}, {}, {}
     store = StudyRoughLaws(study)
     for d in draws:
         # the micro part of the bodies (the synthetic surfaces are all micro-roughness: 200 um < the cut-off)
-        bodies = d.bodies(rough.wheel, rough.rail).split(1e3 * WAVINESS_CUTOFF_CELLS * GRID_MM)
+        bodies, _ = draw_bodies(d, wheel=rough.wheel, rail=rough.rail)
         for name in [*films, None]:
             f = films.get(name)
             spec = rough_law_spec(bodies, None if f is None else f[0], None if f is None else f[1])
