@@ -448,7 +448,8 @@ def curve_table(film: str, components, offsets_mm, forces_kn, rough=(), workers=
             for row in rows[force, eta][w::n]]
 
 
-def rough_law_files(configuration: RoughConfiguration, films: dict, workers, folder: Path, store=None) -> dict:
+def rough_law_files(configuration: RoughConfiguration, films: dict, workers, folder: Path | None, store=None,
+                    started=None) -> dict:
     """Each distinct draw's laws (`filmcal.correction.roughness.draw_laws`) as `growth_task` takes them: ``{draw:
     {film name or None: the law's file, "waviness": ...}}``, one task per distinct law to solve (the draws of a
     measured map share its law without film).
@@ -456,8 +457,9 @@ def rough_law_files(configuration: RoughConfiguration, films: dict, workers, fol
     With a ``store`` (``kept(bodies, film, modulus_mpa)`` -> the file of a law it has, or None; ``add(bodies,
     film, modulus_mpa, law)`` -> the file it kept the law in, or None), a law it has is read from there and each
     one solved is kept there as it arrives, so an interrupted run solves only the others again; the rest go to
-    files in ``folder``. On a Dask cluster, whose workers may not see this file system, the tasks get the laws
-    themselves."""
+    files in ``folder`` (None: the tasks get them themselves). On a Dask cluster, whose workers may not see this
+    file system, the tasks get the laws themselves. ``started(solving, found)``, when given, is called before the solves with the number of laws to
+    solve and of laws the store had."""
     from filmcal._parallel import DaskExecutor, run_tasks
     from filmcal.contact.rough_law_file import load_rough_law, save_rough_law
     from filmcal.correction.roughness import draw_bodies, draw_laws
@@ -465,6 +467,7 @@ def rough_law_files(configuration: RoughConfiguration, films: dict, workers, fol
     remote = isinstance(workers, DaskExecutor)
     out: dict = {}
     tasks: dict = {}
+    found = 0
     users: dict = {}  # each distinct law: its bodies, film and modulus, and the (draw, name) that use it
     for d in configuration.distinct():
         if d is None:  # a measured law, taken as it is
@@ -480,6 +483,7 @@ def rough_law_files(configuration: RoughConfiguration, films: dict, workers, fol
                 out[d][name] = None
             elif path is not None:
                 out[d][name] = load_rough_law(path) if remote else str(path)
+                found += 1
             else:
                 key = (name, *(None if s is None else s.fingerprint() for s in (bodies.wheel, bodies.rail)),
                        None if name is None else float(bodies.film_hardness_mpa))
@@ -490,12 +494,14 @@ def rough_law_files(configuration: RoughConfiguration, films: dict, workers, fol
     def keep(key, law, k):
         bodies, film, modulus, where = users[key]
         path = None if store is None or law is None else store.add(bodies, film, modulus, law)
-        if path is None and law is not None and not remote:
+        if path is None and law is not None and not remote and folder is not None:
             folder.mkdir(parents=True, exist_ok=True)
             path = save_rough_law(law, folder / f"{k}.npz")
         for d, name in where:
             out[d][name] = law if remote or path is None else str(path)
 
+    if started is not None:
+        started(len(tasks), found)
     run_tasks(tasks, workers, keep)
     return out
 

@@ -1499,14 +1499,18 @@ class StudyRoughLaws:
         self.study = study
         self.command = command
 
+    def spec_path(self, bodies, film: FilmType | None, modulus_mpa: float | None) -> tuple[dict, Path]:
+        """The `rough_law_spec` of a law and the file that holds it in the study."""
+        spec = rough_law_spec(bodies, film, modulus_mpa)
+        return spec, self.study.layout.rough_law(spec_key(spec))
+
     def kept(self, bodies, film: FilmType | None, modulus_mpa: float | None) -> Path | None:
         """The file of the law of `rough_law_spec` when the study has it (the pipeline's, or one kept and
         unchanged since), else None: a kept law changed since is solved again, as the pipeline does (`held`);
         a changed artefact of the pipeline's is refused. Bodies without a micro part (all waviness) have none."""
         if bodies.wheel is None and bodies.rail is None:
             return None
-        spec = rough_law_spec(bodies, film, modulus_mpa)
-        path = self.study.layout.rough_law(spec_key(spec))
+        spec, path = self.spec_path(bodies, film, modulus_mpa)
         if self.study.manifest.entry(self.study.layout.relative(path)) is not None:  # the pipeline's
             return path if self.study.verified(path, kind=self.KIND, spec=spec) else None
         try:
@@ -1521,8 +1525,7 @@ class StudyRoughLaws:
 
         if bodies.wheel is None and bodies.rail is None:
             return None
-        spec = rough_law_spec(bodies, film, modulus_mpa)
-        path = self.study.layout.rough_law(spec_key(spec))
+        spec, path = self.spec_path(bodies, film, modulus_mpa)
         written = _write_cache(self.study, path, spec, law, f"{self.command}: keeping a rough law",
                                write=save_rough_law)
         return path if written else None

@@ -22,6 +22,7 @@ from __future__ import annotations
 import time
 import warnings
 from dataclasses import asdict, dataclass, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -714,11 +715,11 @@ def _rough_growths(study: Study, settings: PipelineSettings, rough, models: list
     for film, cell in specs:
         if (film, cell) not in solved:
             todo.setdefault(cell, []).append(film)
-    laws = _rough_laws(study, settings, rough, films, draws if todo else [], workers, st, len(todo) + cells)
+    laws = _rough_laws(study, rough, films, draws if todo else [], workers, st, len(todo) + cells)
     tasks = {}
     for cell, missing in todo.items():
         mine = [entry for entry in models if entry[0] in missing]
-        tasks[cell] = (growth_task, (mine, draws, _sent_laws(laws, missing, workers), cell[1], cell[0], {}))
+        tasks[cell] = (growth_task, (mine, draws, _sent_laws(laws, missing), cell[1], cell[0], {}))
     if tasks:
         st.log(f"[curves] rough wheel ({rough.label}): growths of {len(draws)} distinct draws of the roughness "
                f"inputs at {len(tasks)} loads and offsets")
@@ -743,61 +744,56 @@ def _rough_growths(study: Study, settings: PipelineSettings, rough, models: list
     return out
 
 
-def _sent_laws(laws: dict, films: list, workers) -> dict:
-    """Each draw's law files for these films and without film: their paths for local workers (each reads them
-    once), the laws themselves for a Dask cluster (whose workers may not see this file system)."""
-    from filmcal._parallel import DaskExecutor
-    from filmcal.contact.rough_law_file import load_rough_law
-
-    remote = isinstance(workers, DaskExecutor)
-    return {d: {name: (load_rough_law(path) if remote else path) for name, path in by_name.items()
-                if name is None or name in films}
+def _sent_laws(laws: dict, films: list) -> dict:
+    """Each draw's laws (`_rough_laws`) for these films and without film."""
+    return {d: {name: law for name, law in by_name.items() if name is None or name in films}
             for d, by_name in laws.items()}
 
 
-def _rough_laws(study: Study, settings: PipelineSettings, rough, films: dict, draws: list, workers, st,
-                after: int) -> dict:
-    """The rough wheel's pressure-closure laws (BEM) of each draw: against each film at its growth modulus
-    and steel on steel, ``{draw: {film name or None: path}}``. Each law is a study artefact
-    (``roughlaws/<key>.npz``, kind ``rough-law``), kept as soon as it is computed, so an interrupted run resumes
-    with the missing laws only; the laws are computed in parallel and read back from their files by the tasks
-    that use them (the same law to the bit)."""
-    from filmcal._parallel import run_tasks
-    from filmcal.contact.rough_law_file import save_rough_law
-    from filmcal.correction.roughness import draw_bodies
-    from filmcal.study.core import StudyRoughLaws, rough_law_spec
-    from filmcal.study.layout import spec_key
+def _rough_laws(study: Study, rough, films: dict, draws: list, workers, st, after: int) -> dict:
+    """The rough wheel's pressure-closure laws (BEM) of each of ``draws``: against each film at its growth
+    modulus and steel on steel, as `filmcal.correction.curves.rough_law_files` gives them. Each law is a study
+    artefact (``roughlaws/<key>.npz``, kind ``rough-law``; `_RecordedRoughLaws`), recorded as soon as it is
+    computed, so an interrupted run resumes with the missing laws only; the laws are computed in parallel and
+    read back from their files by the tasks that use them (the same law to the bit)."""
+    from filmcal.correction.curves import rough_law_files
 
-    paths, specs, tasks = {}, {}, {}
-    store = StudyRoughLaws(study)
-    for d in draws:
-        # the micro part of the bodies (the synthetic surfaces are all micro-roughness: 200 um < the cut-off)
-        bodies, _ = draw_bodies(d, wheel=rough.wheel, rail=rough.rail)
-        for name in [*films, None]:
-            f = films.get(name)
-            spec = rough_law_spec(bodies, None if f is None else f[0], None if f is None else f[1])
-            path = study.layout.rough_law(spec_key(spec))
-            paths.setdefault(d, {})[name] = path
-            specs[d, name] = spec
-            if not store.held(path, spec):  # a law `filmcal correct` solved and kept is taken over as it is
-                tasks[d, name] = ((bodies.steel_law, ()) if name is None else
-                                  (bodies.film_law, (f[1], f[0].poisson, f[0].thickness_mm)))
-    st.set_total(len(tasks) + after)
-    if tasks:
-        st.log(f"[curves] rough wheel: {len(tasks)} pressure-closure laws (BEM) of {len(draws)} draws "
-               f"({len(draws) * (len(films) + 1) - len(tasks)} kept from an earlier run)")
+    def started(solving: int, found: int) -> None:
+        st.set_total(solving + after)
+        if solving:
+            st.log(f"[curves] rough wheel: {solving} pressure-closure laws (BEM) of {len(draws)} draws "
+                   f"({found} kept from an earlier run)")
 
-    def keep(key, law, k):
-        path = paths[key[0]][key[1]]
+    return rough_law_files(replace(rough, draws=tuple(draws)), films, workers, None, _RecordedRoughLaws(study, st),
+                           started)
+
+
+class _RecordedRoughLaws:
+    """The pipeline's store of rough laws for `filmcal.correction.curves.rough_law_files` (it holds the writer
+    lock): a law is the study's when `StudyRoughLaws.held` (its own, or one `filmcal correct` or `filmcal
+    curves` kept, taken over), and each law solved is recorded as an artefact."""
+
+    def __init__(self, study: Study, st) -> None:
+        from filmcal.study.core import StudyRoughLaws
+
+        self.laws, self.st = StudyRoughLaws(study, command="filmcal pipeline"), st
+
+    def kept(self, bodies, film, modulus_mpa) -> Path | None:
+        spec, path = self.laws.spec_path(bodies, film, modulus_mpa)
+        return path if self.laws.held(path, spec) else None
+
+    def add(self, bodies, film, modulus_mpa, law) -> Path:
+        from filmcal.contact.rough_law_file import save_rough_law
+        from filmcal.study.core import StudyRoughLaws
+
+        study = self.laws.study
+        spec, path = self.laws.spec_path(bodies, film, modulus_mpa)
         path.parent.mkdir(parents=True, exist_ok=True)
         save_rough_law(law, path)
         study.manifest.data.get("caches", {}).pop(study.layout.relative(path), None)  # one changed since kept
-        study.record(path, StudyRoughLaws.KIND, specs[key])
-        st.advance(note=f"rough law, {key[1] or 'without film'}")
-
-    run_tasks(tasks, workers, keep)
-    return {d: {name: str(p) for name, p in v.items()} for d, v in paths.items()}
-
+        study.record(path, StudyRoughLaws.KIND, spec)
+        self.st.advance(note=f"rough law, {'without film' if film is None else film.name}")
+        return path
 
 
 def _crossval_stage(study: Study, settings: PipelineSettings, results: dict, comparisons: dict, seed: int, workers,
