@@ -219,12 +219,15 @@ def test_rough_curves_keep_each_law_as_it_solves_it_and_read_the_pipelines(quick
         shutil.copytree(quick_study[0], studies[name])
     solved = rough_law_solves
 
+    said = []
+
     def curves(study, ra_um, stop_at=None):
         solved.stop_at = stop_at
         status = cli.main(["curves", "--film", "HS", "--study-dir", str(study), "--offsets-mm=-3", "--forces-kn",
                            "100", "--wheel-roughness-ra-um", str(ra_um), "--roughness-draws", "2", "--workers", "1",
-                           "--json", "--progress", "quiet"])
-        out = capsys.readouterr().out
+                           "--json"])
+        out, err = capsys.readouterr()
+        said.append(err)
         return status, (json.loads(out)["rows"] if status == 0 else None)
 
     status, _ = curves(studies["whole"], 1.5)
@@ -237,6 +240,8 @@ def test_rough_curves_keep_each_law_as_it_solves_it_and_read_the_pipelines(quick
     solved.clear()
     status, resumed = curves(studies["interrupted"], 2.0)
     assert status == 0 and solved == ["film_law", "steel_law"]  # the second draw's only
+    assert "rough Ra 2 um: 2 roughness laws (boundary elements, seconds to minutes each) to solve, 2 read from " \
+           "the study" in said[-1], said[-1]
     status, whole = curves(studies["whole"], 2.0)
     assert status == 0 and resumed == whole
 

@@ -154,8 +154,13 @@ def run(args: argparse.Namespace) -> int:
         if args.progress != "quiet":
             for label in ["smooth"] + [c.label for c in rough]:
                 sys.stderr.write(f"[curves] {film}, {label}: {len(forces)} loads x {len(offsets)} offsets\n")
+        def laws_started(configuration, solving: int, found: int) -> None:
+            if args.progress != "quiet" and solving:
+                sys.stderr.write(f"[curves] {film}, {configuration.label}: {solving} roughness laws (boundary "
+                                 f"elements, seconds to minutes each) to solve, {found} read from the study\n")
+
         rows = curve_table(film, components, offsets, forces, rough, workers,
-                           StudyRoughLaws(study, command="filmcal curves"))
+                           StudyRoughLaws(study, command="filmcal curves"), laws_started)
     from filmcal.hertz import ELASTIC_LIMIT_MPA
 
     peak = CURVE_COLUMNS.index("max_pressure_no_film_mpa")

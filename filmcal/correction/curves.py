@@ -399,7 +399,8 @@ def curve_growths(models, configuration: RoughConfiguration, solved: dict) -> di
             for cell, by_draw in solved.items()}
 
 
-def curve_table(film: str, components, offsets_mm, forces_kn, rough=(), workers=None, store=None) -> list[list]:
+def curve_table(film: str, components, offsets_mm, forces_kn, rough=(), workers=None, store=None,
+                laws_started=None) -> list[list]:
     """Correction curves of one film, smooth and on rough bodies, as CSV rows (`CURVE_COLUMNS`), in parallel.
 
     The rows are those of `curve_rows` (loads, then offsets within a load; the smooth wheel, then each rough
@@ -418,6 +419,9 @@ def curve_table(film: str, components, offsets_mm, forces_kn, rough=(), workers=
     store : optional
         Where the rough laws are read back and kept as each is solved (`rough_law_files`), such as a study's
         `filmcal.study.core.StudyRoughLaws`; without one they are solved into a temporary folder.
+    laws_started : callable, optional
+        ``laws_started(configuration, solving, found)`` before each rough configuration's laws are solved: how
+        many are solved, how many the store had.
     """
     import tempfile
 
@@ -432,7 +436,9 @@ def curve_table(film: str, components, offsets_mm, forces_kn, rough=(), workers=
     with tempfile.TemporaryDirectory(prefix="filmcal-laws-") as tmp:
         for r, configuration in enumerate(rough):
             draws = configuration.distinct()
-            paths = rough_law_files(configuration, films, workers, Path(tmp) / str(r), store)
+            started = None if laws_started is None else (
+                lambda solving, found, c=configuration: laws_started(c, solving, found))
+            paths = rough_law_files(configuration, films, workers, Path(tmp) / str(r), store, started)
             solved: dict = {}
             run_tasks({cell: (growth_task, (models, draws, paths, cell[1], cell[0], {})) for cell in cells}, workers,
                       lambda key, value, k, solved=solved: solved.update({key: value}))
