@@ -464,8 +464,8 @@ def rough_law_files(configuration: RoughConfiguration, films: dict, workers, fol
     film, modulus_mpa, law)`` -> the file it kept the law in, or None), a law it has is read from there and each
     one solved is kept there as it arrives, so an interrupted run solves only the others again; the rest go to
     files in ``folder`` (None: the tasks get them themselves). On a Dask cluster, whose workers may not see this
-    file system, the tasks get the laws themselves. ``started(solving, found)``, when given, is called before the solves with the number of laws to
-    solve and of laws the store had."""
+    file system, the tasks get the laws themselves. ``started(solving, found)``, when given, is called before
+    the solves with the number of laws to solve and of laws the store had."""
     from filmcal._parallel import DaskExecutor, run_tasks
     from filmcal.contact.rough_law_file import load_rough_law, save_rough_law
     from filmcal.correction.roughness import draw_bodies, draw_laws
