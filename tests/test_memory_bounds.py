@@ -188,7 +188,8 @@ def test_wheelrail_refuses_a_map_whose_law_does_not_fit(capsys, tmp_path, small_
 
 
 def test_correct_and_curves_count_their_laws(tmp_path, small_machine):
-    """correct: a law per draw; curves: a film and a steel law per draw held by every worker."""
+    """correct: a law per draw; curves: a film law per draw and one steel law (shared by the draws of the map),
+    held by every worker."""
     from PIL import Image
 
     from filmcal.commands import curves
@@ -200,7 +201,7 @@ def test_correct_and_curves_count_their_laws(tmp_path, small_machine):
     check_roughness_maps(args, "correct", 1, 1)  # 1 + 1 laws of 0.23 Mpx: fit in 0.8 GiB
     with pytest.raises(InputError, match=r"--wheel-roughness-map \(480 x 480 pixels\) needs about .*fewer"):
         check_roughness_maps(args, "correct", 8, 1, advice="use fewer --roughness-draws")
-    curves._check_map_memory(args)  # in this process: 4 laws
+    curves._check_map_memory(args)  # in this process: 3 laws
     args.workers = 4
     with pytest.raises(InputError, match="in each of 4 processes.*--workers"):
         curves._check_map_memory(args)

@@ -42,6 +42,36 @@ def test_the_split_is_the_iso_gaussian_filter():
     assert Roughness(small).split(400.0).waviness is None
 
 
+
+def test_the_draws_of_a_measured_map_share_its_split_which_goes_with_the_map():
+    """Every draw splits a measured map alike: the draws share one micro part and one waviness (laid at each
+    draw's own phase) instead of holding two more copies of the heights each; another cut-off is its own
+    split, and the splits go when the map goes."""
+    import gc
+    import weakref
+
+    from filmcal.contact.rough_imprint import RoughnessInputs
+    from filmcal.correction.roughness import draw_bodies
+
+    rng = np.random.default_rng(4)
+    surface = RoughSurface(rng.normal(0.0, 2.0, (256, 256)), 4.0, "map")  # 1 mm square: waviness at 0.4 mm
+    draws = [RoughnessInputs(250.0 + 50 * k, 0.5, 0.8, 50.0, 4.0, k) for k in range(3)]
+    split = [draw_bodies(d, wheel=surface) for d in draws]
+    first, wavy = split[0]
+    for bodies, waviness in split[1:]:
+        assert np.shares_memory(bodies.wheel.heights_um, first.wheel.heights_um)
+        assert np.shares_memory(waviness.heights_um, wavy.heights_um)
+        assert bodies.film_hardness_mpa != first.film_hardness_mpa and waviness.offset_mm != wavy.offset_mm
+    np.testing.assert_allclose(first.wheel.heights_um + wavy.heights_um, surface.heights_um - surface.heights_um.mean(),
+                               atol=1e-9)
+    other, _ = split_surface(surface, 200.0)
+    assert not np.shares_memory(other.heights_um, first.wheel.heights_um)
+    assert np.std(other.heights_um) < np.std(first.wheel.heights_um)
+    gone = weakref.ref(first.wheel)
+    del split, first, wavy, other, bodies, waviness, surface
+    gc.collect()
+    assert gone() is None
+
 def test_waviness_is_sampled_periodically_from_the_planes_origin():
     """The map repeats from x = s = 0 of the contact plane, so a grid anywhere samples the same stripes; maps on
     two pixel grids add their gaps."""

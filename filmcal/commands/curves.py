@@ -101,13 +101,14 @@ def _waviness_note(configuration) -> str | None:
 
 def _check_map_memory(args: argparse.Namespace) -> None:
     """Roughness maps refused before any work when their laws do not fit: per map and draw a law against the
-    film and a steel law, read from their files by every worker process (each holds them for its cells)."""
+    film, and per map one steel law (its draws share it), read from their files by every worker process (each
+    holds them for its cells)."""
     from filmcal._memory import cpu_count
     from filmcal.commands._common import check_roughness_maps
 
     workers = cpu_count() if args.workers is None else args.workers
     copies = 1 if args.dask is not None or workers <= 1 else workers
-    check_roughness_maps(args, "curves", args.roughness_draws, args.roughness_draws, copies,
+    check_roughness_maps(args, "curves", args.roughness_draws, 1, copies,
                          advice="use fewer --roughness-draws, or crop the map or bin its pixels"
                                 + (", or use fewer --workers (each holds the laws)" if copies > 1 else ""))
 
