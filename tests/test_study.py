@@ -5,6 +5,7 @@ import json
 import subprocess
 import sys
 import textwrap
+import time
 
 import numpy as np
 import pytest
@@ -119,6 +120,52 @@ def test_one_writer_at_a_time(tmp_path):
     with study.writing():  # free again once the holder is gone
         pass
 
+
+
+def test_a_run_waits_for_a_brief_holder_that_keeps_a_cache(tmp_path):
+    """A command keeping a cache holds the writer lock for a moment: a run started then waits for it instead of
+    stopping, while another brief writer is refused at once (it keeps nothing) and a run's own hold refuses a
+    run at once, as before."""
+    root = tmp_path / "s"
+    study = Study(root, create=True)
+    with study.writing():
+        pass
+
+    def hold(brief: bool, seconds: float) -> subprocess.Popen:
+        holder = textwrap.dedent(f"""
+            import time
+            from filmcal.study import Study
+            with Study({str(root)!r}).writing("holder", brief={brief}):
+                print("held", flush=True)
+                time.sleep({seconds})
+        """)
+        proc = subprocess.Popen([sys.executable, "-c", holder], stdout=subprocess.PIPE, text=True)
+        assert proc.stdout.readline().strip() == "held"
+        return proc
+
+    proc = hold(True, 1.5)
+    try:
+        with pytest.raises(InputError, match=r"being written by pid \d+ .*holder\); wait"):
+            with Study(root).writing("another cache", brief=True):
+                pass
+        t0 = time.monotonic()
+        with Study(root).writing("a run"):
+            waited = time.monotonic() - t0
+        assert 0.5 < waited < 30
+        assert proc.wait(timeout=30) == 0
+    finally:
+        proc.kill()
+        proc.wait()
+    proc = hold(False, 30)
+    try:
+        t0 = time.monotonic()
+        with pytest.raises(InputError, match="holder"):
+            with Study(root).writing("a run"):
+                pass
+        assert time.monotonic() - t0 < 5
+    finally:
+        proc.kill()
+        proc.wait()
 
 def test_other_settings_are_refused_naming_what_differs(tmp_path):
     study = Study(tmp_path / "s", create=True)

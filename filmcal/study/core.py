@@ -312,8 +312,10 @@ class Study:
 
     # ------------------------------------------------------------ writing
     @contextlib.contextmanager
-    def writing(self, what: str = "") -> Iterator["Study"]:
-        """Hold the study's writer lock; the manifest is saved on exit (also after an error).
+    def writing(self, what: str = "", *, brief: bool = False) -> Iterator["Study"]:
+        """Hold the study's writer lock; the manifest is saved on exit (also after an error). ``brief``: for a
+        moment, to keep a cache (`filmcal.study.manifest.StudyLock`: a run waits for it, another brief writer
+        is refused at once).
 
         A new study whose first writer is refused (bad input, `ValueError`) before it records anything is
         removed again (its manifest, its lock file and the folder if it made it): the refusal writes nothing,
@@ -326,7 +328,7 @@ class Study:
             return
         new, made_root = not self.layout.manifest.exists(), not self.root.exists()
         self.root.mkdir(parents=True, exist_ok=True)
-        self._lock.acquire(what)
+        self._lock.acquire(what, brief=brief)
         try:
             if self.layout.manifest.exists():  # another writer may have finished since we read it
                 self.manifest = Manifest.read(self.layout.manifest)
@@ -1571,12 +1573,12 @@ def _read_cache(study: Study, path: Path, spec: dict, read=None):
 
 def _write_cache(study: Study, path: Path, spec: dict, data: Any, what: str, write=None) -> bool:
     """Keep `data` in the study under the manifest's ``caches`` (kind, spec, SHA-256), written by ``write(data,
-    path)`` (default: as JSON), under the writer lock taken as `what`; whether it was kept (not when the lock is
-    taken, the folder is read-only or the study has its own artefact there)."""
+    path)`` (default: as JSON), under the writer lock taken briefly as `what`; whether it was kept (not when the
+    lock is taken, the folder is read-only or the study has its own artefact there)."""
     from filmcal._io import atomic_write_json, sha256_file
 
     try:
-        with study.writing(what):
+        with study.writing(what, brief=True):
             if study.manifest.entry(study.layout.relative(path)) is not None:
                 return False  # an artefact of the study's own since it was read (a pipeline's): never overwritten
             path.parent.mkdir(parents=True, exist_ok=True)

@@ -13,6 +13,7 @@ import fcntl
 import os
 import socket
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -146,28 +147,46 @@ class Manifest:
         return {k: v for k, v in self.data["artefacts"].items() if v["kind"] == kind}
 
 
+#: How long a run waits for a brief holder of a study's writer lock (a command keeping a cache) before it is
+#: refused, in seconds.
+BRIEF_WAIT_S = 60.0
+
+
 class StudyLock:
-    """An exclusive OS lock on a study's ``.lock`` file, held for a whole run."""
+    """An exclusive OS lock on a study's ``.lock`` file, held for a whole run, or for a moment to keep a cache
+    (``brief``).
+
+    The lock file names its holder on its first line; a second line ``brief`` marks a moment's hold, which a
+    run waits for (up to `BRIEF_WAIT_S`) instead of being refused, and another brief writer does not (it keeps
+    nothing, as when the study is read-only).
+    """
 
     def __init__(self, path: Path) -> None:
         self.path = Path(path)
         self._fh = None
 
-    def acquire(self, what: str = "") -> None:
+    def acquire(self, what: str = "", *, brief: bool = False) -> None:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         fh = open(self.path, "a+", encoding="utf-8")
-        try:
-            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            fh.seek(0)
-            holder = fh.read().strip() or "another process"
-            fh.close()
-            raise InputError(f"study {self.path.parent} is being written by {holder}; wait for it to finish "
-                             "or use another --study-dir") from None
+        deadline = None
+        while True:
+            try:
+                fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                fh.seek(0)
+                lines = fh.read().splitlines()
+                deadline = time.monotonic() + BRIEF_WAIT_S if deadline is None else deadline
+                if brief or lines[1:2] != ["brief"] or time.monotonic() > deadline:
+                    fh.close()
+                    holder = (lines[0].strip() if lines else "") or "another process"
+                    raise InputError(f"study {self.path.parent} is being written by {holder}; wait for it to "
+                                     "finish or use another --study-dir") from None
+                time.sleep(0.05)
         fh.seek(0)
         fh.truncate()
         fh.write(f"pid {os.getpid()} on {socket.gethostname()} since {utc_now()}"
-                 f" ({what or ' '.join(sys.argv[:3])})")
+                 f" ({what or ' '.join(sys.argv[:3])})" + ("\nbrief" if brief else ""))
         fh.flush()
         self._fh = fh
 
