@@ -258,6 +258,7 @@ class CalibrationProblem:
         self.case_scatter = mode == "case" or (mode == "auto" and data.has_repeats)
         self.case_index = np.asarray(data.case_index)
         self.n_cases = int(data.n_cases)
+        self._repeats = bool(data.has_repeats)
         # position of each row within its case (0 for the first imprint), for the sequential likelihood
         self._position = np.zeros(len(data), dtype=int)
         counts: dict[int, int] = {}
@@ -443,8 +444,8 @@ class CalibrationProblem:
         else:
             mean, std = self._predictor.predict(*points())
         try:
-            mean = np.broadcast_to(np.asarray(mean, dtype=float), (k * n,))
-            std = np.broadcast_to(np.asarray(std, dtype=float), (k * n,))
+            mean, std = (np.asarray(v, dtype=float) for v in (mean, std))
+            mean, std = (v if v.shape == (k * n,) else np.broadcast_to(v, (k * n,)) for v in (mean, std))
         except ValueError:
             raise ValueError(f"model.predict must return (mean, std) broadcastable to shape ({k * n},), "
                              f"got shapes {np.shape(mean)} and {np.shape(std)}") from None
@@ -546,6 +547,9 @@ class CalibrationProblem:
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         mu, own, shared = self._moments(theta)
         resid = self.target_radius_mm[None, :] - mu
+        if not self._repeats:  # every row its case's first: the loop's one pass, without its bookkeeping
+            var = own + shared
+            return -0.5 * (resid**2 / var + np.log(2.0 * math.pi * var))
         k = theta.shape[0]
         out = np.empty_like(resid)
         # running sums of the earlier repeats of each case: sum 1/d and sum r/d
@@ -595,7 +599,7 @@ class CalibrationProblem:
         -------
         ndarray of shape (k,)
         """
-        if not self.data.has_repeats:
+        if not self._repeats:
             return self.pointwise_log_likelihood(theta).sum(axis=1)
         return self._case_closed_form(theta).sum(axis=1)
 

@@ -441,6 +441,8 @@ class CaseTable:
         self.log_modulus_mpa = log_e
         self._mean, self._std = splines
         self._defined = np.all(np.isfinite(mean), axis=1)  # a case the model leaves undefined goes to the model
+        # mean and std in one spline, evaluated once per step (the same coefficients, column by column)
+        self._both = CubicSpline(log_e, np.concatenate([mean, std]), axis=1)
 
     def _model_grid(self, moduli: np.ndarray, R: np.ndarray, F: np.ndarray):
         E, Rg = np.meshgrid(moduli, R)
@@ -464,7 +466,7 @@ class CaseTable:
         modulus and point; the same numbers as `predict` (points it cannot tabulate go there).
         """
         e = np.atleast_1d(np.asarray(modulus_mpa, dtype=float))
-        nu = np.broadcast_to(np.asarray(poisson, dtype=float), e.shape)
+        nu = np.asarray(poisson, dtype=float)
         case = np.asarray(case)
         if case.ndim != 1 or not np.all((case >= 0) & (case < len(self.cases))):
             raise ValueError("case indices must be those of the table's cases (case_index >= 0)")
@@ -472,8 +474,10 @@ class CaseTable:
             log_e = np.log(e)
         if (case.size and np.all(self._defined[case])
                 and np.all(np.abs(nu - self.poisson) <= 1e-12)
-                and np.all((log_e >= self.log_modulus_mpa[0]) & (log_e <= self.log_modulus_mpa[-1]))):
-            return self._mean(log_e)[case].T, np.maximum(self._std(log_e)[case].T, 0.0)
+                and self.log_modulus_mpa[0] <= log_e.min() and log_e.max() <= self.log_modulus_mpa[-1]):
+            both = self._both(log_e)
+            return both[case].T, np.maximum(both[len(self.cases) + case].T, 0.0)
+        nu = np.broadcast_to(nu, e.shape)
         R, F = (np.array([c[j] for c in self.cases])[case] for j in (0, 1))
         n = case.size
         mean, std = self.predict(np.repeat(e, n), np.repeat(nu, n), np.tile(R, e.size), np.tile(F, e.size))
