@@ -65,6 +65,8 @@ SLOW_TESTS: dict[str, str] = {
     "test_sheet.py::test_the_real_sheet_scanned_with_a_noisy_sensor_reads_its_six_imprints":
         "10 s: the real page with noise added, written as PNG and read",
     "test_run_store.py::": "3-6 s each: calibrations on 32 FE runs, two of them sharing a run store",
+    "test_study.py::test_a_run_is_not_refused_in_the_moment_a_brief_holder_names_itself_or_leaves":
+        "6 s: 40 runs take the lock between a looping brief holder's holds",
     "test_study_heal.py::": "10-20 s each: a quick study rerun after losing a surrogate or its curves",
     "test_fuzz_datasets.py::test_data_that_cannot_be_calibrated_are_refused_before_any_work":
         "1-2 s each: the command in a process",

@@ -188,8 +188,8 @@ def test_wheelrail_refuses_a_map_whose_law_does_not_fit(capsys, tmp_path, small_
 
 
 def test_correct_and_curves_count_their_laws(tmp_path, small_machine):
-    """correct: a law per draw; curves: a film law per draw and one steel law (shared by the draws of the map),
-    held by every worker."""
+    """correct: a law per draw; curves: a film law per draw and a steel law, which the draws share when every
+    rough body is a map (each draw's own beside a synthetic surface), held by every worker."""
     from PIL import Image
 
     from filmcal.commands import curves
@@ -197,13 +197,21 @@ def test_correct_and_curves_count_their_laws(tmp_path, small_machine):
 
     Image.new("L", (480, 480)).save(tmp_path / "map.png")
     args = argparse.Namespace(wheel_roughness_map=str(tmp_path / "map.png"), rail_roughness_map=None,
-                              workers=1, dask=None, roughness_draws=2)
+                              wheel_roughness_ra_um=None, rail_roughness_ra_um=None, workers=1, dask=None,
+                              roughness_draws=2)
     check_roughness_maps(args, "correct", 1, 1)  # 1 + 1 laws of 0.23 Mpx: fit in 0.8 GiB
     with pytest.raises(InputError, match=r"--wheel-roughness-map \(480 x 480 pixels\) needs about .*fewer"):
         check_roughness_maps(args, "correct", 8, 1, advice="use fewer --roughness-draws")
     curves._check_map_memory(args)  # in this process: 3 laws
     args.workers = 4
     with pytest.raises(InputError, match="in each of 4 processes.*--workers"):
+        curves._check_map_memory(args)
+    # 520 x 520 pixels, 3 draws: 3 + 1 laws fit (0.70 GiB), 3 + 3 do not (0.89 GiB)
+    Image.new("L", (520, 520)).save(tmp_path / "map.png")
+    args.workers, args.roughness_draws = 1, 3
+    curves._check_map_memory(args)
+    args.rail_roughness_ra_um = 1.5
+    with pytest.raises(InputError, match="6 boundary-element laws"):
         curves._check_map_memory(args)
 
 

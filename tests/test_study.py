@@ -167,6 +167,39 @@ def test_a_run_waits_for_a_brief_holder_that_keeps_a_cache(tmp_path):
         proc.kill()
         proc.wait()
 
+
+def test_a_run_is_not_refused_in_the_moment_a_brief_holder_names_itself_or_leaves(tmp_path):
+    """The lock file is empty between a holder's taking the lock and naming itself, and again as it releases
+    it: a run that reads it then waits on, as for a named brief holder."""
+    root = tmp_path / "s"
+    study = Study(root, create=True)
+    with study.writing():
+        pass
+    holder = textwrap.dedent(f"""
+        import time
+        from filmcal.study.manifest import StudyLock
+        lock = StudyLock({str(study.layout.lock)!r})
+        print("holding", flush=True)
+        end = time.monotonic() + 20
+        while time.monotonic() < end:
+            try:
+                lock.acquire("keeping a cache", brief=True)
+            except Exception:
+                continue
+            time.sleep(0.002)
+            lock.release()
+            time.sleep(0.002)
+    """)
+    proc = subprocess.Popen([sys.executable, "-c", holder], stdout=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().strip() == "holding"
+        for _ in range(40):  # refused 3 times in 10 when the empty file was taken for a run's hold
+            with Study(root).writing("a run"):
+                pass
+    finally:
+        proc.kill()
+        proc.wait()
+
 def test_other_settings_are_refused_naming_what_differs(tmp_path):
     study = Study(tmp_path / "s", create=True)
     with study.writing():

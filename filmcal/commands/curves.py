@@ -101,14 +101,16 @@ def _waviness_note(configuration) -> str | None:
 
 def _check_map_memory(args: argparse.Namespace) -> None:
     """Roughness maps refused before any work when their laws do not fit: per map and draw a law against the
-    film, and per map one steel law (its draws share it), read from their files by every worker process (each
-    holds them for its cells)."""
+    film and a steel law, read from their files by every worker process (each holds them for its cells). The
+    draws share the steel law when every rough body is a map (the surface is the same in every draw); a
+    synthetic surface on the other body makes it each draw's own."""
     from filmcal._memory import cpu_count
     from filmcal.commands._common import check_roughness_maps
 
     workers = cpu_count() if args.workers is None else args.workers
     copies = 1 if args.dask is not None or workers <= 1 else workers
-    check_roughness_maps(args, "curves", args.roughness_draws, 1, copies,
+    synthetic = bool(args.wheel_roughness_ra_um or args.rail_roughness_ra_um)
+    check_roughness_maps(args, "curves", args.roughness_draws, args.roughness_draws if synthetic else 1, copies,
                          advice="use fewer --roughness-draws, or crop the map or bin its pixels"
                                 + (", or use fewer --workers (each holds the laws)" if copies > 1 else ""))
 

@@ -155,6 +155,9 @@ def split_surface(surface, cutoff_um: float):
     key = float(cutoff_um)
     if key not in splits:
         splits[key] = _split(surface, key)
+        for part in splits[key]:  # shared: read-only
+            if part is not None:
+                part.heights_um.flags.writeable = False
     return splits[key]
 
 

@@ -474,6 +474,7 @@ def rough_law_files(configuration: RoughConfiguration, films: dict, workers, fol
     out: dict = {}
     tasks: dict = {}
     found = 0
+    loaded: dict = {}  # the laws read from the store for a cluster's tasks, by file
     users: dict = {}  # each distinct law: its bodies, film and modulus, and the (draw, name) that use it
     for d in configuration.distinct():
         if d is None:  # a measured law, taken as it is
@@ -488,7 +489,9 @@ def rough_law_files(configuration: RoughConfiguration, films: dict, workers, fol
             if not micro:  # smooth, or all waviness: no law
                 out[d][name] = None
             elif path is not None:
-                out[d][name] = load_rough_law(path) if remote else str(path)
+                if remote and path not in loaded:  # a law the draws share is read once
+                    loaded[path] = load_rough_law(path)
+                out[d][name] = loaded[path] if remote else str(path)
                 found += 1
             else:
                 key = (name, *(None if s is None else s.fingerprint() for s in (bodies.wheel, bodies.rail)),

@@ -343,7 +343,9 @@ class Study:
             if new and not self.manifest.data["artefacts"] and not self.manifest.data["stages"] and \
                     {p.name for p in self.root.iterdir()} <= {self.layout.manifest.name, self.layout.lock.name}:
                 self.layout.manifest.unlink(missing_ok=True)
-                self.layout.lock.unlink(missing_ok=True)  # still held: no other writer can be waiting on it
+                # still held; a new study has no brief writers (they keep caches of results it lacks), and a
+                # run is refused at once: no other writer waits on the file removed
+                self.layout.lock.unlink(missing_ok=True)
                 self._lock.release()
                 if made_root:
                     self.root.rmdir()

@@ -177,7 +177,9 @@ class StudyLock:
                 fh.seek(0)
                 lines = fh.read().splitlines()
                 deadline = time.monotonic() + BRIEF_WAIT_S if deadline is None else deadline
-                if brief or lines[1:2] != ["brief"] or time.monotonic() > deadline:
+                # an empty file: a holder between taking the lock and naming itself, or releasing it
+                unnamed = not lines
+                if brief or not (unnamed or lines[1:2] == ["brief"]) or time.monotonic() > deadline:
                     fh.close()
                     holder = (lines[0].strip() if lines else "") or "another process"
                     raise InputError(f"study {self.path.parent} is being written by {holder}; wait for it to "

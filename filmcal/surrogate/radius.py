@@ -439,9 +439,9 @@ class CaseTable:
                 break
             n = 2 * n - 1
         self.log_modulus_mpa = log_e
-        self._mean, self._std = splines
         self._defined = np.all(np.isfinite(mean), axis=1)  # a case the model leaves undefined goes to the model
-        # mean and std in one spline, evaluated once per step (the same coefficients, column by column)
+        # mean (first rows) and std (the rest) in one spline: the same coefficients, column by column, and one
+        # evaluation per sampler step
         self._both = CubicSpline(log_e, np.concatenate([mean, std]), axis=1)
 
     def _model_grid(self, moduli: np.ndarray, R: np.ndarray, F: np.ndarray):
@@ -474,7 +474,7 @@ class CaseTable:
             log_e = np.log(e)
         if (case.size and np.all(self._defined[case])
                 and np.all(np.abs(nu - self.poisson) <= 1e-12)
-                and self.log_modulus_mpa[0] <= log_e.min() and log_e.max() <= self.log_modulus_mpa[-1]):
+                and e.size and self.log_modulus_mpa[0] <= log_e.min() and log_e.max() <= self.log_modulus_mpa[-1]):
             both = self._both(log_e)
             return both[case].T, np.maximum(both[len(self.cases) + case].T, 0.0)
         nu = np.broadcast_to(nu, e.shape)
@@ -495,8 +495,8 @@ class CaseTable:
         mean, std = np.empty(e.shape), np.empty(e.shape)
         if use.any():
             k, columns = case[use], np.arange(int(use.sum()))
-            mean[use] = self._mean(log_e[use])[k, columns]
-            std[use] = self._std(log_e[use])[k, columns]
+            both = self._both(log_e[use])
+            mean[use], std[use] = both[k, columns], both[len(self.cases) + k, columns]
         if not use.all():
             mean[~use], std[~use] = self.model.predict(e[~use], nu[~use], r[~use], f[~use])
         return mean.reshape(shape), np.maximum(std, 0.0).reshape(shape)
