@@ -188,9 +188,10 @@ def run(args: argparse.Namespace) -> int:
                     "posterior_files": [str(p) for _, p, _ in chosen], "columns": list(CURVE_COLUMNS), "rows": rows,
                     **({"warnings": notes} if notes else {})})
     else:
-        print(f"{'wheel':>16} {'F kN':>6} {'eta mm':>7} {'A0 mm2':>8} {'dA median':>9} {'dA 90 %':>17} "
+        w = max([16, *(len(str(r[1])) for r in rows)])  # the bodies' labels, aligned under their header
+        print(f"{'wheel':>{w}} {'F kN':>6} {'eta mm':>7} {'A0 mm2':>8} {'dA median':>9} {'dA 90 %':>17} "
               f"{'A0/A':>7} {'A0/A 90 %':>17} {'interp %':>8} {'rough share':>11} {'MC err %':>8}")
         for r in rows:
-            print(f"{r[1]:>16} {r[2]:6g} {r[3]:+7g} {r[4]:8.1f} {r[6]:9.1f} [{r[7]:6.1f}, {r[8]:6.1f}] "
+            print(f"{r[1]:>{w}} {r[2]:6g} {r[3]:+7g} {r[4]:8.1f} {r[6]:9.1f} [{r[7]:6.1f}, {r[8]:6.1f}] "
                   f"{r[9]:7.4f} [{r[10]:.4f}, {r[11]:.4f}] {100 * r[12]:8.3f} {r[14]:11.2f} {100 * r[15]:8.3f}")
     return 0
