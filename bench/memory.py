@@ -17,7 +17,8 @@ bench says so and runs the largest setting within the budget instead.
   0.02 mm / 8 layers, the largest within the budget, and points across element size, layers, radius and
   kinematics;
 * ``maps``: ``wheelrail --wheel-roughness-map`` at the pixel cap (2048 x 2048), with and without a film,
-  a map just above the cap (refused), and the largest film case within the time budget;
+  a map just above the cap (refused), the largest film case within the time budget, and what 1 and 8 draws of
+  a 1024 x 1024 map hold (they share its split: before 29 Nov 2026 each held its own, 16 against 128 MiB);
 * ``workers``: ``campaign run --workers`` at the cap (4 per core) and at 2, on designs of 12 default-mesh
   points per worker (4 with ``--quick``; the campaign's estimate, `filmcal.commands.campaign.design_memory`),
   and one worker more than the cap (refused).
@@ -183,6 +184,25 @@ def write_map(path: Path, n: int) -> None:
     Image.fromarray(np.round(h * 65535).astype(np.uint16)).save(path)
 
 
+def draws_held(path: Path, draws: int) -> tuple[float, float]:
+    """The memory (bytes) that ``draws`` draws' bodies of the map at ``path`` hold together (as `curves` and
+    `correct` hold them while the laws are solved; tracemalloc), and the map's own heights."""
+    import tracemalloc
+
+    from filmcal.contact.rough_imprint import RoughnessInputs
+    from filmcal.contact.surface_files import read_surface_file
+    from filmcal.correction.roughness import draw_bodies
+
+    surface = read_surface_file(path, pixel_um=1.0, height_range_um=15.0)
+    tracemalloc.start()
+    held = [draw_bodies(RoughnessInputs(250.0 + 10 * k, 0.5, 0.8, 50.0, 4.0, k), wheel=surface)
+            for k in range(draws)]
+    current = tracemalloc.get_traced_memory()[0]
+    tracemalloc.stop()
+    del held
+    return current, surface.heights_um.nbytes
+
+
 def wheelrail_args(path: Path, film: bool) -> list[str]:
     return [*FILMCAL, "wheelrail", "--json", "--offset-mm", "0", "--force-kn", "100",
             *(["--film-modulus-mpa", "2800"] if film else ["--no-film"]), "--wheel-roughness-map", str(path),
@@ -218,6 +238,15 @@ def map_section(quick: bool, budget: float, max_s: float, folder: Path) -> None:
             write_map(path, n)
         code, wall, peak, last = peak_of(wheelrail_args(path, film))
         row(label, cost.bytes, peak, wall, cost.seconds, "" if code in (0, 1) else f"exit {code}: {last[-120:]}")
+    n = 512 if quick else 1024
+    path = folder / f"map{n}.png"
+    if not path.exists():
+        write_map(path, n)
+    one, heights = draws_held(path, 1)
+    eight, _ = draws_held(path, 8)
+    print(f"  the draws of a {n} x {n} map share its split (micro part and waviness): 1 draw holds "
+          f"{one / 2**20:.0f} MiB, 8 draws {eight / 2**20:.0f} MiB (ratio {eight / one:.2f}; the map's heights "
+          f"{heights / 2**20:.0f} MiB)")
 
 
 # --- workers ----------------------------------------------------------------------------------------------
