@@ -307,3 +307,33 @@ def test_the_fit_script_refuses_a_file_that_is_not_its_rows_in_one_line(tmp_path
         assert p.returncode == 2, p.stderr[-2000:]
         assert len(p.stderr.strip().splitlines()) == 1 and "rows.json" in p.stderr
         assert not out.exists()
+
+
+def test_a_film_beyond_the_fitted_films_is_named_with_its_value_and_the_fitted_range():
+    """The fit was made on films of 0.09 mm (MS, HS, HHS: activation 10, 50, 130 MPa) with nu 0.25-0.45 on
+    spheres of 150-1500 mm at 9-165 kN: Hertz radii 2.06-11.72 mm (steel, no film), so a film's thickness
+    against the contact's radius spans 0.09 / 11.72 = 0.00768 to 0.09 / 2.06 = 0.0436, and its activation
+    pressure against the Hertz peak 10 / 1312.5 = 0.0076 (the design's cap: 1.05 x the 1250 MPa elastic limit)
+    to 130 / 217.6 = 0.597 (R 1500 mm at 9 kN). A lab's 0.1 mm film on a 6 mm contact (t/a 0.0167) is inside;
+    0.5 mm (0.083) is not; nor is nu 0.2, nor a 300 MPa film on a 400 MPa peak (0.75) for a level reading, which
+    the edge reading does not use."""
+    from filmcal.correction.transfer import outside_fit
+    from filmcal.films import FilmType
+
+    fit = load_transfer_fit()
+    assert fit.hertz_radius_range_mm() == pytest.approx((2.06, 11.72), abs=0.01)
+    lab = FilmType("LOT7", activation_pressure_mpa=45.0, thickness_mm=0.1, poisson=0.34)
+    assert outside_fit(fit, lab, "activation", 6.0, 900.0) == []
+    assert outside_fit(fit, get_film("HS"), "capsule", 11.7, 220.0) == []  # the corner R 1500 mm / 165 kN
+    thick = replace(lab, thickness_mm=0.5)
+    (reason,) = outside_fit(fit, thick, "edge", 6.0, 900.0)
+    assert "0.5 mm" in reason and "0.0833" in reason and "0.0077-0.0436" in reason
+    assert outside_fit(fit, thick, "edge", 11.5, 900.0) == []  # 0.043: a large enough contact takes it
+    (reason,) = outside_fit(fit, replace(lab, poisson=0.2), "edge", 6.0, 900.0)
+    assert "Poisson's ratio 0.2" in reason and "0.25-0.45" in reason
+    high = replace(lab, activation_pressure_mpa=300.0)
+    assert outside_fit(fit, high, "edge", 6.0, 400.0) == []
+    (reason,) = outside_fit(fit, high, "activation", 6.0, 400.0)
+    assert "0.750" in reason and "0.008-0.597" in reason
+    (reason,) = outside_fit(fit, get_film("HS"), "edge", 1.8, 900.0)
+    assert "smaller" in reason and "1.80 mm" in reason

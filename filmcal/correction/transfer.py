@@ -17,7 +17,8 @@ import numpy as np
 
 from filmcal.contact.transfer import FEATURES, ResidualGP, TransferFit, transfer_features
 
-__all__ = ["TRANSFER_DOMAIN", "CORE_DOMAIN", "NEAR_INCOMPRESSIBLE", "transfer_design", "measure_transfer", "fit_transfer", "check_transfer"]
+__all__ = ["TRANSFER_DOMAIN", "CORE_DOMAIN", "NEAR_INCOMPRESSIBLE", "transfer_design", "measure_transfer", "fit_transfer", "check_transfer",
+           "outside_fit"]
 
 #: Where the transfer is measured and checked: the calibration's supported domain
 #: (`filmcal.surrogate.radius.SUPPORTED_RADIUS_MM`, `SUPPORTED_FORCE_KN`, within the steel's elastic limit), with
@@ -306,3 +307,60 @@ def fit_transfer(train: list[dict], held_out: dict[str, list[dict]], grid_mm: fl
     prov = dict(provenance or {})
     prov.update(checks)
     return TransferFit(coefficients, std, dict(TRANSFER_DOMAIN), float(grid_mm), prov, gps)
+
+
+def outside_fit(fit: TransferFit, film, imprint: str, radius_mm: float, max_pressure_mpa: float) -> list[str]:
+    """What of a film and its contact lies beyond what the fit was made on (empty when nothing).
+
+    The term is a function of the film's dimensionless groups (module docstring), so a film of another
+    thickness than the fitted films' is inside when its thickness against the contact is: the check
+    compares the film's Poisson's ratio with the fit's `domain`, its thickness over the contact's radius with the
+    fitted films' over its `hertz_radius_range_mm`, and for a level reading its activation pressure over the
+    contact's peak pressure with the fitted films' over the domain's Hertz peak pressures (capped at the
+    steel's elastic limit, as the design was). Each reason is a phrase naming the value and the fitted
+    range.
+
+    Parameters
+    ----------
+    fit : TransferFit
+    film : FilmType
+    imprint : str
+    radius_mm, max_pressure_mpa : float
+        The contact without film: its equivalent radius and peak pressure.
+    """
+    from filmcal.films import BUILTIN_FILMS
+    from filmcal.hertz import hertz_max_pressure_mpa
+    from filmcal.surrogate.radius import ELASTIC_LIMIT_MPA
+
+    fitted = [BUILTIN_FILMS[n] for n in fit.provenance.get("films", ()) if n in BUILTIN_FILMS] \
+        or list(BUILTIN_FILMS.values())
+    reasons = []
+    nu0, nu1 = fit.domain["poisson"]
+    if not nu0 <= film.poisson <= nu1:
+        reasons.append(f"the film's Poisson's ratio {film.poisson:g} lies outside the fitted {nu0:g}-{nu1:g}")
+    lo, hi = fit.hertz_radius_range_mm()
+    t0, t1 = min(f.thickness_mm for f in fitted), max(f.thickness_mm for f in fitted)
+    aspect, (aspect0, aspect1) = film.thickness_mm / radius_mm, (t0 / hi, t1 / lo)
+    if not aspect0 * (1 - 1e-9) <= aspect <= aspect1 * (1 + 1e-9):
+        (r0, r1), (f0, f1) = fit.domain["sphere_radius_mm"], fit.domain["force_kn"]
+        if t0 <= film.thickness_mm <= t1:
+            reasons.append(f"the contact without film is {'smaller' if aspect > aspect1 else 'larger'} than any "
+                           f"the fit was made on: its equivalent radius is {radius_mm:.2f} mm, theirs "
+                           f"{lo:.2f}-{hi:.2f} mm (spheres of {r0:g}-{r1:g} mm at {f0:g}-{f1:g} kN)")
+        else:
+            reasons.append(f"the film's thickness against the contact, {film.thickness_mm:g} mm on a radius of "
+                           f"{radius_mm:.2f} mm (t/a = {aspect:.4f}), lies outside the fitted "
+                           f"{aspect0:.4f}-{aspect1:.4f} (films of {t0:g} mm on {lo:.2f}-{hi:.2f} mm)")
+    level = getattr(film, "activation_pressure_mpa", None)
+    levels = [f.activation_pressure_mpa for f in fitted if f.activation_pressure_mpa is not None]
+    if imprint != "edge" and level is not None and levels:
+        (r0, r1), (f0, f1) = fit.domain["sphere_radius_mm"], fit.domain["force_kn"]
+        p_lo = float(hertz_max_pressure_mpa(r1, 1e3 * f0))
+        p_hi = min(float(hertz_max_pressure_mpa(r0, 1e3 * f1)), ELASTIC_LIMIT_MPA * ELASTIC_MARGIN)
+        ratio, (ratio0, ratio1) = level / max_pressure_mpa, (min(levels) / p_hi, max(levels) / p_lo)
+        if not ratio0 * (1 - 1e-9) <= ratio <= ratio1 * (1 + 1e-9):
+            reasons.append(f"the film's activation pressure against the contact's peak, {level:g} of "
+                           f"{max_pressure_mpa:.0f} MPa ({ratio:.3f}), lies outside the fitted "
+                           f"{ratio0:.3f}-{ratio1:.3f} (activation pressures {min(levels):g}-{max(levels):g} MPa "
+                           f"at peaks of {p_lo:.0f}-{p_hi:.0f} MPa)")
+    return reasons

@@ -173,8 +173,9 @@ class ElasticLimitWarning(CorrectionWarning):
 
 
 class OutsideDomainWarning(CorrectionWarning):
-    """The wheel-rail contact is smaller or larger than every sphere-on-flat contact the film's transfer to the
-    wheel-rail model was fitted and verified on: its systematic term is extrapolated."""
+    """The film's transfer to the wheel-rail model is extrapolated: the contact is smaller or larger than every
+    sphere-on-flat contact it was fitted and verified on, or the film's thickness against the contact, Poisson's
+    ratio or activation pressure against the peak lies beyond the fitted films' (`outside_fit`)."""
 
 
 #: What a smooth wheel-rail answer does not carry: the bodies' roughness.
@@ -336,16 +337,14 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
                    "validity and the real contact is larger (plastic)")
     if not sphere:
         from filmcal.contact.transfer import load_transfer_fit
+        from filmcal.correction.transfer import outside_fit
 
-        fit = load_transfer_fit()
-        lo, hi = fit.hertz_radius_range_mm()
         a0 = math.sqrt(_no_film(measurement, parts)["area_mm2"] / math.pi)
-        if not lo <= a0 <= hi:
-            (r0, r1), (f0, f1) = fit.domain["sphere_radius_mm"], fit.domain["force_kn"]
-            _warn(out, f"the contact without film is {'smaller' if a0 < lo else 'larger'} than any the film's transfer "
-                       f"to the wheel-rail model was fitted and verified on: its equivalent radius is {a0:.2f} mm, "
-                       f"theirs {lo:.2f}-{hi:.2f} mm (spheres of {r0:g}-{r1:g} mm at {f0:g}-{f1:g} kN); the "
-                       "transfer term, and so the answer and its band, are extrapolated", OutsideDomainWarning)
+        reasons = list(dict.fromkeys(r for _, c, _ in parts for r in outside_fit(load_transfer_fit(), c.film.film,
+                                                                                 c.film.imprint, a0, peak)))
+        if reasons:
+            _warn(out, "the film's transfer to the wheel-rail model is extrapolated: " + "; ".join(reasons)
+                  + "; the transfer term, and so the answer and its band, are extrapolated", OutsideDomainWarning)
     if rough_out is not None:
         from filmcal.correction.roughness import waviness_peak_mpa
         from filmcal.study.core import StudyRoughLaws
