@@ -166,10 +166,10 @@ def test_curves_refuses_an_ra_and_a_map_for_one_body(tmp_path):
     assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1
 
 
-def test_curves_beyond_the_elastic_limit_say_so_as_correct_does(quick_study):
+def test_curves_beyond_the_elastic_limit_or_the_transfer_say_so_as_correct_does(quick_study):
     """`curves --forces-kn 2000` printed its rows at a peak of 3.4 GPa without a word; `correct` warned. Hertz's
     peak pressure of the S1002/60E2 contact (1.1 GPa at 100 kN) grows as F^(1/3): 2000 kN is far beyond the
-    limit, 100 kN below it."""
+    limit, 100 kN below it. Its size too is beyond what the film's transfer was fitted on, as is 2 kN's."""
     import json
     import subprocess
     import sys
@@ -177,11 +177,16 @@ def test_curves_beyond_the_elastic_limit_say_so_as_correct_does(quick_study):
     study, _, _ = quick_study
     cli = [sys.executable, "-m", "filmcal.cli", "curves", "--film", "HS", "--study-dir", str(study), "--offsets-mm=-3",
            "--progress", "quiet", "--json", "--forces-kn"]
-    p = subprocess.run(cli + ["100,2000"], capture_output=True, text=True)
+    p = subprocess.run(cli + ["2,100,2000"], capture_output=True, text=True)
     assert p.returncode == 0, p.stderr
     answer = json.loads(p.stdout)
-    assert len(answer["warnings"]) == 1 and "at 1 of 2 (load, offset) cells" in answer["warnings"][0]
-    assert p.stderr.strip().splitlines() == [f"filmcal curves: warning: {answer['warnings'][0]}"]
+    elastic, transfer = answer["warnings"]
+    assert "elastic limit" in elastic and "at 1 of 3 (load, offset) cells" in elastic
+    # the film's transfer was fitted on Hertz radii of 2.06-11.7 mm: at 2 kN the patch is about 1.8 mm, at 2000 kN
+    # about 18 mm (F^(1/3) from 6.6 mm at 100 kN), as `correct` warns
+    assert "transfer" in transfer and "extrapolated at 2 of 3 (load, offset) cells" in transfer
+    assert "at 2 kN, eta -3 mm: the contact without film is smaller" in transfer
+    assert p.stderr.strip().splitlines() == [f"filmcal curves: warning: {w}" for w in answer["warnings"]]
     p = subprocess.run(cli + ["100"], capture_output=True, text=True)
     assert p.returncode == 0 and p.stderr == "" and "warnings" not in json.loads(p.stdout)
 

@@ -115,6 +115,31 @@ def _check_map_memory(args: argparse.Namespace) -> None:
                                 + (", or use fewer --workers (each holds the laws)" if copies > 1 else ""))
 
 
+def _transfer_note(rows: list, components: list) -> str | None:
+    """What `filmcal correct` warns of a cell whose film transfer is extrapolated
+    (`filmcal.correction.transfer.outside_fit`), said once for the cells it holds at."""
+    import math
+
+    from filmcal.contact.transfer import load_transfer_fit
+    from filmcal.correction import CURVE_COLUMNS
+    from filmcal.correction.transfer import outside_fit
+
+    area, peak = CURVE_COLUMNS.index("area_no_film_mm2"), CURVE_COLUMNS.index("max_pressure_no_film_mpa")
+    cells: dict[tuple, list[str]] = {}
+    for r in rows:
+        reasons = [x for fm, _, _ in components for x in outside_fit(load_transfer_fit(), fm.film, fm.imprint,
+                                                                      math.sqrt(r[area] / math.pi), r[peak])]
+        if reasons:
+            cells.setdefault((r[2], r[3]), list(dict.fromkeys(reasons)))
+    if not cells:
+        return None
+    (force, offset), reasons = next(iter(cells.items()))
+    n = len({(r[2], r[3]) for r in rows})
+    return (f"the film's transfer to the wheel-rail model is extrapolated at {len(cells)} of {n} (load, offset) "
+            f"cells (at {force:g} kN, eta {offset:+g} mm: {'; '.join(reasons)}): there the transfer term, and so "
+            "the curves and their bands, are extrapolated")
+
+
 def run(args: argparse.Namespace) -> int:
     from filmcal._parallel import parallel_work
     from filmcal._validation import parse_grid
@@ -174,6 +199,10 @@ def run(args: argparse.Namespace) -> int:
                 f"{len(over)} of {len(forces) * len(offsets)} (load, offset) cells (highest {top[peak]:.0f} MPa, at "
                 f"{top[2]:g} kN, eta {top[3]:+g} mm): there the elastic model is outside its validity and the real "
                 "contact is larger (plastic)")
+        notes.append(note)
+        sys.stderr.write(f"filmcal curves: warning: {note}\n")
+    note = _transfer_note(rows, components)
+    if note:  # as `filmcal correct` warns
         notes.append(note)
         sys.stderr.write(f"filmcal curves: warning: {note}\n")
     if args.csv:
