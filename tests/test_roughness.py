@@ -102,7 +102,12 @@ def test_synthetic_surface_is_seeded_and_scaled():
     b = RoughSurface.synthetic(ra_um=1.5, seed=3, n=128, size_um=100.0, rolloff_wavelength_um=25.0)
     c = RoughSurface.synthetic(ra_um=1.5, seed=4, n=128, size_um=100.0, rolloff_wavelength_um=25.0)
     assert np.array_equal(a.heights_um, b.heights_um) and a.fingerprint() == b.fingerprint()
-    assert not np.array_equal(a.heights_um, c.heights_um)
+    assert not np.array_equal(a.heights_um, c.heights_um) and a.fingerprint() != c.fingerprint()
+    # the key is kept once made (a map's draws ask it per film): safe as the heights cannot change under it
+    assert a.fingerprint() is a.fingerprint() and not a.heights_um.flags.writeable
+    with pytest.raises(ValueError, match="read-only"):
+        a.heights_um[0, 0] += 1.0
+    assert RoughSurface(a.heights_um, a.pixel_um * 2).fingerprint() != a.fingerprint()
     assert a.rms_um == pytest.approx(math.sqrt(math.pi / 2) * 1.5, rel=1e-12)
     assert a.ra_um == pytest.approx(1.5, rel=0.08)  # Gaussian heights: Ra = sqrt(2/pi) rms
     s = RoughSurface.synthetic(rms_um=1.0, rms_slope=0.3, n=128, size_um=100.0,

@@ -361,10 +361,14 @@ class RoughSurface:
         return (self.heights_um.shape[0] * self.pixel_um, self.heights_um.shape[1] * self.pixel_um)
 
     def fingerprint(self) -> str:
-        """A hash of the heights and pixel size (the cache key)."""
-        digest = hashlib.sha256(np.ascontiguousarray(self.heights_um).tobytes())
-        digest.update(repr((self.heights_um.shape, self.pixel_um)).encode())
-        return digest.hexdigest()[:16]
+        """A hash of the heights and pixel size (the cache key), computed once: the heights are read-only."""
+        cached = self.__dict__.get("_fingerprint")
+        if cached is None:
+            digest = hashlib.sha256(np.ascontiguousarray(self.heights_um).tobytes())
+            digest.update(repr((self.heights_um.shape, self.pixel_um)).encode())
+            cached = digest.hexdigest()[:16]
+            object.__setattr__(self, "_fingerprint", cached)
+        return cached
 
 
 def _rms_slope(heights_um: np.ndarray, pixel_um: float) -> float:
