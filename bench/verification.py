@@ -36,6 +36,8 @@ rail): the observed orders of the phase means, the Richardson extrapolation of t
 largest error of one phase at 0.1 mm against it; and the same readings of
 sphere-on-flat through MS/HS/HHS films at 0.2 / 0.1 / 0.05 / 0.025 mm over 8 phases of the grid in both
 directions (their observed orders).
+``--thickness``: the transfer term at films of 0.05, 0.09 and 0.15 mm (the fit was made on 0.09 mm only) at 8
+points of Table 1's region: what `filmcal.correction.transfer.THICKNESS_MISS_MM` quotes.
 ``--study-dir D``: Table 1 through the application model at each film's calibrated median E and preferred
 model (residuals against the calibration's own FE at the same E; the FE's own least-squares E, one
 Gauss-Newton step from the median, with the mean residual there, and the span of the mean residual over the
@@ -243,6 +245,41 @@ def transfer_check(n_points: int) -> list[dict]:
     return out
 
 
+#: Film thicknesses of the ``--thickness`` check (mm): the fitted films' 0.09 mm and two it was not made on.
+THICKNESS_CHECK_MM = (0.05, 0.09, 0.15)
+
+
+def transfer_thickness_check(n_points: int = 8) -> list[dict]:
+    """The transfer at films of other thicknesses than the fit's: MS/HS/HHS's levels and Poisson's ratios at
+    `THICKNESS_CHECK_MM`, `n_points` of a Latin hypercube over Table 1's region (seed 23, in none of the fit's
+    designs), against the calibrated FE at that thickness."""
+    from dataclasses import replace
+
+    from filmcal.contact.transfer import load_transfer_fit
+    from filmcal.correction.transfer import check_transfer, measure_transfer, transfer_design
+    from filmcal.films import get_film
+
+    fit = load_transfer_fit()
+    points = transfer_design(n_points, 23)
+    out = []
+    for t in THICKNESS_CHECK_MM:
+        films = [replace(get_film(n), thickness_mm=t) for n in ("MS", "HS", "HHS")]
+        for key, r in sorted(check_transfer(fit, measure_transfer(points, films)).items()):
+            out.append({"check": f"transfer {key}, {t:g} mm", "n": r["n"], "raw_mean_mm": r["raw_mean_mm"],
+                        "raw_max_mm": r["raw_max_mm"], "mean_mm": r["mean_mm"], "rms_mm": r["rms_mm"],
+                        "max_mm": r["max_mm"], "std_mm": fit.std_mm[key], "not_converged": r["not_converged"],
+                        "one_sided": r["one_sided"]})
+    return out
+
+
+def _print_transfer(rows: list[dict]) -> None:
+    print(f"{'model':40} {'n':>4} {'raw mean':>9} {'raw max':>8} | {'mean':>8} {'rms':>7} {'max':>7} | {'term std':>8}"
+          " | left out: FE not converged, one model records nothing")
+    for r in rows:
+        print(f"{r['check']:40} {r['n']:4d} {r['raw_mean_mm']:+9.4f} {r['raw_max_mm']:8.4f} | {r['mean_mm']:+8.4f} "
+              f"{r['rms_mm']:7.4f} {r['max_mm']:7.4f} | {r['std_mm']:8.4f} | {r['not_converged']} {r['one_sided']}")
+
+
 GRID_CASES = [(f, eta, e) for f in (50e3, 100e3) for eta in (-5.0, -1.5, 2.0) for e in (800.0, 2800.0, 6300.0)]
 
 
@@ -428,6 +465,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--points", type=int, default=32, help="points of the transfer check (default 32)")
     ap.add_argument("--grid", action="store_true", help="also the grid convergence of the wheel-rail readings")
+    ap.add_argument("--thickness", action="store_true",
+                    help="also the transfer at films of 0.05 and 0.15 mm, which the fit was not made on")
     ap.add_argument("--study-dir", metavar="D", help="also Table 1 and the correction factor with D's posteriors")
     ap.add_argument("--json", metavar="FILE", help="also write the rows as JSON")
     ap.add_argument("--summary", action="store_true",
@@ -450,12 +489,18 @@ def main(argv=None) -> int:
     transfer = transfer_check(args.points)
     print(f"\ntransfer: calibrated FE film minus applied springs, sphere-on-flat, MS/HS/HHS at {args.points} points "
           "of Table 1's region (seed 3) and of the whole domain (seed 17), radius in mm")
-    print(f"{'model':40} {'n':>4} {'raw mean':>9} {'raw max':>8} | {'mean':>8} {'rms':>7} {'max':>7} | {'term std':>8}"
-          " | left out: FE not converged, one model records nothing")
-    for r in transfer:
-        print(f"{r['check']:40} {r['n']:4d} {r['raw_mean_mm']:+9.4f} {r['raw_max_mm']:8.4f} | {r['mean_mm']:+8.4f} "
-              f"{r['rms_mm']:7.4f} {r['max_mm']:7.4f} | {r['std_mm']:8.4f} | {r['not_converged']} {r['one_sided']}")
+    _print_transfer(transfer)
     rows += transfer
+    if args.thickness:
+        thick = transfer_thickness_check()
+        print(f"\ntransfer at films of {'/'.join(f'{t:g}' for t in THICKNESS_CHECK_MM)} mm (the fit was made on 0.09 "
+              "mm): MS/HS/HHS's levels at 8 points of Table 1's region (seed 23), radius in mm")
+        _print_transfer(thick)
+        for t in THICKNESS_CHECK_MM:
+            part = [r for r in thick if r["check"].endswith(f", {t:g} mm")]
+            print(f"summary transfer at {t:g} mm: rms {min(r['rms_mm'] for r in part):.4f}-"
+                  f"{max(r['rms_mm'] for r in part):.4f} mm, largest {max(r['max_mm'] for r in part):.4f} mm")
+        rows += thick
     if args.grid:
         grid = grid_convergence()
         print(f"\nreadings with the HS film on S1002/60E2: areas at 0.2 / 0.1 / 0.05 / 0.025 mm (mm2, the mean of "

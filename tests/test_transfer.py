@@ -310,30 +310,46 @@ def test_the_fit_script_refuses_a_file_that_is_not_its_rows_in_one_line(tmp_path
 
 
 def test_a_film_beyond_the_fitted_films_is_named_with_its_value_and_the_fitted_range():
-    """The fit was made on films of 0.09 mm (MS, HS, HHS: activation 10, 50, 130 MPa) with nu 0.25-0.45 on
-    spheres of 150-1500 mm at 9-165 kN: Hertz radii 2.06-11.72 mm (steel, no film), so a film's thickness
-    against the contact's radius spans 0.09 / 11.72 = 0.00768 to 0.09 / 2.06 = 0.0436, and its activation
-    pressure against the Hertz peak 10 / 1312.5 = 0.0076 (the design's cap: 1.05 x the 1250 MPa elastic limit)
-    to 130 / 217.6 = 0.597 (R 1500 mm at 9 kN). A lab's 0.1 mm film on a 6 mm contact (t/a 0.0167) is inside;
-    0.5 mm (0.083) is not; nor is nu 0.2, nor a 300 MPa film on a 400 MPa peak (0.75) for a level reading, which
-    the edge reading does not use."""
-    from filmcal.correction.transfer import outside_fit
+    """The fit was made on films of 0.09 mm (MS, HS, HHS: activation 10, 50, 130 MPa), E 400-20000 MPa, nu
+    0.25-0.45, on spheres of 150-1500 mm at 9-165 kN: Hertz radii 2.06-11.72 mm (steel, no film), and activation
+    pressures against the Hertz peak of 10 / 1312.5 = 0.00762 (the design's cap: 1.05 x the 1250 MPa elastic
+    limit) to 130 / 217.6 = 0.597 (R 1500 mm at 9 kN). A lab's 0.09 mm film with nu 0.34 and activation 45 MPa
+    on a 6 mm contact at 900 MPa is inside; a film of 0.1 mm is not (the term does not carry over thickness:
+    `bench/verification.py --thickness`), nor is nu 0.2, nor a 300 MPa film on a 400 MPa peak (0.75) for a
+    level reading, which the edge reading does not use."""
+    from filmcal.correction.transfer import THICKNESS_MISS_MM, outside_fit
     from filmcal.films import FilmType
 
     fit = load_transfer_fit()
     assert fit.hertz_radius_range_mm() == pytest.approx((2.06, 11.72), abs=0.01)
-    lab = FilmType("LOT7", activation_pressure_mpa=45.0, thickness_mm=0.1, poisson=0.34)
+    # the built-in films on ordinary wheel-rail contacts (4-9 mm, peaks 600-1250 MPa): nothing to say
+    for name in ("MS", "HS", "HHS"):
+        for imprint in ("edge", "activation", "capsule"):
+            for radius, peak in ((4.0, 600.0), (4.0, 1250.0), (9.0, 600.0), (9.0, 1250.0)):
+                assert outside_fit(fit, get_film(name), imprint, radius, peak, [500.0, 3000.0, 19000.0]) == []
+    lab = FilmType("LOT7", activation_pressure_mpa=45.0, thickness_mm=0.09, poisson=0.34)
     assert outside_fit(fit, lab, "activation", 6.0, 900.0) == []
-    assert outside_fit(fit, get_film("HS"), "capsule", 11.7, 220.0) == []  # the corner R 1500 mm / 165 kN
-    thick = replace(lab, thickness_mm=0.5)
-    (reason,) = outside_fit(fit, thick, "edge", 6.0, 900.0)
-    assert "0.5 mm" in reason and "0.0833" in reason and "0.0077-0.0436" in reason
-    assert outside_fit(fit, thick, "edge", 11.5, 900.0) == []  # 0.043: a large enough contact takes it
+    assert outside_fit(fit, get_film("HS"), "capsule", 11.7, 574.0) == []  # the corner R 1500 mm / 165 kN
+    (reason,) = outside_fit(fit, replace(lab, thickness_mm=0.1), "edge", 6.0, 900.0)
+    assert "0.1 mm thick" in reason and "films of 0.09 mm only" in reason
+    assert f"{THICKNESS_MISS_MM[0]:.4f}-{THICKNESS_MISS_MM[1]:.4f} mm rms" in reason and "0.0007-0.0010 mm" in reason
+    for film in (get_film("HS"), lab):  # a contact beyond the fitted sizes
+        (small,) = outside_fit(fit, film, "edge", 1.8, 900.0)
+        (large,) = outside_fit(fit, film, "edge", 12.5, 900.0)
+        assert "smaller" in small and "1.80 mm" in small and "larger" in large and "12.50 mm" in large
     (reason,) = outside_fit(fit, replace(lab, poisson=0.2), "edge", 6.0, 900.0)
     assert "Poisson's ratio 0.2" in reason and "0.25-0.45" in reason
+    # the modulus: its central 90 % against 400-20000 MPa (a soft film at nu 0.45 at equal M reads far lower)
+    assert outside_fit(fit, lab, "edge", 6.0, 900.0, np.linspace(420.0, 600.0, 101)) == []
+    (reason,) = outside_fit(fit, lab, "edge", 6.0, 900.0, np.linspace(150.0, 170.0, 101))
+    assert "151-169 MPa" in reason and "400-20000 MPa" in reason
     high = replace(lab, activation_pressure_mpa=300.0)
     assert outside_fit(fit, high, "edge", 6.0, 400.0) == []
     (reason,) = outside_fit(fit, high, "activation", 6.0, 400.0)
-    assert "0.750" in reason and "0.008-0.597" in reason
-    (reason,) = outside_fit(fit, get_film("HS"), "edge", 1.8, 900.0)
-    assert "smaller" in reason and "1.80 mm" in reason
+    assert "(0.75)" in reason and "0.00762-0.597" in reason
+    (reason,) = outside_fit(fit, get_film("MS"), "capsule", 6.0, 1400.0)  # 10 / 1400 = 0.00714: below
+    assert "10 of 1400 MPa (0.00714)" in reason
+    # a fit whose provenance names no films was made on the built-in ones
+    bare = replace(fit, provenance={})
+    thick = replace(lab, thickness_mm=0.5)
+    assert outside_fit(bare, thick, "edge", 6.0, 900.0) == outside_fit(fit, thick, "edge", 6.0, 900.0) != []

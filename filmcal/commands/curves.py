@@ -125,16 +125,17 @@ def _transfer_note(rows: list, components: list) -> str | None:
     from filmcal.correction.transfer import outside_fit
 
     area, peak = CURVE_COLUMNS.index("area_no_film_mm2"), CURVE_COLUMNS.index("max_pressure_no_film_mpa")
-    cells: dict[tuple, list[str]] = {}
-    for r in rows:
-        reasons = [x for fm, _, _ in components for x in outside_fit(load_transfer_fit(), fm.film, fm.imprint,
-                                                                      math.sqrt(r[area] / math.pi), r[peak])]
+    contacts = {(r[2], r[3]): (math.sqrt(r[area] / math.pi), r[peak]) for r in rows}  # a cell's rows share it
+    cells = {}
+    for cell, (radius, p) in contacts.items():
+        reasons = [x for fm, modulus, _ in components
+                   for x in outside_fit(load_transfer_fit(), fm.film, fm.imprint, radius, p, modulus)]
         if reasons:
-            cells.setdefault((r[2], r[3]), list(dict.fromkeys(reasons)))
+            cells[cell] = list(dict.fromkeys(reasons))
     if not cells:
         return None
     (force, offset), reasons = next(iter(cells.items()))
-    n = len({(r[2], r[3]) for r in rows})
+    n = len(contacts)
     return (f"the film's transfer to the wheel-rail model is extrapolated at {len(cells)} of {n} (load, offset) "
             f"cells (at {force:g} kN, eta {offset:+g} mm: {'; '.join(reasons)}): there the transfer term, and so "
             "the curves and their bands, are extrapolated")

@@ -340,8 +340,8 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
         from filmcal.correction.transfer import outside_fit
 
         a0 = math.sqrt(_no_film(measurement, parts)["area_mm2"] / math.pi)
-        reasons = list(dict.fromkeys(r for _, c, _ in parts for r in outside_fit(load_transfer_fit(), c.film.film,
-                                                                                 c.film.imprint, a0, peak)))
+        reasons = list(dict.fromkeys(r for _, c, _ in parts for r in outside_fit(
+            load_transfer_fit(), c.film.film, c.film.imprint, a0, peak, c.modulus_mpa_)))
         if reasons:
             _warn(out, "the film's transfer to the wheel-rail model is extrapolated: " + "; ".join(reasons)
                   + "; the transfer term, and so the answer and its band, are extrapolated", OutsideDomainWarning)
