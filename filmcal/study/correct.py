@@ -174,8 +174,8 @@ class ElasticLimitWarning(CorrectionWarning):
 
 class OutsideDomainWarning(CorrectionWarning):
     """The film's transfer to the wheel-rail model is extrapolated: the contact is smaller or larger than every
-    sphere-on-flat contact it was fitted and verified on, or the film's thickness against the contact, Poisson's
-    ratio or activation pressure against the peak lies beyond the fitted films' (`outside_fit`)."""
+    sphere-on-flat contact it was fitted and verified on, or the film's thickness, Poisson's ratio, modulus or
+    activation pressure against the peak lies beyond the fitted films' (`outside_fit`)."""
 
 
 #: What a smooth wheel-rail answer does not carry: the bodies' roughness.
