@@ -63,10 +63,16 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["TransferTerm", "TransferFit", "ResidualGP", "transfer_features", "load_transfer_fit", "TRANSFER_FILE",
-           "outline_perimeter_mm"]
+           "THICKNESS_STD_MM", "outline_perimeter_mm"]
 
 #: The shipped fit (package data).
 TRANSFER_FILE = "film_transfer.json"
+#: What the term misses, per imprint model, for a film of another thickness than the fitted films' (root mean
+#: square, mm, held out; `python bench/verification.py --thickness`: 0.05 and 0.15 mm, and
+#: `python bench/transfer_thickness.py` before its term: 0.04-0.25 mm; 1 Dec 2026): added in quadrature to the
+#: term's standard deviation of such a film (`TransferFit.std_for`), whose answer also warns that its transfer
+#: is extrapolated (`filmcal.correction.transfer.outside_fit`).
+THICKNESS_STD_MM = {"edge": 0.0028, "activation": 0.0062, "capsule": 0.0065}
 #: Names of the fitted features (the order of the coefficients).
 FEATURES = ("1", "nu", "nu^2", "x", "x^2", "nu x", "y", "nu y", "y^2", "c", "c x", "c y", "z", "c z")
 
@@ -281,11 +287,29 @@ class TransferFit:
             ratio = ratio + self.residual_gp[key].predict(features)
         return ratio, self.std_mm[key]
 
+    @property
+    def thickness_mm(self) -> tuple[float, ...]:
+        """The thicknesses (mm) of the films the fit was made on (the built-in films' when it does not say)."""
+        from filmcal.films import BUILTIN_FILMS
+
+        fitted = [BUILTIN_FILMS[n] for n in self.provenance.get("films", ()) if n in BUILTIN_FILMS] \
+            or list(BUILTIN_FILMS.values())
+        return tuple(sorted({f.thickness_mm for f in fitted}))
+
+    def std_for(self, imprint: str, kinematics: str, thickness_mm: float) -> float:
+        """The term's standard deviation (mm) for a film of this thickness: the fit's, with `THICKNESS_STD_MM`
+        in quadrature when the fit was not made at that thickness."""
+        std = self.std_mm[f"{imprint}/{kinematics}"]
+        if any(abs(thickness_mm - t) <= 1e-9 * t for t in self.thickness_mm):
+            return std
+        return math.hypot(std, THICKNESS_STD_MM[imprint])
+
     def digest(self, key: str) -> str:
         """SHA-256 of everything that sets one key's term (for the specs of cached solves)."""
         import hashlib
 
         doc = {"coefficients": self.coefficients[key], "std_mm": self.std_mm[key],
+               "thickness_std_mm": THICKNESS_STD_MM[key.split("/")[0]],
                "residual_gp": self.residual_gp[key].to_dict() if key in self.residual_gp else None}
         return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()
 
@@ -322,7 +346,8 @@ def transfer_term(fit: TransferFit, imprint: str, kinematics: str, film, modulus
     level = getattr(film, "activation_pressure_mpa", None)
     features = transfer_features(imprint, modulus_mpa, film.poisson, film.thickness_mm, radius, max_pressure_mpa,
                                  level)
-    ratio, std = fit.shift_mm(imprint, kinematics, features)
+    ratio, _ = fit.shift_mm(imprint, kinematics, features)
+    std = fit.std_for(imprint, kinematics, film.thickness_mm)
     shift = float(ratio) * film.thickness_mm
     perimeter = 2.0 * math.pi * radius if perimeter_mm is None else float(perimeter_mm)
     return TransferTerm(shift_mm=shift, std_mm=std, shift_mm2=shift * perimeter, std_mm2=std * perimeter)

@@ -15,7 +15,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from filmcal.contact.transfer import FEATURES, ResidualGP, TransferFit, transfer_features
+from filmcal.contact.transfer import FEATURES, THICKNESS_STD_MM, ResidualGP, TransferFit, transfer_features
 
 __all__ = ["TRANSFER_DOMAIN", "CORE_DOMAIN", "NEAR_INCOMPRESSIBLE", "transfer_design", "measure_transfer", "fit_transfer", "check_transfer",
            "outside_fit"]
@@ -323,8 +323,8 @@ def outside_fit(fit: TransferFit, film, imprint: str, radius_mm: float, max_pres
     The fit's design is a box over (E, nu, R, F) for the fitted films (`transfer_design`). Checked, each as a
     box: the contact's equivalent radius against the Hertz radii of the design's spheres and forces
     (`hertz_radius_range_mm`); the film's thickness against the fitted films' (the term's dimensionless groups
-    do not carry it over: held out at 0.05 and 0.15 mm it misses by `THICKNESS_MISS_MM`, several times what it
-    carries); its Poisson's ratio and, when given, the central 90 % of its modulus against the fit's `domain`;
+    do not carry it over: held out at 0.05 and 0.15 mm it misses by `THICKNESS_MISS_MM`, several times the fit's
+    std, and such a film's band carries `THICKNESS_STD_MM` more); its Poisson's ratio and, when given, the central 90 % of its modulus against the fit's `domain`;
     for a level reading, its activation pressure against the contact's peak, against the fitted films' over the
     design's Hertz peaks (218-1312 MPa: capped at the steel's elastic limit, as the design was). Each reason is
     a phrase naming the value and the fitted range.
@@ -344,7 +344,7 @@ def outside_fit(fit: TransferFit, film, imprint: str, radius_mm: float, max_pres
     from filmcal.surrogate.radius import ELASTIC_LIMIT_MPA
 
     fitted = [BUILTIN_FILMS[n] for n in fit.provenance.get("films", ()) if n in BUILTIN_FILMS] \
-        or list(BUILTIN_FILMS.values())
+        or list(BUILTIN_FILMS.values())  # as `TransferFit.thickness_mm`: their activation pressures
     (r0, r1), (f0, f1) = fit.domain["sphere_radius_mm"], fit.domain["force_kn"]
     lo, hi = fit.hertz_radius_range_mm()
     reasons = []
@@ -352,14 +352,12 @@ def outside_fit(fit: TransferFit, film, imprint: str, radius_mm: float, max_pres
         reasons.append(f"the contact without film is {'smaller' if radius_mm < lo else 'larger'} than any the fit was "
                        f"made on: its equivalent radius is {radius_mm:.2f} mm, theirs {lo:.2f}-{hi:.2f} mm (spheres "
                        f"of {r0:g}-{r1:g} mm at {f0:g}-{f1:g} kN)")
-    thicknesses = sorted({f.thickness_mm for f in fitted})
-    if not any(abs(film.thickness_mm - t) <= 1e-9 * t for t in thicknesses):
-        shown = "/".join(f"{t:g}" for t in thicknesses)
-        carried = min(fit.std_mm.values()), max(fit.std_mm.values())
+    if not any(abs(film.thickness_mm - t) <= 1e-9 * t for t in fit.thickness_mm):
+        shown = "/".join(f"{t:g}" for t in fit.thickness_mm)
         reasons.append(f"the film is {film.thickness_mm:g} mm thick and the fit was made on films of {shown} mm "
                        f"only: held out at 0.05 and 0.15 mm it missed by {THICKNESS_MISS_MM[0]:.4f}-"
-                       f"{THICKNESS_MISS_MM[1]:.4f} mm rms (up to {THICKNESS_MISS_MM[2]:.3f} mm), against the "
-                       f"{carried[0]:.4f}-{carried[1]:.4f} mm it carries")
+                       f"{THICKNESS_MISS_MM[1]:.4f} mm rms (up to {THICKNESS_MISS_MM[2]:.3f} mm), and the {imprint} "
+                       f"reading's band carries {THICKNESS_STD_MM[imprint]:.4f} mm for it, in quadrature")
     nu0, nu1 = fit.domain["poisson"]
     if not nu0 <= film.poisson <= nu1:
         reasons.append(f"the film's Poisson's ratio {film.poisson:g} lies outside the fitted {nu0:g}-{nu1:g}")
