@@ -266,3 +266,30 @@ def test_the_draws_of_a_measured_map_share_its_law_without_film(rough_law_solves
                            tmp_path / "laws")
     assert sorted(rough_law_solves) == ["film_law", "film_law", "steel_law"]
     assert laws[draws[0]][None] == laws[draws[1]][None] and laws[draws[0]]["HS"] != laws[draws[1]]["HS"]
+
+
+def test_the_transfer_note_names_the_cells_where_the_film_transfer_is_extrapolated():
+    """The note `filmcal curves` and the pipeline's curves stage give, from the rows' contacts without film: a
+    0.09 mm film on patches of 6 mm equivalent radius says nothing; a patch of 1.5 mm (below the 2.06 mm of the
+    fit's smallest sphere-on-flat contact) is named, and a 0.12 mm film at every cell."""
+    from dataclasses import replace
+
+    from filmcal.correction import CURVE_COLUMNS
+    from filmcal.correction.curves import transfer_note
+
+    def row(force, offset, radius_mm):
+        r = [0.0] * len(CURVE_COLUMNS)
+        r[:4] = ["HS", "smooth", force, offset]
+        r[CURVE_COLUMNS.index("area_no_film_mm2")] = np.pi * radius_mm**2
+        r[CURVE_COLUMNS.index("max_pressure_no_film_mpa")] = 900.0
+        return r
+
+    hs = get_film("HS")
+    samples = np.full(50, 2500.0)
+    usual = [row(100.0, 0.0, 6.0), row(100.0, 0.0, 6.0), row(50.0, -3.0, 6.0)]  # a cell's smooth and rough rows
+    assert transfer_note(usual, [(FilmModel(hs, "edge", "small"), samples, 1.0)]) is None
+    note = transfer_note(usual + [row(2.0, -3.0, 1.5)], [(FilmModel(hs, "activation", "small"), samples, 1.0)])
+    assert "at 1 of 3 (load, offset) cells (at 2 kN, eta -3 mm: the contact without film is smaller" in note
+    thick = FilmModel(replace(hs, thickness_mm=0.12), "edge", "small")
+    note = transfer_note(usual, [(thick, samples, 1.0)])
+    assert "at 2 of 2 (load, offset) cells" in note and "0.12 mm thick" in note

@@ -115,32 +115,6 @@ def _check_map_memory(args: argparse.Namespace) -> None:
                                 + (", or use fewer --workers (each holds the laws)" if copies > 1 else ""))
 
 
-def _transfer_note(rows: list, components: list) -> str | None:
-    """What `filmcal correct` warns of a cell whose film transfer is extrapolated
-    (`filmcal.correction.transfer.outside_fit`), said once for the cells it holds at."""
-    import math
-
-    from filmcal.contact.transfer import load_transfer_fit
-    from filmcal.correction import CURVE_COLUMNS
-    from filmcal.correction.transfer import outside_fit
-
-    area, peak = CURVE_COLUMNS.index("area_no_film_mm2"), CURVE_COLUMNS.index("max_pressure_no_film_mpa")
-    contacts = {(r[2], r[3]): (math.sqrt(r[area] / math.pi), r[peak]) for r in rows}  # a cell's rows share it
-    cells = {}
-    for cell, (radius, p) in contacts.items():
-        reasons = [x for fm, modulus, _ in components
-                   for x in outside_fit(load_transfer_fit(), fm.film, fm.imprint, radius, p, modulus)]
-        if reasons:
-            cells[cell] = list(dict.fromkeys(reasons))
-    if not cells:
-        return None
-    (force, offset), reasons = next(iter(cells.items()))
-    n = len(contacts)
-    return (f"the film's transfer to the wheel-rail model is extrapolated at {len(cells)} of {n} (load, offset) "
-            f"cells (at {force:g} kN, eta {offset:+g} mm: {'; '.join(reasons)}): there the transfer term, and so "
-            "the curves and their bands, are extrapolated")
-
-
 def run(args: argparse.Namespace) -> int:
     from filmcal._parallel import parallel_work
     from filmcal._validation import parse_grid
@@ -167,6 +141,7 @@ def run(args: argparse.Namespace) -> int:
         check_outside_study(path, option, args.study_dir)
     check_distinct_files(*outputs)
     from filmcal.correction import CURVE_COLUMNS, curve_table, write_curves_csv
+    from filmcal.correction.curves import transfer_note
     from filmcal.study.core import StudyRoughLaws, chosen_posteriors, curve_components
 
     with parallel_work(args.workers, args.dask) as workers:  # a Dask scheduler is reached before anything is written
@@ -202,7 +177,7 @@ def run(args: argparse.Namespace) -> int:
                 "contact is larger (plastic)")
         notes.append(note)
         sys.stderr.write(f"filmcal curves: warning: {note}\n")
-    note = _transfer_note(rows, components)
+    note = transfer_note(rows, components)
     if note:  # as `filmcal correct` warns
         notes.append(note)
         sys.stderr.write(f"filmcal curves: warning: {note}\n")

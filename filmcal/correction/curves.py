@@ -46,7 +46,7 @@ from filmcal.correction.moduli import modulus_grid
 from filmcal.wheelrail.wheelrail import get_wheel_rail_model
 
 __all__ = ["CorrectionCurves", "correction_curves", "CURVE_COLUMNS", "curve_rows", "curve_table", "curve_growths",
-           "growth_task", "RoughConfiguration", "write_curves_csv", "read_curves_csv", "wheel_label"]
+           "growth_task", "RoughConfiguration", "write_curves_csv", "read_curves_csv", "wheel_label", "transfer_note"]
 
 #: Solver tolerance of the sweeps: areas within 1e-6 (relative) of the default 1e-9, a fifth faster.
 SWEEP_TOL = 1e-6
@@ -513,6 +513,29 @@ def rough_law_files(configuration: RoughConfiguration, films: dict, workers, fol
         started(len(tasks), found)
     run_tasks(tasks, workers, keep)
     return out
+
+
+def transfer_note(rows: list[list], components) -> str | None:
+    """What `filmcal correct` warns of a cell whose film transfer is extrapolated
+    (`filmcal.correction.transfer.outside_fit`), said once for the cells of `rows` (`curve_rows`) it holds at;
+    None when it holds at none. ``components`` as `correction_curves` takes them."""
+    from filmcal.contact.transfer import load_transfer_fit
+    from filmcal.correction.transfer import outside_fit
+
+    area, peak = CURVE_COLUMNS.index("area_no_film_mm2"), CURVE_COLUMNS.index("max_pressure_no_film_mpa")
+    contacts = {(r[2], r[3]): (math.sqrt(r[area] / math.pi), r[peak]) for r in rows}  # a cell's rows share it
+    cells = {}
+    for cell, (radius, p) in contacts.items():
+        reasons = [x for fm, modulus, _ in components
+                   for x in outside_fit(load_transfer_fit(), fm.film, fm.imprint, radius, p, modulus)]
+        if reasons:
+            cells[cell] = list(dict.fromkeys(reasons))
+    if not cells:
+        return None
+    (force, offset), reasons = next(iter(cells.items()))
+    return (f"the film's transfer to the wheel-rail model is extrapolated at {len(cells)} of {len(contacts)} (load, "
+            f"offset) cells (at {force:g} kN, eta {offset:+g} mm: {'; '.join(reasons)}): there the transfer term, "
+            "and so the curves and their bands, are extrapolated")
 
 
 def write_curves_csv(path: str | Path, rows: list[list]) -> Path:

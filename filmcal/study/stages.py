@@ -606,6 +606,7 @@ def _curves_stage(study: Study, settings: PipelineSettings, films, workers, st):
     from filmcal._io import atomic_write_json
     from filmcal._parallel import run_tasks
     from filmcal.correction import RoughConfiguration, curve_rows, write_curves_csv
+    from filmcal.correction.curves import transfer_note
     from filmcal.correction.roughness import growth_modulus_mpa
     from filmcal.study.core import curve_components
     from filmcal.study.layout import spec_key
@@ -636,6 +637,9 @@ def _curves_stage(study: Study, settings: PipelineSettings, films, workers, st):
         path = study.layout.curves(film)
         write_curves_csv(path, rows[film])
         study.record(path, "curves", specs[film])
+        note = transfer_note(rows[film], components[film])
+        if note:  # as `filmcal correct` and `filmcal curves` warn
+            st.log(f"[curves] {film}: warning: {note}")
 
     for film in components:
         study.layout.curves(film).parent.mkdir(parents=True, exist_ok=True)
