@@ -36,8 +36,9 @@ rail): the observed orders of the phase means, the Richardson extrapolation of t
 largest error of one phase at 0.1 mm against it; and the same readings of
 sphere-on-flat through MS/HS/HHS films at 0.2 / 0.1 / 0.05 / 0.025 mm over 8 phases of the grid in both
 directions (their observed orders).
-``--thickness``: the transfer term at films of 0.05, 0.09 and 0.15 mm (the fit was made on 0.09 mm only) at 8
-points of Table 1's region: what `filmcal.correction.transfer.THICKNESS_MISS_MM` quotes.
+``--thickness``: the transfer term at films of 0.05, 0.09 and 0.15 mm (inside the fitted 0.04-0.25 mm) and
+0.3 mm (beyond it, where the band carries `filmcal.contact.transfer.THICKNESS_STD_MM` more) at 8 points of
+Table 1's region.
 ``--study-dir D``: Table 1 through the application model at each film's calibrated median E and preferred
 model (residuals against the calibration's own FE at the same E; the FE's own least-squares E, one
 Gauss-Newton step from the median, with the mean residual there, and the span of the mean residual over the
@@ -245,12 +246,13 @@ def transfer_check(n_points: int) -> list[dict]:
     return out
 
 
-#: Film thicknesses of the ``--thickness`` check (mm): the fitted films' 0.09 mm and two it was not made on.
-THICKNESS_CHECK_MM = (0.05, 0.09, 0.15)
+#: Film thicknesses of the ``--thickness`` check (mm): the built-in films' 0.09 mm, two others inside the fitted
+#: range and one beyond it.
+THICKNESS_CHECK_MM = (0.05, 0.09, 0.15, 0.3)
 
 
 def transfer_thickness_check(n_points: int = 8) -> list[dict]:
-    """The transfer at films of other thicknesses than the fit's: MS/HS/HHS's levels and Poisson's ratios at
+    """The transfer at films of several thicknesses: MS/HS/HHS's levels and Poisson's ratios at
     `THICKNESS_CHECK_MM`, `n_points` of a Latin hypercube over Table 1's region (seed 23, in none of the fit's
     designs), against the calibrated FE at that thickness."""
     from dataclasses import replace
@@ -267,7 +269,8 @@ def transfer_thickness_check(n_points: int = 8) -> list[dict]:
         for key, r in sorted(check_transfer(fit, measure_transfer(points, films)).items()):
             out.append({"check": f"transfer {key}, {t:g} mm", "n": r["n"], "raw_mean_mm": r["raw_mean_mm"],
                         "raw_max_mm": r["raw_max_mm"], "mean_mm": r["mean_mm"], "rms_mm": r["rms_mm"],
-                        "max_mm": r["max_mm"], "std_mm": fit.std_mm[key], "not_converged": r["not_converged"],
+                        "max_mm": r["max_mm"], "std_mm": fit.std_for(*key.split("/"), t),
+                        "not_converged": r["not_converged"],
                         "one_sided": r["one_sided"]})
     return out
 
@@ -493,8 +496,11 @@ def main(argv=None) -> int:
     rows += transfer
     if args.thickness:
         thick = transfer_thickness_check()
-        print(f"\ntransfer at films of {'/'.join(f'{t:g}' for t in THICKNESS_CHECK_MM)} mm (the fit was made on 0.09 "
-              "mm): MS/HS/HHS's levels at 8 points of Table 1's region (seed 23), radius in mm")
+        from filmcal.contact.transfer import load_transfer_fit
+
+        t0, t1 = load_transfer_fit().domain["thickness_mm"]
+        print(f"\ntransfer at films of {'/'.join(f'{t:g}' for t in THICKNESS_CHECK_MM)} mm (the fit was made on "
+              f"{t0:g}-{t1:g} mm): MS/HS/HHS's levels at 8 points of Table 1's region (seed 23), radius in mm")
         _print_transfer(thick)
         for t in THICKNESS_CHECK_MM:
             part = [r for r in thick if r["check"].endswith(f", {t:g} mm")]

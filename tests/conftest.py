@@ -82,6 +82,7 @@ SLOW_TESTS: dict[str, str] = {
     "test_calibration_mcmc.py::test_backend_resume_continues_the_chain": "5 s",
     "test_campaign.py::test_failures_are_recorded_with_reasons_and_retried_on_request": "6 s",
     "test_transfer.py::test_the_transfer_term_brings_the_applied_film_to_the_calibrated_one": "5-7 s: FE and half-space at six points",
+    "test_transfer.py::test_the_transfer_term_carries_over_the_films_thickness": "4-6 s: FE and half-space at six points",
     "test_roughness_no_film.py::test_rough_hertz_contact_follows_greenwood_tripp": "5 s each: a rough law (BEM)",
     "test_roughness_no_film.py::test_with_elastic_asperities_the_nominal_growth_is_greenwood_and_tripps":
         "two rough laws (BEM) each",
@@ -118,7 +119,7 @@ SLOW_TESTS: dict[str, str] = {
     "test_film_law.py::test_large_strain_sphere_on_flat_matches_the_fe": "5-10 s each: FE large-strain solves",
     "test_roughness.py::test_fully_plastic_limit_is_the_bearing_area_curve": "5 s: slow projected-gradient solves",
     "test_transfer.py::test_the_shipped_fit_is_the_fit_of_the_shipped_rows":
-        "190 s (with other work): the transfer fit, four residual GPs among it, made again from 15588 rows",
+        "120-190 s: the transfer fit, four residual GPs among it, made again from 25956 rows",
 }
 
 #: An unmarked test slower than this is named at the end of the run.

@@ -271,7 +271,8 @@ def test_the_draws_of_a_measured_map_share_its_law_without_film(rough_law_solves
 def test_the_transfer_note_names_the_cells_where_the_film_transfer_is_extrapolated():
     """The note `filmcal curves` and the pipeline's curves stage give, from the rows' contacts without film: a
     0.09 mm film on patches of 6 mm equivalent radius says nothing; a patch of 1.5 mm (below the 2.06 mm of the
-    fit's smallest sphere-on-flat contact) is named, and a 0.12 mm film at every cell."""
+    fit's smallest sphere-on-flat contact) is named, and a 0.3 mm film (beyond the fitted 0.04-0.25 mm) at every
+    cell."""
     from dataclasses import replace
 
     from filmcal.correction import CURVE_COLUMNS
@@ -290,6 +291,7 @@ def test_the_transfer_note_names_the_cells_where_the_film_transfer_is_extrapolat
     assert transfer_note(usual, [(FilmModel(hs, "edge", "small"), samples, 1.0)]) is None
     note = transfer_note(usual + [row(2.0, -3.0, 1.5)], [(FilmModel(hs, "activation", "small"), samples, 1.0)])
     assert "at 1 of 3 (load, offset) cells (at 2 kN, eta -3 mm: the contact without film is smaller" in note
-    thick = FilmModel(replace(hs, thickness_mm=0.12), "edge", "small")
+    assert transfer_note(usual, [(FilmModel(replace(hs, thickness_mm=0.12), "edge", "small"), samples, 1.0)]) is None
+    thick = FilmModel(replace(hs, thickness_mm=0.3), "edge", "small")
     note = transfer_note(usual, [(thick, samples, 1.0)])
-    assert "at 2 of 2 (load, offset) cells" in note and "0.12 mm thick" in note
+    assert "at 2 of 2 (load, offset) cells" in note and "0.3 mm thick" in note

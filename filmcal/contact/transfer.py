@@ -14,8 +14,9 @@ the difference is measured and carried instead:
 (radius on sphere-on-flat, both models at equal film parameters, each read by
 the same imprint model), fitted in the film's own dimensionless groups
 
-    d / t = b . [1, nu, nu^2, x, x^2, nu x, y, nu y, y^2, c, c x, c y, z, c z],
-    x = ln(l / a),  l = E* t / M,  y = ln(p_level / p_max),  c = ln(1 - 2 nu),  z = ln(t / a)
+    d / t = b . [1, nu, nu^2, x, x^2, nu x, y, nu y, y^2, c, c x, c y, z, c z, w, c w, x w, y w],
+    x = ln(l / a),  l = E* t / M,  y = ln(p_level / p_max),  c = ln(1 - 2 nu),  z = ln(t / a),
+    w = ln(t / h)
 
 (t the film thickness, M its oedometric modulus, E* the steel pair's contact
 modulus, a the application's equivalent radius of the recorded imprint,
@@ -31,11 +32,19 @@ the film's aspect ratio: a nearly incompressible layer is confined the more,
 the thinner it is against the patch; without it stiff, nearly incompressible
 films on the smallest patches (E 15700-20000 MPa, nu 0.44-0.45, a 2.2-2.4 mm)
 were missed by 0.005-0.007 mm on the edge held out, 0.0040 mm with it.
+w is the film against the cell h of both models' grids (the application's
+0.1 mm cells, `grid_mm`, and the FE's default 0.1 mm elements): d is the
+difference of two discretised readings, and their errors scale with the cell
+against the film, not with the patch. Fitted on films of 0.09 mm alone, the
+term missed films of 0.05 and 0.15 mm by 0.0011-0.0065 mm rms held out (up to
+0.018 mm), several times its band; with films of 0.04-0.25 mm in the design
+(`filmcal.correction.transfer.THICKNESS_DOMAIN_MM`) and w with its products
+the held-out miss over that range is at the 0.09 mm films' level.
 
 The activation and capsule models read a contour near the film's edge zone,
 where the polynomial leaves a smooth residual of a few um that it cannot
 follow (held-out max 0.008-0.012 mm). For them a Gaussian process over
-(nu, x, y, z) (`ResidualGP`, fitted by scikit-learn's
+(nu, x, y, z, w) (`ResidualGP`, fitted by scikit-learn's
 `GaussianProcessRegressor` with an anisotropic squared-exponential kernel and
 a white-noise term) carries that residual: its mean is added to the
 polynomial's, and far from its training points it returns to the polynomial.
@@ -67,14 +76,15 @@ __all__ = ["TransferTerm", "TransferFit", "ResidualGP", "transfer_features", "lo
 
 #: The shipped fit (package data).
 TRANSFER_FILE = "film_transfer.json"
-#: What the term misses, per imprint model, for a film of another thickness than the fitted films' (root mean
-#: square, mm, held out; `python bench/verification.py --thickness`: 0.05 and 0.15 mm, and
-#: `python bench/transfer_thickness.py` before its term: 0.04-0.25 mm; 1 Dec 2026): added in quadrature to the
-#: term's standard deviation of such a film (`TransferFit.std_for`), whose answer also warns that its transfer
-#: is extrapolated (`filmcal.correction.transfer.outside_fit`).
+#: What the term adds to its standard deviation (mm, in quadrature, per imprint model) for a film beyond the
+#: thicknesses the fit was made on (`TransferFit.std_for`), whose answers also warn that the transfer is
+#: extrapolated (`filmcal.correction.transfer.outside_fit`): nothing was measured there, and these are what a
+#: fit made at 0.09 mm alone missed, held out, at 0.05 and 0.15 mm (root mean square; 1 Dec 2026), the one
+#: measured size of a thickness extrapolation.
 THICKNESS_STD_MM = {"edge": 0.0028, "activation": 0.0062, "capsule": 0.0065}
 #: Names of the fitted features (the order of the coefficients).
-FEATURES = ("1", "nu", "nu^2", "x", "x^2", "nu x", "y", "nu y", "y^2", "c", "c x", "c y", "z", "c z")
+FEATURES = ("1", "nu", "nu^2", "x", "x^2", "nu x", "y", "nu y", "y^2", "c", "c x", "c y", "z", "c z",
+            "w", "c w", "x w", "y w")
 
 
 @dataclass(frozen=True)
@@ -96,7 +106,7 @@ class TransferTerm:
 
 
 def transfer_features(imprint: str, modulus_mpa, poisson, thickness_mm, radius_mm, max_pressure_mpa,
-                      level_mpa=None) -> np.ndarray:
+                      level_mpa=None, *, grid_mm: float) -> np.ndarray:
     """The fit's features (`FEATURES`), one row per case (broadcast).
 
     Parameters
@@ -111,6 +121,8 @@ def transfer_features(imprint: str, modulus_mpa, poisson, thickness_mm, radius_m
         Peak contact pressure in the application (MPa).
     level_mpa : array_like, optional
         The film's activation pressure (MPa); needed unless ``imprint == "edge"``.
+    grid_mm : float
+        The cell of the grids the fit was measured on (`TransferFit.grid_mm`).
     """
     from filmcal.elastic import oedometric_ratio
     from filmcal.hertz import contact_modulus_mpa
@@ -126,8 +138,9 @@ def transfer_features(imprint: str, modulus_mpa, poisson, thickness_mm, radius_m
         y = np.log(np.asarray(level_mpa, dtype=float) / pmax)
     c = np.log1p(-2.0 * nu)
     z = np.log(t / a)
-    return np.stack([np.ones_like(x), nu, nu * nu, x, x * x, nu * x, y, nu * y, y * y, c, c * x, c * y, z, c * z],
-                    axis=-1)
+    w = np.log(t / float(grid_mm))
+    return np.stack([np.ones_like(x), nu, nu * nu, x, x * x, nu * x, y, nu * y, y * y, c, c * x, c * y, z, c * z,
+                     w, c * w, x * w, y * w], axis=-1)
 
 
 def outline_perimeter_mm(rings, smoothing: int = 5) -> float:
@@ -227,7 +240,7 @@ class TransferFit:
     std_mm : dict
         The same keys -> the held-out root-mean-square residual (mm): the term's standard deviation.
     domain : dict
-        The (E, nu, R, F) ranges that were sampled.
+        The (E, nu, R, F) ranges that were sampled, and the films' thicknesses (``thickness_mm``, a range).
     grid_mm : float
         The application's grid the fit was measured on.
     provenance : dict
@@ -264,7 +277,7 @@ class TransferFit:
         except (KeyError, TypeError, ValueError) as exc:
             raise ValueError(f"{path}: not a film-transfer fit ({exc})") from None
         if data.get("features") != list(FEATURES) or any(len(c) != len(FEATURES) for c in coef.values()) \
-                or set(coef) != set(std) or not set(gp) <= set(coef):
+                or set(coef) != set(std) or not set(gp) <= set(coef) or len(domain.get("thickness_mm", ())) != 2:
             raise ValueError(f"{path}: the fit's features or keys do not match this version of filmcal")
         return out
 
@@ -287,20 +300,16 @@ class TransferFit:
             ratio = ratio + self.residual_gp[key].predict(features)
         return ratio, self.std_mm[key]
 
-    @property
-    def thickness_mm(self) -> tuple[float, ...]:
-        """The thicknesses (mm) of the films the fit was made on (the built-in films' when it does not say)."""
-        from filmcal.films import BUILTIN_FILMS
-
-        fitted = [BUILTIN_FILMS[n] for n in self.provenance.get("films", ()) if n in BUILTIN_FILMS] \
-            or list(BUILTIN_FILMS.values())
-        return tuple(sorted({f.thickness_mm for f in fitted}))
+    def fits_thickness(self, thickness_mm: float) -> bool:
+        """Whether films of this thickness (mm) lie within those the fit was made on (``domain["thickness_mm"]``)."""
+        t0, t1 = self.domain["thickness_mm"]
+        return t0 * (1 - 1e-9) <= thickness_mm <= t1 * (1 + 1e-9)
 
     def std_for(self, imprint: str, kinematics: str, thickness_mm: float) -> float:
         """The term's standard deviation (mm) for a film of this thickness: the fit's, with `THICKNESS_STD_MM`
-        in quadrature when the fit was not made at that thickness."""
+        in quadrature beyond the thicknesses it was made on."""
         std = self.std_mm[f"{imprint}/{kinematics}"]
-        if any(abs(thickness_mm - t) <= 1e-9 * t for t in self.thickness_mm):
+        if self.fits_thickness(thickness_mm):
             return std
         return math.hypot(std, THICKNESS_STD_MM[imprint])
 
@@ -345,7 +354,7 @@ def transfer_term(fit: TransferFit, imprint: str, kinematics: str, film, modulus
     radius = math.sqrt(area / math.pi)
     level = getattr(film, "activation_pressure_mpa", None)
     features = transfer_features(imprint, modulus_mpa, film.poisson, film.thickness_mm, radius, max_pressure_mpa,
-                                 level)
+                                 level, grid_mm=fit.grid_mm)
     ratio, _ = fit.shift_mm(imprint, kinematics, features)
     std = fit.std_for(imprint, kinematics, film.thickness_mm)
     shift = float(ratio) * film.thickness_mm
