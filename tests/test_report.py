@@ -714,3 +714,26 @@ def test_curves_of_an_earlier_wheel_rail_model_are_said_to_be_so(quick_study, tm
     section = wheel_rail_section(older.curves, older.outlines, older.earlier_application)
     first = next(b for b in section.blocks if isinstance(b, str))
     assert first.startswith("curves-HS.csv, wheelrail-outlines.json were made by an earlier revision")
+
+
+def test_the_report_repeats_where_a_films_transfer_is_extrapolated(quick_study):
+    """The report says what the curves stage logs and `filmcal correct` warns of cells whose film transfer is
+    extrapolated (`filmcal.correction.curves.transfer_note`): the quick study's built-in film on wheel-rail
+    contacts is inside the fit and nothing is said; a cell whose contact without film were smaller than any the
+    fit was made on (1 mm equivalent radius against the fit's 2.06 mm) is named in the section, once."""
+    import math
+
+    from filmcal.report.study_report import _transfer_note, read_study, wheel_rail_section
+    from filmcal.study import Study
+
+    study, _, _ = quick_study
+    data = read_study(study)
+    assert data.curves and data.transfer_notes == {}
+    film, rows = next(iter(data.curves.items()))
+    cell = (rows[0]["force_kn"], rows[0]["offset_mm"])  # its smooth and rough rows
+    tiny = [dict(r, area_no_film_mm2=math.pi * 1.0) if (r["force_kn"], r["offset_mm"]) == cell else r for r in rows]
+    note = _transfer_note(Study(study), film, tiny)
+    assert note is not None and "extrapolated at 1 of" in note and "equivalent radius is 1.00 mm" in note
+    section = wheel_rail_section(data.curves, data.outlines, [], {film: note})
+    text = [b for b in section.blocks if isinstance(b, str) and b.startswith(f"Warning ({film}): The film's transfer")]
+    assert len(text) == 1 and text[0].endswith("filmcal correct warns the same way.")

@@ -79,6 +79,7 @@ class StudyData:
     crossval: dict = field(default_factory=dict)  # film -> CaseCrossValidation
     outlines: dict | None = None
     earlier_application: list = field(default_factory=list)  # files the wheel-rail model made at an earlier revision
+    transfer_notes: dict = field(default_factory=dict)  # film -> where its curves' film transfer is extrapolated
     imprint_comparison: dict | None = None  # film -> comparison dict
     files: list[tuple[str, int, str]] = field(default_factory=list)  # relative path, bytes, SHA-256
     problems: list[str] = field(default_factory=list)
@@ -95,6 +96,18 @@ def _earlier_application(study, paths) -> list[str]:
         if entry is not None and entry["spec"].get("application_model_revision") != APPLICATION_MODEL_REVISION:
             out.append(path.name)
     return out
+
+
+def _transfer_note(study, film: str, rows: list[dict]) -> str | None:
+    """What the pipeline's curves stage and `filmcal curves` warn of a film's curves whose transfer is
+    extrapolated (`filmcal.correction.curves.transfer_note`), from the curves' rows and the film's posteriors."""
+    from filmcal.correction import CURVE_COLUMNS
+    from filmcal.correction.curves import transfer_note
+    from filmcal.study.core import curve_components
+
+    if not rows or "max_pressure_no_film_mpa" not in rows[0]:  # curves made before peaks were kept
+        return None
+    return transfer_note([[r[c] for c in CURVE_COLUMNS] for r in rows], curve_components(study, film))
 
 
 def _read_json(path: Path | None) -> dict | None:
@@ -210,6 +223,9 @@ def read_study(study_dir: str | Path) -> StudyData:
                          _read_json(verified(path))))) is not None}
     data.outlines = attempt("wheelrail-outlines.json", lambda: _read_json(verified(view["outlines"])))
     data.earlier_application = _earlier_application(study, [*view["curves"].values(), view["outlines"]])
+    data.transfer_notes = {film: note for film, rows in data.curves.items()
+                           if (note := attempt(f"the film transfer of {film}'s curves",
+                                               lambda film=film, rows=rows: _transfer_note(study, film, rows)))}
     comparisons = {film: d for film, path in view["comparison"].items()
                    if (d := attempt(path.name, lambda path=path: _read_json(verified(path)))) is not None}
     data.imprint_comparison = comparisons or None
@@ -811,9 +827,11 @@ def elastic_limit_note(curves: dict) -> str:
             "larger (plastic); filmcal correct warns the same way.")
 
 
-def wheel_rail_section(curves: dict, outlines: dict | None, earlier: list[str] = ()) -> Section:
+def wheel_rail_section(curves: dict, outlines: dict | None, earlier: list[str] = (),
+                       transfer_notes: dict | None = None) -> Section:
     """Correction curves (Fig. 6), the correction factor, the tables per film and the outlines (Fig. 7);
-    `earlier` names the files an earlier revision of the wheel-rail model made."""
+    `earlier` names the files an earlier revision of the wheel-rail model made; `transfer_notes` (film -> text)
+    where a film's transfer to the wheel-rail model is extrapolated."""
     from filmcal.contact.names import APPLICATION_MODEL_REVISION
 
     s = Section("Wheel-rail correction curves (Figs. 6 and 7)")
@@ -854,6 +872,8 @@ def wheel_rail_section(curves: dict, outlines: dict | None, earlier: list[str] =
                     f"{film}: correction curves (A0: area without film; ΔA: area added by the film; roughness "
                     "share: of the factor's variance; MC error: of the draws' mean change of the factor)"))
     s.add(elastic_limit_note(curves))
+    for film, note in (transfer_notes or {}).items():
+        s.add(f"Warning ({film}): {note[0].upper()}{note[1:]}; filmcal correct warns the same way.")
     if outlines is None:
         return _missing(s, "wheelrail-outlines.json")
     for film, m in outlines["films"].items():
@@ -983,7 +1003,7 @@ SECTION_BUILDERS: list[Callable[[StudyData], Section | list[Section]]] = [
     calibration_sections,
     lambda d: film_records_section(d.imprint_comparison, d.curves),
     lambda d: crossval_section(d.crossval),
-    lambda d: wheel_rail_section(d.curves, d.outlines, d.earlier_application),
+    lambda d: wheel_rail_section(d.curves, d.outlines, d.earlier_application, d.transfer_notes),
     lambda d: glossary_section(),
     lambda d: provenance_section(d.folder, d.settings_hash, d.seed, d.films, d.settings, d.files, d.problems,
                                  d.software, d.software_later),
