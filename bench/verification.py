@@ -498,9 +498,9 @@ def main(argv=None) -> int:
         thick = transfer_thickness_check()
         from filmcal.contact.transfer import load_transfer_fit
 
-        t0, t1 = load_transfer_fit().domain["thickness_mm"]
+        th0, th1 = load_transfer_fit().domain["thickness_mm"]
         print(f"\ntransfer at films of {'/'.join(f'{t:g}' for t in THICKNESS_CHECK_MM)} mm (the fit was made on "
-              f"{t0:g}-{t1:g} mm): MS/HS/HHS's levels at 8 points of Table 1's region (seed 23), radius in mm")
+              f"{th0:g}-{th1:g} mm): MS/HS/HHS's levels at 8 points of Table 1's region (seed 23), radius in mm")
         _print_transfer(thick)
         for t in THICKNESS_CHECK_MM:
             part = [r for r in thick if r["check"].endswith(f", {t:g} mm")]

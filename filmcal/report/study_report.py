@@ -19,6 +19,7 @@ import datetime as _dt
 import json
 import math
 import platform
+import re
 import subprocess
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -420,8 +421,19 @@ def _reference_checks() -> list:
     rows = [[c["check"], c["reference"], str(c["n"]), small(c["mean"], c["unit"], True),
              small(c["max_abs"], c["unit"], False),
              "< 0.001" if c["max_abs_rel_pct"] < 5e-4 else f"{c['max_abs_rel_pct']:.3f}"] for c in doc["checks"]]
-    rows += [[t["check"], "the calibrated FE film, sphere-on-flat off the fit's designs (raw: without the term)",
-              str(t["n"]), f"{t['mean_mm']:+.4f} mm (raw {t['raw_mean_mm']:+.4f})", f"{t['max_mm']:.4f} mm", ""]
+    def transfer_reference(t: dict) -> str:  # t["check"]: "transfer <model>[, whole domain | , <thickness> mm]"
+        from filmcal.contact.transfer import load_transfer_fit
+
+        text = "the calibrated FE film, sphere-on-flat off the fit's designs (raw: without the term)"
+        if not (found := re.search(r", ([0-9.]+) mm$", t["check"])):
+            return text
+        t0, t1 = load_transfer_fit().domain["thickness_mm"]
+        inside = t0 <= float(found.group(1)) <= t1
+        return (text[:-1] + f"; a film of {found.group(1)} mm, " + (f"inside the fitted {t0:g}-{t1:g} mm)" if inside
+                else f"beyond the fitted {t0:g}-{t1:g} mm: its answers say so and its band is {t['std_mm']:.4f} mm)"))
+
+    rows += [[t["check"], transfer_reference(t), str(t["n"]),
+              f"{t['mean_mm']:+.4f} mm (raw {t['raw_mean_mm']:+.4f})", f"{t['max_mm']:.4f} mm", ""]
              for t in doc["transfer"]]
     stale = [name for name, key, now in (("FE", "fe_model_revision", FE_MODEL_REVISION),
                                          ("wheel-rail", "application_model_revision", APPLICATION_MODEL_REVISION))
