@@ -469,7 +469,8 @@ def main(argv=None) -> int:
     ap.add_argument("--points", type=int, default=32, help="points of the transfer check (default 32)")
     ap.add_argument("--grid", action="store_true", help="also the grid convergence of the wheel-rail readings")
     ap.add_argument("--thickness", action="store_true",
-                    help="also the transfer at films of 0.05 and 0.15 mm, which the fit was not made on")
+                    help="also the transfer at films of 0.05, 0.09 and 0.15 mm (inside the fitted thicknesses) and "
+                         "0.3 mm (beyond them)")
     ap.add_argument("--study-dir", metavar="D", help="also Table 1 and the correction factor with D's posteriors")
     ap.add_argument("--json", metavar="FILE", help="also write the rows as JSON")
     ap.add_argument("--summary", action="store_true",

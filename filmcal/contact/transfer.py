@@ -39,7 +39,9 @@ against the film, not with the patch. Fitted on films of 0.09 mm alone, the
 term missed films of 0.05 and 0.15 mm by 0.0011-0.0065 mm rms held out (up to
 0.018 mm), several times its band; with films of 0.04-0.25 mm in the design
 (`filmcal.correction.transfer.THICKNESS_DOMAIN_MM`) and w with its products
-the held-out miss over that range is at the 0.09 mm films' level.
+the held-out miss over that range is 0.0007-0.0019 mm rms, largest at its ends
+(0.0004-0.0010 mm on the 0.09 mm films), and the term's std holds it in each
+third of the range (`filmcal.correction.transfer.THICKNESS_PARTS_MM`).
 
 The activation and capsule models read a contour near the film's edge zone,
 where the polynomial leaves a smooth residual of a few um that it cannot
@@ -78,9 +80,11 @@ __all__ = ["TransferTerm", "TransferFit", "ResidualGP", "transfer_features", "lo
 TRANSFER_FILE = "film_transfer.json"
 #: What the term adds to its standard deviation (mm, in quadrature, per imprint model) for a film beyond the
 #: thicknesses the fit was made on (`TransferFit.std_for`), whose answers also warn that the transfer is
-#: extrapolated (`filmcal.correction.transfer.outside_fit`): nothing was measured there, and these are what a
-#: fit made at 0.09 mm alone missed, held out, at 0.05 and 0.15 mm (root mean square; 1 Dec 2026), the one
-#: measured size of a thickness extrapolation.
+#: extrapolated (`filmcal.correction.transfer.outside_fit`): nothing was measured there, and these are the
+#: largest root-mean-square misses of a fit made at 0.09 mm alone, held out at other thicknesses (1 Dec 2026):
+#: the edge's at 48 points over 0.04-0.25 mm (the held-out hypercubes of seeds 41 and 43 that `scripts/fit-transfer`
+#: now holds out), the activation and capsule readings' at 8 points at 0.05 mm (`bench/verification.py
+#: --thickness`): the one measured size of a thickness extrapolation.
 THICKNESS_STD_MM = {"edge": 0.0028, "activation": 0.0062, "capsule": 0.0065}
 #: Names of the fitted features (the order of the coefficients).
 FEATURES = ("1", "nu", "nu^2", "x", "x^2", "nu x", "y", "nu y", "y^2", "c", "c x", "c y", "z", "c z",
@@ -317,7 +321,8 @@ class TransferFit:
         """SHA-256 of everything that sets one key's term (for the specs of cached solves)."""
         import hashlib
 
-        doc = {"coefficients": self.coefficients[key], "std_mm": self.std_mm[key],
+        doc = {"coefficients": self.coefficients[key], "std_mm": self.std_mm[key], "grid_mm": self.grid_mm,
+               "thickness_domain_mm": list(self.domain["thickness_mm"]),
                "thickness_std_mm": THICKNESS_STD_MM[key.split("/")[0]],
                "residual_gp": self.residual_gp[key].to_dict() if key in self.residual_gp else None}
         return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()

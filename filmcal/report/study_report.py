@@ -427,8 +427,8 @@ def _reference_checks() -> list:
         text = "the calibrated FE film, sphere-on-flat off the fit's designs (raw: without the term)"
         if not (found := re.search(r", ([0-9.]+) mm$", t["check"])):
             return text
-        t0, t1 = load_transfer_fit().domain["thickness_mm"]
-        inside = t0 <= float(found.group(1)) <= t1
+        fit = load_transfer_fit()
+        (t0, t1), inside = fit.domain["thickness_mm"], fit.fits_thickness(float(found.group(1)))
         return (text[:-1] + f"; a film of {found.group(1)} mm, " + (f"inside the fitted {t0:g}-{t1:g} mm)" if inside
                 else f"beyond the fitted {t0:g}-{t1:g} mm: its answers say so and its band is {t['std_mm']:.4f} mm)"))
 
