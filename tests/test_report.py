@@ -684,6 +684,13 @@ def test_verification_lists_every_shipped_reference_check_and_says_when_it_is_st
             "wheel-rail / CONTACT layer"} <= {c["check"] for c in doc["checks"]}
     text, table = study_report._reference_checks()
     assert [r[0] for r in table.rows] == [c["check"] for c in doc["checks"]] + [t["check"] for t in doc["transfer"]]
+    # the transfer at films of other thicknesses (--thickness): each row says whether its film lies inside the
+    # fitted 0.04-0.25 mm
+    for check, reference in ((r[0], r[1]) for r in table.rows if r[0].endswith(" mm")):
+        t = float(check.rsplit(", ", 1)[1].removesuffix(" mm"))
+        assert ("inside the fitted 0.04-0.25 mm" in reference) == (0.04 <= t <= 0.25)
+        assert ("beyond the fitted 0.04-0.25 mm" in reference) == (not 0.04 <= t <= 0.25)
+    assert any(r[0].endswith(", 0.3 mm") for r in table.rows) and any(r[0].endswith(", 0.05 mm") for r in table.rows)
     assert doc["made"] in text and "earlier revision" not in text
     monkeypatch.setattr(names, "APPLICATION_MODEL_REVISION", doc["application_model_revision"] + 1)
     assert "earlier revision of the wheel-rail model" in study_report._reference_checks()[0]
@@ -723,7 +730,7 @@ def test_the_report_repeats_where_a_films_transfer_is_extrapolated(quick_study):
     fit was made on (1 mm equivalent radius against the fit's 2.06 mm) is named in the section, once."""
     import math
 
-    from filmcal.report.study_report import _transfer_note, read_study, wheel_rail_section
+    from filmcal.report.study_report import SECTION_BUILDERS, _transfer_note, read_study, wheel_rail_section
     from filmcal.study import Study
 
     study, _, _ = quick_study
@@ -737,3 +744,9 @@ def test_the_report_repeats_where_a_films_transfer_is_extrapolated(quick_study):
     section = wheel_rail_section(data.curves, data.outlines, [], {film: note})
     text = [b for b in section.blocks if isinstance(b, str) and b.startswith(f"Warning ({film}): The film's transfer")]
     assert len(text) == 1 and text[0].endswith("filmcal correct warns the same way.")
+    data.transfer_notes = {film: note}  # the report's own sections take it from the study's data
+    sections = []
+    for builder in SECTION_BUILDERS:
+        built = builder(data)
+        sections += built if isinstance(built, list) else [built]
+    assert sum(b == text[0] for s in sections for b in s.blocks) == 1
