@@ -328,6 +328,23 @@ def test_the_shipped_fit_is_the_fit_of_the_shipped_rows():
         assert fit.std_mm[key] == pytest.approx(shipped.std_mm[key], rel=1e-9)
 
 
+@pytest.mark.parametrize("args", [["--train", "0"], ["--train-thickness", "120", "-1", "60", "180"],
+                                  ["--held-out-thickness", "24", "24", "2.5", "24"], ["--workers", "x"]])
+def test_the_fit_script_refuses_a_size_that_is_not_a_whole_number_of_one_or_more_before_measuring(tmp_path, args):
+    """A bad size is refused as it is parsed (before 20 minutes of measuring, not after): exit 2, one line naming
+    the option, no fit written."""
+    import subprocess
+    import sys
+
+    script = Path(__file__).resolve().parent.parent / "scripts" / "fit-transfer"
+    out = tmp_path / "fit.json"
+    p = subprocess.run([sys.executable, str(script), *args, "--out", str(out)], capture_output=True, text=True,
+                       timeout=120)
+    assert p.returncode == 2, p.stderr[-2000:]
+    (line,) = p.stderr.strip().splitlines()
+    assert line.startswith("fit-transfer: error: argument " + args[0]) and not out.exists()
+
+
 @pytest.mark.parametrize("content", [None, "[1, 2]", "not json"])
 def test_the_fit_script_refuses_a_file_that_is_not_its_rows_in_one_line(tmp_path, content):
     """--reuse / --reuse-fe with a missing file, a JSON list or text: exit 2, one line naming the file, no fit
