@@ -234,14 +234,16 @@ def transfer_check(n_points: int) -> list[dict]:
     from filmcal.films import get_film
 
     fit = load_transfer_fit()
+    films = [get_film(n) for n in ("MS", "HS", "HHS")]
+    (thickness,) = {f.thickness_mm for f in films}  # the band is that of the films' thickness
     out = []
     for region, seed in (("core", 3), ("whole", 17)):
-        rows = measure_transfer(transfer_design(n_points, seed, region=region),
-                                [get_film(n) for n in ("MS", "HS", "HHS")])
+        rows = measure_transfer(transfer_design(n_points, seed, region=region), films)
         for key, r in sorted(check_transfer(fit, rows).items()):
             out.append({"check": f"transfer {key}" + ("" if region == "core" else ", whole domain"), "n": r["n"],
                         "raw_mean_mm": r["raw_mean_mm"], "raw_max_mm": r["raw_max_mm"], "mean_mm": r["mean_mm"],
-                        "rms_mm": r["rms_mm"], "max_mm": r["max_mm"], "std_mm": fit.std_mm[key],
+                        "rms_mm": r["rms_mm"], "max_mm": r["max_mm"],
+                        "std_mm": fit.std_for(*key.split("/"), thickness),
                         "not_converged": r["not_converged"], "one_sided": r["one_sided"]})
     return out
 

@@ -683,9 +683,18 @@ def test_verification_lists_every_shipped_reference_check_and_says_when_it_is_st
     assert {"FE / Hertz", "FE / second formulation", "wheel-rail / CONTACT flange",
             "wheel-rail / CONTACT layer"} <= {c["check"] for c in doc["checks"]}
     text, table = study_report._reference_checks()
-    assert [r[0] for r in table.rows] == [c["check"] for c in doc["checks"]] + [t["check"] for t in doc["transfer"]]
-    # the transfer at films of other thicknesses (--thickness): each row says whether its film lies inside the
-    # fitted 0.04-0.25 mm
+    # the transfer: one row per set of points, over its six readings, whose largest miss is the largest of theirs
+    sets = {t["check"].partition(", ")[2] or "Table 1's region": [] for t in doc["transfer"]}
+    for t in doc["transfer"]:
+        sets[t["check"].partition(", ")[2] or "Table 1's region"].append(t)
+    assert [r[0] for r in table.rows] == [c["check"] for c in doc["checks"]] + [f"transfer, {k}" for k in sets]
+    assert all(len(v) == 6 for v in sets.values())
+    for row in table.rows[len(doc["checks"]):]:
+        ts = sets[row[0].removeprefix("transfer, ")]
+        assert row[2] == str(sum(t["n"] for t in ts))
+        assert row[4] == f"{max(t['max_mm'] for t in ts):.4f} mm"
+        assert f"band of {min(t['std_mm'] for t in ts):.4f}" in row[1]
+    # films of other thicknesses (--thickness): each row says whether its film lies inside the fitted 0.04-0.25 mm
     for check, reference in ((r[0], r[1]) for r in table.rows if r[0].endswith(" mm")):
         t = float(check.rsplit(", ", 1)[1].removesuffix(" mm"))
         assert ("inside the fitted 0.04-0.25 mm" in reference) == (0.04 <= t <= 0.25)

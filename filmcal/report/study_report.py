@@ -421,20 +421,7 @@ def _reference_checks() -> list:
     rows = [[c["check"], c["reference"], str(c["n"]), small(c["mean"], c["unit"], True),
              small(c["max_abs"], c["unit"], False),
              "< 0.001" if c["max_abs_rel_pct"] < 5e-4 else f"{c['max_abs_rel_pct']:.3f}"] for c in doc["checks"]]
-    def transfer_reference(t: dict) -> str:  # t["check"]: "transfer <model>[, whole domain | , <thickness> mm]"
-        from filmcal.contact.transfer import load_transfer_fit
-
-        text = "the calibrated FE film, sphere-on-flat off the fit's designs (raw: without the term)"
-        if not (found := re.search(r", ([0-9.]+) mm$", t["check"])):
-            return text
-        fit = load_transfer_fit()
-        (t0, t1), inside = fit.domain["thickness_mm"], fit.fits_thickness(float(found.group(1)))
-        return (text[:-1] + f"; a film of {found.group(1)} mm, " + (f"inside the fitted {t0:g}-{t1:g} mm)" if inside
-                else f"beyond the fitted {t0:g}-{t1:g} mm: its answers say so and its band is {t['std_mm']:.4f} mm)"))
-
-    rows += [[t["check"], transfer_reference(t), str(t["n"]),
-              f"{t['mean_mm']:+.4f} mm (raw {t['raw_mean_mm']:+.4f})", f"{t['max_mm']:.4f} mm", ""]
-             for t in doc["transfer"]]
+    rows += _transfer_check_rows(doc["transfer"])
     stale = [name for name, key, now in (("FE", "fe_model_revision", FE_MODEL_REVISION),
                                          ("wheel-rail", "application_model_revision", APPLICATION_MODEL_REVISION))
              if doc.get(key) != now]
@@ -444,9 +431,43 @@ def _reference_checks() -> list:
                f" (FE revision {FE_MODEL_REVISION} and wheel-rail revision {APPLICATION_MODEL_REVISION}, this "
                "report's).")
             + " Differences are the model's minus the reference's, in radius (mm) or area (mm²); the transfer rows "
-              "are what the wheel-rail answers carry as their transfer term's spread.")
+              "set the readings' rms beside the band that the wheel-rail answers carry as their transfer term's "
+              "spread.")
     return [text, Table(["check", "reference", "cases", "mean difference", "largest |difference|", "largest |rel.| (%)"],
                         rows, "Every model against its independent reference")]
+
+
+def _transfer_check_rows(transfer: list[dict]) -> list[list[str]]:
+    """The transfer rows of the shipped summary, one row per set of points (Table 1's region, the whole domain,
+    each film thickness) over its six readings: the range of their means, the largest miss, and in the
+    reference the range of their rms against that of the band the answers carry."""
+    from filmcal.contact.transfer import load_transfer_fit
+
+    groups: dict[str, list[dict]] = {}
+    for t in transfer:  # t["check"]: "transfer <model>[, whole domain | , <thickness> mm]"
+        groups.setdefault(t["check"].partition(", ")[2] or "Table 1's region", []).append(t)
+    fit = load_transfer_fit()
+    (t0, t1) = fit.domain["thickness_mm"]
+
+    def span(values, signed: bool) -> str:
+        lo, hi = (0.0 if abs(v) < 5e-5 else v for v in (min(values), max(values)))  # no "-0.0000"
+        f = "{:+.4f}" if signed else "{:.4f}"
+        return f.format(lo) if f.format(lo) == f.format(hi) else f"{f.format(lo)}..{f.format(hi)}"
+
+    rows = []
+    for name, ts in groups.items():
+        where = "the whole supported domain" if name == "whole domain" else name
+        if found := re.fullmatch(r"([0-9.]+) mm", name):
+            thickness = float(found.group(1))
+            where = (f"a film of {name}, Table 1's region, " + (f"inside the fitted {t0:g}-{t1:g} mm"
+                     if fit.fits_thickness(thickness) else f"beyond the fitted {t0:g}-{t1:g} mm: its answers say so"))
+        reference = (f"the calibrated FE film, sphere-on-flat off the fit's designs ({where}); six readings, "
+                     f"rms {span([t['rms_mm'] for t in ts], False)} mm against a band of "
+                     f"{span([t['std_mm'] for t in ts], False)} mm")
+        rows.append([f"transfer, {name}", reference, str(sum(t["n"] for t in ts)),
+                     f"{span([t['mean_mm'] for t in ts], True)} mm (raw {span([t['raw_mean_mm'] for t in ts], True)})",
+                     f"{max(t['max_mm'] for t in ts):.4f} mm", ""])
+    return rows
 
 
 def verification_section(v: dict | None) -> Section:
