@@ -693,7 +693,7 @@ def test_verification_lists_every_shipped_reference_check_and_says_when_it_is_st
         ts = sets[row[0].removeprefix("transfer, ")]
         assert row[2] == str(sum(t["n"] for t in ts))
         assert row[4] == f"{max(t['max_mm'] for t in ts):.4f} mm"
-        assert f"band of {min(t['std_mm'] for t in ts):.4f}" in row[1]
+        assert f"band {min(t['std_mm'] for t in ts):.4f}" in row[1]
     # films of other thicknesses (--thickness): each row says whether its film lies inside the fitted 0.04-0.25 mm
     for check, reference in ((r[0], r[1]) for r in table.rows if r[0].endswith(" mm")):
         t = float(check.rsplit(", ", 1)[1].removesuffix(" mm"))
