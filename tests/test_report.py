@@ -677,6 +677,8 @@ def test_verification_lists_every_shipped_reference_check_and_says_when_it_is_st
     from importlib import resources
 
     from filmcal.contact import names
+    from filmcal.contact.transfer import load_transfer_fit
+    from filmcal.films import FILM_THICKNESS_MM
     from filmcal.report import study_report
 
     doc = _json.loads((resources.files("filmcal.data") / "verification.json").read_text(encoding="utf-8"))
@@ -694,6 +696,17 @@ def test_verification_lists_every_shipped_reference_check_and_says_when_it_is_st
         assert row[2] == str(sum(t["n"] for t in ts))
         assert row[4] == f"{max(t['max_mm'] for t in ts):.4f} mm"
         assert f"band {min(t['std_mm'] for t in ts):.4f}" in row[1]
+        # a reading missed by more than its band is named
+        for t in ts:
+            assert (t["check"].split()[1].rstrip(",") in row[1].partition("above its band: ")[2]) == \
+                (t["rms_mm"] > t["std_mm"])
+    # the summary's bands are those the shipped fit gives the films of those thicknesses
+    fit = load_transfer_fit()
+    for t in doc["transfer"]:
+        found = re.search(r", ([0-9.]+) mm$", t["check"])
+        thickness = float(found.group(1)) if found else FILM_THICKNESS_MM
+        assert t["std_mm"] == pytest.approx(fit.std_for(*t["check"].split()[1].rstrip(",").split("/"), thickness),
+                                            rel=1e-12), t["check"]
     # films of other thicknesses (--thickness): each row says whether its film lies inside the fitted 0.04-0.25 mm
     for check, reference in ((r[0], r[1]) for r in table.rows if r[0].endswith(" mm")):
         t = float(check.rsplit(", ", 1)[1].removesuffix(" mm"))

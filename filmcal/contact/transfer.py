@@ -40,11 +40,8 @@ term missed films of 0.05 and 0.15 mm by 0.0011-0.0065 mm rms held out (up to
 0.018 mm), several times its band; with films of 0.04-0.25 mm in the design
 (`filmcal.correction.transfer.THICKNESS_DOMAIN_MM`) and w with its products
 the held-out miss over that range is 0.0007-0.0019 mm rms, largest at its ends
-(0.0004-0.0010 mm on the 0.09 mm films). The term's std is the largest rms
-held out in the film's own third of the range
-(`filmcal.correction.transfer.THICKNESS_PARTS_MM`, `TransferFit.std_by_thickness`):
-a 0.09 mm film carries what is missed at its thickness, not the thinnest
-films' miss.
+(0.0004-0.0010 mm on the 0.09 mm films), and the term's std holds it in each
+third of the range (`filmcal.correction.transfer.THICKNESS_PARTS_MM`).
 
 The activation and capsule models read a contour near the film's edge zone,
 where the polynomial leaves a smooth residual of a few um that it cannot
@@ -245,8 +242,7 @@ class TransferFit:
     coefficients : dict
         ``"<imprint>/<kinematics>"`` -> coefficients over `FEATURES` (of d / t).
     std_mm : dict
-        The same keys -> the largest held-out root-mean-square residual (mm): the term's standard deviation
-        wherever `std_by_thickness` says nothing finer.
+        The same keys -> the held-out root-mean-square residual (mm): the term's standard deviation.
     domain : dict
         The (E, nu, R, F) ranges that were sampled, and the films' thicknesses (``thickness_mm``, a range).
     grid_mm : float
@@ -255,9 +251,6 @@ class TransferFit:
         How it was made (design, sizes, held-out figures, versions, date).
     residual_gp : dict
         The same keys (activation and capsule) -> `ResidualGP` of d / t beyond the polynomial.
-    std_by_thickness : tuple
-        ``(lo_mm, hi_mm, {key: std_mm})`` per range of film thickness: the largest root-mean-square residual of
-        the rows of those thicknesses (`std_for`); empty for a fit made at one thickness.
     """
 
     coefficients: dict
@@ -266,7 +259,6 @@ class TransferFit:
     grid_mm: float
     provenance: dict
     residual_gp: dict = field(default_factory=dict)
-    std_by_thickness: tuple = ()
 
     def hertz_radius_range_mm(self) -> tuple[float, float]:
         """The smallest and largest Hertz radius (mm, steel on steel, no film) of the sphere-on-flat contacts of
@@ -285,14 +277,11 @@ class TransferFit:
             std = {k: float(v) for k, v in data["std_mm"].items()}
             domain = {k: tuple(float(x) for x in v) for k, v in data["domain"].items()}
             gp = {k: ResidualGP.from_dict(v) for k, v in data.get("residual_gp", {}).items()}
-            parts = tuple((float(p["thickness_mm"][0]), float(p["thickness_mm"][1]),
-                           {k: float(v) for k, v in p["std_mm"].items()}) for p in data.get("std_by_thickness", ()))
-            out = cls(coef, std, domain, float(data["grid_mm"]), dict(data.get("provenance", {})), gp, parts)
-        except (KeyError, TypeError, ValueError, IndexError) as exc:
+            out = cls(coef, std, domain, float(data["grid_mm"]), dict(data.get("provenance", {})), gp)
+        except (KeyError, TypeError, ValueError) as exc:
             raise ValueError(f"{path}: not a film-transfer fit ({exc})") from None
         if data.get("features") != list(FEATURES) or any(len(c) != len(FEATURES) for c in coef.values()) \
-                or set(coef) != set(std) or not set(gp) <= set(coef) or len(domain.get("thickness_mm", ())) != 2 \
-                or any(set(p[2]) != set(coef) for p in parts):
+                or set(coef) != set(std) or not set(gp) <= set(coef) or len(domain.get("thickness_mm", ())) != 2:
             raise ValueError(f"{path}: the fit's features or keys do not match this version of filmcal")
         return out
 
@@ -301,9 +290,7 @@ class TransferFit:
 
         doc = {"features": list(FEATURES), "coefficients": self.coefficients, "std_mm": self.std_mm,
                "domain": self.domain, "grid_mm": self.grid_mm,
-               "residual_gp": {k: v.to_dict() for k, v in self.residual_gp.items()},
-               "std_by_thickness": [{"thickness_mm": [lo, hi], "std_mm": std} for lo, hi, std in self.std_by_thickness],
-               "provenance": self.provenance}
+               "residual_gp": {k: v.to_dict() for k, v in self.residual_gp.items()}, "provenance": self.provenance}
         with atomic_path(Path(path)) as tmp:
             Path(tmp).write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
 
@@ -323,16 +310,12 @@ class TransferFit:
         return t0 * (1 - 1e-9) <= thickness_mm <= t1 * (1 + 1e-9)
 
     def std_for(self, imprint: str, kinematics: str, thickness_mm: float) -> float:
-        """The term's standard deviation (mm) for a film of this thickness: that of its range in
-        `std_by_thickness` (`std_mm` where none is given), and beyond the thicknesses the fit was made on the
-        largest, `std_mm`, with `THICKNESS_STD_MM` in quadrature."""
-        key = f"{imprint}/{kinematics}"
-        if not self.fits_thickness(thickness_mm):
-            return math.hypot(self.std_mm[key], THICKNESS_STD_MM[imprint])
-        for lo, hi, std in self.std_by_thickness:
-            if lo * (1 - 1e-9) <= thickness_mm <= hi * (1 + 1e-9):
-                return std[key]
-        return self.std_mm[key]
+        """The term's standard deviation (mm) for a film of this thickness: the fit's, with `THICKNESS_STD_MM`
+        in quadrature beyond the thicknesses it was made on."""
+        std = self.std_mm[f"{imprint}/{kinematics}"]
+        if self.fits_thickness(thickness_mm):
+            return std
+        return math.hypot(std, THICKNESS_STD_MM[imprint])
 
     def digest(self, key: str) -> str:
         """SHA-256 of everything that sets one key's term (for the specs of cached solves)."""
@@ -341,7 +324,6 @@ class TransferFit:
         doc = {"coefficients": self.coefficients[key], "std_mm": self.std_mm[key], "grid_mm": self.grid_mm,
                "thickness_domain_mm": list(self.domain["thickness_mm"]),
                "thickness_std_mm": THICKNESS_STD_MM[key.split("/")[0]],
-               "std_by_thickness_mm": [[lo, hi, std[key]] for lo, hi, std in self.std_by_thickness],
                "residual_gp": self.residual_gp[key].to_dict() if key in self.residual_gp else None}
         return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()
 

@@ -102,11 +102,9 @@ THICKNESS_DOMAIN_MM = (0.04, 0.25)
 
 
 #: The held-out rows with the thickness drawn are checked in these ranges of it (mm; thirds of ln t over
-#: `THICKNESS_DOMAIN_MM`), each a part of its own (`thickness_parts`), and a film's band is the largest rms in
-#: its own range (`TransferFit.std_by_thickness`): the fit misses the thinnest films' level readings and the
-#: thickest films' edge by twice what it misses at 0.09 mm (pooled over every thickness, the thin films'
-#: 0.0017-0.0019 mm hid behind 0.0012-0.0014 mm; one band for all, the largest, widened the 0.09 mm films'
-#: 0.0004-0.0010 mm to 0.0016-0.0019 mm).
+#: `THICKNESS_DOMAIN_MM`), each a part of its own (`thickness_parts`): the term's std, the largest part's rms, then
+#: holds at the range's ends as in its middle (pooled, it was 0.0012-0.0014 mm while the level readings on films of
+#: 0.04-0.06 mm were missed by 0.0017-0.0022 mm rms and the edge on films of 0.16-0.25 mm by 0.0017-0.0018 mm).
 THICKNESS_PARTS_MM = (0.04, 0.074, 0.136, 0.25)
 
 
@@ -331,9 +329,7 @@ def fit_transfer(train: list[dict], held_out: dict[str, list[dict]], grid_mm: fl
     The activation and capsule models get a Gaussian process on the polynomial's residual
     (`filmcal.contact.transfer.ResidualGP`). The term's standard deviation is the largest of the training
     root-mean-square residual and that of each held-out part (e.g. ``{"core": ..., "whole": ...}``: Table 1's
-    region and the whole domain), so that it holds in each; per range of `THICKNESS_PARTS_MM`, the same over the
-    rows of those thicknesses (`TransferFit.std_by_thickness`), so that a film carries the band measured at
-    its own thickness. The provenance records every part's check
+    region and the whole domain), so that it holds in each. The provenance records every part's check
     (``held_out_<part>``) and that of all held-out rows together (``held_out``). ``thickness_mm`` is the range
     of film thicknesses the design sampled (the fit's ``domain["thickness_mm"]``; default: the training rows'
     smallest and largest).
@@ -356,43 +352,9 @@ def fit_transfer(train: list[dict], held_out: dict[str, list[dict]], grid_mm: fl
               "held_out": check_transfer(fit, [r for part in held_out.values() for r in part])}
     checks.update({f"held_out_{name}": check_transfer(fit, part) for name, part in held_out.items()})
     std = {k: max(c[k]["rms_mm"] for c in checks.values() if k in c) for k in coefficients}
-    by_thickness = _std_by_thickness(fit, {"train": train, **held_out}, domain["thickness_mm"], std)
-    std = {k: max([v] + [part[k] for _, _, part in by_thickness]) for k, v in std.items()}  # the largest of all
     prov = dict(provenance or {})
     prov.update(checks)
-    return TransferFit(coefficients, std, domain, float(grid_mm), prov, gps, by_thickness)
-
-
-#: A held-out part sets the term's std over a range of thickness only with at least this many rows of a reading
-#: in it (`_std_by_thickness`); fewer give no rms worth a band.
-MIN_PART_ROWS = 20
-
-
-def _std_by_thickness(fit: TransferFit, sources: dict[str, list[dict]], thickness_mm: tuple[float, float],
-                      std: dict) -> tuple:
-    """Per range of `THICKNESS_PARTS_MM` within the fitted thicknesses, the largest rms over the rows of each of
-    `sources` (training and every held-out part) in that range: the band a film of that thickness carries.
-
-    A reading none of whose held-out parts has `MIN_PART_ROWS` rows in a range keeps `std` there; a fit made at
-    one thickness has no ranges (``()``)."""
-    t0, t1 = thickness_mm
-    if not t1 > t0 * (1 + 1e-9):
-        return ()
-    out = []
-    for lo, hi in zip(THICKNESS_PARTS_MM[:-1], THICKNESS_PARTS_MM[1:]):
-        lo, hi = max(lo, t0), min(hi, t1)
-        if hi <= lo:
-            continue
-        checks = {name: check_transfer(fit, [r for r in rows if lo <= float(r["thickness_mm"]) <= hi])
-                  for name, rows in sources.items()}
-        part = {}
-        for key in std:
-            held = [c[key] for name, c in checks.items() if name != "train" and c.get(key, {}).get("n", 0)
-                    >= MIN_PART_ROWS]
-            train = checks["train"].get(key, {}).get("rms_mm", 0.0)
-            part[key] = max([c["rms_mm"] for c in held] + [train]) if held else std[key]
-        out.append((float(lo), float(hi), part))
-    return tuple(out)
+    return TransferFit(coefficients, std, domain, float(grid_mm), prov, gps)
 
 
 def outside_fit(fit: TransferFit, film, imprint: str, radius_mm: float, max_pressure_mpa: float,
