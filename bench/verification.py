@@ -98,7 +98,9 @@ REFERENCES = {
 
 
 def summarise(rows: list[dict]) -> dict:
-    """Per check: cases, mean and largest difference (mm or mm2), largest relative difference (%)."""
+    """Per check: cases, mean and largest difference (mm or mm2), largest relative difference (%); the transfer
+    per reading; with ``--study-dir``, Table 1 through the application and the correction factor before and
+    after, per film (empty lists without it)."""
     from filmcal.contact.names import APPLICATION_MODEL_REVISION, FE_MODEL_REVISION
 
     checks = []
@@ -114,9 +116,15 @@ def summarise(rows: list[dict]) -> dict:
     transfer = [{k: r[k] for k in ("check", "n", "raw_mean_mm", "raw_max_mm", "mean_mm", "rms_mm", "max_mm", "std_mm",
                                    "not_converged", "one_sided")}
                 for r in rows if r["check"].startswith("transfer ")]
+    table1 = [{k: r[k] for k in ("case", "mean_residual_mm", "rms_mm", "calibration_mean_residual_mm",
+                                 "calibration_rms_mm", "quadrature_median_mpa", "quadrature_mean_residual_mm")}
+              for r in rows if r["check"] == "Table 1 through the application"]
+    factor = [{k: r[k] for k in ("case", "before", "after", "reading_change_mm2", "transfer_shift_mm2",
+                                 "transfer_std_mm2")}
+              for r in rows if r["check"].startswith("correction factor")]
     return {"made": time.strftime("%Y-%m-%d"), "script": "bench/verification.py --summary",
             "fe_model_revision": FE_MODEL_REVISION, "application_model_revision": APPLICATION_MODEL_REVISION,
-            "checks": checks, "transfer": transfer}
+            "checks": checks, "transfer": transfer, "table1": table1, "correction_factor": factor}
 
 
 #: (R mm, F kN, E MPa, nu): films across the supported nu range, off the fits' designs.

@@ -684,14 +684,26 @@ def test_verification_lists_every_shipped_reference_check_and_says_when_it_is_st
     doc = _json.loads((resources.files("filmcal.data") / "verification.json").read_text(encoding="utf-8"))
     assert {"FE / Hertz", "FE / second formulation", "wheel-rail / CONTACT flange",
             "wheel-rail / CONTACT layer"} <= {c["check"] for c in doc["checks"]}
-    text, table = study_report._reference_checks()
+    text, table, *factor = study_report._reference_checks()
     # the transfer: one row per set of points, over its six readings, whose largest miss is the largest of theirs
     sets = {t["check"].partition(", ")[2] or "Table 1's region": [] for t in doc["transfer"]}
     for t in doc["transfer"]:
         sets[t["check"].partition(", ")[2] or "Table 1's region"].append(t)
-    assert [r[0] for r in table.rows] == [c["check"] for c in doc["checks"]] + [f"transfer, {k}" for k in sets]
+    films = [t["case"].split()[0] for t in doc["table1"]]
+    assert films == ["MS", "HS", "HHS"]
+    assert [r[0] for r in table.rows] == [c["check"] for c in doc["checks"]] + [f"transfer, {k}" for k in sets] \
+        + [f"Table 1 through the application, {f}" for f in films]
     assert all(len(v) == 6 for v in sets.values())
-    for row in table.rows[len(doc["checks"]):]:
+    # Table 1 through the application at each film's median E: the application adds nothing to the calibrated
+    # FE's residual (issue's targets: the rms within 0.005 mm of the calibration's), and the report says both
+    for t, row in zip(doc["table1"], table.rows[-3:]):
+        assert abs(t["mean_residual_mm"] - t["calibration_mean_residual_mm"]) <= 0.0005
+        assert abs(t["rms_mm"] - t["calibration_rms_mm"]) <= 0.005
+        assert row[3] == f"{t['mean_residual_mm']:+.4f} mm (FE {t['calibration_mean_residual_mm']:+.4f})"
+    (factor,) = factor  # the correction factor before and after, per film
+    for c in doc["correction_factor"]:
+        assert f"{c['case'].split()[0]} {c['before']:.4f} → {c['after']:.4f}" in factor
+    for row in table.rows[len(doc["checks"]):-3]:
         ts = sets[row[0].removeprefix("transfer, ")]
         assert row[2] == str(sum(t["n"] for t in ts))
         assert row[4] == f"{max(t['max_mm'] for t in ts):.4f} mm"

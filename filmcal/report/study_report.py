@@ -422,6 +422,14 @@ def _reference_checks() -> list:
              small(c["max_abs"], c["unit"], False),
              "< 0.001" if c["max_abs_rel_pct"] < 5e-4 else f"{c['max_abs_rel_pct']:.3f}"] for c in doc["checks"]]
     rows += _transfer_check_rows(doc["transfer"])
+    rows += [[f"Table 1 through the application, {t['case'].split()[0]}",
+              ("the paper's Table 1 at the film's median E and preferred model of a full study on the paper's "
+               "data; in brackets the calibration's FE at that E, the residual the application adds to"
+               if i == 0 else "as above") + f" ({t['case'].split()[1]}, {t['case'].split()[2].removeprefix('E')} MPa)",
+              "10",
+              f"{t['mean_residual_mm']:+.4f} mm (FE {t['calibration_mean_residual_mm']:+.4f})",
+              f"rms {t['rms_mm']:.4f} mm (FE {t['calibration_rms_mm']:.4f})", ""]
+             for i, t in enumerate(doc.get("table1", []))]
     stale = [name for name, key, now in (("FE", "fe_model_revision", FE_MODEL_REVISION),
                                          ("wheel-rail", "application_model_revision", APPLICATION_MODEL_REVISION))
              if doc.get(key) != now]
@@ -433,8 +441,15 @@ def _reference_checks() -> list:
             + " Differences are the model's minus the reference's, in radius (mm) or area (mm²); the transfer rows "
               "set the readings' rms beside the band that the wheel-rail answers carry as their transfer term's "
               "spread.")
-    return [text, Table(["check", "reference", "cases", "mean difference", "largest |difference|", "largest |rel.| (%)"],
-                        rows, "Every model against its independent reference")]
+    table = Table(["check", "reference", "cases", "mean difference", "largest |difference|", "largest |rel.| (%)"],
+                  rows, "Every model against its independent reference")
+    if not (factor := doc.get("correction_factor")):
+        return [text, table]
+    return [text, table, "The correction factor A0/Af at S1002/60E2, 100 kN, eta 0, each film's preferred model at "
+            "its median E, before the film-aware readings and the transfer term and after them: "
+            + "; ".join(f"{c['case'].split()[0]} {c['before']:.4f} → {c['after']:.4f} (reading "
+                        f"{c['reading_change_mm2']:+.2f} mm², transfer {c['transfer_shift_mm2']:+.2f} ± "
+                        f"{c['transfer_std_mm2']:.2f} mm²)" for c in factor) + "."]
 
 
 def _transfer_check_rows(transfer: list[dict]) -> list[list[str]]:
