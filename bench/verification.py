@@ -49,7 +49,8 @@ A_0 / A_f at S1002/60E2, 100 kN, eta 0 per film before (the readings before the 
 
 Figures are differences of radii in mm (and relative), measured in this run. ``--summary`` also writes the
 per-check summary the report's verification section prints (``filmcal/data/verification.json``, with the FE
-revision it was measured for); run it again whenever a model changes.
+revision it was measured for; with ``--study-dir`` also Table 1 through the application and the correction
+factor, per film); run it again, on a full study of the paper's data, whenever a model changes.
 """
 from __future__ import annotations
 

@@ -705,7 +705,8 @@ def test_verification_lists_every_shipped_reference_check_and_says_when_it_is_st
         assert f"{c['case'].split()[0]} {c['before']:.4f} → {c['after']:.4f}" in factor
     for row in table.rows[len(doc["checks"]):-3]:
         ts = sets[row[0].removeprefix("transfer, ")]
-        assert row[2] == str(sum(t["n"] for t in ts))
+        n = sorted({t["n"] for t in ts})
+        assert row[2] == (f"{n[0]} × 6" if len(n) == 1 else f"{n[0]}-{n[-1]} × 6")
         assert row[4] == f"{max(t['max_mm'] for t in ts):.4f} mm"
         assert f"band {min(t['std_mm'] for t in ts):.4f}" in row[1]
         # a reading missed by more than its band is named
@@ -726,6 +727,14 @@ def test_verification_lists_every_shipped_reference_check_and_says_when_it_is_st
         assert ("beyond the fitted 0.04-0.25 mm" in reference) == (not 0.04 <= t <= 0.25)
     assert any(r[0].endswith(", 0.3 mm") for r in table.rows) and any(r[0].endswith(", 0.05 mm") for r in table.rows)
     assert doc["made"] in text and "earlier revision" not in text
+    for t, row in zip(doc["table1"], table.rows[-3:]):  # each row names its film's model and modulus
+        film, model, modulus = t["case"].split()
+        assert row[0].endswith(film) and f"(here {model}, {modulus.removeprefix('E')} MPa)" in row[1]
+    # a summary made without --study-dir (or by an older filmcal) has neither: the report says so
+    text, table = study_report._reference_checks({k: v for k, v in doc.items()
+                                                  if k not in ("table1", "correction_factor")})
+    assert "made with --study-dir; this one was not" in text
+    assert not any(r[0].startswith("Table 1 through") for r in table.rows)
     monkeypatch.setattr(names, "APPLICATION_MODEL_REVISION", doc["application_model_revision"] + 1)
     assert "earlier revision of the wheel-rail model" in study_report._reference_checks()[0]
     monkeypatch.setattr(names, "FE_MODEL_REVISION", doc["fe_model_revision"] + 1)

@@ -403,14 +403,16 @@ def summary_section(posteriors: dict, curves: dict) -> Section:
     return s
 
 
-def _reference_checks() -> list:
-    """The shipped summary of `bench/verification.py`: every model against its independent reference."""
+def _reference_checks(doc: dict | None = None) -> list:
+    """The shipped summary of `bench/verification.py` (or `doc`, one of its form): every model against its
+    independent reference."""
     from importlib import resources
 
     from filmcal.contact.names import APPLICATION_MODEL_REVISION, FE_MODEL_REVISION
 
     try:
-        doc = json.loads((resources.files("filmcal.data") / "verification.json").read_text(encoding="utf-8"))
+        if doc is None:
+            doc = json.loads((resources.files("filmcal.data") / "verification.json").read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return ["The summary of the independent references (filmcal/data/verification.json) is missing or "
                 "unreadable: run python bench/verification.py --summary."]
@@ -421,15 +423,16 @@ def _reference_checks() -> list:
     rows = [[c["check"], c["reference"], str(c["n"]), small(c["mean"], c["unit"], True),
              small(c["max_abs"], c["unit"], False),
              "< 0.001" if c["max_abs_rel_pct"] < 5e-4 else f"{c['max_abs_rel_pct']:.3f}"] for c in doc["checks"]]
-    rows += _transfer_check_rows(doc["transfer"])
-    rows += [[f"Table 1 through the application, {t['case'].split()[0]}",
-              ("the paper's Table 1 at the film's median E and preferred model of a full study on the paper's "
-               "data; in brackets the calibration's FE at that E, the residual the application adds to"
-               if i == 0 else "as above") + f" ({t['case'].split()[1]}, {t['case'].split()[2].removeprefix('E')} MPa)",
-              "10",
-              f"{t['mean_residual_mm']:+.4f} mm (FE {t['calibration_mean_residual_mm']:+.4f})",
-              f"rms {t['rms_mm']:.4f} mm (FE {t['calibration_rms_mm']:.4f})", ""]
-             for i, t in enumerate(doc.get("table1", []))]
+    rows += _transfer_check_rows(doc.get("transfer", []))
+    for i, t in enumerate(doc.get("table1", [])):
+        film, model, modulus = (str(t.get("case", "")).split() + ["?", "?", "?"])[:3]  # "MS edge/large E539"
+        rows.append([f"Table 1 through the application, {film}",
+                     ("the paper's Table 1: the measured radius minus the application's at the film's median E and "
+                      "preferred model of a full study on the paper's data; in brackets in the next columns, the "
+                      "calibration's FE at that E" if i == 0 else "as above")
+                     + f" (here {model}, {modulus.removeprefix('E')} MPa)", "10",
+                     f"{t['mean_residual_mm']:+.4f} mm (FE {t['calibration_mean_residual_mm']:+.4f})",
+                     f"rms {t['rms_mm']:.4f} mm (FE {t['calibration_rms_mm']:.4f})", ""])
     stale = [name for name, key, now in (("FE", "fe_model_revision", FE_MODEL_REVISION),
                                          ("wheel-rail", "application_model_revision", APPLICATION_MODEL_REVISION))
              if doc.get(key) != now]
@@ -438,23 +441,26 @@ def _reference_checks() -> list:
             + (f" for an earlier revision of the {' and the '.join(stale)} model: run it again." if stale else
                f" (FE revision {FE_MODEL_REVISION} and wheel-rail revision {APPLICATION_MODEL_REVISION}, this "
                "report's).")
-            + " Differences are the model's minus the reference's, in radius (mm) or area (mm²); the transfer rows "
-              "set the readings' rms beside the band that the wheel-rail answers carry as their transfer term's "
-              "spread.")
+            + " Differences are the model's minus the reference's, in radius (mm) or area (mm²); but the transfer "
+              "rows give the calibrated FE film's radius minus the applied film's, with the readings' rms beside the "
+              "band that the wheel-rail answers carry as their transfer term's spread, and the Table 1 rows the "
+              "measured radius minus the application's, with the rms in the column of the largest difference.")
     table = Table(["check", "reference", "cases", "mean difference", "largest |difference|", "largest |rel.| (%)"],
                   rows, "Every model against its independent reference")
     if not (factor := doc.get("correction_factor")):
-        return [text, table]
-    return [text, table, "The correction factor A0/Af at S1002/60E2, 100 kN, eta 0, each film's preferred model at "
-            "its median E, before the film-aware readings and the transfer term and after them: "
-            + "; ".join(f"{c['case'].split()[0]} {c['before']:.4f} → {c['after']:.4f} (reading "
+        return [text + " Table 1 through the application and the correction factor are given by a summary made "
+                "with --study-dir; this one was not.", table]
+    return [text, table, "The correction factor A0/A at S1002/60E2, 100 kN, η 0, in the same full study (each "
+            "film's preferred model at its median E), before the film-aware readings and the transfer term and after "
+            "them: "
+            + "; ".join(f"{(str(c.get('case', '')).split() or ['?'])[0]} {c['before']:.4f} → {c['after']:.4f} (reading "
                         f"{c['reading_change_mm2']:+.2f} mm², transfer {c['transfer_shift_mm2']:+.2f} ± "
                         f"{c['transfer_std_mm2']:.2f} mm²)" for c in factor) + "."]
 
 
 def _transfer_check_rows(transfer: list[dict]) -> list[list[str]]:
     """The transfer rows of the shipped summary, one row per set of points (Table 1's region, the whole domain,
-    each film thickness) over its six readings: the range of their means, the largest miss, and in the
+    each film thickness) over its readings: the rows per reading, the range of their means, the largest miss, and in the
     reference the range of their rms against that of the band the answers carry, naming any reading whose rms
     is above its band."""
     from filmcal.contact.transfer import load_transfer_fit
@@ -477,13 +483,14 @@ def _transfer_check_rows(transfer: list[dict]) -> list[list[str]]:
             where = (f"a film of {name}, Table 1's region, " + (f"inside the fitted {t0:g}-{t1:g} mm"
                      if fit.fits_thickness(float(found.group(1))) else
                      f"beyond the fitted {t0:g}-{t1:g} mm: its answers say so"))
-        reference = ("the calibrated FE film, sphere-on-flat off the fit's designs (raw: without the term), six "
-                     f"readings; {where}" if not rows else f"as above; {where}")
+        reference = ("the calibrated FE film, sphere-on-flat off the fit's designs (raw: without the term), "
+                     f"{len(ts)} readings; {where}" if not rows else f"as above; {where}")
         reference += (f"; rms {span([t['rms_mm'] for t in ts], False)}, band "
                       f"{span([t['std_mm'] for t in ts], False)} mm")
         if above := [t["check"].split()[1].rstrip(",") for t in ts if t["rms_mm"] > t["std_mm"]]:
             reference += f"; above its band: {', '.join(above)}"
-        rows.append([f"transfer, {name}", reference, str(sum(t["n"] for t in ts)),
+        n = sorted({t["n"] for t in ts})  # rows per reading (points x films), over the readings
+        rows.append([f"transfer, {name}", reference, f"{n[0]}{f'-{n[-1]}' if len(n) > 1 else ''} × {len(ts)}",
                      f"{span([t['mean_mm'] for t in ts], True)} mm (raw {span([t['raw_mean_mm'] for t in ts], True)})",
                      f"{max(t['max_mm'] for t in ts):.4f} mm", ""])
     return rows
