@@ -64,6 +64,40 @@ def test_shipped_fit_was_checked_on_held_out_points_and_says_how_it_was_made():
     assert fit.domain == {**TRANSFER_DOMAIN, "thickness_mm": THICKNESS_DOMAIN_MM}
 
 
+def test_a_films_band_holds_what_films_of_about_its_thickness_were_missed_by():
+    """Over ninths of ln t across 0.04-0.25 mm the transfer's misses grow toward both ends: the level readings
+    on the thinnest films and the edge on the thickest are missed by 0.0021-0.0028 mm rms, against the one std
+    of 0.0016-0.0019 mm that holds the thirds of the range. Recomputed here from the rows behind the shipped fit
+    (bench/data/transfer-rows.json.gz), every ninth's rms, over its training rows and over its held-out rows, is
+    within the band its films carry; no film's band is below the one std, and the built-in films' 0.09 mm
+    carries exactly that."""
+    import gzip
+
+    from filmcal.correction.transfer import check_transfer
+
+    fit = load_transfer_fit()
+    rows = json.loads(gzip.decompress((Path(__file__).resolve().parent.parent / "bench" / "data" /
+                                       "transfer-rows.json.gz").read_bytes()))
+    held = [r for key, part in rows.items() if key.startswith("held_out_") for r in part]
+    edges = np.geomspace(*THICKNESS_DOMAIN_MM, 10)
+    raised = set()
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        t_mid = math.sqrt(lo * hi)
+        for label, part in (("training", rows["train"]), ("held out", held)):
+            inside = [r for r in part if lo * (1 + 1e-9) < r["thickness_mm"] < hi * (1 - 1e-9)]
+            for key, row in check_transfer(fit, inside).items():
+                band = fit.std_for(*key.split("/"), t_mid)
+                assert row["rms_mm"] <= band * (1 + 1e-9), (label, lo, hi, key, row["rms_mm"], band)
+                assert band >= fit.std_mm[key]
+                if band > fit.std_mm[key]:
+                    raised.add((key.split("/")[0], round(lo, 3)))
+    # the ends the pooled std carried at three fifths to two thirds of their rms
+    assert {("activation", 0.04), ("edge", 0.204)} <= raised
+    assert fit.std_for("activation", "large", 0.045) >= 0.0025 and fit.std_for("edge", "small", 0.23) >= 0.0027
+    for key, std in fit.std_mm.items():
+        assert fit.std_for(*key.split("/"), 0.09) == std
+
+
 def test_a_damaged_fit_file_is_refused(tmp_path):
     doc = json.loads(json.dumps({"features": ["1"], "coefficients": {"edge/small": [1.0]},
                                  "std_mm": {"edge/small": 0.1}, "domain": {}, "grid_mm": 0.1}))
@@ -76,10 +110,19 @@ def test_a_damaged_fit_file_is_refused(tmp_path):
         TransferFit.from_json(path)
     # a fit that does not say which film thicknesses it was made on (as one made before they were a dimension)
     shipped = json.loads((Path(__file__).resolve().parent.parent / "filmcal" / "data" / TRANSFER_FILE).read_text())
-    del shipped["domain"]["thickness_mm"]
+    shipped["domain"].pop("thickness_mm")
     path.write_text(json.dumps(shipped))
     with pytest.raises(ValueError, match="features or keys"):
         TransferFit.from_json(path)
+    # a residual per range of thickness that does not fit the ranges or the keys
+    shipped = json.loads((Path(__file__).resolve().parent.parent / "filmcal" / "data" / TRANSFER_FILE).read_text())
+    for damage in (lambda d: d["edge/small"].pop(), lambda d: d.pop("edge/small"), lambda d: d["edges_mm"].reverse(),
+                   lambda d: d["capsule/large"].__setitem__(0, -0.001)):
+        doc = json.loads(json.dumps(shipped))
+        damage(doc["thickness_rms_mm"])
+        path.write_text(json.dumps(doc))
+        with pytest.raises(ValueError, match="range of thickness"):
+            TransferFit.from_json(path)
 
 
 # y does not depend on every GP input: scikit-learn's length scale of such an input rests at its bound and it warns
@@ -326,6 +369,8 @@ def test_the_shipped_fit_is_the_fit_of_the_shipped_rows():
     for key, beta in shipped.coefficients.items():
         np.testing.assert_allclose(fit.coefficients[key], beta, rtol=1e-9, atol=1e-12)
         assert fit.std_mm[key] == pytest.approx(shipped.std_mm[key], rel=1e-9)
+        np.testing.assert_allclose(fit.thickness_rms_mm[key], shipped.thickness_rms_mm[key], rtol=1e-9)
+    assert fit.thickness_rms_mm["edges_mm"] == pytest.approx(shipped.thickness_rms_mm["edges_mm"], rel=1e-12)
 
 
 @pytest.mark.parametrize("args", [["--train", "0"], ["--train-thickness", "120", "-1", "60", "180"],
@@ -412,21 +457,22 @@ def test_a_film_beyond_the_fitted_films_is_named_with_its_value_and_the_fitted_r
 
 
 def test_a_film_beyond_the_fitted_thicknesses_carries_the_measured_size_of_an_extrapolation_in_its_band():
-    """Inside the fitted 0.04-0.25 mm a film's term carries the fit's std, which holds the held-out rms over that
-    range. Beyond it nothing was measured; the one measured size of a thickness extrapolation is what a fit made
-    at 0.09 mm alone missed held out at other thicknesses: up to 0.0028 mm rms on the edge (48 points over
-    0.04-0.25 mm), 0.0062 mm on the activation reading and 0.0065 mm on the capsule reading (8 points at
-    0.05 mm; docs/verification.md). Such a film's term carries at least that; the shift is the fit's either
-    way."""
+    """Inside the fitted 0.04-0.25 mm a film's term carries the fit's std, raised where films of about its
+    thickness were missed by more. Beyond it nothing was measured; the one measured size of a thickness
+    extrapolation is what a fit made at 0.09 mm alone missed held out at other thicknesses: up to 0.0028 mm rms
+    on the edge (48 points over 0.04-0.25 mm), 0.0062 mm on the activation reading and 0.0065 mm on the capsule
+    reading (8 points at 0.05 mm; docs/verification.md). Such a film's term carries at least that; the shift is
+    the fit's either way."""
     measured = {"edge": 0.0028, "activation": 0.0062, "capsule": 0.0065}
     fit = load_transfer_fit()
     film = get_film("HS")
     for imprint, miss in measured.items():
         key = f"{imprint}/large"
+        assert fit.std_for(imprint, "large", 0.09) == fit.std_mm[key]
         for thickness in (0.04, 0.09, 0.25):
-            assert fit.std_for(imprint, "large", thickness) == fit.std_mm[key] < miss
+            assert fit.std_mm[key] <= fit.std_for(imprint, "large", thickness) < miss
             inside = transfer_term(fit, imprint, "large", replace(film, thickness_mm=thickness), 2000.0, 60.0, 900.0)
-            assert inside.std_mm == fit.std_mm[key]
+            assert inside.std_mm == fit.std_for(imprint, "large", thickness)
         for thickness in (0.035, 0.3):
             other = replace(film, thickness_mm=thickness)
             assert fit.std_for(imprint, "large", thickness) >= miss

@@ -40,8 +40,10 @@ term missed films of 0.05 and 0.15 mm by 0.0011-0.0065 mm rms held out (up to
 0.018 mm), several times its band; with films of 0.04-0.25 mm in the design
 (`filmcal.correction.transfer.THICKNESS_DOMAIN_MM`) and w with its products
 the held-out miss over that range is 0.0007-0.0019 mm rms, largest at its ends
-(0.0004-0.0010 mm on the 0.09 mm films), and the term's std holds it in each
-third of the range (`filmcal.correction.transfer.THICKNESS_PARTS_MM`).
+(0.0004-0.0010 mm on the 0.09 mm films); the term's std holds it in each
+third of the range (`filmcal.correction.transfer.THICKNESS_PARTS_MM`), and a
+film whose ninth of the range was missed by more carries that ninth's rms
+(`TransferFit.std_for`).
 
 The activation and capsule models read a contour near the film's edge zone,
 where the polynomial leaves a smooth residual of a few um that it cannot
@@ -74,7 +76,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["TransferTerm", "TransferFit", "ResidualGP", "transfer_features", "load_transfer_fit", "TRANSFER_FILE",
-           "THICKNESS_STD_MM", "outline_perimeter_mm"]
+           "THICKNESS_STD_MM", "outline_perimeter_mm", "thickness_range"]
 
 #: The shipped fit (package data).
 TRANSFER_FILE = "film_transfer.json"
@@ -233,6 +235,14 @@ class ResidualGP:
                    arrays["points"], arrays["weights"], float(data["offset"]))
 
 
+def thickness_range(edges_mm, thickness_mm):
+    """The index of the range of `edges_mm` (increasing bounds) that holds each thickness: ``edges[k] <= t <
+    edges[k + 1]``, the last range closed; a thickness beyond the bounds is given the nearest range."""
+    k = np.searchsorted(np.asarray(edges_mm, dtype=float), thickness_mm, side="right") - 1
+    k = np.clip(k, 0, len(edges_mm) - 2)
+    return int(k) if np.ndim(k) == 0 else k
+
+
 @dataclass(frozen=True)
 class TransferFit:
     """The fitted transfer of every (imprint model, kinematics).
@@ -251,6 +261,11 @@ class TransferFit:
         How it was made (design, sizes, held-out figures, versions, date).
     residual_gp : dict
         The same keys (activation and capsule) -> `ResidualGP` of d / t beyond the polynomial.
+    thickness_rms_mm : dict
+        The residual measured in ranges of the film's thickness: ``"edges_mm"`` -> the ranges' bounds (mm,
+        increasing), and each key -> one root-mean-square residual (mm) per range, the larger of the training
+        rows' and the held-out rows' there (0 where a range holds none). `std_for` raises the term's std to it
+        where it is larger, never lowers it. Empty: no such ranges (the std is `std_mm` at every thickness).
     """
 
     coefficients: dict
@@ -259,6 +274,7 @@ class TransferFit:
     grid_mm: float
     provenance: dict
     residual_gp: dict = field(default_factory=dict)
+    thickness_rms_mm: dict = field(default_factory=dict)
 
     def hertz_radius_range_mm(self) -> tuple[float, float]:
         """The smallest and largest Hertz radius (mm, steel on steel, no film) of the sphere-on-flat contacts of
@@ -277,12 +293,19 @@ class TransferFit:
             std = {k: float(v) for k, v in data["std_mm"].items()}
             domain = {k: tuple(float(x) for x in v) for k, v in data["domain"].items()}
             gp = {k: ResidualGP.from_dict(v) for k, v in data.get("residual_gp", {}).items()}
-            out = cls(coef, std, domain, float(data["grid_mm"]), dict(data.get("provenance", {})), gp)
+            by_t = {k: [float(x) for x in v] for k, v in data.get("thickness_rms_mm", {}).items()}
+            out = cls(coef, std, domain, float(data["grid_mm"]), dict(data.get("provenance", {})), gp, by_t)
         except (KeyError, TypeError, ValueError) as exc:
             raise ValueError(f"{path}: not a film-transfer fit ({exc})") from None
         if data.get("features") != list(FEATURES) or any(len(c) != len(FEATURES) for c in coef.values()) \
                 or set(coef) != set(std) or not set(gp) <= set(coef) or len(domain.get("thickness_mm", ())) != 2:
             raise ValueError(f"{path}: the fit's features or keys do not match this version of filmcal")
+        if by_t:
+            edges = by_t.get("edges_mm", [])
+            if set(by_t) != {"edges_mm", *coef} or len(edges) < 2 or np.any(np.diff(edges) <= 0) \
+                    or any(len(v) != len(edges) - 1 or not all(math.isfinite(x) and x >= 0 for x in v)
+                           for k, v in by_t.items() if k != "edges_mm"):
+                raise ValueError(f"{path}: the fit's residual per range of thickness does not fit its keys")
         return out
 
     def to_json(self, path: str | Path) -> None:
@@ -290,7 +313,8 @@ class TransferFit:
 
         doc = {"features": list(FEATURES), "coefficients": self.coefficients, "std_mm": self.std_mm,
                "domain": self.domain, "grid_mm": self.grid_mm,
-               "residual_gp": {k: v.to_dict() for k, v in self.residual_gp.items()}, "provenance": self.provenance}
+               "residual_gp": {k: v.to_dict() for k, v in self.residual_gp.items()},
+               "thickness_rms_mm": self.thickness_rms_mm, "provenance": self.provenance}
         with atomic_path(Path(path)) as tmp:
             Path(tmp).write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
 
@@ -310,9 +334,17 @@ class TransferFit:
         return t0 * (1 - 1e-9) <= thickness_mm <= t1 * (1 + 1e-9)
 
     def std_for(self, imprint: str, kinematics: str, thickness_mm: float) -> float:
-        """The term's standard deviation (mm) for a film of this thickness: the fit's, with `THICKNESS_STD_MM`
-        in quadrature beyond the thicknesses it was made on."""
-        std = self.std_mm[f"{imprint}/{kinematics}"]
+        """The term's standard deviation (mm) for a film of this thickness.
+
+        The fit's `std_mm`, raised to the residual measured on films of about this thickness where that is
+        larger (`thickness_rms_mm`; beyond the ranges, the nearest one's), with `THICKNESS_STD_MM` in
+        quadrature beyond the thicknesses the fit was made on.
+        """
+        key = f"{imprint}/{kinematics}"
+        std = self.std_mm[key]
+        if self.thickness_rms_mm:
+            k = thickness_range(self.thickness_rms_mm["edges_mm"], thickness_mm)
+            std = max(std, self.thickness_rms_mm[key][k])
         if self.fits_thickness(thickness_mm):
             return std
         return math.hypot(std, THICKNESS_STD_MM[imprint])
@@ -324,6 +356,7 @@ class TransferFit:
         doc = {"coefficients": self.coefficients[key], "std_mm": self.std_mm[key], "grid_mm": self.grid_mm,
                "thickness_domain_mm": list(self.domain["thickness_mm"]),
                "thickness_std_mm": THICKNESS_STD_MM[key.split("/")[0]],
+               "thickness_rms_mm": [self.thickness_rms_mm.get("edges_mm"), self.thickness_rms_mm.get(key)],
                "residual_gp": self.residual_gp[key].to_dict() if key in self.residual_gp else None}
         return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()
 

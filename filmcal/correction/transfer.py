@@ -18,7 +18,8 @@ import numpy as np
 from filmcal.contact.transfer import FEATURES, THICKNESS_STD_MM, ResidualGP, TransferFit, transfer_features
 
 __all__ = ["TRANSFER_DOMAIN", "CORE_DOMAIN", "NEAR_INCOMPRESSIBLE", "THICKNESS_DOMAIN_MM", "THICKNESS_PARTS_MM",
-           "transfer_design", "thickness_design", "thickness_parts", "measure_transfer", "fit_transfer", "check_transfer", "outside_fit"]
+           "THICKNESS_RANGES", "transfer_design", "thickness_design", "thickness_parts", "measure_transfer",
+           "fit_transfer", "check_transfer", "outside_fit"]
 
 #: Where the transfer is measured and checked: the calibration's supported domain
 #: (`filmcal.surrogate.radius.SUPPORTED_RADIUS_MM`, `SUPPORTED_FORCE_KN`, within the steel's elastic limit), with
@@ -106,6 +107,14 @@ THICKNESS_DOMAIN_MM = (0.04, 0.25)
 #: holds at the range's ends as in its middle (pooled, it was 0.0012-0.0014 mm while the level readings on films of
 #: 0.04-0.06 mm were missed by 0.0017-0.0022 mm rms and the edge on films of 0.16-0.25 mm by 0.0017-0.0018 mm).
 THICKNESS_PARTS_MM = (0.04, 0.074, 0.136, 0.25)
+#: The fit's residual is also measured in this many equal ranges of ln t over the fitted thicknesses
+#: (`TransferFit.thickness_rms_mm`), and a film's band is raised to its range's where that is larger than the
+#: one std (`TransferFit.std_for`). Over ninths the error grows toward both ends of 0.04-0.25 mm, inside the
+#: outer thirds too: the level readings on films of 0.040-0.049 mm were missed by 0.0025-0.0028 mm held out and
+#: the edge on films of 0.20-0.25 mm by 0.0027-0.0028 mm over its training rows, against a std of
+#: 0.0016-0.0019 mm. A range holds about 10 independent held-out points (the three films share each), too few to
+#: lower a band on, enough to raise one.
+THICKNESS_RANGES = 9
 
 
 def thickness_parts(rows: list[dict]) -> dict[str, list[dict]]:
@@ -247,6 +256,14 @@ def _groups(rows: list[dict]) -> dict[str, list[dict]]:
     return out
 
 
+def _residuals_mm(fit: TransferFit, key: str, group: list[dict]) -> tuple[np.ndarray, np.ndarray]:
+    """The rows' d (mm) and what remains of it after the fit's term."""
+    imprint, kinematics = key.split("/")
+    t = np.array([r["thickness_mm"] for r in group])
+    raw = _target(group) * t
+    return raw, raw - fit.shift_mm(imprint, kinematics, _features(group, imprint, fit.grid_mm))[0] * t
+
+
 def check_transfer(fit: TransferFit, rows: list[dict]) -> dict[str, dict]:
     """Residuals (mm) of rows against a fit, per ``imprint/kinematics``, without and with the term.
 
@@ -265,11 +282,7 @@ def check_transfer(fit: TransferFit, rows: list[dict]) -> dict[str, dict]:
             one_sided[key] = one_sided.get(key, 0) + 1
     out = {}
     for key, group in _groups(rows).items():
-        imprint = key.split("/")[0]
-        t = np.array([r["thickness_mm"] for r in group])
-        raw = _target(group) * t
-        fitted = fit.shift_mm(imprint, key.split("/")[1], _features(group, imprint, fit.grid_mm))[0] * t
-        res = raw - fitted
+        raw, res = _residuals_mm(fit, key, group)
         out[key] = {"n": len(group), "raw_mean_mm": float(raw.mean()), "raw_max_mm": float(np.abs(raw).max()),
                     "mean_mm": float(res.mean()), "rms_mm": float(np.sqrt(np.mean(res**2))),
                     "max_mm": float(np.abs(res).max()), "one_sided": one_sided.get(key, 0),
@@ -329,7 +342,9 @@ def fit_transfer(train: list[dict], held_out: dict[str, list[dict]], grid_mm: fl
     The activation and capsule models get a Gaussian process on the polynomial's residual
     (`filmcal.contact.transfer.ResidualGP`). The term's standard deviation is the largest of the training
     root-mean-square residual and that of each held-out part (e.g. ``{"core": ..., "whole": ...}``: Table 1's
-    region and the whole domain), so that it holds in each. The provenance records every part's check
+    region and the whole domain), so that it holds in each; where the training or the held-out rows of a range
+    of thickness (`THICKNESS_RANGES`) are missed by more, films of that range carry theirs
+    (`TransferFit.thickness_rms_mm`). The provenance records every part's check
     (``held_out_<part>``) and that of all held-out rows together (``held_out``). ``thickness_mm`` is the range
     of film thicknesses the design sampled (the fit's ``domain["thickness_mm"]``; default: the training rows'
     smallest and largest).
@@ -354,7 +369,32 @@ def fit_transfer(train: list[dict], held_out: dict[str, list[dict]], grid_mm: fl
     std = {k: max(c[k]["rms_mm"] for c in checks.values() if k in c) for k in coefficients}
     prov = dict(provenance or {})
     prov.update(checks)
-    return TransferFit(coefficients, std, domain, float(grid_mm), prov, gps)
+    fit = TransferFit(coefficients, std, domain, float(grid_mm), prov, gps)
+    return replace(fit, thickness_rms_mm=_thickness_rms(fit, [train, [r for part in held_out.values() for r in part]]))
+
+
+def _thickness_rms(fit: TransferFit, row_sets: list[list[dict]]) -> dict:
+    """`TransferFit.thickness_rms_mm`: over `THICKNESS_RANGES` equal ranges of ln t across the fit's
+    thicknesses, per key, the largest root-mean-square residual of the row sets' rows in each (0 where none)."""
+    from filmcal.contact.transfer import thickness_range
+
+    t0, t1 = fit.domain["thickness_mm"]
+    edges = np.exp(np.linspace(np.log(t0), np.log(t1), THICKNESS_RANGES + 1))
+    edges[[0, -1]] = t0, t1
+    out: dict = {"edges_mm": [float(e) for e in edges]}
+    for key in fit.coefficients:
+        rms = np.zeros(THICKNESS_RANGES)
+        for rows in row_sets:
+            group = _groups(rows).get(key, [])
+            if not group:
+                continue
+            _, res = _residuals_mm(fit, key, group)
+            k = thickness_range(edges, np.array([r["thickness_mm"] for r in group]))
+            for i in range(THICKNESS_RANGES):
+                if np.any(k == i):
+                    rms[i] = max(rms[i], float(np.sqrt(np.mean(res[k == i] ** 2))))
+        out[key] = [float(x) for x in rms]
+    return out
 
 
 def outside_fit(fit: TransferFit, film, imprint: str, radius_mm: float, max_pressure_mpa: float,
