@@ -793,3 +793,27 @@ def test_the_report_repeats_where_a_films_transfer_is_extrapolated(quick_study):
         built = builder(data)
         sections += built if isinstance(built, list) else [built]
     assert sum(b == text[0] for s in sections for b in s.blocks) == 1
+
+
+def test_the_transfer_section_says_where_films_of_other_thicknesses_carry_more(monkeypatch):
+    """The held-out table gives the one std every film carries; films whose ninth of the fitted thicknesses
+    was missed by more carry that ninth's rms (`TransferFit.std_for`), and the section says how many and the
+    largest, with its model and films, which a film of that thickness then carries. A fit with no such
+    ranges says nothing of them."""
+    from dataclasses import replace
+
+    import filmcal.contact.transfer as transfer
+    from filmcal.report.study_report import _transfer_blocks
+
+    fit = transfer.load_transfer_fit()
+    text = _transfer_blocks()[0]
+    found = re.search(r"instead \((\d+) of the 6 models' 54 ninths; the largest (\d+\.\d) µm: (\w+)/(\w+) on films of "
+                      r"(\d\.\d+)-(\d\.\d+) mm\)", text)
+    assert found is not None, text[-400:]
+    imprint, kinematics = found[3], found[4]
+    inside = (float(found[5]) + float(found[6])) / 2
+    carried = fit.std_for(imprint, kinematics, inside)
+    assert carried > fit.std_mm[f"{imprint}/{kinematics}"] and f"{1e3 * carried:.1f}" == found[2]
+    assert int(found[1]) >= 2  # the thinnest films' level readings and the thickest films' edge at least
+    monkeypatch.setattr(transfer, "load_transfer_fit", lambda: replace(fit, thickness_rms_mm={}))
+    assert "ninth" not in _transfer_blocks()[0]

@@ -65,12 +65,13 @@ def test_shipped_fit_was_checked_on_held_out_points_and_says_how_it_was_made():
 
 
 def test_a_films_band_holds_what_films_of_about_its_thickness_were_missed_by():
-    """Over ninths of ln t across 0.04-0.25 mm the transfer's misses grow toward both ends: the level readings
-    on the thinnest films and the edge on the thickest are missed by 0.0021-0.0028 mm rms, against the one std
-    of 0.0016-0.0019 mm that holds the thirds of the range. Recomputed here from the rows behind the shipped fit
-    (bench/data/transfer-rows.json.gz), every ninth's rms, over its training rows and over its held-out rows, is
-    within the band its films carry; no film's band is below the one std, and the built-in films' 0.09 mm
-    carries exactly that."""
+    """Over ninths of ln t across 0.04-0.25 mm the transfer's misses grow toward both ends: the activation
+    readings on the thinnest films and the edge on the thickest two ninths are missed by 0.0021-0.0028 mm rms,
+    against the one std of 0.0016-0.0019 mm that holds the thirds of the range. The bands of such ninths are
+    set on these rows (`fit_transfer`); recomputed here from the rows behind the shipped fit
+    (bench/data/transfer-rows.json.gz) with the test's own ninths, every ninth's rms, over its training rows and
+    over its held-out rows, is within the band its films carry: the shipped file and `std_for` keep what the rows
+    show. No film's band is below the one std, and the built-in films' 0.09 mm carries exactly that."""
     import gzip
 
     from filmcal.correction.transfer import check_transfer
@@ -98,6 +99,26 @@ def test_a_films_band_holds_what_films_of_about_its_thickness_were_missed_by():
         assert fit.std_for(*key.split("/"), 0.09) == std
 
 
+def test_the_band_is_the_one_std_raised_to_its_ranges_and_widened_beyond_them():
+    """`TransferFit.std_for` on a fit of two ranges of thickness, 1-2 and 2-4 mm (made up): a film in a range
+    carries the larger of the one std and the range's rms; a range's lower bound belongs to it and the last
+    range is closed; beyond the ranges a film carries the nearest range's band with `THICKNESS_STD_MM` in
+    quadrature; a fit without ranges carries the one std inside."""
+    from filmcal.contact.transfer import THICKNESS_STD_MM, thickness_range
+
+    fit = TransferFit({"edge/small": [0.0] * 18}, {"edge/small": 0.002}, {"thickness_mm": (1.0, 4.0)}, 0.1, {},
+                      thickness_rms_mm={"edges_mm": [1.0, 2.0, 4.0], "edge/small": [0.001, 0.005]})
+    assert [thickness_range([1.0, 2.0, 4.0], t) for t in (0.5, 1.0, 1.99, 2.0, 4.0, 8.0)] == [0, 0, 0, 1, 1, 1]
+    assert fit.std_for("edge", "small", 1.0) == fit.std_for("edge", "small", 1.99) == 0.002  # never below the one
+    assert fit.std_for("edge", "small", 2.0) == fit.std_for("edge", "small", 4.0) == 0.005  # raised
+    extra = THICKNESS_STD_MM["edge"]
+    assert fit.std_for("edge", "small", 0.5) == pytest.approx(math.hypot(0.002, extra), rel=1e-12)
+    assert fit.std_for("edge", "small", 8.0) == pytest.approx(math.hypot(0.005, extra), rel=1e-12)
+    bare = replace(fit, thickness_rms_mm={})
+    assert bare.std_for("edge", "small", 3.0) == 0.002
+    assert bare.std_for("edge", "small", 8.0) == pytest.approx(math.hypot(0.002, extra), rel=1e-12)
+
+
 def test_a_damaged_fit_file_is_refused(tmp_path):
     doc = json.loads(json.dumps({"features": ["1"], "coefficients": {"edge/small": [1.0]},
                                  "std_mm": {"edge/small": 0.1}, "domain": {}, "grid_mm": 0.1}))
@@ -117,7 +138,8 @@ def test_a_damaged_fit_file_is_refused(tmp_path):
     # a residual per range of thickness that does not fit the ranges or the keys
     shipped = json.loads((Path(__file__).resolve().parent.parent / "filmcal" / "data" / TRANSFER_FILE).read_text())
     for damage in (lambda d: d["edge/small"].pop(), lambda d: d.pop("edge/small"), lambda d: d["edges_mm"].reverse(),
-                   lambda d: d["capsule/large"].__setitem__(0, -0.001)):
+                   lambda d: d["capsule/large"].__setitem__(0, -0.001), lambda d: d["edges_mm"].__setitem__(3, math.nan),
+                   lambda d: d["edges_mm"].__setitem__(0, 0.03)):  # the last: not the fit's thicknesses
         doc = json.loads(json.dumps(shipped))
         damage(doc["thickness_rms_mm"])
         path.write_text(json.dumps(doc))
@@ -221,7 +243,8 @@ def test_the_transfer_term_carries_over_the_films_thickness():
         film = replace(get_film(r["film"]), poisson=r["poisson"], thickness_mm=r["thickness_mm"])
         term = transfer_term(fit, r["imprint"], "small", film, r["modulus_mpa"], math.pi * r["applied_radius_mm"] ** 2,
                              r["applied_max_pressure_mpa"])
-        assert term.std_mm == fit.std_mm[f"{r['imprint']}/small"]  # inside the fitted thicknesses
+        # inside the fitted thicknesses: the one std, or more where films of about this thickness were missed by more
+        assert term.std_mm >= fit.std_mm[f"{r['imprint']}/small"] and term.std_mm < 0.003
         by_model.setdefault(r["imprint"], []).append(r["fe_radius_mm"] - r["applied_radius_mm"] - term.shift_mm)
     assert set(by_model) == {"edge", "activation", "capsule"}
     for imprint, residual in by_model.items():

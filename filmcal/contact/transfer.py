@@ -301,11 +301,13 @@ class TransferFit:
                 or set(coef) != set(std) or not set(gp) <= set(coef) or len(domain.get("thickness_mm", ())) != 2:
             raise ValueError(f"{path}: the fit's features or keys do not match this version of filmcal")
         if by_t:
-            edges = by_t.get("edges_mm", [])
-            if set(by_t) != {"edges_mm", *coef} or len(edges) < 2 or np.any(np.diff(edges) <= 0) \
+            edges = np.asarray(by_t.get("edges_mm", []))
+            if set(by_t) != {"edges_mm", *coef} or len(edges) < 2 or not np.all(np.diff(edges) > 0) \
+                    or not np.allclose(edges[[0, -1]], domain["thickness_mm"], rtol=1e-9, atol=0) \
                     or any(len(v) != len(edges) - 1 or not all(math.isfinite(x) and x >= 0 for x in v)
                            for k, v in by_t.items() if k != "edges_mm"):
-                raise ValueError(f"{path}: the fit's residual per range of thickness does not fit its keys")
+                raise ValueError(f"{path}: the fit's residual per range of thickness does not fit its keys or "
+                                 "its thicknesses")
         return out
 
     def to_json(self, path: str | Path) -> None:
@@ -318,15 +320,15 @@ class TransferFit:
         with atomic_path(Path(path)) as tmp:
             Path(tmp).write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
 
-    def shift_mm(self, imprint: str, kinematics: str, features: np.ndarray) -> tuple[np.ndarray, float]:
-        """The fitted d / t for rows of `transfer_features`, and the term's standard deviation (mm)."""
+    def shift_ratio(self, imprint: str, kinematics: str, features: np.ndarray) -> np.ndarray:
+        """The fitted d / t for rows of `transfer_features` (its band: `std_for`)."""
         key = f"{imprint}/{kinematics}"
         if key not in self.coefficients:
             raise KeyError(f"no transfer fit for {key} (have {', '.join(sorted(self.coefficients))})")
         ratio = np.asarray(features) @ np.asarray(self.coefficients[key])
         if key in self.residual_gp:
             ratio = ratio + self.residual_gp[key].predict(features)
-        return ratio, self.std_mm[key]
+        return ratio
 
     def fits_thickness(self, thickness_mm: float) -> bool:
         """Whether films of this thickness (mm) lie within those the fit was made on (``domain["thickness_mm"]``)."""
@@ -393,7 +395,7 @@ def transfer_term(fit: TransferFit, imprint: str, kinematics: str, film, modulus
     level = getattr(film, "activation_pressure_mpa", None)
     features = transfer_features(imprint, modulus_mpa, film.poisson, film.thickness_mm, radius, max_pressure_mpa,
                                  level, grid_mm=fit.grid_mm)
-    ratio, _ = fit.shift_mm(imprint, kinematics, features)
+    ratio = fit.shift_ratio(imprint, kinematics, features)
     std = fit.std_for(imprint, kinematics, film.thickness_mm)
     shift = float(ratio) * film.thickness_mm
     perimeter = 2.0 * math.pi * radius if perimeter_mm is None else float(perimeter_mm)

@@ -548,6 +548,17 @@ def _transfer_blocks() -> list:
             f"{fit.provenance.get('made', '?')} by scripts/fit-transfer). Without the transfer term the springs' "
             "imprint lies outside the calibrated film's; with it the two agree to the residual shown, which "
             "every wheel-rail band carries as the term's standard deviation.")
+    if by_t := fit.thickness_rms_mm:
+        edges = by_t["edges_mm"]
+        raised = [(by_t[key][k], key, edges[k], edges[k + 1]) for key in sorted(fit.std_mm)
+                  for k in range(len(edges) - 1) if by_t[key][k] > fit.std_mm[key]]
+        if raised:
+            top = max(raised)
+            text += (f" The std carried holds every third of the fitted film thicknesses "
+                     f"({edges[0]:g}-{edges[-1]:g} mm); a film whose ninth of them was missed by more carries that "
+                     f"ninth's rms instead ({len(raised)} of the {len(fit.std_mm)} models' "
+                     f"{(len(edges) - 1) * len(fit.std_mm)} ninths; the largest {1e3 * top[0]:.1f} µm: {top[1]} on "
+                     f"films of {top[2]:.3f}-{top[3]:.3f} mm).")
     return [text, Table(["model", "points", "raw mean (µm)", "raw max |d| (µm)", "with term: mean (µm)", "rms (µm)",
                          "max |d| (µm)", "std carried (µm)"], rows,
                         "Transfer term: calibrated FE film minus applied film springs, imprint radius, held out")]
