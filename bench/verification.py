@@ -36,8 +36,9 @@ rail): the observed orders of the phase means, the Richardson extrapolation of t
 largest error of one phase at 0.1 mm against it; and the same readings of
 sphere-on-flat through MS/HS/HHS films at 0.2 / 0.1 / 0.05 / 0.025 mm over 8 phases of the grid in both
 directions (their observed orders).
-``--thickness``: the transfer term at films of 0.05, 0.09 and 0.15 mm (inside the fitted 0.04-0.25 mm) and
-0.3 mm (beyond it, where the band carries `filmcal.contact.transfer.THICKNESS_STD_MM` more) at 8 points of
+``--thickness``: the transfer term at films of 0.045, 0.05, 0.09, 0.15 and 0.23 mm (inside the fitted
+0.04-0.25 mm; 0.045 and 0.23 mm in its outer ninths, whose bands are raised to the rms of the rows they hold)
+and 0.3 mm (beyond it, where the band carries `filmcal.contact.transfer.THICKNESS_STD_MM` more) at 8 points of
 Table 1's region.
 ``--study-dir D``: Table 1 through the application model at each film's calibrated median E and preferred
 model (residuals against the calibration's own FE at the same E; the FE's own least-squares E, one
@@ -257,9 +258,10 @@ def transfer_check(n_points: int) -> list[dict]:
     return out
 
 
-#: Film thicknesses of the ``--thickness`` check (mm): the built-in films' 0.09 mm, two others inside the fitted
-#: range and one beyond it.
-THICKNESS_CHECK_MM = (0.05, 0.09, 0.15, 0.3)
+#: Film thicknesses of the ``--thickness`` check (mm): the built-in films' 0.09 mm, four others inside the fitted
+#: range (0.045 and 0.23 mm in its outer ninths of ln t, whose bands are raised to the rms of the rows they hold:
+#: the one check of those bands on points of their own) and one beyond it.
+THICKNESS_CHECK_MM = (0.045, 0.05, 0.09, 0.15, 0.23, 0.3)
 
 
 def transfer_thickness_check(n_points: int = 8) -> list[dict]:
@@ -480,8 +482,8 @@ def main(argv=None) -> int:
     ap.add_argument("--points", type=int, default=32, help="points of the transfer check (default 32)")
     ap.add_argument("--grid", action="store_true", help="also the grid convergence of the wheel-rail readings")
     ap.add_argument("--thickness", action="store_true",
-                    help="also the transfer at films of 0.05, 0.09 and 0.15 mm (inside the fitted thicknesses) and "
-                         "0.3 mm (beyond them)")
+                    help="also the transfer at films of 0.045, 0.05, 0.09, 0.15 and 0.23 mm (inside the fitted "
+                         "thicknesses) and 0.3 mm (beyond them)")
     ap.add_argument("--study-dir", metavar="D", help="also Table 1 and the correction factor with D's posteriors")
     ap.add_argument("--json", metavar="FILE", help="also write the rows as JSON")
     ap.add_argument("--summary", action="store_true",

@@ -725,7 +725,8 @@ def test_verification_lists_every_shipped_reference_check_and_says_when_it_is_st
         t = float(check.rsplit(", ", 1)[1].removesuffix(" mm"))
         assert ("inside the fitted 0.04-0.25 mm" in reference) == (0.04 <= t <= 0.25)
         assert ("beyond the fitted 0.04-0.25 mm" in reference) == (not 0.04 <= t <= 0.25)
-    assert any(r[0].endswith(", 0.3 mm") for r in table.rows) and any(r[0].endswith(", 0.05 mm") for r in table.rows)
+    for thickness in ("0.045", "0.05", "0.15", "0.23", "0.3"):  # 0.045 and 0.23 mm: the outer ninths' raised bands
+        assert any(r[0].endswith(f", {thickness} mm") for r in table.rows), thickness
     assert doc["made"] in text and "earlier revision" not in text
     for t, row in zip(doc["table1"], table.rows[-3:]):  # each row names its film's model and modulus
         film, model, modulus = t["case"].split()

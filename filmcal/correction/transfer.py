@@ -114,7 +114,7 @@ THICKNESS_PARTS_MM = (0.04, 0.074, 0.136, 0.25)
 #: and the edge on films of 0.17-0.25 mm by 0.0021-0.0028 mm, against a std of 0.0016-0.0019 mm. A range holds
 #: about 10 independent held-out points (the three films share each), too few to lower a band on, enough to
 #: raise one. The raised bands are set on the rows they hold: their one check on points of their own is
-#: `bench/verification.py --thickness` (films of 0.05 and 0.15 mm).
+#: `bench/verification.py --thickness` (films of 0.045, 0.05, 0.15 and 0.23 mm).
 THICKNESS_RANGES = 9
 
 
