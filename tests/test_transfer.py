@@ -119,6 +119,21 @@ def test_the_band_is_the_one_std_raised_to_its_ranges_and_widened_beyond_them():
     assert bare.std_for("edge", "small", 8.0) == pytest.approx(math.hypot(0.002, extra), rel=1e-12)
 
 
+def test_the_terms_digest_follows_the_band_and_the_rule_that_makes_it(monkeypatch):
+    """Cached solves are keyed by `TransferFit.digest`: it changes with a key's band per range of thickness and
+    with `BAND_RULE_REVISION` (the rule of `std_for`), and not with another key's numbers."""
+    import filmcal.contact.transfer as transfer
+
+    fit = load_transfer_fit()
+    before = fit.digest("edge/small")
+    by_t = dict(fit.thickness_rms_mm, **{"edge/small": [x + 1e-4 for x in fit.thickness_rms_mm["edge/small"]]})
+    assert replace(fit, thickness_rms_mm=by_t).digest("edge/small") != before
+    other = dict(fit.thickness_rms_mm, **{"edge/large": [0.0] * len(fit.thickness_rms_mm["edge/large"])})
+    assert replace(fit, thickness_rms_mm=other).digest("edge/small") == before
+    monkeypatch.setattr(transfer, "BAND_RULE_REVISION", transfer.BAND_RULE_REVISION + 1)
+    assert fit.digest("edge/small") != before
+
+
 def test_a_damaged_fit_file_is_refused(tmp_path):
     doc = json.loads(json.dumps({"features": ["1"], "coefficients": {"edge/small": [1.0]},
                                  "std_mm": {"edge/small": 0.1}, "domain": {}, "grid_mm": 0.1}))

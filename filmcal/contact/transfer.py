@@ -88,6 +88,9 @@ TRANSFER_FILE = "film_transfer.json"
 #: now holds out), the activation and capsule readings' at 8 points at 0.05 mm (`bench/verification.py
 #: --thickness`): the one measured size of a thickness extrapolation.
 THICKNESS_STD_MM = {"edge": 0.0028, "activation": 0.0062, "capsule": 0.0065}
+#: The revision of how `TransferFit.std_for` makes a film's band from the fit's numbers (part of `digest`): raise it
+#: whenever that rule changes, so that solves cached under the old rule are made again.
+BAND_RULE_REVISION = 2
 #: Names of the fitted features (the order of the coefficients).
 FEATURES = ("1", "nu", "nu^2", "x", "x^2", "nu x", "y", "nu y", "y^2", "c", "c x", "c y", "z", "c z",
             "w", "c w", "x w", "y w")
@@ -352,10 +355,11 @@ class TransferFit:
         return math.hypot(std, THICKNESS_STD_MM[imprint])
 
     def digest(self, key: str) -> str:
-        """SHA-256 of everything that sets one key's term (for the specs of cached solves)."""
+        """SHA-256 of everything that sets one key's term (for the specs of cached solves): its numbers and the
+        revision of the rule that makes its band (`BAND_RULE_REVISION`)."""
         import hashlib
 
-        doc = {"coefficients": self.coefficients[key], "std_mm": self.std_mm[key], "grid_mm": self.grid_mm,
+        doc = {"band_rule": BAND_RULE_REVISION, "coefficients": self.coefficients[key], "std_mm": self.std_mm[key], "grid_mm": self.grid_mm,
                "thickness_domain_mm": list(self.domain["thickness_mm"]),
                "thickness_std_mm": THICKNESS_STD_MM[key.split("/")[0]],
                "thickness_rms_mm": [self.thickness_rms_mm.get("edges_mm"), self.thickness_rms_mm.get(key)],
