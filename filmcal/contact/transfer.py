@@ -266,8 +266,8 @@ class TransferFit:
         The same keys (activation and capsule) -> `ResidualGP` of d / t beyond the polynomial.
     thickness_rms_mm : dict
         The residual measured in ranges of the film's thickness: ``"edges_mm"`` -> the ranges' bounds (mm,
-        increasing), and each key -> one root-mean-square residual (mm) per range, the larger of the training
-        rows' and the held-out rows' there (0 where a range holds none). `std_for` raises the term's std to it
+        increasing), and each key -> one root-mean-square residual (mm) per range, the largest of the training
+        rows' and of each held-out part's there (0 where a range holds none). `std_for` raises the term's std to it
         where it is larger, never lowers it. Empty: no such ranges (the std is `std_mm` at every thickness).
     """
 
