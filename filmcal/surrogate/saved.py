@@ -36,7 +36,8 @@ import numpy as np
 
 from filmcal.surrogate.transforms import InputTransform, OutputTransform, as_input_matrix
 
-__all__ = ["FORMAT", "FORMAT_VERSION", "SETTINGS", "SavedSurrogate", "load_saved_surrogate", "read_saved", "kernel_hyperparameters"]
+__all__ = ["FORMAT", "FORMAT_VERSION", "SETTINGS", "SavedSurrogate", "load_saved_surrogate", "read_saved", "kernel_hyperparameters",
+           "arrays_sha256"]
 
 FORMAT = "filmcal-gp-surrogate"
 FORMAT_VERSION = 1
@@ -103,9 +104,22 @@ def read_saved(path: str | Path) -> dict:
             or list(input_transform.names) != meta.get("input_names"):
         raise ValueError(f"{json_path}: input/output names are inconsistent")
     X, y = _read_arrays(json_path.with_name(arrays_name), len(input_transform.names), n_train)
+    if "arrays_sha256" in meta and meta["arrays_sha256"] != arrays_sha256(X, y):  # files written before have none
+        raise ValueError(f"{json_path}: the training data in {arrays_name} are not those the surrogate was saved with "
+                         "(their SHA-256 differs from the one recorded)")
     return {"json_path": json_path, "meta": meta, "params": params, "input_transform": input_transform,
             "output_transform": output_transform, "n_train": n_train, "stored_lml": stored_lml,
             "restarts": restarts, "X": X, "y": y}
+
+
+def arrays_sha256(X: np.ndarray, y: np.ndarray) -> str:
+    """SHA-256 of the training data as saved (float64, C order, X then y): the exact check that the data a
+    surrogate is loaded with are those it was fitted on, whatever the numerics that refactorise its kernel."""
+    import hashlib
+
+    digest = hashlib.sha256(np.ascontiguousarray(X, dtype=np.float64).tobytes())
+    digest.update(np.ascontiguousarray(y, dtype=np.float64).tobytes())
+    return digest.hexdigest()
 
 
 def _read_arrays(npz_path: Path, n_inputs: int, n_train: int) -> tuple[np.ndarray, np.ndarray]:
