@@ -120,11 +120,17 @@ def test_the_numpy_reader_refuses_what_load_surrogate_refuses(saved, edit, messa
 
 @pytest.mark.parametrize("index", [0, 17])
 def test_the_numpy_reader_refuses_a_training_value_changed_by_a_thousandth(saved, index):
-    """Its log marginal likelihood tolerance (1e-4 relative, for the rounding of nearly singular kernels) still
-    sees one stored radius changed by 0.1 %: the likelihood moves by 5e-4..2e-3 (relative)."""
+    """One stored radius changed by 0.1 % is refused: by the training data's SHA-256 recorded with them, and in a
+    file written before that digest by the log marginal likelihood (its tolerance, 1e-4 relative for the rounding
+    of nearly singular kernels, still sees the likelihood move by 5e-4..2e-3)."""
     arrays = dict(np.load(saved.with_name("s.npz")))
     arrays["y_train"][index] *= 1.001
     np.savez(saved.with_name("s.npz"), **arrays)
+    with pytest.raises(ValueError, match="not those the surrogate was saved with"):
+        load_saved_surrogate(saved)
+    meta = json.loads(saved.with_name("s.json").read_text())
+    del meta["arrays_sha256"]
+    saved.with_name("s.json").write_text(json.dumps(meta))
     with pytest.raises(ValueError, match="log marginal likelihood"):
         load_saved_surrogate(saved)
 
