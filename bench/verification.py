@@ -9,6 +9,8 @@ Rows:
 * ``FE / second formulation``: the FE at its default mesh with a film against the second formulation
   (`filmcal.fem.reference`, biquadratic, extrapolated from h = 0.05 and 0.025 mm) at films across nu 0.25-0.45
   (``bench/fe_reference.py`` runs 84 such cases);
+* ``application / second formulation``: the application's film (half-space springs read by the edge model, plus
+  the transfer term fitted to the FE at its default mesh) against the same converged second formulation, end to end;
 * ``FE / second formulation, large strain``: the same with neo-Hookean films (the production film's kernel and
   the reference's are written independently; the reference extrapolated from h = 0.1 and 0.05 mm), down to
   MS's calibrated modulus at 100 kN (through-thickness strain 0.5);
@@ -24,6 +26,9 @@ Rows:
   (R 250-600 mm, 20-110 kN; seed 3) and N over the whole supported domain (R 150-1500 mm, 9-165 kN within the
   elastic limit; seed 17, rows marked ``whole domain``) that none of the shipped fit's designs contains:
   without the term (``raw``) and with it;
+* ``sphere wheel / sphere-on-flat``: a sphere as the wheel profile on a flat rail through the wheel-rail model
+  (`filmcal.wheelrail.profiles.sphere_wheel`, `flat_rail`) against `sphere_on_flat_contact` on the exact sphere's
+  gap, where the transfer term was fitted and is checked: every reading of MS/HS/HHS at the points above;
 * ``wheel-rail / CONTACT``: the wheel-rail model at its default grid against CONTACT's stored numbers
   (``tests/data/contact``, with the input decks that made them; CONTACT cannot be built everywhere):
   S1002 on 60E1 at 10 kN over the flange, and S1002 on 60E2 at 50/100 kN with and without MS/HS/HHS layers.
@@ -91,9 +96,15 @@ REFERENCES = {
     "FE / Hertz": "Hertz's closed form, no film (Table 1's cases and R 250 mm / 15 kN)",
     "FE / second formulation": "biquadratic FE with the closing-load edge, extrapolated to h -> 0, films at nu 0.25-0.45",
     "FE / second formulation, large strain": "the same with neo-Hookean films in both (independent kernels), strains up to 0.5",
+    "application / second formulation": "the same converged FE: the application's film (half-space springs, "
+                                        "sphere-on-flat, edge reading) with its transfer term, fitted to the FE at "
+                                        "its default mesh",
     "half-space / Hertz": "Hertz's closed form, no film",
     "half-space / thin-layer BEM": "axisymmetric ring BEM of the same spring film (rings of 0.005 mm), against the "
                                    "half-space outline's limit in the grid",
+    "sphere wheel / sphere-on-flat": "the same half-space film read on the exact sphere's gap "
+                                     "(sphere_on_flat_contact): a sphere as the wheel profile on a flat rail through "
+                                     "the wheel-rail model, every reading of MS/HS/HHS",
     "wheel-rail / CONTACT flange": "CONTACT, refined and extrapolated: S1002 on 60E1, 10 kN, eta -3..+8 mm, an HS layer at +5 mm",
     "wheel-rail / CONTACT layer": "CONTACT's elastic layer: S1002 on 60E2, 50/100 kN, eta -5..+2 mm, no film and MS/HS/HHS",
 }
@@ -101,7 +112,8 @@ REFERENCES = {
 
 def summarise(rows: list[dict]) -> dict:
     """Per check: cases, mean and largest difference (mm or mm2), largest relative difference (%); the transfer
-    per reading; with ``--study-dir``, Table 1 through the application and the correction factor before and
+    per reading; with ``--grid``, per reading its largest error of one phase at 0.1 mm (%) and its observed
+    orders from 0.1 mm (median, and how many in 1.5-2.5); with ``--study-dir``, Table 1 through the application and the correction factor before and
     after, per film (empty lists without it)."""
     from filmcal.contact.names import APPLICATION_MODEL_REVISION, FE_MODEL_REVISION
 
@@ -117,16 +129,35 @@ def summarise(rows: list[dict]) -> dict:
                        "max_abs_rel_pct": float(100 * max(abs(r["relative"]) for r in sel))})
     transfer = [{k: r[k] for k in ("check", "n", "raw_mean_mm", "raw_max_mm", "mean_mm", "rms_mm", "max_mm", "std_mm",
                                    "not_converged", "one_sided")}
-                for r in rows if r["check"].startswith("transfer ")]
+                for r in rows if r["check"].startswith("transfer ") and not r["check"].startswith("transfer per film")]
+    per_film = {}
+    for r in rows:
+        if r["check"].startswith("transfer per film"):
+            f = per_film.setdefault(r["film"], {"film": r["film"], "n": 0, "mean_min_mm": math.inf,
+                                                "mean_max_mm": -math.inf, "max_mm": 0.0})
+            f["n"] += r["n"]
+            f["mean_min_mm"] = min(f["mean_min_mm"], r["mean_mm"])
+            f["mean_max_mm"] = max(f["mean_max_mm"], r["mean_mm"])
+            f["max_mm"] = max(f["max_mm"], r["max_mm"])
     table1 = [{k: r[k] for k in ("case", "mean_residual_mm", "rms_mm", "calibration_mean_residual_mm",
                                  "calibration_rms_mm", "quadrature_median_mpa", "quadrature_mean_residual_mm")}
               for r in rows if r["check"] == "Table 1 through the application"]
     factor = [{k: r[k] for k in ("case", "before", "after", "reading_change_mm2", "transfer_shift_mm2",
                                  "transfer_std_mm2")}
               for r in rows if r["check"].startswith("correction factor")]
+    grid = []
+    for kind in dict.fromkeys(r["check"] for r in rows if r["check"].startswith("grid ")):
+        sel = [r for r in rows if r["check"] == kind]
+        fine = np.array([r["orders"][1] for r in sel if len(r["orders"]) > 1])  # 0.1-0.05-0.025 mm, where solved
+        fine = fine[np.isfinite(fine)]
+        grid.append({"reading": kind.removeprefix("grid "), "n": len(sel), "n_fine": int(fine.size),
+                     "max_error_at_0.1_pct": float(100 * max(abs(r["error_at_0.1_rel"]) for r in sel)),
+                     "order_median": float(np.median(fine)) if fine.size else float("nan"),
+                     "orders_in_1.5_2.5": int(np.sum((fine >= 1.5) & (fine <= 2.5)))})
     return {"made": time.strftime("%Y-%m-%d"), "script": "bench/verification.py --summary",
             "fe_model_revision": FE_MODEL_REVISION, "application_model_revision": APPLICATION_MODEL_REVISION,
-            "checks": checks, "transfer": transfer, "table1": table1, "correction_factor": factor}
+            "checks": checks, "transfer": transfer, "transfer_per_film": list(per_film.values()), "table1": table1,
+            "correction_factor": factor, "grid": grid}
 
 
 #: (R mm, F kN, E MPa, nu): films across the supported nu range, off the fits' designs.
@@ -138,13 +169,27 @@ def fe_against_second_formulation() -> list[dict]:
     from filmcal.fem import Film, get_model
     from filmcal.fem.reference import QuadraticSphereOnFlat
 
+    from dataclasses import replace
+
+    from filmcal.contact.film import FilmModel
+    from filmcal.films import get_film
+    from filmcal.wheelrail.halfspace import sphere_on_flat_contact
+
     rows = []
     for r, f, e, nu in SECOND_FORMULATION_CASES:
         a = [QuadraticSphereOnFlat(r, element_size_mm=h, contact_zone_mm=12.0).solve(f * 1e3, e, nu).contact_radius_mm
              for h in (0.05, 0.025)]
+        converged = 2.0 * a[1] - a[0]
         res = get_model(r).solve(Film(e, nu), f * 1e3)
         rows.append(_row("FE / second formulation", f"R{r:g} {f:g} kN E{e:g} nu{nu:g}", res.contact_radius_mm,
-                         2.0 * a[1] - a[0]))
+                         converged))
+        # end to end: the application's film with its transfer term (edge reading) against the converged FE
+        model = FilmModel(replace(get_film("HS"), poisson=nu), "edge", "small")
+        film, law, _ = model.interface(e)
+        applied = sphere_on_flat_contact(r, f * 1e3, film=film, law=law)
+        area = model.recorded_area_mm2(applied) + model.transfer_term(e, applied).shift_mm2
+        rows.append(_row("application / second formulation", f"R{r:g} {f:g} kN E{e:g} nu{nu:g}",
+                         math.sqrt(area / math.pi), converged))
     return rows
 
 
@@ -188,6 +233,37 @@ def halfspace_against_hertz() -> list[dict]:
         res = sphere_on_flat_contact(r, f * 1e3)
         rows.append(_row("half-space / Hertz", f"R{r:g} {f:g} kN", res.equivalent_radius_mm,
                          float(hertz_radius_mm(r, f * 1e3))))
+    return rows
+
+
+def sphere_wheel_against_sphere_on_flat() -> list[dict]:
+    """A sphere as the wheel profile on a flat rail through the wheel-rail model (its placement, contact plane,
+    sampled profiles, grid and phase) against sphere-on-flat on the exact sphere's gap, where the transfer term
+    was fitted: each imprint model's radius with MS/HS/HHS at `TRANSFER_POINTS`."""
+    from dataclasses import replace
+
+    from filmcal.contact.film import FilmModel
+    from filmcal.contact.imprint import imprint_models_for
+    from filmcal.films import get_film
+    from filmcal.wheelrail.halfspace import HalfSpaceContactSolver, sphere_on_flat_contact
+    from filmcal.wheelrail.profiles import flat_rail, sphere_wheel
+    from filmcal.wheelrail.wheelrail import WheelRailModel
+
+    solver = HalfSpaceContactSolver()
+    rows = []
+    for r, f, e, nu in TRANSFER_POINTS:
+        wheel_rail = WheelRailModel(sphere_wheel(r), flat_rail(), rail_inclination=0.0, nominal_radius_mm=r,
+                                    solver=solver)
+        for name in ("MS", "HS", "HHS"):
+            film_type = replace(get_film(name), poisson=nu)
+            models = [FilmModel(film_type, imprint, "large") for imprint in imprint_models_for(film_type)]
+            film, law, _ = models[0].interface(e)
+            applied = wheel_rail.solve(0.0, f * 1e3, film=film, roughness=law)
+            sphere = sphere_on_flat_contact(r, f * 1e3, film=film, law=law, solver=solver)
+            for m in models:
+                rows.append(_row("sphere wheel / sphere-on-flat", f"R{r:g} {f:g} kN E{e:g} {name} {m.imprint}",
+                                 math.sqrt(m.recorded_area_mm2(applied) / math.pi),
+                                 math.sqrt(m.recorded_area_mm2(sphere) / math.pi)))
     return rows
 
 
@@ -255,6 +331,11 @@ def transfer_check(n_points: int) -> list[dict]:
                         "rms_mm": r["rms_mm"], "max_mm": r["max_mm"],
                         "std_mm": fit.std_for(*key.split("/"), thickness),
                         "not_converged": r["not_converged"], "one_sided": r["one_sided"]})
+        for film in films:  # the systematic term left per film (pooled above over the three)
+            for key, r in sorted(check_transfer(fit, [row for row in rows if row["film"] == film.name]).items()):
+                out.append({"check": f"transfer per film {key}" + ("" if region == "core" else ", whole domain"),
+                            "film": film.name, "n": r["n"], "mean_mm": r["mean_mm"], "rms_mm": r["rms_mm"],
+                            "max_mm": r["max_mm"], "std_mm": fit.std_for(*key.split("/"), thickness)})
     return out
 
 
@@ -292,8 +373,15 @@ def _print_transfer(rows: list[dict]) -> None:
     print(f"{'model':40} {'n':>4} {'raw mean':>9} {'raw max':>8} | {'mean':>8} {'rms':>7} {'max':>7} | {'term std':>8}"
           " | left out: FE not converged, one model records nothing")
     for r in rows:
+        if "film" in r:  # one film's rows (transfer_check): the systematic term left for that film
+            continue
         print(f"{r['check']:40} {r['n']:4d} {r['raw_mean_mm']:+9.4f} {r['raw_max_mm']:8.4f} | {r['mean_mm']:+8.4f} "
               f"{r['rms_mm']:7.4f} {r['max_mm']:7.4f} | {r['std_mm']:8.4f} | {r['not_converged']} {r['one_sided']}")
+    for film in dict.fromkeys(r["film"] for r in rows if "film" in r):
+        own = [r for r in rows if r.get("film") == film]
+        print(f"summary transfer, {film} alone: {sum(r['n'] for r in own)} readings, means "
+              f"{min(r['mean_mm'] for r in own):+.4f} .. {max(r['mean_mm'] for r in own):+.4f} mm (the systematic "
+              f"term left), largest {max(r['max_mm'] for r in own):.4f} mm")
 
 
 GRID_CASES = [(f, eta, e) for f in (50e3, 100e3) for eta in (-5.0, -1.5, 2.0) for e in (800.0, 2800.0, 6300.0)]
@@ -307,6 +395,11 @@ GRID_PHASES = 4
 ALONG_PHASES = (0, 2, 1, 3)
 #: The slide's tolerance of the grid study (cells; the model's default is `SLIDE_TOL_CELLS`, 0.02).
 GRID_SLIDE_TOL_CELLS = 1e-4
+
+
+def _grid_label(model) -> str:
+    """The grid study's name of a reading: the edge, or a level reading at a film's levels ("capsule MS")."""
+    return model.imprint if model.imprint == "edge" else f"{model.imprint} {model.film.name}"
 
 
 def grid_convergence() -> list[dict]:
@@ -327,7 +420,10 @@ def grid_convergence() -> list[dict]:
              for h in spacings}
     out = []
     hs = get_film("HS")
-    models = [FilmModel(hs, imprint, "small") for imprint in ("edge", "activation", "capsule")]
+    # the HS film's solutions, read by the edge and by the level readings at each film's levels (MS 10, HS 50,
+    # HHS 130 MPa; capsule ranges 10-50, 50-130, 130-300 MPa): MS's read in the edge zone of the softer films
+    models = [FilmModel(hs, "edge", "small")] + [FilmModel(get_film(name), imprint, "small")
+                                                 for name in ("MS", "HS", "HHS") for imprint in ("activation", "capsule")]
     for force, eta, e in GRID_CASES:
         solver_film, _, _ = models[0].interface(e)
         # one region for every grid: the loaded cells of the 0.2 mm solution and 0.4 mm around them; the grid
@@ -337,7 +433,7 @@ def grid_convergence() -> list[dict]:
         loaded = base.pressure_mpa > 0
         half_x = float(np.abs(x[loaded]).max()) + 0.4
         s_lo, s_hi = float(y[loaded].min()) - 0.4, float(y[loaded].max()) + 0.4
-        areas = {m.imprint: np.full((len(spacings), GRID_PHASES), np.nan) for m in models}
+        areas = {_grid_label(m): np.full((len(spacings), GRID_PHASES), np.nan) for m in models}
         for i, h in enumerate(spacings):
             for k in range(GRID_PHASES):
                 shift = h * k / GRID_PHASES
@@ -350,7 +446,7 @@ def grid_convergence() -> list[dict]:
                         raise
                     break
                 for m in models:
-                    areas[m.imprint][i, k] = m.recorded_area_mm2(res)
+                    areas[_grid_label(m)][i, k] = m.recorded_area_mm2(res)
         for imprint, a in areas.items():
             a = a[np.isfinite(a).all(axis=1)]
             mean = a.mean(axis=1)
@@ -446,7 +542,7 @@ def study_checks(study_dir: str) -> list[dict]:
         lo, hi = (float(v) for v in preferred["modulus_mpa"]["ci90"])
         # the median's own error: its Monte Carlo standard error, and the exact median of the recorded
         # posterior by quadrature when it has two parameters (ln E, ln sigma)
-        path = Path(s["posterior_file"])
+        path = study.layout.posterior(Path(s["posterior_file"]).stem)  # recorded relative to the writer's cwd
         mcse = compute_diagnostics({"E": load_result(path).samples["modulus_mpa"]}).mcse["E"]["median"]
         problem = study.problem(path)
         exact = (quadrature_quantiles(problem, e)["median"]
@@ -492,7 +588,7 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     rows = (fe_against_hertz() + fe_against_second_formulation() + fe_against_second_formulation_large_strain()
             + halfspace_against_hertz()
-            + halfspace_against_thin_layer() + wheelrail_against_contact())
+            + halfspace_against_thin_layer() + sphere_wheel_against_sphere_on_flat() + wheelrail_against_contact())
     print(f"{'check':34} {'case':30} {'value mm':>10} {'ref mm':>10} {'diff mm':>9} {'rel %':>8}")
     for row in rows:
         print(f"{row['check']:34} {row['case'][:30]:30} {row['value_mm']:10.4f} {row['reference_mm']:10.4f} "
@@ -523,7 +619,7 @@ def main(argv=None) -> int:
         rows += thick
     if args.grid:
         grid = grid_convergence()
-        print(f"\nreadings with the HS film on S1002/60E2: areas at 0.2 / 0.1 / 0.05 / 0.025 mm (mm2, the mean of "
+        print(f"\nreadings of the HS film's solutions on S1002/60E2 (the level readings at MS/HS/HHS's levels): areas at 0.2 / 0.1 / 0.05 / 0.025 mm (mm2, the mean of "
               f"{GRID_PHASES} phases of the grid; the phases' spread at 0.1 mm), observed orders of the means "
               "(0.2-0.1-0.05, 0.1-0.05-0.025), largest error of one phase at 0.1 mm against the extrapolation")
         for r in grid:

@@ -684,7 +684,12 @@ def test_verification_lists_every_shipped_reference_check_and_says_when_it_is_st
     doc = _json.loads((resources.files("filmcal.data") / "verification.json").read_text(encoding="utf-8"))
     assert {"FE / Hertz", "FE / second formulation", "wheel-rail / CONTACT flange",
             "wheel-rail / CONTACT layer"} <= {c["check"] for c in doc["checks"]}
-    text, table, *factor = study_report._reference_checks()
+    text, table, per_film, *factor = study_report._reference_checks()
+    # the systematic term left per film (the issue asks it with its sign): each film's means and largest miss
+    assert [f["film"] for f in doc["transfer_per_film"]] == ["MS", "HS", "HHS"]
+    for f in doc["transfer_per_film"]:
+        assert f"{f['film']} {f['mean_min_mm']:+.4f}..{f['mean_max_mm']:+.4f} mm" in per_film
+        assert max(abs(f["mean_min_mm"]), abs(f["mean_max_mm"])) <= 0.005 and f["max_mm"] <= 0.005
     # the transfer: one row per set of points, over its six readings, whose largest miss is the largest of theirs
     sets = {t["check"].partition(", ")[2] or "Table 1's region": [] for t in doc["transfer"]}
     for t in doc["transfer"]:
@@ -692,7 +697,14 @@ def test_verification_lists_every_shipped_reference_check_and_says_when_it_is_st
     films = [t["case"].split()[0] for t in doc["table1"]]
     assert films == ["MS", "HS", "HHS"]
     assert [r[0] for r in table.rows] == [c["check"] for c in doc["checks"]] + [f"transfer, {k}" for k in sets] \
+        + [f"grid convergence, {g['reading']}" for g in doc["grid"]] \
         + [f"Table 1 through the application, {f}" for f in films]
+    # every reading with a film at each film's levels on the wheel-rail contact: within 0.3 % of its own limit in
+    # the grid at 0.1 mm (the issue's target), and the table says how far and at which order
+    assert {g["reading"] for g in doc["grid"]} == {"edge"} | {f"{m} {f}" for m in ("activation", "capsule")
+                                                             for f in ("MS", "HS", "HHS")}
+    for g, row in zip(doc["grid"], table.rows[len(doc["checks"]) + len(sets):]):
+        assert g["max_error_at_0.1_pct"] <= 0.3 and row[5] == f"{g['max_error_at_0.1_pct']:.3f} at 0.1 mm"
     assert all(len(v) == 6 for v in sets.values())
     # Table 1 through the application at each film's median E: the application adds nothing to the calibrated
     # FE's residual (issue's targets: the rms within 0.005 mm of the calibration's), and the report says both
@@ -703,7 +715,7 @@ def test_verification_lists_every_shipped_reference_check_and_says_when_it_is_st
     (factor,) = factor  # the correction factor before and after, per film
     for c in doc["correction_factor"]:
         assert f"{c['case'].split()[0]} {c['before']:.4f} → {c['after']:.4f}" in factor
-    for row in table.rows[len(doc["checks"]):-3]:
+    for row in table.rows[len(doc["checks"]):len(doc["checks"]) + len(sets)]:
         ts = sets[row[0].removeprefix("transfer, ")]
         n = sorted({t["n"] for t in ts})
         assert row[2] == (f"{n[0]} × 6" if len(n) == 1 else f"{n[0]}-{n[-1]} × 6")
@@ -732,8 +744,8 @@ def test_verification_lists_every_shipped_reference_check_and_says_when_it_is_st
         film, model, modulus = t["case"].split()
         assert row[0].endswith(film) and f"(here {model}, {modulus.removeprefix('E')} MPa)" in row[1]
     # a summary made without --study-dir (or by an older filmcal) has neither: the report says so
-    text, table = study_report._reference_checks({k: v for k, v in doc.items()
-                                                  if k not in ("table1", "correction_factor")})
+    text, table, _ = study_report._reference_checks({k: v for k, v in doc.items()
+                                                     if k not in ("table1", "correction_factor")})
     assert "made with --study-dir; this one was not" in text
     assert not any(r[0].startswith("Table 1 through") for r in table.rows)
     monkeypatch.setattr(names, "APPLICATION_MODEL_REVISION", doc["application_model_revision"] + 1)

@@ -308,3 +308,30 @@ def test_a_flange_contact_is_solved_at_a_fine_grid_and_the_grid_is_bounded_by_it
     assert max(areas) / min(areas) - 1 < 0.002
     with pytest.raises(ValueError, match="cells"):
         solve_wheel_rail(-3.0, 150e3, grid_mm=0.01)
+
+
+@pytest.mark.parametrize("film_name", ["MS", "HHS"])
+@pytest.mark.parametrize("radius, force_kn, modulus, poisson", [(300.0, 35.0, 1200.0, 0.40),
+                                                                 (600.0, 90.0, 6000.0, 0.33)])
+def test_a_sphere_as_the_wheel_on_a_flat_rail_is_sphere_on_flat(film_name, radius, force_kn, modulus, poisson):
+    """The wheel-rail model's geometry (placement, contact plane, sampled profiles, its own grid and phase)
+    with a sphere as the wheel profile on a flat rail reads every imprint of a film as sphere-on-flat with the
+    exact sphere's gap does, within 0.0005 mm in radius: the transfer term fitted on sphere-on-flat applies to
+    a wheel-rail contact."""
+    from dataclasses import replace
+
+    from filmcal.contact.film import FilmModel
+    from filmcal.contact.imprint import imprint_models_for
+    from filmcal.films import get_film
+    from filmcal.wheelrail.halfspace import sphere_on_flat_contact
+    from filmcal.wheelrail.profiles import flat_rail, sphere_wheel
+
+    film_type = replace(get_film(film_name), poisson=poisson)
+    models = [FilmModel(film_type, imprint, "large") for imprint in imprint_models_for(film_type)]
+    film, law, _ = models[0].interface(modulus)
+    wheel_rail = WheelRailModel(sphere_wheel(radius), flat_rail(), rail_inclination=0.0,
+                                nominal_radius_mm=radius).solve(0.0, force_kn * 1e3, film=film, roughness=law)
+    sphere = sphere_on_flat_contact(radius, force_kn * 1e3, film=film, law=law)
+    for m in models:
+        assert math.sqrt(m.recorded_area_mm2(wheel_rail) / math.pi) == pytest.approx(
+            math.sqrt(m.recorded_area_mm2(sphere) / math.pi), abs=5e-4), m.imprint

@@ -48,17 +48,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Callable, Iterator, Sequence
 
 import numpy as np
 
 from filmcal.contact.geometry import outline_area_mm2
 
 __all__ = ["FILM_CONTOUR_POWER", "NOMINAL_LEVEL", "nominal_area_mm2", "EDGE_WINDOW_MM", "HERTZ_WINDOW_MM", "TIP_SCALE", "TIP_STIFFNESS_FACTOR", "film_tip_length_mm", "tributary_areas_mm2",
-           "RadialProfile", "read_radial_profile", "GridField"]
+           "RadialProfile", "read_radial_profile", "GridField", "INTEGRAL_NODES"]
 
 #: The contoured power of the pressure through a film (`GridField`): it rises linearly from the edge.
 FILM_CONTOUR_POWER = 1
+#: Gauss-Legendre nodes over the values of the integrand in `GridField.integral_mm2` (each a contour of the
+#: field): 48 read the capsule imprint within 0.00003 mm in radius of 96 (sphere-on-flat, MS/HS/HHS).
+INTEGRAL_NODES = 48
 
 #: Width of the window of nodes inside the last loaded node fitted for the edge
 #: of a contact through a film (mm): the two-scale shape holds near the edge only.
@@ -423,24 +426,67 @@ class GridField:
 
         ``level_mpa = 0`` gives the zero-pressure edge.
         """
-        import contourpy
-
         if not (math.isfinite(level_mpa) and level_mpa >= 0):
             raise ValueError(f"level_mpa must be finite and >= 0, got {level_mpa!r}")
+        rings = next(self._outlines([float(level_mpa)]))
+        return float(outline_area_mm2(rings)), rings
+
+    def _outlines(self, levels_mpa: Sequence[float]) -> Iterator[list[np.ndarray]]:
+        """The outline rings above each level in turn, from one contour generator of the field."""
+        import contourpy
+
         f = self.contoured_extended()
         top = float(f.max())
-        level = level_mpa**self.power
-        if top <= level:
-            return 0.0, []
         gen = contourpy.contour_generator(self.x_mm, self.y_mm, f.T, fill_type=contourpy.FillType.OuterOffset)
-        points, offsets = gen.filled(level, top + 1.0)
-        rings = [np.asarray(pts[lo:hi]) for pts, offs in zip(points, offsets)
-                 for lo, hi in zip(offs[:-1], offs[1:])]
-        return outline_area_mm2(rings), rings
+        for level_mpa in levels_mpa:
+            level = level_mpa**self.power
+            if top <= level:
+                yield []
+                continue
+            points, offsets = gen.filled(level, top + 1.0)
+            yield [np.asarray(pts[lo:hi]) for pts, offs in zip(points, offsets)
+                   for lo, hi in zip(offs[:-1], offs[1:])]
 
-    def integral_mm2(self, fn: Callable[[np.ndarray], np.ndarray]) -> float:
-        """``sum fn(p) dA`` over the cells (mm^2 times fn's unit)."""
-        return float(np.sum(fn(np.clip(self.pressure_mpa, 0.0, None))) * self.cell_area_mm2)
+    def integral_mm2(self, fn: Callable[[np.ndarray], np.ndarray], nodes: int = INTEGRAL_NODES) -> float:
+        """``int fn(p) dA`` over the loaded region (mm^2 times fn's unit).
+
+        Read as layers: ``int fn(p) dA = fn(0+) A(0) + int fn'(q) A(q) dq`` over ``0 < q < p_max``, ``A(q)``
+        the area where the pressure exceeds ``q`` (`level_area_mm2`, sub-cell contours), by Gauss-Legendre
+        quadrature with `nodes` nodes over the variation of ``fn`` (tabulated at 4096 pressures): for a
+        nondecreasing ``fn`` (a stain probability, a coverage) that is ``int A(fn^-1(u)) du``; a run over which
+        ``fn`` falls has its own nodes, its layers counted negatively. A sum of ``fn`` over the cells instead moved the capsule imprint
+        of a sphere through MS film by up to 0.0025 mm in radius with the grid's phase against the patch; read
+        as layers, by 0.0002 mm. Contours interpolated linearly between cell centres lie inside a concave
+        field's, so the layers read the capsule imprint of a sphere (R 300 mm, 35 kN, a film of 1200 MPa)
+        0.0004-0.0005 mm smaller at 0.1 mm cells than at 0.025 mm (the cell sum: -0.0001..+0.0002 mm), an
+        error the transfer term, fitted on the same grid, carries.
+        """
+        p = np.clip(self.pressure_mpa, 0.0, None)
+        top = float(p.max()) if p.size else 0.0
+        if not top > 0.0:
+            return 0.0
+        table_p = np.linspace(0.0, top, 4097)[1:]
+        table_u = np.asarray(fn(table_p), dtype=float)
+        step = np.diff(table_u)
+        variation = np.concatenate([[0.0], np.cumsum(np.abs(step))])
+        total = float(variation[-1])
+        # the runs over which fn rises or falls (a flat step joins the run before it), each by Gauss-Legendre
+        # nodes in its variation, as many as its share of the total (at least 4)
+        moving = np.flatnonzero(step != 0.0)
+        turns = moving[1:][np.sign(step[moving[1:]]) != np.sign(step[moving[:-1]])]
+        levels, weights = [0.0], []
+        for lo, hi in zip([0, *turns], [*turns, step.size]):
+            v0, v1 = float(variation[lo]), float(variation[hi])
+            if not v1 - v0 > 1e-12 * total:
+                continue
+            x, w = np.polynomial.legendre.leggauss(max(4, round(nodes * (v1 - v0) / total)))
+            v = v0 + 0.5 * (v1 - v0) * (x + 1.0)
+            k = np.clip(np.searchsorted(variation, v, side="right") - 1, lo, hi - 1)  # the table step of each node
+            frac = (v - variation[k]) / np.where(step[k] != 0.0, np.abs(step[k]), 1.0)
+            levels += list(table_p[k] + frac * (table_p[k + 1] - table_p[k]))
+            weights += list(0.5 * (v1 - v0) * w * np.sign(step[k]))
+        areas = np.array([outline_area_mm2(rings) for rings in self._outlines(levels)])
+        return float(table_u[0] * areas[0] + np.dot(weights, areas[1:]))
 
 
 #: The nominal contact of rough bodies: where the nominal pressure exceeds this fraction of its maximum. A

@@ -58,7 +58,7 @@ __all__ = [
     "ProfileSection", "ArcSection", "PolynomialSection", "SplineSection", "Joint", "Profile",
     "PROFILE_NAMES", "PROFILE_KINDS", "INNER_FACE_Y_MM", "FLANGE_THICKNESS_HEIGHT_MM",
     "GAUGE_DEPTH_MM", "RAIL_FLANK_END_DEPTH_MM",
-    "s1002_wheel", "rail_60e1", "rail_60e2", "rail_head", "get_profile", "load_profile_csv",
+    "s1002_wheel", "rail_60e1", "rail_60e2", "rail_head", "sphere_wheel", "flat_rail", "get_profile", "load_profile_csv",
     "flange_height_mm", "flange_thickness_mm", "head_width_mm", "profile_dimensions",
 ]
 
@@ -393,6 +393,28 @@ def s1002_wheel() -> Profile:
     )
     return Profile("S1002", "wheel", sections,
                    source="UIC 510-2 (2004) Appendix B / EN 13715 profile S1002, sections A-H")
+
+
+def sphere_wheel(radius_mm: float, half_width_mm: float | None = None) -> Profile:
+    """A sphere of radius `radius_mm` as a wheel profile: an arc of that radius about the axle, over
+    ``|y| <= half_width_mm`` (default: 50 mm, or half the radius if that is less).
+
+    With ``nominal_radius_mm = radius_mm`` the wheel's rolling radius at ``y`` is ``sqrt(R^2 - y^2)``, so
+    the wheel is the sphere itself; on `flat_rail` without cant the wheel-rail model solves
+    sphere-on-flat (`bench/verification.py` compares it with
+    `filmcal.wheelrail.halfspace.sphere_on_flat_contact`).
+    """
+    radius = check_positive("radius_mm", radius_mm)
+    half = check_range("half_width_mm", min(50.0, 0.5 * radius) if half_width_mm is None else half_width_mm,
+                       0.0, radius)
+    return Profile(f"sphere R{radius:g}", "wheel", (ArcSection("sphere", -half, half, 0.0, -radius, radius),),
+                   source=f"a sphere of radius {radius:g} mm")
+
+
+def flat_rail(half_width_mm: float = 30.0) -> Profile:
+    """A flat rail head, z = 0 over ``|y| <= half_width_mm`` (narrower than the wheel profile it carries)."""
+    half = check_positive("half_width_mm", half_width_mm)
+    return Profile("flat", "rail", (PolynomialSection("flat", -half, half, (0.0,)),), source="a flat plane")
 
 
 # --------------------------------------------------------------------------
