@@ -34,8 +34,8 @@ Rows:
   S1002 on 60E1 at 10 kN over the flange, and S1002 on 60E2 at 50/100 kN with and without MS/HS/HHS layers.
   Areas in mm^2 (``value_mm``/``reference_mm`` hold areas there), relative differences in per cent.
 
-``--grid``: each reading of the half-space solution with a film on S1002/60E2 (50/100 kN, eta -5..+2 mm,
-E 800-6300 MPa) at fixed grids 0.2 / 0.1 / 0.05 / 0.025 mm (the model's refinement of narrow patches off, the
+``--grid``: each reading of the half-space solution with the HS film on S1002/60E2 (50/100 kN, eta -5..+2 mm,
+E 800-6300 MPa; the level readings at MS's, HS's and HHS's levels) at fixed grids 0.2 / 0.1 / 0.05 / 0.025 mm (the model's refinement of narrow patches off, the
 wheel's slide solved to `GRID_SLIDE_TOL_CELLS`), each at `GRID_PHASES` phases of the grid (across and along the
 rail): the observed orders of the phase means, the Richardson extrapolation of the finest three, and the
 largest error of one phase at 0.1 mm against it; and the same readings of
