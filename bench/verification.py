@@ -542,7 +542,7 @@ def study_checks(study_dir: str) -> list[dict]:
         lo, hi = (float(v) for v in preferred["modulus_mpa"]["ci90"])
         # the median's own error: its Monte Carlo standard error, and the exact median of the recorded
         # posterior by quadrature when it has two parameters (ln E, ln sigma)
-        path = study.layout.posterior(Path(s["posterior_file"]).stem)  # recorded relative to the writer's cwd
+        path = study.layout.posterior(Path(s["posterior_file"]).stem)  # relative to the study (before 2 Dec: the cwd)
         mcse = compute_diagnostics({"E": load_result(path).samples["modulus_mpa"]}).mcse["E"]["median"]
         problem = study.problem(path)
         exact = (quadrature_quantiles(problem, e)["median"]

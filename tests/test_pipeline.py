@@ -17,6 +17,8 @@ def test_quick_pipeline_writes_every_stage(quick_study):
     study, summary, _ = quick_study
     hs = summary["films"]["HS"]
     assert 1500 < hs["modulus_mpa"]["median"] < 5000  # HS near the paper's 2800 MPa
+    # the posterior is named relative to the study (as the manifest names it), whoever's working directory wrote it
+    assert not hs["posterior_file"].startswith("/") and (study / hs["posterior_file"]).is_file()
     assert hs["modulus_mpa"]["ci90"][0] < hs["modulus_mpa"]["median"] < hs["modulus_mpa"]["ci90"][1]
     with open(study / "curves" / "curves-HS.csv") as fh:
         rows = list(csv.DictReader(fh))

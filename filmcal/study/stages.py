@@ -274,7 +274,7 @@ def _run_stages(study: Study, settings: PipelineSettings, films, seed: int, pool
             s = {k: d[k] for k in ("modulus_mpa", "oedometric_modulus_mpa", "sigma_mm", "rhat", "ess", "n_data")}
             s.update(model=spec["model"], diagnostics_ok=bool(result.diagnostics_ok),
                      diagnostics_messages=list(result.diagnostics.messages),
-                     posterior_file=str(path), predictive_hits=int(np.sum(~result.predictive.outside)),
+                     posterior_file=study.layout.relative(path), predictive_hits=int(np.sum(~result.predictive.outside)),
                      n_cases=int(len(result.predictive.outside)),
                      modulus_mcse_mpa=dict(result.mcse.get("modulus_mpa", {})))
             weights = (comparisons.get(film) or {}).get("weights")
