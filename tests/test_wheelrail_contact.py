@@ -205,8 +205,9 @@ def test_batch_checks_all_cases_before_solving(model):
 def test_flange_contact_is_solved_on_a_refined_grid():
     """60E1, 10 kN, eta = +6 mm (flange root on the gauge corner): about 8 cells of
     0.1 mm across the patch. The model refines across the rail instead of refusing;
-    refining further (twice, four and eight times) converges, with shrinking steps,
-    to a limit the first refined answer is within 1 % of."""
+    refining further (to 10, 20 and 40 cells across) moves the area by less than
+    0.1 % (the hard edge read per grid line moved it by 0.17 %), and the first
+    refined answer is within 1 % of the extrapolated limit."""
     from filmcal.wheelrail.halfspace import HalfSpaceContactSolver
 
     areas, spacings = [], []
@@ -222,8 +223,7 @@ def test_flange_contact_is_solved_on_a_refined_grid():
         areas.append(res.area_mm2)
         spacings.append(res.grid.dy_mm)
     assert spacings == sorted(spacings, reverse=True)
-    steps = np.abs(np.diff(areas))
-    assert steps[1] < steps[0] * 1.2
+    assert (max(areas) - min(areas)) / min(areas) < 1e-3
     # first-order extrapolation in the spacing across the rail
     slope = (areas[2] - areas[1]) / (spacings[2] - spacings[1])
     limit = areas[2] - slope * spacings[2]

@@ -25,8 +25,9 @@ FE_MODEL_REVISION = 4
 #: curves, the rough wheel's laws and growths, the outlines, the kept wheel-rail supports), so that a change
 #: of a reading or a solver makes them again. 1: the outline behind a film read on every cell edge; the rough
 #: laws' loads after a stalled conjugate gradient solved by the projected gradient; 2: the capsule imprint (and a
-#: rough film's coverage) integrated as layers of sub-cell contours, not summed over the cells.
-APPLICATION_MODEL_REVISION = 2
+#: rough film's coverage) integrated as layers of sub-cell contours, not summed over the cells; 3: a hard
+#: contact's edge (no film: the areas without film) read as the signed distance of the unloaded cells' separation.
+APPLICATION_MODEL_REVISION = 3
 #: Element layers through the film by default. One bilinear layer (the paper's
 #: mesh) reads the edge 0.004 mm inside the converged contact on average and
 #: up to 0.012 mm for nu >= 0.4; two read within 0.0053 mm of the second
