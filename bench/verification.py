@@ -11,6 +11,10 @@ Rows:
   (``bench/fe_reference.py`` runs 84 such cases);
 * ``application / second formulation``: the application's film (half-space springs read by the edge model, plus
   the transfer term fitted to the FE at its default mesh) against the same converged second formulation, end to end;
+* ``FE / second formulation, levels`` and ``application / second formulation, levels``: the activation and
+  capsule readings at MS's, HS's and HHS's levels, of the FE at its default mesh and of the application's film
+  with its transfer term, against the second formulation's pressure read from its own nodes (the fitted edge
+  shape only within 2.5 elements of its closing-load edge) and extrapolated to h -> 0, at `LEVEL_CASES`;
 * ``FE / second formulation, large strain``: the same with neo-Hookean films (the production film's kernel and
   the reference's are written independently; the reference extrapolated from h = 0.1 and 0.05 mm), down to
   MS's calibrated modulus at 100 kN (through-thickness strain 0.5);
@@ -61,6 +65,7 @@ factor, per film); run it again, on a full study of the paper's data, whenever a
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import math
 import sys
@@ -95,6 +100,11 @@ def fe_against_hertz() -> list[dict]:
 REFERENCES = {
     "FE / Hertz": "Hertz's closed form, no film (Table 1's cases and R 250 mm / 15 kN)",
     "FE / second formulation": "biquadratic FE with the closing-load edge, extrapolated to h -> 0, films at nu 0.25-0.45",
+    "FE / second formulation, levels": "the same converged FE's pressure read from its nodes (the edge shape within "
+                                       "2.5 elements only): activation and capsule at MS's, HS's and HHS's levels, "
+                                       "7 films up to E 15000 MPa",
+    "application / second formulation, levels": "the same: the application's film with its transfer term, "
+                                                "activation and capsule at MS's, HS's and HHS's levels, end to end",
     "FE / second formulation, large strain": "the same with neo-Hookean films in both (independent kernels), strains up to 0.5",
     "application / second formulation": "the same converged FE: the application's film (half-space springs, "
                                         "sphere-on-flat, edge reading) with its transfer term, fitted to the FE at "
@@ -165,9 +175,17 @@ SECOND_FORMULATION_CASES = [(300.0, 35.0, 1200.0, 0.40), (450.0, 75.0, 2800.0, 0
                             (350.0, 90.0, 8000.0, 0.45), (600.0, 25.0, 600.0, 0.30)]
 
 
+@functools.lru_cache(maxsize=None)
+def _second_formulation(r: float, f: float, e: float, nu: float) -> tuple:
+    """The second formulation at h = 0.05 and 0.025 mm (extrapolated to h -> 0 by the callers)."""
+    from filmcal.fem.reference import QuadraticSphereOnFlat
+
+    return tuple(QuadraticSphereOnFlat(r, element_size_mm=h, contact_zone_mm=12.0).solve(f * 1e3, e, nu)
+                 for h in (0.05, 0.025))
+
+
 def fe_against_second_formulation() -> list[dict]:
     from filmcal.fem import Film, get_model
-    from filmcal.fem.reference import QuadraticSphereOnFlat
 
     from dataclasses import replace
 
@@ -177,8 +195,7 @@ def fe_against_second_formulation() -> list[dict]:
 
     rows = []
     for r, f, e, nu in SECOND_FORMULATION_CASES:
-        a = [QuadraticSphereOnFlat(r, element_size_mm=h, contact_zone_mm=12.0).solve(f * 1e3, e, nu).contact_radius_mm
-             for h in (0.05, 0.025)]
+        a = [ref.contact_radius_mm for ref in _second_formulation(r, f, e, nu)]
         converged = 2.0 * a[1] - a[0]
         res = get_model(r).solve(Film(e, nu), f * 1e3)
         rows.append(_row("FE / second formulation", f"R{r:g} {f:g} kN E{e:g} nu{nu:g}", res.contact_radius_mm,
@@ -190,6 +207,50 @@ def fe_against_second_formulation() -> list[dict]:
         area = model.recorded_area_mm2(applied) + model.transfer_term(e, applied).shift_mm2
         rows.append(_row("application / second formulation", f"R{r:g} {f:g} kN E{e:g} nu{nu:g}",
                          math.sqrt(area / math.pi), converged))
+    return rows
+
+
+#: (R mm, F kN, E MPa, nu): the level readings' cases, `SECOND_FORMULATION_CASES` and two more: a stiff film
+#: (E 15000 MPa) and HHS's calibrated modulus at 100 kN.
+LEVEL_CASES = SECOND_FORMULATION_CASES + [(300.0, 60.0, 15000.0, 0.40), (500.0, 100.0, 3400.0, 0.33)]
+
+
+def levels_against_second_formulation() -> list[dict]:
+    """The level readings (activation and capsule, at MS's, HS's and HHS's levels) of the FE at its default mesh
+    and of the application's film with its transfer term, against the second formulation's pressure read from
+    its own nodes (the fitted edge shape only within 2.5 elements of its closing-load edge, against the 0.3 mm
+    that the default mesh needs) and extrapolated to h -> 0, at `LEVEL_CASES`."""
+    from dataclasses import replace
+
+    from filmcal.contact.film import FilmModel
+    from filmcal.contact.imprint import get_imprint_model
+    from filmcal.contact.reading import film_tip_length_mm, read_radial_profile
+    from filmcal.fem import Film, get_model
+    from filmcal.films import get_film
+    from filmcal.wheelrail.halfspace import sphere_on_flat_contact
+
+    rows = []
+    for r, f, e, nu in LEVEL_CASES:
+        refs = _second_formulation(r, f, e, nu)
+        fe = get_model(r).solve(Film(e, nu), f * 1e3)
+        for name in ("MS", "HS", "HHS"):
+            film = replace(get_film(name), poisson=nu)
+            tip = film_tip_length_mm(film.thickness_mm, Film(e, nu).oedometric_modulus_mpa, nu)
+            for imprint in ("activation", "capsule"):
+                read = get_imprint_model(imprint)
+                # the nodal pressures of the closed set (the face's mass matrix spreads small values beyond it)
+                at_h = [read.radius_from_profile(read_radial_profile(
+                    ref.r_mm, np.where(ref.r_mm < ref.contact_radius_mm, ref.pressure_mpa, 0.0), tip, samples="point",
+                    edge_mm=ref.contact_radius_mm, window_mm=2.5 * ref.element_size_mm), film) for ref in refs]
+                converged = 2.0 * at_h[1] - at_h[0]
+                case = f"{name} {imprint} R{r:g} {f:g} kN E{e:g} nu{nu:g}"
+                rows.append(_row("FE / second formulation, levels", case, fe.read_imprint(imprint, film), converged))
+                model = FilmModel(film, imprint, "small")
+                spring, law, _ = model.interface(e)
+                applied = sphere_on_flat_contact(r, f * 1e3, film=spring, law=law)
+                area = model.recorded_area_mm2(applied) + model.transfer_term(e, applied).shift_mm2
+                rows.append(_row("application / second formulation, levels", case, math.sqrt(area / math.pi),
+                                 converged))
     return rows
 
 
@@ -586,7 +647,8 @@ def main(argv=None) -> int:
                     help="also write the per-check summary the report prints (filmcal/data/verification.json)")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
-    rows = (fe_against_hertz() + fe_against_second_formulation() + fe_against_second_formulation_large_strain()
+    rows = (fe_against_hertz() + fe_against_second_formulation() + levels_against_second_formulation()
+            + fe_against_second_formulation_large_strain()
             + halfspace_against_hertz()
             + halfspace_against_thin_layer() + sphere_wheel_against_sphere_on_flat() + wheelrail_against_contact())
     print(f"{'check':34} {'case':30} {'value mm':>10} {'ref mm':>10} {'diff mm':>9} {'rel %':>8}")
