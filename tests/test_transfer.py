@@ -66,12 +66,13 @@ def test_shipped_fit_was_checked_on_held_out_points_and_says_how_it_was_made():
 
 def test_a_films_band_holds_what_films_of_about_its_thickness_were_missed_by():
     """Over ninths of ln t across 0.04-0.25 mm the transfer's misses grow toward both ends: the activation
-    readings on the thinnest films and the edge on the thickest two ninths are missed by 0.0021-0.0028 mm rms,
-    against the one std of 0.0016-0.0019 mm that holds the thirds of the range. The bands of such ninths are
+    readings on the thinnest films are missed by 0.0014 mm rms against their one std of 0.0012-0.0013 mm, and the
+    edge on the thickest two ninths by 0.0021-0.0029 mm against 0.0017 mm. The bands of such ninths are
     set on these rows (`fit_transfer`); recomputed here from the rows behind the shipped fit
     (bench/data/transfer-rows.json.gz) with the test's own ninths, every ninth's rms, over its training rows and
     over its held-out rows, is within the band its films carry: the shipped file and `std_for` keep what the rows
-    show. No film's band is below the one std, and the built-in films' 0.09 mm carries exactly that."""
+    show. No film's band is below the one std, and the built-in films' 0.09 mm carries that, raised by at most
+    5 % where its ninth was missed by more (capsule/small: 0.84 against 0.82 um)."""
     import gzip
 
     from filmcal.correction.transfer import check_transfer
@@ -92,11 +93,12 @@ def test_a_films_band_holds_what_films_of_about_its_thickness_were_missed_by():
                 assert band >= fit.std_mm[key]
                 if band > fit.std_mm[key]:
                     raised.add((key.split("/")[0], round(lo, 3)))
-    # the ends the pooled std carried at three fifths to two thirds of their rms
+    # the ends, which the pooled std would carry below their rms
     assert {("activation", 0.04), ("edge", 0.204)} <= raised
-    assert fit.std_for("activation", "large", 0.045) >= 0.0025 and fit.std_for("edge", "small", 0.23) >= 0.0027
+    assert fit.std_for("activation", "large", 0.045) > 1.1 * fit.std_mm["activation/large"]
+    assert fit.std_for("edge", "small", 0.23) >= 0.0027
     for key, std in fit.std_mm.items():
-        assert fit.std_for(*key.split("/"), 0.09) == std
+        assert std <= fit.std_for(*key.split("/"), 0.09) <= 1.05 * std
 
 
 def test_the_band_is_the_one_std_raised_to_its_ranges_and_widened_beyond_them():
@@ -500,8 +502,10 @@ def test_a_film_beyond_the_fitted_thicknesses_carries_the_measured_size_of_an_ex
     thickness were missed by more. Beyond it nothing was measured; the one measured size of a thickness
     extrapolation is what a fit made at 0.09 mm alone missed held out at other thicknesses: up to 0.0028 mm rms
     on the edge (48 points over 0.04-0.25 mm), 0.0062 mm on the activation reading and 0.0065 mm on the capsule
-    reading (8 points at 0.05 mm; docs/verification.md). Such a film's term carries at least that; the shift is
-    the fit's either way."""
+    reading (8 points at 0.05 mm; docs/verification.md). Such a film's term carries at least that, in quadrature
+    with the band of the nearest films inside; the shift is the fit's either way."""
+    from filmcal.contact.transfer import thickness_range
+
     measured = {"edge": 0.0028, "activation": 0.0062, "capsule": 0.0065}
     fit = load_transfer_fit()
     film = get_film("HS")
@@ -509,7 +513,9 @@ def test_a_film_beyond_the_fitted_thicknesses_carries_the_measured_size_of_an_ex
         key = f"{imprint}/large"
         assert fit.std_for(imprint, "large", 0.09) == fit.std_mm[key]
         for thickness in (0.04, 0.09, 0.25):
-            assert fit.std_mm[key] <= fit.std_for(imprint, "large", thickness) < miss
+            # inside: the one std, or the rms of the fit's rows on films of about this thickness where larger
+            ninth = fit.thickness_rms_mm[key][thickness_range(fit.thickness_rms_mm["edges_mm"], thickness)]
+            assert fit.std_for(imprint, "large", thickness) == max(fit.std_mm[key], ninth) < 1.2 * miss
             inside = transfer_term(fit, imprint, "large", replace(film, thickness_mm=thickness), 2000.0, 60.0, 900.0)
             assert inside.std_mm == fit.std_for(imprint, "large", thickness)
         for thickness in (0.035, 0.3):

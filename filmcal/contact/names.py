@@ -18,8 +18,9 @@ DEFAULT_KINEMATICS = "small"
 #: that a change of its default mesh or of a reading recomputes the runs made
 #: before it. 2: two film layers and the edge tip fitted to the second formulation;
 #: 3: the film's volumetric term at the element centres and the closing-load edge; 4: a large-strain
-#: film's indefinite tangent (heavy compression on fine meshes) solved by LU instead of stopping.
-FE_MODEL_REVISION = 4
+#: film's indefinite tangent (heavy compression on fine meshes) solved by LU instead of stopping; 5: the
+#: levels near a film's edge read from the edge shape fitted over 0.2 mm of nodal forces, not 0.3 mm.
+FE_MODEL_REVISION = 5
 #: Revision of the application model's numbers (the half-space contact with the film law, its readings and the
 #: rough bodies' boundary-element laws): part of the spec of every study artefact the application makes (the
 #: curves, the rough wheel's laws and growths, the outlines, the kept wheel-rail supports), so that a change
