@@ -84,12 +84,13 @@ estimated from the solution:
 A cell field with these zero crossings is contoured by filled marching
 squares (contourpy); the contour rings are the contact outline (outer
 boundaries and holes, any number of patches) and their shoelace area is
-``area_mm2``. Against Hertz (0.1 mm cells, 12 random phases each) the area
-is within -0.10..+0.003 % for ellipses of 2.0-6.7 mm minor semi-axis (a/b
-1-4.5, 20/100 kN, 40 phases each), where the per-line extrapolation read
-+0.01..+0.31 %. A patch of 12 cells across its minor semi-axis (a/b 4.5,
-1.2 mm) reads -0.97..+0.01 % (it read +0.17..+0.80 %): the ends of its major
-axis are curved over 2.6 cells. The loaded-cell count is 0.4-1.0 % too large. Behind a compliant interface the field is ``f``
+``area_mm2``. Against Hertz on 0.1 mm cells (40 random phases each) the
+area is within -0.10..+0.003 % for ellipses of 2.0-6.7 mm minor semi-axis
+(a/b 1-4.5, 20/100 kN), where the per-line extrapolation read +0.01..+0.31 %.
+A patch of 12 cells across its minor semi-axis (a/b 4.5, 1.2 mm) reads
+-0.97..+0.01 % (it read +0.17..+0.80 %): the ends of its major axis are
+curved over 2.6 cells. The loaded-cell count is 0.4-1.0 % too large.
+Behind a compliant interface the field is ``f``
 itself, so that every edge of a cell keeps its own crossing; a field of one
 value per boundary cell holding the mean of its edges' crossings averages those of
 a cell with two unloaded neighbours, which made the outline converge at
