@@ -49,6 +49,10 @@ directions (their observed orders).
 0.04-0.25 mm; 0.045 and 0.23 mm in its outer ninths, whose bands are raised to the rms of the rows they hold)
 and 0.3 mm (beyond it, where the band carries `filmcal.contact.transfer.THICKNESS_STD_MM` more) at 8 points of
 Table 1's region.
+``--stiff``: the FE's level readings on stiff films (E 8000-20000 MPa, HS's and HHS's levels), calibrated on one
+sphere-on-flat contact and applied at three others, against the second formulation (the modulus that makes the
+FE read the reference at one contact, then the FE's miss at the others): how much of the FE's level error there
+a calibration absorbs (`filmcal.contact.transfer.STIFF_LEVEL_STD_MM`); 16 second-formulation solves, about 15 min.
 ``--study-dir D``: Table 1 through the application model at each film's calibrated median E and preferred
 model (residuals against the calibration's own FE at the same E; the FE's own least-squares E, one
 Gauss-Newton step from the median, with the mean residual there, and the span of the mean residual over the
@@ -102,9 +106,12 @@ REFERENCES = {
     "FE / second formulation": "biquadratic FE with the closing-load edge, extrapolated to h -> 0, films at nu 0.25-0.45",
     "FE / second formulation, levels": "the same converged FE's pressure read from its nodes (the edge shape within "
                                        "2.5 elements only): activation and capsule at MS's, HS's and HHS's levels, "
-                                       "7 films up to E 15000 MPa",
+                                       "6 films of E 600-6000 MPa",
     "application / second formulation, levels": "the same: the application's film with its transfer term, "
                                                 "activation and capsule at MS's, HS's and HHS's levels, end to end",
+    "FE / second formulation, levels, stiff films": "the same, 4 films of E 8000-20000 MPa (above "
+                                                    "STIFF_LEVEL_MODULUS_MPA: their bands carry STIFF_LEVEL_STD_MM)",
+    "application / second formulation, levels, stiff films": "the same, end to end, 4 films of E 8000-20000 MPa",
     "FE / second formulation, large strain": "the same with neo-Hookean films in both (independent kernels), strains up to 0.5",
     "application / second formulation": "the same converged FE: the application's film (half-space springs, "
                                         "sphere-on-flat, edge reading) with its transfer term, fitted to the FE at "
@@ -135,7 +142,7 @@ def summarise(rows: list[dict]) -> dict:
         d = np.array([r["difference_mm"] for r in sel])
         checks.append({"check": kind, "reference": REFERENCES[kind], "n": len(sel),
                        "unit": "mm2" if kind.startswith("wheel-rail") else "mm", "mean": float(d.mean()),
-                       "max_abs": float(np.abs(d).max()),
+                       "rms": float(np.sqrt(np.mean(d * d))), "max_abs": float(np.abs(d).max()),
                        "max_abs_rel_pct": float(100 * max(abs(r["relative"]) for r in sel))})
     transfer = [{k: r[k] for k in ("check", "n", "raw_mean_mm", "raw_max_mm", "mean_mm", "rms_mm", "max_mm", "std_mm",
                                    "not_converged", "one_sided")}
@@ -210,9 +217,12 @@ def fe_against_second_formulation() -> list[dict]:
     return rows
 
 
-#: (R mm, F kN, E MPa, nu): the level readings' cases, `SECOND_FORMULATION_CASES` and two more: a stiff film
-#: (E 15000 MPa) and HHS's calibrated modulus at 100 kN.
-LEVEL_CASES = SECOND_FORMULATION_CASES + [(300.0, 60.0, 15000.0, 0.40), (500.0, 100.0, 3400.0, 0.33)]
+#: (R mm, F kN, E MPa, nu): the level readings' cases, `SECOND_FORMULATION_CASES` and five more: HHS's calibrated
+#: modulus at 100 kN, a film at 6000 MPa and three stiff ones (10000-20000 MPa). Those above
+#: `filmcal.contact.transfer.STIFF_LEVEL_MODULUS_MPA` are checks of their own (the band their readings carry).
+LEVEL_CASES = SECOND_FORMULATION_CASES + [(500.0, 100.0, 3400.0, 0.33), (550.0, 30.0, 6000.0, 0.42),
+                                          (300.0, 60.0, 15000.0, 0.40), (400.0, 50.0, 20000.0, 0.30),
+                                          (250.0, 80.0, 10000.0, 0.35)]
 
 
 def levels_against_second_formulation() -> list[dict]:
@@ -223,34 +233,33 @@ def levels_against_second_formulation() -> list[dict]:
     from dataclasses import replace
 
     from filmcal.contact.film import FilmModel
-    from filmcal.contact.imprint import get_imprint_model
-    from filmcal.contact.reading import film_tip_length_mm, read_radial_profile
+    from filmcal.contact.reading import film_tip_length_mm
     from filmcal.fem import Film, get_model
     from filmcal.films import get_film
     from filmcal.wheelrail.halfspace import sphere_on_flat_contact
 
+    from filmcal.contact.transfer import STIFF_LEVEL_MODULUS_MPA
+
     rows = []
     for r, f, e, nu in LEVEL_CASES:
+        stiff = ", stiff films" if e > STIFF_LEVEL_MODULUS_MPA else ""
         refs = _second_formulation(r, f, e, nu)
         fe = get_model(r).solve(Film(e, nu), f * 1e3)
         for name in ("MS", "HS", "HHS"):
             film = replace(get_film(name), poisson=nu)
             tip = film_tip_length_mm(film.thickness_mm, Film(e, nu).oedometric_modulus_mpa, nu)
             for imprint in ("activation", "capsule"):
-                read = get_imprint_model(imprint)
-                # the nodal pressures of the closed set (the face's mass matrix spreads small values beyond it)
-                at_h = [read.radius_from_profile(read_radial_profile(
-                    ref.r_mm, np.where(ref.r_mm < ref.contact_radius_mm, ref.pressure_mpa, 0.0), tip, samples="point",
-                    edge_mm=ref.contact_radius_mm, window_mm=2.5 * ref.element_size_mm), film) for ref in refs]
+                at_h = [ref.read_imprint(imprint, film, tip) for ref in refs]
                 converged = 2.0 * at_h[1] - at_h[0]
                 case = f"{name} {imprint} R{r:g} {f:g} kN E{e:g} nu{nu:g}"
-                rows.append(_row("FE / second formulation, levels", case, fe.read_imprint(imprint, film), converged))
+                rows.append(_row("FE / second formulation, levels" + stiff, case, fe.read_imprint(imprint, film),
+                                 converged))
                 model = FilmModel(film, imprint, "small")
                 spring, law, _ = model.interface(e)
                 applied = sphere_on_flat_contact(r, f * 1e3, film=spring, law=law)
                 area = model.recorded_area_mm2(applied) + model.transfer_term(e, applied).shift_mm2
-                rows.append(_row("application / second formulation, levels", case, math.sqrt(area / math.pi),
-                                 converged))
+                rows.append(_row("application / second formulation, levels" + stiff, case,
+                                 math.sqrt(area / math.pi), converged))
     return rows
 
 
@@ -404,6 +413,48 @@ def transfer_check(n_points: int) -> list[dict]:
 #: range (0.045 and 0.23 mm in its outer ninths of ln t, whose bands are raised to the rms of the rows they hold:
 #: the one check of those bands on points of their own) and one beyond it.
 THICKNESS_CHECK_MM = (0.045, 0.05, 0.09, 0.15, 0.23, 0.3)
+
+
+#: (E MPa, nu) of the stiff films and (R mm, F kN) of the contacts of ``--stiff``.
+STIFF_FILMS = [(8000.0, 0.45), (15000.0, 0.40), (20000.0, 0.30), (10000.0, 0.35)]
+STIFF_CONTACTS = [(300.0, 30.0), (600.0, 110.0), (250.0, 100.0), (500.0, 20.0)]
+
+
+def stiff_levels_calibrated_elsewhere() -> list[dict]:
+    """The FE's level readings on stiff films against the second formulation, as they are (``raw``) and after
+    calibrating the modulus on one contact and applying it at the three others (``applied``), per film, film
+    type (HS, HHS) and reading."""
+    from dataclasses import replace
+
+    from scipy.optimize import brentq
+
+    from filmcal.contact.reading import film_tip_length_mm
+    from filmcal.fem import Film, get_model
+    from filmcal.films import get_film
+
+    out = []
+    for e, nu in STIFF_FILMS:
+        refs = {g: _second_formulation(g[0], g[1], e, nu) for g in STIFF_CONTACTS}
+        for name in ("HS", "HHS"):
+            film = replace(get_film(name), poisson=nu)
+            tip = film_tip_length_mm(film.thickness_mm, Film(e, nu).oedometric_modulus_mpa, nu)
+            for imprint in ("activation", "capsule"):
+                converged = {}
+                for g, pair in refs.items():
+                    at_h = [x.read_imprint(imprint, film, tip) for x in pair]
+                    converged[g] = 2.0 * at_h[1] - at_h[0]
+
+                def fe(modulus: float, g: tuple) -> float:
+                    return get_model(g[0]).solve(Film(modulus, nu), g[1] * 1e3).read_imprint(imprint, film)
+
+                raw = [fe(e, g) - converged[g] for g in STIFF_CONTACTS]
+                applied = []
+                for gc in STIFF_CONTACTS:
+                    e_cal = brentq(lambda m: fe(m, gc) - converged[gc], e / 3.0, 3.0 * e, xtol=1e-3)
+                    applied += [fe(e_cal, g) - converged[g] for g in STIFF_CONTACTS if g != gc]
+                out.append({"check": "stiff levels", "case": f"{name} {imprint} E{e:g} nu{nu:g}", "raw_mm": raw,
+                            "applied_mm": applied})
+    return out
 
 
 def transfer_thickness_check(n_points: int = 8) -> list[dict]:
@@ -641,6 +692,8 @@ def main(argv=None) -> int:
     ap.add_argument("--thickness", action="store_true",
                     help="also the transfer at films of 0.045, 0.05, 0.09, 0.15 and 0.23 mm (inside the fitted "
                          "thicknesses) and 0.3 mm (beyond them)")
+    ap.add_argument("--stiff", action="store_true",
+                    help="also the FE's level readings on stiff films calibrated on one contact, applied at others")
     ap.add_argument("--study-dir", metavar="D", help="also Table 1 and the correction factor with D's posteriors")
     ap.add_argument("--json", metavar="FILE", help="also write the rows as JSON")
     ap.add_argument("--summary", action="store_true",
@@ -659,7 +712,8 @@ def main(argv=None) -> int:
         d = np.array([r["difference_mm"] for r in rows if r["check"] == kind])
         rel = 100 * np.array([r["relative"] for r in rows if r["check"] == kind])
         unit = "mm2" if kind.startswith("wheel-rail") else "mm"
-        print(f"summary {kind:34} mean {d.mean():+.4f} {unit}, range {d.min():+.4f} .. {d.max():+.4f} {unit}; "
+        print(f"summary {kind:34} mean {d.mean():+.4f} {unit}, rms {np.sqrt(np.mean(d * d)):.4f} {unit}, range "
+              f"{d.min():+.4f} .. {d.max():+.4f} {unit}; "
               f"largest |rel| {np.abs(rel).max():.3f} %")
     transfer = transfer_check(args.points)
     print(f"\ntransfer: calibrated FE film minus applied springs, sphere-on-flat, MS/HS/HHS at {args.points} points "
@@ -679,6 +733,18 @@ def main(argv=None) -> int:
             print(f"summary transfer at {t:g} mm: rms {min(r['rms_mm'] for r in part):.4f}-"
                   f"{max(r['rms_mm'] for r in part):.4f} mm, largest {max(r['max_mm'] for r in part):.4f} mm")
         rows += thick
+    if args.stiff:
+        stiff = stiff_levels_calibrated_elsewhere()
+        print("\nthe FE's level readings on stiff films minus the second formulation's (mm): as they are, and "
+              "calibrated on one contact, applied at the three others")
+        for r in stiff:
+            print(f"{r['case']:34} raw " + " ".join(f"{v:+.4f}" for v in r["raw_mm"])
+                  + f"  applied rms {np.sqrt(np.mean(np.square(r['applied_mm']))):.4f}")
+        for label, key in (("as they are", "raw_mm"), ("calibrated elsewhere", "applied_mm")):
+            d = np.concatenate([r[key] for r in stiff])
+            print(f"summary stiff levels, {label}: {d.size} readings, mean {d.mean():+.4f} mm, rms "
+                  f"{np.sqrt(np.mean(d * d)):.4f} mm, largest {np.abs(d).max():.4f} mm")
+        rows += stiff
     if args.grid:
         grid = grid_convergence()
         print(f"\nreadings of the HS film's solutions on S1002/60E2 (the level readings at MS/HS/HHS's levels): areas at 0.2 / 0.1 / 0.05 / 0.025 mm (mm2, the mean of "

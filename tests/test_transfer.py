@@ -121,6 +121,26 @@ def test_the_band_is_the_one_std_raised_to_its_ranges_and_widened_beyond_them():
     assert bare.std_for("edge", "small", 8.0) == pytest.approx(math.hypot(0.002, extra), rel=1e-12)
 
 
+def test_a_level_reading_of_a_stiff_film_carries_the_fes_level_error_in_its_band():
+    """Above `STIFF_LEVEL_MODULUS_MPA` a level reading's band carries `STIFF_LEVEL_STD_MM` in quadrature (the
+    FE's own level error there, which the term cannot know); the edge's band and softer films' are unchanged,
+    and so is every band when no modulus is given."""
+    from filmcal.contact.transfer import STIFF_LEVEL_MODULUS_MPA, STIFF_LEVEL_STD_MM
+
+    fit = load_transfer_fit()
+    stiff, soft = 1.5 * STIFF_LEVEL_MODULUS_MPA, 0.9 * STIFF_LEVEL_MODULUS_MPA
+    for key in fit.std_mm:
+        imprint, kinematics = key.split("/")
+        plain = fit.std_for(imprint, kinematics, 0.09)
+        assert fit.std_for(imprint, kinematics, 0.09, soft) == plain
+        expected = plain if imprint == "edge" else math.hypot(plain, STIFF_LEVEL_STD_MM)
+        assert fit.std_for(imprint, kinematics, 0.09, stiff) == pytest.approx(expected, rel=1e-12)
+    # the term carries it: HHS's activation reading of a sphere-on-flat contact, through transfer_term
+    film = get_film("HHS")
+    terms = [transfer_term(fit, "activation", "small", film, e, 60.0, 900.0) for e in (soft, stiff)]
+    assert terms[1].std_mm == pytest.approx(math.hypot(terms[0].std_mm, STIFF_LEVEL_STD_MM), rel=1e-12)
+
+
 def test_the_terms_digest_follows_the_band_and_the_rule_that_makes_it(monkeypatch):
     """Cached solves are keyed by `TransferFit.digest`: it changes with a key's band per range of thickness and
     with `BAND_RULE_REVISION` (the rule of `std_for`), and not with another key's numbers."""

@@ -124,6 +124,21 @@ class ReferenceResult:
     pressure_mpa: np.ndarray
     elapsed_s: float
 
+    def read_imprint(self, model: str, film_type, tip_mm: float) -> float:
+        """Imprint radius (mm) of `film_type` under imprint `model`, read from this solution's own nodes.
+
+        The nodal pressures of the closed set (the face's mass matrix spreads small values beyond it), read as
+        point samples with the closing-load edge; the edge shape of tip `tip_mm`
+        (`filmcal.contact.reading.film_tip_length_mm`) only within 2.5 elements of it.
+        """
+        from filmcal.contact.imprint import get_imprint_model
+        from filmcal.contact.reading import read_radial_profile
+
+        closed = np.where(self.r_mm < self.contact_radius_mm, self.pressure_mpa, 0.0)
+        profile = read_radial_profile(self.r_mm, closed, tip_mm, samples="point", edge_mm=self.contact_radius_mm,
+                                      window_mm=2.5 * self.element_size_mm)
+        return get_imprint_model(model).radius_from_profile(profile, film_type)
+
 
 class QuadraticSphereOnFlat:
     """Sphere on flat with a film, biquadratic elements, closing-load reading.
