@@ -61,7 +61,9 @@ versions that made it.
 On a wheel-rail patch the same edge offset is applied along the recorded
 outline: the area shifts by ``d * P`` with P the outline's perimeter, and the
 fit's held-out root-mean-square residual becomes the term's standard
-deviation. `FilmModel.transfer_term` is the one place that evaluates it
+deviation (`TransferFit.std_for`: per range of thickness, and with what the FE
+itself misses on stiff films' level readings, `STIFF_LEVEL_STD_MM`).
+`FilmModel.transfer_term` is the one place that evaluates it
 (docs/film-law.md).
 """
 from __future__ import annotations
