@@ -281,7 +281,10 @@ def test_the_transfer_term_carries_over_the_films_thickness():
         term = transfer_term(fit, r["imprint"], "small", film, r["modulus_mpa"], math.pi * r["applied_radius_mm"] ** 2,
                              r["applied_max_pressure_mpa"])
         # inside the fitted thicknesses: the one std, or more where films of about this thickness were missed by more
-        assert term.std_mm >= fit.std_mm[f"{r['imprint']}/small"] and term.std_mm < 0.003
+        # (and for a level reading of a stiff film, the FE's own level error there, `STIFF_LEVEL_STD_MM`)
+        band = fit.std_for(r["imprint"], "small", r["thickness_mm"])
+        assert fit.std_mm[f"{r['imprint']}/small"] <= band < 0.003
+        assert term.std_mm == fit.std_for(r["imprint"], "small", r["thickness_mm"], r["modulus_mpa"])
         by_model.setdefault(r["imprint"], []).append(r["fe_radius_mm"] - r["applied_radius_mm"] - term.shift_mm)
     assert set(by_model) == {"edge", "activation", "capsule"}
     for imprint, residual in by_model.items():
