@@ -109,8 +109,9 @@ REFERENCES = {
                                        "6 films of E 600-6000 MPa",
     "application / second formulation, levels": "the same: the application's film with its transfer term, "
                                                 "activation and capsule at MS's, HS's and HHS's levels, end to end",
-    "FE / second formulation, levels, stiff films": "the same, 4 films of E 8000-20000 MPa (above "
-                                                    "STIFF_LEVEL_MODULUS_MPA: their bands carry STIFF_LEVEL_STD_MM)",
+    "FE / second formulation, levels, stiff films": "the same, 4 films of E 8000-20000 MPa (above 6000 MPa, "
+                                                    "where a level reading's band carries the FE's level error, "
+                                                    "0.0031 mm)",
     "application / second formulation, levels, stiff films": "the same, end to end, 4 films of E 8000-20000 MPa",
     "FE / second formulation, large strain": "the same with neo-Hookean films in both (independent kernels), strains up to 0.5",
     "application / second formulation": "the same converged FE: the application's film (half-space springs, "
