@@ -87,9 +87,9 @@ boundaries and holes, any number of patches) and their shoelace area is
 ``area_mm2``. Against Hertz on 0.1 mm cells (40 random phases each) the
 area is within -0.10..+0.003 % for ellipses of 2.0-6.7 mm minor semi-axis
 (a/b 1-4.5, 20/100 kN), where the per-line extrapolation read +0.01..+0.31 %.
-A patch of 12 cells across its minor semi-axis (a/b 4.5, 1.2 mm) reads
--0.97..+0.01 % (it read +0.17..+0.80 %): the ends of its major axis are
-curved over 2.6 cells. The loaded-cell count is 0.4-1.0 % too large.
+A patch of 12 cells across its minor semi-axis (a/b 4.5, 1.2 mm, the ends
+of its major axis curved over 2.7 cells) reads -0.16..+0.11 % over 40 phases
+(it read +0.17..+0.80 %). The loaded-cell count is 0.4-1.0 % too large.
 Behind a compliant interface the field is ``f``
 itself, so that every edge of a cell keeps its own crossing; a field of one
 value per boundary cell holding the mean of its edges' crossings averages those of
