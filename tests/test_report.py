@@ -809,8 +809,9 @@ def test_the_report_repeats_where_a_films_transfer_is_extrapolated(quick_study):
 
 
 def test_the_transfer_section_says_where_films_of_other_thicknesses_carry_more(monkeypatch):
-    """The held-out table gives the one std every film carries; films whose ninth of the fitted thicknesses
-    was missed by more carry that ninth's rms (`TransferFit.std_for`), and the section says how many and the
+    """The held-out table gives the one std every film carries; films off the built-in films' thickness whose
+    ninth of the fitted thicknesses was missed by more carry the upper bound of that ninth's rms
+    (`TransferFit.std_for`), and the section says how many and the
     largest, with its model and films, which a film of that thickness then carries. A fit with no such
     ranges says nothing of them."""
     from dataclasses import replace

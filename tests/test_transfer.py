@@ -121,6 +121,41 @@ def test_the_band_is_the_one_std_raised_to_its_ranges_and_widened_beyond_them():
     assert bare.std_for("edge", "small", 8.0) == pytest.approx(math.hypot(0.002, extra), rel=1e-12)
 
 
+def test_the_upper_bound_of_an_rms_holds_the_true_scatter_at_its_confidence():
+    """`rms_upper_bound`: at n = 10 the factor is sqrt(10 / 4.865) (chi-square's 10 % point at 10 degrees of
+    freedom, 4.865, from the published tables); over 4000 draws of n normal residuals of std 1 the bound lies
+    above 1 in 90 % of them (binomial 3-sigma 1.4 %) at n = 5, 10 and 50."""
+    from filmcal.correction.transfer import RMS_BOUND_CONFIDENCE, rms_upper_bound
+
+    assert RMS_BOUND_CONFIDENCE == 0.9
+    assert rms_upper_bound(1.0, 10) == pytest.approx(math.sqrt(10 / 4.865), rel=2e-4)
+    rng = np.random.default_rng(11)
+    for n in (5, 10, 50):
+        rms = np.sqrt(np.mean(rng.normal(size=(4000, n)) ** 2, axis=1))
+        held = np.mean([rms_upper_bound(x, n) > 1.0 for x in rms])
+        assert abs(held - 0.9) < 0.014, (n, held)
+    for bad in ((1.0, 0), (1.0, 10, 1.0), (1.0, 10, 0.0)):
+        with pytest.raises(ValueError):
+            rms_upper_bound(*bad)
+
+
+def test_the_bands_off_the_film_line_are_the_bounds_of_their_ranges():
+    """The shipped fit: a film of the built-in films' thickness (0.09 mm) carries the one std measured on it
+    (80 held-out points there); a film of another thickness carries the larger of it and its range's bound, as
+    a film of 0.085 mm (the range 0.074-0.090 mm holds about 11 held-out points): the capsule's band there
+    is raised above the one std."""
+    from filmcal.contact.transfer import on_film_line, thickness_range
+
+    fit = load_transfer_fit()
+    assert on_film_line(0.09) and not on_film_line(0.085) and not on_film_line(0.0901)
+    for key, std in fit.std_mm.items():
+        imprint, kinematics = key.split("/")
+        assert fit.std_for(imprint, kinematics, 0.09) == std
+        ranged = fit.thickness_rms_mm[key][thickness_range(fit.thickness_rms_mm["edges_mm"], 0.085)]
+        assert fit.std_for(imprint, kinematics, 0.085) == max(std, ranged)
+    assert fit.std_for("capsule", "small", 0.085) > 1.2 * fit.std_mm["capsule/small"]
+
+
 def test_a_level_reading_of_a_stiff_film_carries_the_fes_level_error_in_its_band():
     """Above `STIFF_LEVEL_MODULUS_MPA` a level reading's band carries `STIFF_LEVEL_STD_MM` in quadrature (the
     FE's own level error there, which the term cannot know); the edge's band and softer films' are unchanged,
@@ -281,9 +316,10 @@ def test_the_transfer_term_carries_over_the_films_thickness():
         term = transfer_term(fit, r["imprint"], "small", film, r["modulus_mpa"], math.pi * r["applied_radius_mm"] ** 2,
                              r["applied_max_pressure_mpa"])
         # inside the fitted thicknesses: the one std, or more where films of about this thickness were missed by more
-        # (and for a level reading of a stiff film, the FE's own level error there, `STIFF_LEVEL_STD_MM`)
+        # (the bound of their rms; and for a level reading of a stiff film, the FE's own level error there,
+        # `STIFF_LEVEL_STD_MM`), below the 0.005 mm the application is held to
         band = fit.std_for(r["imprint"], "small", r["thickness_mm"])
-        assert fit.std_mm[f"{r['imprint']}/small"] <= band < 0.003
+        assert fit.std_mm[f"{r['imprint']}/small"] <= band < 0.004
         assert term.std_mm == fit.std_for(r["imprint"], "small", r["thickness_mm"], r["modulus_mpa"])
         by_model.setdefault(r["imprint"], []).append(r["fe_radius_mm"] - r["applied_radius_mm"] - term.shift_mm)
     assert set(by_model) == {"edge", "activation", "capsule"}
@@ -536,9 +572,11 @@ def test_a_film_beyond_the_fitted_thicknesses_carries_the_measured_size_of_an_ex
         key = f"{imprint}/large"
         assert fit.std_for(imprint, "large", 0.09) == fit.std_mm[key]
         for thickness in (0.04, 0.09, 0.25):
-            # inside: the one std, or the rms of the fit's rows on films of about this thickness where larger
+            # inside: the one std, or off the built-in films' thickness the bound of the rms of the fit's rows on
+            # films of about this thickness where larger
             ninth = fit.thickness_rms_mm[key][thickness_range(fit.thickness_rms_mm["edges_mm"], thickness)]
-            assert fit.std_for(imprint, "large", thickness) == max(fit.std_mm[key], ninth) < 1.2 * miss
+            expected = fit.std_mm[key] if thickness == 0.09 else max(fit.std_mm[key], ninth)
+            assert fit.std_for(imprint, "large", thickness) == expected < 1.2 * miss
             inside = transfer_term(fit, imprint, "large", replace(film, thickness_mm=thickness), 2000.0, 60.0, 900.0)
             assert inside.std_mm == fit.std_for(imprint, "large", thickness)
         for thickness in (0.035, 0.3):

@@ -42,8 +42,10 @@ term missed films of 0.05 and 0.15 mm by 0.0011-0.0065 mm rms held out (up to
 the held-out miss over that range is 0.0007-0.0019 mm rms, largest at its ends
 (0.0004-0.0010 mm on the 0.09 mm films); the term's std holds it in each
 third of the range (`filmcal.correction.transfer.THICKNESS_PARTS_MM`), and a
-film whose ninth of the range was missed by more carries that ninth's rms
-(`TransferFit.std_for`).
+film off the built-in films' 0.09 mm whose ninth of the range was missed by
+more carries that ninth's rms, raised to its 90 % upper bound from the ten or
+so points it holds (`TransferFit.std_for`,
+`filmcal.correction.transfer.rms_upper_bound`).
 
 The activation and capsule models read a contour near the film's edge zone,
 where the polynomial leaves a smooth residual of a few um that it cannot
@@ -79,7 +81,7 @@ import numpy as np
 
 __all__ = ["TransferTerm", "TransferFit", "ResidualGP", "transfer_features", "load_transfer_fit", "TRANSFER_FILE",
            "THICKNESS_STD_MM", "STIFF_LEVEL_MODULUS_MPA", "STIFF_LEVEL_STD_MM", "outline_perimeter_mm",
-           "thickness_range"]
+           "thickness_range", "on_film_line"]
 
 #: The shipped fit (package data).
 TRANSFER_FILE = "film_transfer.json"
@@ -251,6 +253,15 @@ class ResidualGP:
                    arrays["points"], arrays["weights"], float(data["offset"]))
 
 
+def on_film_line(thickness_mm: float) -> bool:
+    """Whether a film has the built-in films' own thickness (`filmcal.films.FILM_THICKNESS_MM`), the line along
+    which the fit was made and checked densely (750 training and 80 held-out points; elsewhere about 50 and 10
+    per range of `TransferFit.thickness_rms_mm`, whose bands are therefore those of the films off it)."""
+    from filmcal.films import FILM_THICKNESS_MM
+
+    return math.isclose(float(thickness_mm), FILM_THICKNESS_MM, rel_tol=1e-9)
+
+
 def thickness_range(edges_mm, thickness_mm):
     """The index of the range of `edges_mm` (increasing bounds) that holds each thickness: ``edges[k] <= t <
     edges[k + 1]``, the last range closed; a thickness beyond the bounds is given the nearest range."""
@@ -278,10 +289,11 @@ class TransferFit:
     residual_gp : dict
         The same keys (activation and capsule) -> `ResidualGP` of d / t beyond the polynomial.
     thickness_rms_mm : dict
-        The residual measured in ranges of the film's thickness: ``"edges_mm"`` -> the ranges' bounds (mm,
-        increasing), and each key -> one root-mean-square residual (mm) per range, the largest of the training
-        rows' and of each held-out part's there (0 where a range holds none). `std_for` raises the term's std to it
-        where it is larger, never lowers it. Empty: no such ranges (the std is `std_mm` at every thickness).
+        The residual measured in ranges of the film's thickness off the built-in films' own (`on_film_line`):
+        ``"edges_mm"`` -> the ranges' bounds (mm, increasing), and each key -> one residual (mm) per range, the
+        largest upper bound of the training rows' and of each held-out part's root-mean-square residual there
+        (0 where a range holds none). `std_for` raises the term's std to it where it is larger, never lowers it,
+        for films off that line. Empty: no such ranges (the std is `std_mm` at every thickness).
     """
 
     coefficients: dict
@@ -354,14 +366,15 @@ class TransferFit:
     def std_for(self, imprint: str, kinematics: str, thickness_mm: float, modulus_mpa: float | None = None) -> float:
         """The term's standard deviation (mm) for a film of this thickness (and modulus).
 
-        The fit's `std_mm`, raised to the residual measured on films of about this thickness where that is
-        larger (`thickness_rms_mm`; beyond the ranges, the nearest one's), with `THICKNESS_STD_MM` in
+        The fit's `std_mm` (measured on the built-in films' thickness, `on_film_line`), raised for a film of
+        another thickness to the residual measured on films of about its thickness where that is larger
+        (`thickness_rms_mm`; beyond the ranges, the nearest one's), with `THICKNESS_STD_MM` in
         quadrature beyond the thicknesses the fit was made on, and for a level reading of a film stiffer than
         `STIFF_LEVEL_MODULUS_MPA` (when `modulus_mpa` is given), `STIFF_LEVEL_STD_MM` in quadrature.
         """
         key = f"{imprint}/{kinematics}"
         std = self.std_mm[key]
-        if self.thickness_rms_mm:
+        if self.thickness_rms_mm and not on_film_line(thickness_mm):
             k = thickness_range(self.thickness_rms_mm["edges_mm"], thickness_mm)
             std = max(std, self.thickness_rms_mm[key][k])
         if not self.fits_thickness(thickness_mm):

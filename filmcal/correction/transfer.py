@@ -18,7 +18,7 @@ import numpy as np
 from filmcal.contact.transfer import FEATURES, THICKNESS_STD_MM, ResidualGP, TransferFit, transfer_features
 
 __all__ = ["TRANSFER_DOMAIN", "CORE_DOMAIN", "NEAR_INCOMPRESSIBLE", "THICKNESS_DOMAIN_MM", "THICKNESS_PARTS_MM",
-           "THICKNESS_RANGES", "transfer_design", "thickness_design", "thickness_parts", "measure_transfer",
+           "THICKNESS_RANGES", "RMS_BOUND_CONFIDENCE", "rms_upper_bound", "transfer_design", "thickness_design", "thickness_parts", "measure_transfer",
            "fit_transfer", "check_transfer", "outside_fit"]
 
 #: Where the transfer is measured and checked: the calibration's supported domain
@@ -113,9 +113,12 @@ THICKNESS_PARTS_MM = (0.04, 0.074, 0.136, 0.25)
 #: outer thirds too: the activation readings on films of 0.040-0.049 mm were missed by 0.0025-0.0028 mm held out
 #: and the edge on films of 0.17-0.25 mm by 0.0021-0.0028 mm, against a std of 0.0016-0.0019 mm. A range holds
 #: about 10 independent held-out points (the three films share each), too few to lower a band on, enough to
-#: raise one. The raised bands are set on the rows they hold: their one check on points of their own is
+#: raise one, to the upper bound of its rms (`RMS_BOUND_CONFIDENCE`). The raised bands are set on the rows they
+#: hold: their one check on points of their own is
 #: `bench/verification.py --thickness` (films of 0.045, 0.05, 0.15 and 0.23 mm).
 THICKNESS_RANGES = 9
+#: A range's rms is raised to its upper confidence bound at this level (`rms_upper_bound`).
+RMS_BOUND_CONFIDENCE = 0.9
 
 
 def thickness_parts(rows: list[dict]) -> dict[str, list[dict]]:
@@ -376,10 +379,11 @@ def fit_transfer(train: list[dict], held_out: dict[str, list[dict]], grid_mm: fl
 
 def _thickness_rms(fit: TransferFit, row_sets: list[list[dict]]) -> dict:
     """`TransferFit.thickness_rms_mm`: over `THICKNESS_RANGES` equal ranges of ln t across the fit's
-    thicknesses, per key, the largest root-mean-square residual of each row set's rows in each (0 where none;
-    the held-out parts are sets of their own, so that the many held-out rows of the built-in films' thickness
-    do not dilute those of films drawn beside them). Empty when the fit was made on one thickness."""
-    from filmcal.contact.transfer import thickness_range
+    thicknesses, per key, the largest of each row set's root-mean-square residual in each, raised to its upper
+    bound at `RMS_BOUND_CONFIDENCE` from its number of points (0 where none), over the films off the built-in
+    films' thickness (`filmcal.contact.transfer.on_film_line`: the many rows on it would dilute those of films
+    drawn beside them, and the one std is measured on them). Empty when the fit was made on one thickness."""
+    from filmcal.contact.transfer import on_film_line, thickness_range
 
     t0, t1 = fit.domain["thickness_mm"]
     if not t1 > t0:
@@ -390,16 +394,41 @@ def _thickness_rms(fit: TransferFit, row_sets: list[list[dict]]) -> dict:
     for key in fit.coefficients:
         rms = np.zeros(THICKNESS_RANGES)
         for rows in row_sets:
-            group = _groups(rows).get(key, [])
+            group = [r for r in _groups(rows).get(key, []) if not on_film_line(r["thickness_mm"])]
             if not group:
                 continue
             _, res = _residuals_mm(fit, key, group)
             k = thickness_range(edges, np.array([r["thickness_mm"] for r in group]))
             for i in range(THICKNESS_RANGES):
                 if np.any(k == i):
-                    rms[i] = max(rms[i], float(np.sqrt(np.mean(res[k == i] ** 2))))
+                    n_points = len({_point(group[j]) for j in np.flatnonzero(k == i)})
+                    bound = rms_upper_bound(float(np.sqrt(np.mean(res[k == i] ** 2))), n_points)
+                    rms[i] = max(rms[i], bound)
         out[key] = [float(x) for x in rms]
     return out
+
+
+def _point(row: dict) -> tuple:
+    """The point of the domain a row was measured at (the films MS, HS and HHS share each)."""
+    return tuple(float(row[k]) for k in ("modulus_mpa", "poisson", "sphere_radius_mm", "force_kn", "thickness_mm"))
+
+
+def rms_upper_bound(rms_mm: float, n_points: int, confidence: float | None = None) -> float:
+    """The one-sided upper confidence bound of a root-mean-square residual measured on `n_points` independent
+    points: ``rms sqrt(n / chi2_{1 - confidence}(n))`` (the residuals taken as normal with mean zero).
+
+    A range of ln t holds about ten held-out points; their rms is then uncertain by about a quarter, and
+    read as it is, it left the level readings' bands on films held out at other thicknesses too narrow by up
+    to half (`bench/verification.py --thickness`). At 90 % ten points raise it by 1.43, fifty by 1.17.
+    """
+    from scipy.stats import chi2
+
+    confidence = RMS_BOUND_CONFIDENCE if confidence is None else confidence
+    if not (0.0 < confidence < 1.0):
+        raise ValueError(f"confidence must lie in (0, 1), got {confidence!r}")
+    if n_points < 1:
+        raise ValueError(f"n_points must be >= 1, got {n_points!r}")
+    return float(rms_mm * math.sqrt(n_points / chi2.ppf(1.0 - confidence, n_points)))
 
 
 def outside_fit(fit: TransferFit, film, imprint: str, radius_mm: float, max_pressure_mpa: float,

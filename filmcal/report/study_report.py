@@ -555,6 +555,7 @@ def verification_section(v: dict | None) -> Section:
 def _transfer_blocks() -> list:
     """The shipped transfer fit's held-out check (filmcal/data/film_transfer.json)."""
     from filmcal.contact.transfer import load_transfer_fit
+    from filmcal.correction.transfer import RMS_BOUND_CONFIDENCE
 
     fit = load_transfer_fit()
     held = fit.provenance.get("held_out") or {}
@@ -576,8 +577,9 @@ def _transfer_blocks() -> list:
         if raised:
             top = max(raised)
             text += (f" The std carried holds every third of the fitted film thicknesses "
-                     f"({edges[0]:g}-{edges[-1]:g} mm); a film whose ninth of them was missed by more carries that "
-                     f"ninth's rms instead ({len(raised)} of the {len(fit.std_mm)} models' "
+                     f"({edges[0]:g}-{edges[-1]:g} mm); a film off the built-in films' thickness whose ninth of "
+                     f"them was missed by more carries the {100 * RMS_BOUND_CONFIDENCE:.0f} % upper bound of that "
+                     f"ninth's rms from its points instead ({len(raised)} of the {len(fit.std_mm)} models' "
                      f"{(len(edges) - 1) * len(fit.std_mm)} ninths; the largest {1e3 * top[0]:.1f} µm: {top[1]} on "
                      f"films of {top[2]:.3f}-{top[3]:.3f} mm).")
     return [text, Table(["model", "points", "raw mean (µm)", "raw max |d| (µm)", "with term: mean (µm)", "rms (µm)",
