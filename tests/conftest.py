@@ -61,6 +61,8 @@ SLOW_FIXTURES: frozenset[str] = frozenset({
 #: (setup + call, wall time on 2 cores shared with other work, so about 2-3x
 #: the idle time) by ``python3 -m pytest -q --durations=60 -p no:cacheprovider``.
 SLOW_TESTS: dict[str, str] = {
+    "test_calibration_mcmc.py::test_sampled_quantiles_agree_with_quadrature_within_their_monte_carlo_errors":
+        "6.5-7.2 s: an MCMC run long enough to judge its quantiles, and the quadrature",
     "test_sheet.py::test_a_resolution_given_against_the_files_own_is_said": "6 s: four scans of the real page, each a command in a process",
     "test_sheet.py::test_the_real_sheet_scanned_with_a_noisy_sensor_reads_its_six_imprints":
         "10 s: the real page with noise added, written as PNG and read",
