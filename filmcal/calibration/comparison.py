@@ -139,11 +139,6 @@ class ModelAssessment:
                 "n_pareto_k_high": self.n_pareto_k_high, "modulus_mpa": self.modulus_mpa}
 
 
-def _posterior_draws(idata) -> tuple[int, int]:
-    post = idata.posterior
-    return int(post.sizes["chain"]), int(post.sizes["draw"])
-
-
 def assess_model(problem: CalibrationProblem, idata, name: str | None = None,
                  max_samples: int = 2000) -> ModelAssessment:
     """Fit and PSIS-LOO of one calibrated model.

@@ -38,10 +38,6 @@ def _contract(a, b):
     return np.einsum("ij...,ij...->...", a, b)
 
 
-def _mat(a, b):
-    return np.einsum("ik...,kj...->ij...", a, b)
-
-
 @LinearForm
 def _internal_force(v, w):
     r = w.x[0]
