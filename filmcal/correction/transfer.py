@@ -18,8 +18,8 @@ import numpy as np
 from filmcal.contact.transfer import FEATURES, THICKNESS_STD_MM, ResidualGP, TransferFit, transfer_features
 
 __all__ = ["TRANSFER_DOMAIN", "CORE_DOMAIN", "NEAR_INCOMPRESSIBLE", "THICKNESS_DOMAIN_MM", "THICKNESS_PARTS_MM",
-           "THICKNESS_RANGES", "RMS_BOUND_CONFIDENCE", "rms_upper_bound", "transfer_design", "thickness_design", "thickness_parts", "measure_transfer",
-           "fit_transfer", "check_transfer", "outside_fit"]
+           "THICKNESS_RANGES", "RMS_BOUND_CONFIDENCE", "rms_upper_bound", "transfer_design", "thickness_design",
+           "thickness_parts", "measure_transfer", "fit_transfer", "check_transfer", "outside_fit"]
 
 #: Where the transfer is measured and checked: the calibration's supported domain
 #: (`filmcal.surrogate.radius.SUPPORTED_RADIUS_MM`, `SUPPORTED_FORCE_KN`, within the steel's elastic limit), with
