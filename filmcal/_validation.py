@@ -248,6 +248,9 @@ FORCE_KN_BOUNDS = (1e-3, 2000.0)
 #: Sphere radius (mm) and lateral offset eta (mm) a measurement may have (an option, a batch row, a request).
 SPHERE_RADIUS_MM_BOUNDS = (1.0, 1e5)
 OFFSET_MM_BOUNDS = (-60.0, 60.0)
+#: A hardness capping asperity pressures (MPa): a polymer coating's is tens to hundreds of MPa, a hardened
+#: steel's up to about 8000 (800 HV); beyond these bounds the number is a unit error.
+HARDNESS_MPA_BOUNDS = (1.0, 1e4)
 #: The smallest Ra (um) a rough body may have: 10 nm, a super-finished steel surface; below it the growth of
 #: any reading is far under a grid cell (Ra 0.01 um moves the wheel-rail area by < 0.5 %), and heights of a
 #: few atoms are not a roughness the boundary elements resolve. A smooth body is given as Ra 0 (no surface).

@@ -9,7 +9,8 @@ from __future__ import annotations
 import platform
 from importlib import metadata
 
-__all__ = ["__version__", "NUMERIC_PACKAGES", "software_versions", "version_note", "VersionNote"]
+__all__ = ["__version__", "NUMERIC_PACKAGES", "software_versions", "version_note", "VersionNote", "hold_note",
+           "held_notes"]
 
 #: filmcal's own version (re-exported as ``filmcal.__version__``).
 __version__ = "0.1.0"
@@ -20,6 +21,24 @@ NUMERIC_PACKAGES = ("numpy", "scipy", "scikit-learn", "scikit-fem", "emcee", "ar
 
 class VersionNote(UserWarning):
     """A study is read under other versions than those that made it (one line for the user)."""
+
+
+#: The notes a command met, each once, in order: the command line says them when the command has done its
+#: work (or begins to serve), never beside the one line of a refusal.
+_HELD: list[str] = []
+
+
+def hold_note(text: str) -> None:
+    """Keep a `VersionNote`'s text for `held_notes` (a text already kept is not kept twice)."""
+    if text not in _HELD:
+        _HELD.append(text)
+
+
+def held_notes() -> list[str]:
+    """The notes kept since the last call, forgotten here."""
+    notes = list(_HELD)
+    _HELD.clear()
+    return notes
 
 
 def software_versions() -> dict[str, str]:

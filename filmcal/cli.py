@@ -47,7 +47,7 @@ from pathlib import Path
 import filmcal.commands
 from filmcal._errors import DamagedFileError
 from filmcal._validation import SPHERE_RADIUS_MM_BOUNDS, arg_finite, arg_float_in, arg_grid, arg_int, arg_int_in
-from filmcal._versions import VersionNote
+from filmcal._versions import VersionNote, held_notes, hold_note
 from filmcal.commands._options import bounds_text, missing_required, take_notes
 
 __all__ = ["main", "build_parser", "preflight", "SIZE_BOUNDS",
@@ -536,18 +536,25 @@ def user_error_message(exc: BaseException, args: argparse.Namespace, options: di
 
 
 def _notes_as_one_line(prog: str) -> None:
-    """Show `VersionNote` warnings as one line ``prog: note: ...`` and other warnings as one line
-    ``prog: warning: Category: message`` (its first line; no file, line number or source line)."""
+    """Keep `VersionNote` warnings, each once, for `_say_notes` (a refused command says one line only), and
+    show other warnings as one line ``prog: warning: Category: message`` (its first line; no file, line
+    number or source line)."""
 
     def showwarning(message, category, filename, lineno, file=None, line=None):
         if issubclass(category, VersionNote):
-            sys.stderr.write(f"{prog}: note: {message}\n")
+            hold_note(str(message))
         else:
             first = str(message).strip().splitlines()[0] if str(message).strip() else ""
             sys.stderr.write(f"{prog}: warning: {category.__name__}: {first}\n")
 
     warnings.showwarning = showwarning
     warnings.simplefilter("always", VersionNote)
+
+
+def _say_notes(prog: str) -> None:
+    """The `VersionNote`s kept while the command ran, one line each: ``prog: note: ...``."""
+    for text in held_notes():
+        sys.stderr.write(f"{prog}: note: {text}\n")
 
 
 def _restore_ctrl_c() -> None:
@@ -656,8 +663,11 @@ def _main(argv: list[str] | None) -> int:
             _notes_as_one_line(prog)
             # an image above Pillow's pixel limit is refused, not decoded with a warning
             warnings.filterwarnings("error", message=r".*decompression bomb", category=RuntimeWarning)
-            return int(args.func(args) or 0)
+            status = int(args.func(args) or 0)
+        _say_notes(prog)
+        return status
     except KeyboardInterrupt:
+        _say_notes(prog)
         sys.stderr.write(f"{prog}: interrupted\n")
         return EXIT_INTERRUPTED
     except BrokenPipeError:  # output piped into e.g. `head`
@@ -669,10 +679,12 @@ def _main(argv: list[str] | None) -> int:
     except Exception as exc:  # noqa: BLE001 - this is the boundary
         message = user_error_message(exc, args, options)
         if message is None:
+            _say_notes(prog)
             traceback.print_exc(file=sys.stderr)
             sys.stderr.write(f"{prog}: internal error ({type(exc).__name__}); this is a bug in filmcal, "
                              "please report it with the traceback above\n")
             return EXIT_INTERNAL
+        held_notes()  # a refusal is one line
         sys.stderr.write(f"{prog}: error: {message}\n")
         return EXIT_USER
 

@@ -77,6 +77,8 @@ SLOW_TESTS: dict[str, str] = {
     "test_rough_imprint.py::test_an_asperity_cannot_stain_a_film_whose_activation_lies_above_the_coating_hardness":
         "8 s: two boundary-element laws, one mostly plastic",
     "test_calibration_mcmc.py::test_contract_keys": "17 s: the module's default calibration",
+    "test_wheelrail_cli.py::test_a_hardness_given_is_used_and_said_to_be_given":
+        "7-8 s: two rough wheel-rail solves, each with its boundary-element law",
     "test_calibration_mcmc.py::test_recovers_modulus_and_sigma": "10 s: a 60-radius calibration",
     "test_calibration_mcmc.py::test_posterior_predictive_coverage": "uses the 60-radius calibration",
     "test_calibration_mcmc.py::test_same_seed_same_summary_digit_for_digit": "8 s: two samplings",

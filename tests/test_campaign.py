@@ -407,6 +407,12 @@ def test_cli_run_status_export(tmp_path, capsys):
     ("modulus_mpa,poisson,sphere_radius_mm,force_kn\n2800,0.7,450,75\n", "poisson must lie in (-1, 0.5)"),
     ("modulus_mpa,poisson,sphere_radius_mm,force_kn,mesh\n2800,0.3,450,75,1\n", "unknown design column(s) mesh"),
     ("modulus_mpa,poisson,sphere_radius_mm,force_kn,sphere_contact\n2800,0.3,450,75,glued\n", "sphere_contact must be"),
+    # the bounds `filmcal fem` gives the same quantities
+    ("modulus_mpa,poisson,sphere_radius_mm,force_kn\n1e300,0.33,450,75\n", "modulus_mpa must lie in [1, 1e+06]"),
+    ("modulus_mpa,poisson,sphere_radius_mm,force_kn\n2800,0.33,450,1e300\n", "force_kn must lie in [0.001, 2000]"),
+    ("modulus_mpa,poisson,sphere_radius_mm,force_kn\n2800,0.33,10,75\n", "sphere_radius_mm must be at least 55 mm"),
+    ("modulus_mpa,poisson,sphere_radius_mm,force_kn,film_thickness_mm\n2800,0.33,450,75,9\n",
+     "film_thickness_mm must lie in [0.001, 5]"),
 ])
 def test_cli_rejects_bad_designs_with_one_line(tmp_path, capsys, design_text, message):
     design = tmp_path / "design.csv"

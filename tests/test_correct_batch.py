@@ -186,3 +186,25 @@ def test_an_interrupted_batch_writes_the_rows_it_corrected_and_marks_the_others(
     assert main(args + ["--out", str(out)]) == 0  # run again: the whole table
     with open(out, newline="") as fh:
         assert list(csv.DictReader(fh)) == expected
+
+
+def test_a_study_of_other_versions_is_said_once_after_the_answer_and_never_beside_a_refusal(quick_study, tmp_path):
+    """Reading a study made under other package versions says so in one note, once however often the command
+    opens the study, after its answer; a refused command says its one error line only."""
+    import shutil
+
+    study, _, _ = quick_study
+    copy = tmp_path / "study"
+    shutil.copytree(study, copy)
+    manifest = json.loads((copy / "study.json").read_text())
+    manifest["software"]["numpy"] = "0.1"
+    (copy / "study.json").write_text(json.dumps(manifest))
+    cli = [sys.executable, "-m", "filmcal.cli", "correct", "--study-dir", str(copy), "--force-kn", "50",
+           "--measured-radius-mm", "7.1", "--sphere-radius-mm", "450"]
+    p = subprocess.run(cli + ["--film", "HS"], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    notes = [line for line in p.stderr.splitlines() if ": note: " in line]
+    assert len(notes) == 1 and "numpy 0.1" in notes[0], p.stderr
+    refused = subprocess.run(cli + ["--film", "XX"], capture_output=True, text=True, timeout=300)
+    assert refused.returncode == 2 and len(refused.stderr.strip().splitlines()) == 1, refused.stderr
+    assert "unknown film 'XX'" in refused.stderr

@@ -89,6 +89,8 @@ def make_folder(tmp_path: Path, bomb_png: bytes) -> Path:
     (tmp_path / "widerail.csv").write_text("y_mm,z_mm\n" + "".join(f"{y},{-1e-4 * y * y}\n" for y in range(-200, 201, 5)))
     (tmp_path / "law.csv").write_text("closure_um,pressure_mpa\n1,abc\n")
     (tmp_path / "decreasing.csv").write_text("closure_um,pressure_mpa\n0,0\n2,10\n1,20\n")
+    (tmp_path / "hugelaw.csv").write_text("closure_um,pressure_mpa\n0,0\n1,10\n1e300,1e300\n")
+    (tmp_path / "aug5.csv").write_text("a\n5\n0.5\n")
     (tmp_path / "films.toml").write_text('[LOT7]\nthickness_mm = "thick"\n')
     (tmp_path / "notoml.toml").write_bytes(b"[[[\x00")
     (tmp_path / "nested.toml").write_text("[films.XX]\nrange_mpa = [50, 130]\n")
@@ -267,6 +269,12 @@ CASES = [
     (["wheelrail", *WR, "--no-film", "--nominal-radius-mm", "1e308"], ["--nominal-radius-mm"]),
     (["curves", "--film", "HS", "--roughness-law", "decreasing.csv", "--study-dir", "emptystudy"],
      ["decreasing.csv", "--study-dir"]),
+    # a law to 1e300 was solved with (a unit error); a design range wider than a float said numpy's warnings
+    (["wheelrail", *WR, "--film-modulus-mpa", "2800", "--roughness-law", "hugelaw.csv"],
+     ["--roughness-law", "hugelaw.csv", "check the units"]),
+    (["doe", "--samples", "3", "--param", "a=-1.7e308:1.7e308", "--out", "o.csv"], ["--param", "wider than a float"]),
+    (["doe", "--samples", "3", "--param", "a=0:1", "--augment", "aug5.csv", "--out", "o.csv"],
+     ["--augment", "aug5.csv", "must lie in [0, 1]"]),
     # fem: a sphere as small as the FE body collapsed its rim elements (exit 70); a contact beyond the body
     (["fem", "--sphere-radius-mm", "50", "--force-kn", "10", "--no-film"], ["--sphere-radius-mm"]),
     (["fem", "--sphere-radius-mm", "5000", "--force-kn", "2000", "--no-film"], ["--force-kn"]),

@@ -243,3 +243,13 @@ def test_an_address_it_cannot_listen_on_is_refused_in_one_line(quick_study, tmp_
             assert f"--host {host} --port {port}: cannot listen there" in p.stderr
     finally:
         busy.close()
+
+
+def test_an_empty_address_is_refused_not_read_as_every_interface(tmp_path, capsys):
+    """``--host ""`` (an unset shell variable) would listen on every interface of a server without
+    authentication: refused in one line before the study is read."""
+    from filmcal.cli import main
+
+    assert main(["serve", "--study-dir", str(tmp_path), "--host", " ", "--port", "0"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "--host must be an address" in err

@@ -103,6 +103,13 @@ def test_text_output(capsys):
      "/no/such/map.csv", "--roughness-pixel-um", "1"],
     ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--wheel-roughness-ra-um",
      "1.5", "--hardness-mpa", "-5"],
+    ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--wheel-roughness-ra-um",
+     "1.5", "--hardness-mpa=1e300"],
+    # options that would change nothing are refused, not ignored
+    ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--hardness-mpa", "300"],
+    ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--roughness-seed", "3"],
+    ["--offset-mm=-3", "--force-kn", "100", "--no-film", "--wheel-roughness-ra-um", "1.5", "--hardness-mpa", "300"],
+    ["--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--imprint-model", "capsule"],
 ])
 def test_bad_input_exits_2_with_one_line(capsys, argv):
     with pytest.raises(SystemExit) as info:
@@ -111,6 +118,22 @@ def test_bad_input_exits_2_with_one_line(capsys, argv):
     assert info.value.code == 2
     assert out == ""
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_a_hardness_given_is_used_and_said_to_be_given(capsys):
+    """--hardness-mpa caps the asperity pressures of the law the solve uses, and the record names it as given,
+    not as the representative draw's."""
+    argv = ("--offset-mm=-3", "--force-kn", "100", "--film-modulus-mpa", "2800", "--wheel-roughness-ra-um", "1.5",
+            "--json")
+    code, out, err = _run(capsys, *argv)
+    default = json.loads(out)["roughness"]
+    assert code == 0 and "conditioned" in default["hardness_source"]
+    code, out, err = _run(capsys, *argv, "--hardness-mpa", str(0.5 * default["hardness_mpa"]))
+    given = json.loads(out)["roughness"]
+    assert code == 0 and given["hardness_source"] == "given (--hardness-mpa)"
+    assert given["hardness_mpa"] == pytest.approx(0.5 * default["hardness_mpa"])
+    # a softer coating closes sooner: its law saturates at the lower pressure
+    assert given["saturation_pressure_mpa"] < default["saturation_pressure_mpa"]
 
 
 def test_malformed_csv_exits_2(capsys, tmp_path):

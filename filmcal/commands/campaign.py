@@ -17,7 +17,7 @@ from typing import Any, Callable
 
 from filmcal._validation import check_choice, check_poisson, check_positive, check_range
 from filmcal.commands._common import print_json
-from filmcal.commands._options import add, local, renamed
+from filmcal.commands._options import VOCABULARY, add, local, renamed
 from filmcal.contact.names import KINEMATICS
 
 DEFAULT_MODEL = "filmcal.fem:evaluate_point"
@@ -41,20 +41,42 @@ def _friction(name: str, value: Any) -> float:
     return check_range(name, value, 0.0, float("inf"), low_open=False)
 
 
-# Design columns of the FE model and how each is checked; the values go to
-# `evaluate_point` unchanged (forces stay in kN, as in the design).
+def _within(concept: str) -> Callable[[str, Any], float]:
+    """The check of a column that is a concept of the command line: the bounds its option has."""
+    low, high = VOCABULARY[concept].bounds
+
+    def check(name: str, value: Any) -> float:
+        return check_range(name, value, low, high, low_open=False, high_open=False)
+
+    return check
+
+
+def _sphere_radius(name: str, value: Any) -> float:
+    """A sphere the FE body takes (`filmcal fem`'s bounds and its body's smallest sphere)."""
+    from filmcal.fem.mesh import MIN_SPHERE_TO_BODY, MeshSettings
+
+    radius = _within("sphere_radius_mm")(name, value)
+    smallest = round(MIN_SPHERE_TO_BODY * MeshSettings().body_size_mm, 9)
+    if radius < smallest:
+        raise ValueError(f"{name} must be at least {smallest:g} mm ({MIN_SPHERE_TO_BODY:g} times the FE body's "
+                         f"size), got {radius:g}")
+    return radius
+
+
+# Design columns of the FE model and how each is checked, with the bounds `filmcal fem` gives its options; the
+# values go to `evaluate_point` unchanged (forces stay in kN, as in the design).
 COLUMN_CHECKS: dict[str, Callable[[str, Any], Any]] = {
-    "modulus_mpa": check_positive,
+    "modulus_mpa": _within("film_modulus_mpa"),
     "poisson": check_poisson,
-    "sphere_radius_mm": check_positive,
-    "force_kn": check_positive,
+    "sphere_radius_mm": _sphere_radius,
+    "force_kn": _within("force_kn"),
     "sphere_contact": _contact,
     "flat_contact": _contact,
     "friction_coefficient": _friction,
     "kinematics": lambda name, value: check_choice(name, str(value), KINEMATICS),
-    "element_size_mm": check_positive,
+    "element_size_mm": lambda name, value: check_range(name, value, 0.0, 1.0, high_open=False),  # MeshSettings
     "no_film": _flag,
-    "film_thickness_mm": check_positive,
+    "film_thickness_mm": _within("film_thickness_mm"),
     "activation_pressure_mpa": check_positive,
 }
 # The FE model builds its meshes once per (radius, element size, film

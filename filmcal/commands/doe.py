@@ -65,7 +65,12 @@ def _existing_points(path: str, space: DesignSpace) -> np.ndarray:
     if sorted(names) != sorted(space.names):
         raise ValueError(f"--augment {path}: columns {', '.join(names)} do not match the "
                          f"--param names {', '.join(space.names)}")
-    return points[:, [names.index(name) for name in space.names]]
+    points = points[:, [names.index(name) for name in space.names]]
+    try:
+        space.to_unit(points)
+    except ValueError as exc:
+        raise ValueError(f"--augment {path}: {exc}") from None
+    return points
 
 
 def run(args: argparse.Namespace) -> int:
@@ -80,7 +85,10 @@ def run(args: argparse.Namespace) -> int:
     check_distinct_files((args.augment, "--augment"), (args.out, "--out"))
     if not args.augment and args.samples < 2:
         raise ValueError(f"--samples must be at least 2 without --augment, got {args.samples}")
-    space = DesignSpace(tuple(parse_parameter(spec) for spec in args.param))
+    try:
+        space = DesignSpace(tuple(parse_parameter(spec) for spec in args.param))
+    except ValueError as exc:
+        raise ValueError(f"--param: {exc}") from None
     if args.augment:
         design = augment_design(space, _existing_points(args.augment, space), args.samples,
                                 seed=args.seed, n_outer=args.iterations)

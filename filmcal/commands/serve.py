@@ -39,6 +39,8 @@ def add_parser(subparsers) -> None:
 
 
 def _check(args: argparse.Namespace) -> None:
+    if not args.host.strip():  # "" would listen on every interface
+        raise ValueError(f"--host must be an address or a host name, got {args.host!r}")
     if not 0 <= args.port <= 65535:
         raise ValueError(f"--port must be 0-65535, got {args.port}")
     if not 1.0 <= args.request_timeout_s <= 3600.0:
@@ -63,6 +65,10 @@ def run(args: argparse.Namespace) -> int:
     if not _loopback(args.host):
         print(f"filmcal serve: listening on {args.host}: the UM-Bridge protocol has no authentication, anyone who "
               "can reach this address can use the server", file=sys.stderr)
+    from filmcal._versions import held_notes
+
+    for text in held_notes():  # said before serving, which ends only with Ctrl-C
+        print(f"filmcal serve: note: {text}", file=sys.stderr)
     print(f"serving {', '.join(MODELS)} of {args.study_dir} at {server.url} (Ctrl-C stops)", flush=True)
     server.serve_forever()
     return 0

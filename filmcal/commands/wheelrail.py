@@ -4,8 +4,10 @@ from __future__ import annotations
 import argparse
 import math
 
+from filmcal._validation import HARDNESS_MPA_BOUNDS, arg_float_in
 from filmcal.commands._common import print_json
-from filmcal.commands._options import add, add_roughness_map_reading, add_wheel_rail_options, local, renamed
+from filmcal.commands._options import (add, add_roughness_map_reading, add_wheel_rail_options, bounds_text, local,
+                                       renamed)
 from filmcal.contact.names import DEFAULT_IMPRINT_MODEL, DEFAULT_KINEMATICS, IMPRINT_MODELS
 
 
@@ -51,8 +53,9 @@ def add_parser(subparsers) -> None:
     add_roughness_map_reading(p)
     local(p, "--roughness-seed", type=int, help="realisation of the synthetic rough surfaces (default: the "
                                                 "representative conditioned draw's)")
-    local(p, "--hardness-mpa", type=float, help="cap on asperity pressures in the film's coating (MPa; default: "
-                                                "the representative conditioned draw's)")
+    local(p, "--hardness-mpa", type=arg_float_in(*HARDNESS_MPA_BOUNDS),
+          help="cap on asperity pressures in the film's coating (MPa; default: the representative conditioned "
+               "draw's)" + bounds_text(*HARDNESS_MPA_BOUNDS, integer=False))
     add_wheel_rail_options(p, grid=True)
     add(p, "film", extra="; also report the area its imprint model colours (imprint_area_mm2); its thickness "
                          "and nu are the defaults of the film")
@@ -77,6 +80,8 @@ def run(args: argparse.Namespace) -> int:
     check_roughness_maps(args, "wheelrail", 0 if args.no_film else 1, 1 if args.no_film else 0,
                          advice="crop the map or bin its pixels")
 
+    if args.film is None and args.imprint_model != DEFAULT_IMPRINT_MODEL:
+        raise ValueError("--imprint-model needs --film")
     inclination = args.rail_inclination
     case = FilmContactCase(None if args.no_film else args.film_modulus_mpa, args.film_poisson,
                            args.film_thickness_mm, args.film, args.films_file, args.imprint_model, args.kinematics)

@@ -208,6 +208,11 @@ class ExponentialLaw(InterfaceLaw):
                 f"closure_scale_mm={self.closure_scale_mm:g})")
 
 
+#: The widest span of closures (um) a measured law may have: a rough interface closes by a few asperity heights,
+#: tens of um; a span beyond 1 mm is a unit error.
+MAX_LAW_CLOSURE_UM = 1000.0
+
+
 class TabularLaw(InterfaceLaw):
     """Pressure-overclosure law given by measured points.
 
@@ -241,6 +246,17 @@ class TabularLaw(InterfaceLaw):
             pressure = [float(r["pressure_mpa"]) for r in rows]
         except (KeyError, TypeError, ValueError):
             raise ValueError(f"roughness_law {path}: needs numeric columns closure_um,pressure_mpa") from None
+        from filmcal._validation import HARDNESS_MPA_BOUNDS
+
+        if not np.all(np.isfinite(closure + pressure)):
+            raise ValueError(f"roughness_law {path}: closure_um and pressure_mpa must be finite")
+        if closure and max(closure) - min(closure) > 1e-3 * MAX_LAW_CLOSURE_UM:
+            raise ValueError(f"roughness_law {path}: its closures span {1e3 * (max(closure) - min(closure)):g} um, "
+                             f"more than a rough interface closes (at most {MAX_LAW_CLOSURE_UM:g} um): check the "
+                             "units")
+        if pressure and max(pressure) > HARDNESS_MPA_BOUNDS[1]:
+            raise ValueError(f"roughness_law {path}: its pressures reach {max(pressure):g} MPa, above any steel's "
+                             f"hardness (at most {HARDNESS_MPA_BOUNDS[1]:g} MPa): check the units")
         try:
             return cls(closure, pressure)
         except ValueError as exc:  # said in the file's own columns

@@ -98,6 +98,8 @@ class Parameter:
         high = as_finite(f"{self.name} high", self.high)
         if not low < high:
             raise ValueError(f"{self.name}: low must be < high, got low={low:g}, high={high:g}")
+        if not math.isfinite(high - low):
+            raise ValueError(f"{self.name}: the range {low:g}:{high:g} is wider than a float holds")
         if self.scale == "log" and low <= 0.0:
             raise ValueError(f"{self.name}: log scale needs low > 0, got low={low:g}")
         self._set(low=low, high=high)

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from filmcal._errors import InputError
 from filmcal.hertz import ELASTIC_LIMIT_MPA
 from filmcal._validation import FORCE_KN_BOUNDS, OFFSET_MM_BOUNDS, SPHERE_RADIUS_MM_BOUNDS
 from filmcal.contact.names import MIXTURE
@@ -282,7 +283,7 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
         else:
             radius, radius_std = m.measured_radius_mm, m.measurement_std_mm
         parts = _correctors(cache, study, film, "sphere", seed, None, match)
-        parts[0][1].check_plausible(radius, m.sphere_radius_mm, force_n)
+        _plausible(parts[0][1], reading, scan, radius, m.sphere_radius_mm, force_n)
         results = [c.correct(radius, m.sphere_radius_mm, force_n, radius_std) for _, c, _ in parts]
     else:
         if reading is not None:
@@ -292,7 +293,7 @@ def correct_measurement(study, film: str, measurement: SphereMeasurement | Wheel
         parts = _correctors(cache, study, film, "wheel-rail", seed,
                             dict(wheel=m.wheel, rail=m.rail, rail_inclination=m.rail_inclination,
                                  nominal_radius_mm=m.nominal_radius_mm), match)
-        parts[0][1].check_plausible(area, m.offset_mm, force_n)
+        _plausible(parts[0][1], reading, scan, area, m.offset_mm, force_n)
         results = [c.correct(area, m.offset_mm, force_n, area_std, offset_std_mm=m.offset_std_mm)
                    for _, c, _ in parts]
     if sphere and roughness is not None and not roughness.smooth:
@@ -410,6 +411,16 @@ def _warn(out: dict, text: str, category: type[CorrectionWarning] = ElasticLimit
 
     out.setdefault("warnings", []).append(text)
     warnings.warn(category(text), stacklevel=3)
+
+
+def _plausible(corrector, reading, scan: ScanReading | None, value: float, *where: float) -> None:
+    """The corrector's plausibility check of the measured value; one read from a scan is said of the scan."""
+    try:
+        corrector.check_plausible(value, *where)
+    except ValueError as exc:
+        if reading is None:
+            raise
+        raise InputError(f"--scan {scan.path}: the imprint read from it: {exc}") from None
 
 
 def _scanned(reading, scan: ScanReading, result, wheel_rail: tuple | None) -> dict[str, Any]:

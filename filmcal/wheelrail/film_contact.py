@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from filmcal.wheelrail.settings import GRID_MM, NOMINAL_RADIUS_MM, RAIL, RAIL_INCLINATION, WHEEL
-from filmcal._validation import check_positive, check_ra
+from filmcal._validation import HARDNESS_MPA_BOUNDS, check_positive, check_range, check_ra
 from filmcal.contact.names import DEFAULT_IMPRINT_MODEL, DEFAULT_KINEMATICS
 
 __all__ = ["WheelRoughness", "FilmContactCase", "solve_film_contact"]
@@ -65,7 +65,17 @@ class WheelRoughness:
                 raise ValueError("--rail-roughness-ra-um cannot be combined with --roughness-law (a measured "
                                  "law is the whole interface as measured)")
         if self.hardness_mpa is not None:
-            check_positive("hardness_mpa", self.hardness_mpa)
+            check_range("hardness_mpa", self.hardness_mpa, *HARDNESS_MPA_BOUNDS, low_open=False, high_open=False)
+            if self.law_file is not None:
+                raise ValueError("--hardness-mpa cannot be combined with --roughness-law (a measured law is the "
+                                 "whole interface as measured)")
+        if self.smooth:
+            given = [flag for flag, value in (("--hardness-mpa", self.hardness_mpa),
+                                              ("--roughness-seed", self.seed)) if value is not None]
+            if given:
+                raise ValueError(f"{' and '.join(given)} need{'s' if len(given) == 1 else ''} a rough wheel or "
+                                 "rail (--wheel-roughness-ra-um, --wheel-roughness-map, --rail-roughness-ra-um or "
+                                 "--rail-roughness-map)")
 
     @property
     def smooth(self) -> bool:
@@ -190,6 +200,9 @@ def solve_film_contact(offset_mm: float, force_n: float, case: FilmContactCase,
     no_film = case.film_modulus_mpa is None
     if no_film and case.kinematics == "large":
         raise ValueError("--kinematics large needs a film (--film-modulus-mpa)")
+    if no_film and roughness.hardness_mpa is not None:
+        raise ValueError("--hardness-mpa is the film coating's: without film the steel's hardness caps the "
+                         "asperity pressures")
     # a film type's imprint is read from the solve with or without its film (the latter: what it would colour)
     model = FilmModel(film_type, case.imprint_model if named is not None else "edge",
                       "small" if no_film else case.kinematics)
@@ -222,6 +235,8 @@ def solve_film_contact(offset_mm: float, force_n: float, case: FilmContactCase,
                           **whole.describe(), **wavy}
         solver_film, solver_law, _ = model.interface(case.film_modulus_mpa, law)
         rough_info = rough_info and {**rough_info, "reading_level": roughness.inputs().reading_level}
+        if rough_info and roughness.hardness_mpa is not None:
+            rough_info["hardness_source"] = "given (--hardness-mpa)"
     result = solve_wheel_rail(offset_mm, force_n, wheel=_profile(wheel, "wheel"), rail=_profile(rail, "rail"),
                               rail_inclination=rail_inclination, nominal_radius_mm=nominal_radius_mm,
                               film=solver_film, roughness=solver_law, grid_mm=grid_mm, waviness=bodies.waviness)
