@@ -127,7 +127,10 @@ def plain_float(text: str) -> float:
     `float` also reads ``1_0`` (10) and other scripts' digits, which no user means as a number."""
     if not text.isascii() or "_" in text:
         raise ValueError("must be a plain number (ASCII digits, a decimal point, no underscores)")
-    return float(text)
+    try:
+        return float(text)
+    except ValueError:  # Python's wording ("could not convert string to float") is not the user's
+        raise ValueError("must be a number") from None
 
 
 def plain_int(text: str) -> int:
@@ -135,7 +138,10 @@ def plain_int(text: str) -> int:
     ``1_0`` as 10, and other scripts' digits)."""
     if not text.isascii() or "_" in text:
         raise ValueError("must be a plain integer (ASCII digits, no underscores)")
-    return int(text)
+    try:
+        return int(text)
+    except ValueError:  # Python's wording ("invalid literal for int()") is not the user's
+        raise ValueError("must be an integer") from None
 
 
 def arg_finite() -> Callable[[str], float]:

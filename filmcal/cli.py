@@ -370,6 +370,9 @@ def _name_option(message: str, options: dict[str, str]) -> str:
     usable = {d: o for d, o in options.items() if o.startswith("--") and d not in ("help", "json")}
     # a message about a file's content names its columns, not options: only its lead names an option
     about_file = re.match(r"(batch|dataset|roughness map|films file) ", message) is not None
+    for dest in sorted(usable, key=len, reverse=True):  # said in words: "films file F: ..." is --films-file's
+        if "_" in dest and message.startswith(dest.replace("_", " ") + " "):
+            return f"{usable[dest]}: {message}"
     for dest in sorted(usable, key=len, reverse=True):
         if message.startswith(dest + " ") or message.startswith(dest + ":") or (
                 "_" in dest and not about_file and re.search(rf"(?<![\w-]){re.escape(dest)}(?![\w-])", message)):

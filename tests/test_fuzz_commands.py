@@ -226,9 +226,9 @@ CASES = [
     (["calibrate", "--film", "LOT7", "--films-file", "notoml.toml", "--study-dir", "emptystudy"], ["notoml.toml"]),
     # a film one table too deep was 'film films: unknown key(s) XX'
     (["calibrate", "--film", "XX", "--films-file", "nested.toml", "--study-dir", "emptystudy"], ["not [films.XX]"]),
-    # a bad value in the file was told as if of --activation-pressure-mpa, an option not given
+    # a bad value in the file was told as if of --activation-pressure-mpa, an option not given: it is the file's
     (["fem", "--sphere-radius-mm", "300", "--force-kn", "60", "--film-modulus-mpa", "2800", "--film", "XX",
-      "--films-file", "badact.toml"], ["error: films file"]),
+      "--films-file", "badact.toml"], ["error: --films-file: films file"]),
     (["calibrate", "--film", "HS", "--data", "binary.csv", "--study-dir", "emptystudy"], ["binary.csv"]),
     (["calibrate", "--film", "HS", "--data", "wrongcols.csv", "--study-dir", "emptystudy"], ["wrongcols.csv"]),
     (["calibrate", "--film", "HS", "--study-dir", "badstudy"], ["badstudy/study.json"]),
@@ -273,6 +273,11 @@ CASES = [
     (["wheelrail", *WR, "--film-modulus-mpa", "2800", "--roughness-law", "hugelaw.csv"],
      ["--roughness-law", "hugelaw.csv", "check the units"]),
     (["doe", "--samples", "3", "--param", "a=-1.7e308:1.7e308", "--out", "o.csv"], ["--param", "wider than a float"]),
+    # an empty number was answered in Python's words ("could not convert string to float: ''")
+    (["serve", "--study-dir", "emptystudy", "--port="], ["--port: must be an integer, got ''"]),
+    (["scan", "cut.png", "--out", "s.csv", "--min-imprint-mm2="], ["--min-imprint-mm2: must be a number, got ''"]),
+    # a films file that is not TOML was blamed on --films
+    (["pipeline", "--films-file", "binary.csv", "--study-dir", "new"], ["--films-file: films file"]),
     (["doe", "--samples", "3", "--param", "a=0:1", "--augment", "aug5.csv", "--out", "o.csv"],
      ["--augment", "aug5.csv", "must lie in [0, 1]"]),
     # fem: a sphere as small as the FE body collapsed its rim elements (exit 70); a contact beyond the body

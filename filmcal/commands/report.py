@@ -20,7 +20,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "needed). Reads the study's files only; the figures are drawn on every core "
                     "(docs/pipeline.md gives measured times).")
     add(p, "study_dir", default="filmcal-study", help="study folder (default ./filmcal-study)")
-    local(p, "--out-dir", default=None, help="output folder outside the study (default STUDY_DIR/report)")
+    local(p, "--out-dir", default=None,
+          help="output folder (default STUDY_DIR/report; any other folder must lie outside the study: a read-only "
+               "study's report goes elsewhere)")
     add(p, "json", action="store_true", help="print the written paths as one JSON object")
     p.set_defaults(func=run)
 
