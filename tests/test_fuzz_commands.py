@@ -89,6 +89,8 @@ def make_folder(tmp_path: Path, bomb_png: bytes) -> Path:
     (tmp_path / "widerail.csv").write_text("y_mm,z_mm\n" + "".join(f"{y},{-1e-4 * y * y}\n" for y in range(-200, 201, 5)))
     (tmp_path / "law.csv").write_text("closure_um,pressure_mpa\n1,abc\n")
     (tmp_path / "decreasing.csv").write_text("closure_um,pressure_mpa\n0,0\n2,10\n1,20\n")
+    (tmp_path / "nanprofile.csv").write_text("x_um,z_um\n" + "".join(f"{2 * i},{'nan' if i == 2 else i % 3}\n"
+                                                                    for i in range(40)))
     (tmp_path / "hugelaw.csv").write_text("closure_um,pressure_mpa\n0,0\n1,10\n1e300,1e300\n")
     (tmp_path / "aug5.csv").write_text("a\n5\n0.5\n")
     (tmp_path / "films.toml").write_text('[LOT7]\nthickness_mm = "thick"\n')
@@ -273,6 +275,8 @@ CASES = [
     (["wheelrail", *WR, "--film-modulus-mpa", "2800", "--roughness-law", "hugelaw.csv"],
      ["--roughness-law", "hugelaw.csv", "check the units"]),
     (["doe", "--samples", "3", "--param", "a=-1.7e308:1.7e308", "--out", "o.csv"], ["--param", "wider than a float"]),
+    # a line profile with one bad row among many said 'needs finite numbers in at least two rows'
+    (["wheelrail", *WR, "--no-film", "--wheel-roughness-map", "nanprofile.csv"], ["line 4 is not finite"]),
     # an empty number was answered in Python's words ("could not convert string to float: ''")
     (["serve", "--study-dir", "emptystudy", "--port="], ["--port: must be an integer, got ''"]),
     (["scan", "cut.png", "--out", "s.csv", "--min-imprint-mm2="], ["--min-imprint-mm2: must be a number, got ''"]),

@@ -230,8 +230,13 @@ def read_line_profile(path: str | Path):
                         dtype=float)
     except (ValueError, IndexError):
         raise ValueError(f"{where}: every row needs numbers in the x and z columns") from None
-    if data.shape[0] < 2 or not np.all(np.isfinite(data)):
-        raise ValueError(f"{where}: needs finite numbers in at least two rows")
+    if data.shape[0] < 2:
+        raise ValueError(f"{where}: needs numbers in at least two rows, found {data.shape[0]}")
+    bad = np.flatnonzero(~np.all(np.isfinite(data), axis=1))
+    if bad.size:  # the row as a text editor numbers it (the header is line 1; blank lines are skipped)
+        line = [n for n, r in enumerate(rows[1:], start=2) if r][bad[0]]
+        more = f"; {bad.size} such rows in all" if bad.size > 1 else ""
+        raise ValueError(f"{where}: line {line} is not finite ({', '.join(rows[line - 1])}){more}")
     x, z = data[:, 0], data[:, 1]
     if np.any(np.diff(x) <= 0):
         raise ValueError(f"{where}: positions must increase along the profile")
