@@ -254,6 +254,12 @@ FORCE_KN_BOUNDS = (1e-3, 2000.0)
 #: Sphere radius (mm) and lateral offset eta (mm) a measurement may have (an option, a batch row, a request).
 SPHERE_RADIUS_MM_BOUNDS = (1.0, 1e5)
 OFFSET_MM_BOUNDS = (-60.0, 60.0)
+#: A film's Young's modulus (MPa): a Prescale film's lies in the hundreds to thousands; 1 MPa to 1 TPa covers
+#: every film and refuses a unit error (Pa, GPa). A film's thickness (mm): 1 um to 5 mm.
+FILM_MODULUS_MPA_BOUNDS = (1.0, 1e6)
+FILM_THICKNESS_MM_BOUNDS = (0.001, 5.0)
+#: A scanned imprint's pixel size (mm): 1 um to 1 mm (25400 to 25.4 dpi); beyond it the number is a unit error.
+SCAN_PIXEL_MM_BOUNDS = (0.001, 1.0)
 #: A hardness capping asperity pressures (MPa): a polymer coating's is tens to hundreds of MPa, a hardened
 #: steel's up to about 8000 (800 HV); beyond these bounds the number is a unit error.
 HARDNESS_MPA_BOUNDS = (1.0, 1e4)

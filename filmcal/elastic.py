@@ -27,5 +27,10 @@ def oedometric_modulus_mpa(modulus_mpa, poisson):
     lateral strain: a thin film held laterally is compressed at M, so in a
     linear model the film's (E, nu) enter a contact only through M.
     """
-    m = np.asarray(modulus_mpa, dtype=float) * np.asarray(oedometric_ratio(poisson))
+    e, nu = np.asarray(modulus_mpa, dtype=float), np.asarray(poisson, dtype=float)
+    if not (np.all(np.isfinite(e)) and np.all(e > 0.0)):
+        raise ValueError(f"modulus_mpa must be finite and > 0, got {modulus_mpa!r}")
+    if not (np.all(np.isfinite(nu)) and np.all((nu > -1.0) & (nu < 0.5))):
+        raise ValueError(f"poisson must lie in (-1, 0.5), got {poisson!r}")
+    m = e * np.asarray(oedometric_ratio(nu))
     return float(m) if m.ndim == 0 else m

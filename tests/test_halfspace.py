@@ -236,7 +236,7 @@ def test_film_softens_monotonically_and_stiff_film_recovers_hertz(solver):
     grid, gap, _ = _quadratic_case(1 / 900, 1 / 900, 0.1, margin=1.6, solver=solver)
     smooth = solver.solve(gap, 75e3, grid)
     areas, peaks = [], []
-    for modulus in (1e7, 2e4, 5000.0, 2800.0, 1000.0):  # increasing t/M
+    for modulus in (1e6, 2e4, 5000.0, 2800.0, 1000.0):  # increasing t/M (1e6: the stiffest a FilmLayer takes)
         res = solver.solve(gap, 75e3, grid, film=FilmLayer(modulus))
         areas.append(res.area_mm2)
         peaks.append(res.max_pressure_mpa)

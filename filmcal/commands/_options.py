@@ -89,6 +89,7 @@ def _concepts(*items: Concept) -> dict[str, Concept]:
 
 _POSITIVE = (1e-12, 1e12)  # finite and > 0 (bounds stated as "> 0")
 from filmcal._validation import FORCE_KN_BOUNDS, OFFSET_MM_BOUNDS, SPHERE_RADIUS_MM_BOUNDS  # noqa: E402 (one place)
+from filmcal._validation import FILM_MODULUS_MPA_BOUNDS, FILM_THICKNESS_MM_BOUNDS  # noqa: E402
 from filmcal._validation import MAX_RA_UM, MIN_RA_UM, arg_zero_or_in  # noqa: E402
 
 VOCABULARY: dict[str, Concept] = _concepts(
@@ -96,11 +97,9 @@ VOCABULARY: dict[str, Concept] = _concepts(
     Concept("films", "film types, comma-separated", metavar="NAMES"),
     Concept("films_file", "user film types (TOML: name, activation pressure or range, thickness, nu)",
             metavar="TOML"),
-    # a Prescale film's E lies in the hundreds to thousands of MPa; 1 MPa to 1 TPa covers every film and
-    # keeps a unit error (Pa, GPa) from a confident answer
-    Concept("film_modulus_mpa", "film Young's modulus E in MPa", float, (1.0, 1e6)),
+    Concept("film_modulus_mpa", "film Young's modulus E in MPa", float, FILM_MODULUS_MPA_BOUNDS),
     Concept("film_poisson", "film Poisson's ratio nu", float, (-0.999, 0.499)),
-    Concept("film_thickness_mm", "film thickness in mm", float, (0.001, 5.0)),
+    Concept("film_thickness_mm", "film thickness in mm", float, FILM_THICKNESS_MM_BOUNDS),
     Concept("imprint_model", "what the film records: edge (the whole contact), activation (where the pressure "
             "exceeds the film's activation pressure), capsule (the expected area of capsules broken)",
             choices=IMPRINT_MODELS),
@@ -324,13 +323,14 @@ def roughness_map_reading(args: argparse.Namespace) -> dict[str, Any]:
 
 def add_scan_resolution(parser, prefix: str = "") -> None:
     """--dpi and --mm-per-pixel of a scanned imprint, bounded (1 um to 1 mm pixels)."""
-    from filmcal._validation import arg_float_in
+    from filmcal._validation import SCAN_PIXEL_MM_BOUNDS, arg_float_in
 
+    low, high = SCAN_PIXEL_MM_BOUNDS
     local(parser, "--dpi", type=arg_float_in(25.0, 25400.0),
           help=f"{prefix}scan resolution in dots per inch (default: the file's resolution metadata) "
                "[allowed 25 to 25400]")
-    local(parser, "--mm-per-pixel", type=arg_float_in(0.001, 1.0),
-          help=f"{prefix}pixel size in mm (instead of --dpi) [allowed 0.001 to 1]")
+    local(parser, "--mm-per-pixel", type=arg_float_in(low, high),
+          help=f"{prefix}pixel size in mm (instead of --dpi)" + bounds_text(low, high, False))
 
 
 def rail_inclination(text: str) -> float:

@@ -46,7 +46,8 @@ from scipy.interpolate import PchipInterpolator
 from scipy.special import gamma, pbdv
 
 from filmcal.elastic import oedometric_modulus_mpa
-from filmcal._validation import check_choice, check_poisson, check_positive, check_range
+from filmcal._validation import (FILM_MODULUS_MPA_BOUNDS, FILM_THICKNESS_MM_BOUNDS, check_choice, check_poisson,
+                                 check_positive, check_range)
 
 __all__ = [
     "through_film",
@@ -89,9 +90,9 @@ class FilmLayer:
     thickness_mm: float = 0.09
 
     def __post_init__(self) -> None:
-        check_positive("modulus_mpa", self.modulus_mpa)
+        check_range("modulus_mpa", self.modulus_mpa, *FILM_MODULUS_MPA_BOUNDS, low_open=False, high_open=False)
         check_poisson("poisson", self.poisson)
-        check_positive("thickness_mm", self.thickness_mm)
+        check_range("thickness_mm", self.thickness_mm, *FILM_THICKNESS_MM_BOUNDS, low_open=False, high_open=False)
 
     @property
     def oedometric_modulus_mpa(self) -> float:

@@ -55,6 +55,8 @@ class ContactOptions:
         check_choice("kinematics", self.kinematics, KINEMATICS)
         if self.load_steps is not None and (int(self.load_steps) != self.load_steps or self.load_steps < 1):
             raise ValueError(f"load_steps must be an integer >= 1, got {self.load_steps!r}")
+        if int(self.max_iterations) != self.max_iterations or self.max_iterations < 1:
+            raise ValueError(f"max_iterations must be an integer >= 1, got {self.max_iterations!r}")
 
     @property
     def large_strain(self) -> bool:

@@ -1017,6 +1017,15 @@ class Roughness:
     film_hardness_mpa: float = PET_HARDNESS_MPA
     waviness: Any = None
 
+    def __post_init__(self) -> None:
+        from filmcal._validation import HARDNESS_MPA_BOUNDS
+
+        check_range("film_hardness_mpa", self.film_hardness_mpa, *HARDNESS_MPA_BOUNDS, low_open=False,
+                    high_open=False)
+        for name in ("wheel", "rail"):
+            if getattr(self, name) is not None and not isinstance(getattr(self, name), RoughSurface):
+                raise ValueError(f"{name} must be a RoughSurface or None, got {type(getattr(self, name)).__name__}")
+
     @property
     def smooth(self) -> bool:
         return self.wheel is None and self.rail is None and self.waviness is None

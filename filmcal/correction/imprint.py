@@ -58,7 +58,7 @@ from pathlib import Path
 import numpy as np
 
 from filmcal._errors import DamagedFileError, damaged
-from filmcal._validation import as_finite, check_positive, check_range
+from filmcal._validation import SCAN_PIXEL_MM_BOUNDS, as_finite, check_range
 from filmcal.correction.outline import _signed_area_mm2, outline_centroid_mm, outline_perimeter_mm
 
 __all__ = ["Imprint", "read_imprint", "measure_imprint", "stain_intensity", "intensity_noise", "otsu_threshold",
@@ -362,9 +362,9 @@ def measure_imprint(intensity, pixel_size_mm: float, *, threshold: float | None 
     intensity : array_like, shape (rows, columns)
         Stain intensity in [0, 1] (`stain_intensity`), row 0 at the top.
     pixel_size_mm : float
-        Edge length of a (square) pixel, > 0.
+        Edge length of a (square) pixel (mm), 0.001-1 (`SCAN_PIXEL_MM_BOUNDS`: 25400 to 25.4 dpi).
     threshold : float, optional
-        Intensity above which a pixel is stained, in (0, 1); Otsu's by default.
+        Intensity above which a pixel is stained, in [0, 1]; Otsu's by default.
     min_region_mm2 : float
         Smallest stained region kept (mm^2, >= 0): specks below it are dust.
     min_contrast : float
@@ -390,7 +390,7 @@ def measure_imprint(intensity, pixel_size_mm: float, *, threshold: float | None 
         raise ValueError(f"intensity must be a 2-D image of at least 3 x 3 pixels, got shape {intensity.shape}")
     if not np.all(np.isfinite(intensity)) or intensity.min() < 0.0 or intensity.max() > 1.0:
         raise ValueError("intensity must be finite and lie in [0, 1]")
-    h = check_positive("pixel_size_mm", pixel_size_mm)
+    h = check_range("pixel_size_mm", pixel_size_mm, *SCAN_PIXEL_MM_BOUNDS, low_open=False, high_open=False)
     min_region = as_finite("min_region_mm2", min_region_mm2)
     if min_region < 0.0:
         raise ValueError(f"min_region_mm2 must be >= 0, got {min_region:g}")
@@ -445,8 +445,10 @@ def _pixel_size(dpi, mm_per_pixel, info: dict, path: Path) -> tuple[float, str]:
             xd = yd = float("nan")
     recorded = math.isfinite(xd) and math.isfinite(yd) and min(xd, yd) >= MIN_METADATA_DPI
     if dpi is not None or mm_per_pixel is not None:
-        h = (MM_PER_INCH / check_positive("dpi", dpi) if dpi is not None
-             else check_positive("mm_per_pixel", mm_per_pixel))
+        h = (MM_PER_INCH / check_range("dpi", dpi, MM_PER_INCH / SCAN_PIXEL_MM_BOUNDS[1],
+                                       MM_PER_INCH / SCAN_PIXEL_MM_BOUNDS[0], low_open=False, high_open=False)
+             if dpi is not None else check_range("mm_per_pixel", mm_per_pixel, *SCAN_PIXEL_MM_BOUNDS,
+                                                 low_open=False, high_open=False))
         # written by software, not by a scanner (nothing recorded: nothing to compare)
         software_default = recorded and round(0.5 * (xd + yd)) in (72, 96)
         if recorded and not software_default and abs(h / (MM_PER_INCH / (0.5 * (xd + yd))) - 1.0) > 0.01:

@@ -180,6 +180,13 @@ class SphereCorrector:
             raise ValueError(f"measurement_std_mm is {100 * worst:.3g} % of the measured radius, more than "
                              f"{100 * MAX_RELATIVE_STD:g} %: an imprint read that loosely leaves the film's own "
                              "error (5-40 % of the radius) undecided; check the units")
+        from filmcal.hertz import plausible_imprint_radius_mm
+
+        lo, hi = plausible_imprint_radius_mm(hertz_radius_mm(R, F))
+        outside = np.flatnonzero(~((lo <= r_m) & (r_m <= hi)))
+        if outside.size:  # the first one, said as `check_plausible` says it
+            i = outside[0]
+            self.check_plausible(float(r_m.flat[i]), float(R.flat[i]), float(F.flat[i]))
         shape = r_m.shape
         mean, std = self._predict(R, F)
         if not np.all(np.isfinite(mean)):

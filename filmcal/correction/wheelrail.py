@@ -336,6 +336,7 @@ class WheelRailCorrector:
         cache: dict[tuple[float, float], tuple[np.ndarray, np.ndarray]] = {}
         for idx in np.ndindex(A.shape):
             key = (float(eta[idx]), float(F[idx]))
+            self.check_plausible(float(A[idx]), *key)
             if key not in cache:
                 cache[key] = self.area_ratio(*key)[:2]
             ratio, transfer = cache[key]

@@ -33,7 +33,7 @@ import scipy.linalg as sla
 from skfem import Basis, ElementQuad1, ElementVector, FacetBasis
 from threadpoolctl import threadpool_limits
 
-from filmcal._validation import check_poisson, check_positive, check_range
+from filmcal._validation import FILM_MODULUS_MPA_BOUNDS, check_poisson, check_positive, check_range
 from filmcal.contact import DEFAULT_IMPRINT_MODEL, film_tip_length_mm, get_imprint_model
 from filmcal.contact.options import ContactOptions
 from filmcal.fem.condense import CondensedBody, condense, nested_dissection
@@ -118,7 +118,8 @@ class Film:
     poisson: float = 0.33
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "modulus_mpa", check_positive("film_modulus_mpa", self.modulus_mpa))
+        object.__setattr__(self, "modulus_mpa", check_range("film_modulus_mpa", self.modulus_mpa,
+                                                            *FILM_MODULUS_MPA_BOUNDS, low_open=False, high_open=False))
         object.__setattr__(self, "poisson", check_poisson("film_poisson", self.poisson))
 
     @property
