@@ -75,3 +75,26 @@ def test_a_wheel_rail_corrector_called_directly_refuses_an_area_no_film_prints()
     a0 = c.supports(0.0, 50e3)["area_no_film_mm2"]
     for area in (0.1 * a0, 10.0 * a0):
         _bad(lambda area=area: c.correct(area, 0.0, 50e3), "measured_area_mm2", "implausible")
+
+
+def test_the_thin_layer_reference_refuses_a_truncated_contact_and_a_film_it_cannot_be():
+    """A zone smaller than the contact was answered with the zone's edge, converged; nu 0.5 silently as no
+    film; a film of 90 mm as the zone's edge."""
+    from filmcal import hertz_radius_mm, thin_layer_contact
+
+    _bad(lambda: thin_layer_contact(450.0, 75e3, 2800.0, zone_mm=2.0), "edge of the zone", "zone_mm")
+    _bad(lambda: thin_layer_contact(450.0, 75e3, 2800.0, film_poisson=0.5), "film_poisson")
+    _bad(lambda: thin_layer_contact(450.0, 75e3, 2800.0, film_thickness_mm=90.0), "film_thickness_mm")
+    _bad(lambda: thin_layer_contact(450.0, 75e3, 2800.0, ring_width_mm=0.0), "ring_width_mm")
+    # a zone just wide enough is solved: without film Hertz's radius within a ring
+    bare = thin_layer_contact(450.0, 75e3, None, zone_mm=1.2 * float(hertz_radius_mm(450.0, 75e3)))
+    assert bare.contact_radius_mm == pytest.approx(float(hertz_radius_mm(450.0, 75e3)), abs=0.02)
+
+
+def test_the_fe_in_the_loop_names_only_readings_the_fe_returns():
+    """A reading the FE does not return (a typo, or an imprint reading without its film) answered NaN after
+    every FE solve; refused at once, naming the readings it has."""
+    from filmcal import FERadiusModel, get_film
+
+    _bad(lambda: FERadiusModel(output="radius_activation_HS_mm"), "radius_activation_HS_mm", "contact_radius_mm")
+    assert FERadiusModel(output="radius_activation_HS_mm", films=[get_film("HS")]).output == "radius_activation_HS_mm"

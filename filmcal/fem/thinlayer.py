@@ -15,7 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import ellipe, ellipk
 
-from filmcal._validation import check_positive
+from filmcal._validation import (FILM_MODULUS_MPA_BOUNDS, FILM_THICKNESS_MM_BOUNDS, check_poisson, check_positive,
+                                 check_range)
 from filmcal.fem.contact import CLOSED, OPEN, ContactState, PairSystem, solve_pairs
 from filmcal.hertz import contact_modulus_mpa, hertz_radius_mm
 
@@ -89,10 +90,13 @@ def thin_layer_contact(sphere_radius_mm: float, force_n: float, film_modulus_mpa
     """
     R = check_positive("sphere_radius_mm", sphere_radius_mm)
     F = check_positive("force_n", force_n)
+    ring = check_positive("ring_width_mm", ring_width_mm)
     estar = contact_modulus_mpa()
     a_h = hertz_radius_mm(R, F)
-    zone = zone_mm if zone_mm is not None else 2.2 * a_h + 2.0
-    edges = np.arange(0.0, zone + ring_width_mm / 2, ring_width_mm)
+    zone = check_positive("zone_mm", zone_mm) if zone_mm is not None else 2.2 * a_h + 2.0
+    if zone < 10.0 * ring or zone > 1e4 * ring:
+        raise ValueError(f"zone_mm / ring_width_mm must be 10 to 10000 rings, got {zone / ring:g}")
+    edges = np.arange(0.0, zone + ring / 2, ring)
     mid = 0.5 * (edges[1:] + edges[:-1])
     area = np.pi * (edges[1:] ** 2 - edges[:-1] ** 2)
     # C[i, j]: approach at ring i from unit pressure on ring j (annulus = disc - disc)
@@ -100,9 +104,12 @@ def thin_layer_contact(sphere_radius_mm: float, force_n: float, film_modulus_mpa
     C = (discs[1:] - discs[:-1]).T
     spring = 0.0
     if film_modulus_mpa is not None:
-        e = check_positive("film_modulus_mpa", film_modulus_mpa)
-        nu = film_poisson
-        spring = film_thickness_mm * (1 + nu) * (1 - 2 * nu) / (e * (1 - nu))
+        e = check_range("film_modulus_mpa", film_modulus_mpa, *FILM_MODULUS_MPA_BOUNDS, low_open=False,
+                        high_open=False)
+        nu = check_poisson("film_poisson", film_poisson)
+        t = check_range("film_thickness_mm", film_thickness_mm, *FILM_THICKNESS_MM_BOUNDS, low_open=False,
+                        high_open=False)
+        spring = t * (1 + nu) * (1 - 2 * nu) / (e * (1 - nu))
     H = C / area[None, :] + np.diag(spring / area)  # unknowns: ring forces (N)
     gap = R - np.sqrt(R**2 - mid**2)
     n = len(mid)
@@ -113,6 +120,9 @@ def thin_layer_contact(sphere_radius_mm: float, force_n: float, film_modulus_mpa
                         np.zeros(n), max_iterations=200)
     p = np.where(state.normal_status == CLOSED, state.forces / area, 0.0)
     k = int(np.flatnonzero(p > 0)[-1])
+    if k >= n - 1:  # the contact reaches the last ring: the zone truncates it
+        raise ValueError(f"the contact reaches the edge of the zone ({zone:g} mm): give a larger zone_mm (a "
+                         "softer or thicker film spreads it beyond the default 2.2 Hertz radii + 2 mm)")
     edge = (float(mid[k]), float(mid[min(k + 1, n - 1)]))
     q = p if spring > 0.0 else p**2  # what falls linearly to the edge
     radius = edge[0]

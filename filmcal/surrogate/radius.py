@@ -522,9 +522,15 @@ class FERadiusModel:
     def __init__(self, options: "ContactOptions | None" = None, output: str = EDGE_COLUMN, films=()) -> None:
         from filmcal.contact.options import ContactOptions
 
+        from filmcal.fem import imprint_columns
+
         self.options = options or ContactOptions()
         self.output = output
         self.films = tuple(films)
+        known = [EDGE_COLUMN] + [key for _, _, key in imprint_columns(self.films)]
+        if output not in known:  # a name the FE does not return would answer NaN after every solve
+            raise ValueError(f"output {output!r} is not a reading of the FE for these films; known: "
+                             f"{', '.join(known)} (an imprint reading needs its film in films=)")
 
     def predict(self, modulus_mpa, poisson, sphere_radius_mm, force_n):
         from filmcal.fem import evaluate_point
