@@ -98,3 +98,18 @@ def test_the_fe_in_the_loop_names_only_readings_the_fe_returns():
 
     _bad(lambda: FERadiusModel(output="radius_activation_HS_mm"), "radius_activation_HS_mm", "contact_radius_mm")
     assert FERadiusModel(output="radius_activation_HS_mm", films=[get_film("HS")]).output == "radius_activation_HS_mm"
+
+
+@pytest.mark.parametrize("posterior, max_samples, words", [
+    ({"modulus_mpa": [2500.0, np.nan], "sigma_mm": [0.1, 0.1]}, 2000, ["modulus_mpa", "finite"]),
+    ({"modulus_mpa": [2500.0, 2600.0], "sigma_mm": [0.1, -5.0]}, 2000, ["sigma_mm", ">= 0"]),  # acted as 5
+    ({"modulus_mpa": [2500.0, 2600.0], "sigma_mm": [0.1, 0.1], "poisson": 0.6}, 2000, ["poisson"]),
+    ({"modulus_mpa": [2500.0, 2600.0, 2700.0], "sigma_mm": [0.1, 0.1]}, 2000, ["one size"]),  # was an IndexError
+    ({"modulus_mpa": [2500.0, 2600.0]}, 2000, ["sigma_mm"]),  # was a KeyError
+    ({"modulus_mpa": [2500.0, 2600.0], "sigma_mm": [0.1, 0.1]}, 1, ["max_samples"]),  # a spread of nan
+])
+def test_a_correctors_posterior_is_checked_before_it_is_used(posterior, max_samples, words):
+    from filmcal import FilmModel, SphereCorrector, WheelRailCorrector, get_film
+
+    _bad(lambda: SphereCorrector(_Offset(), posterior, max_samples=max_samples), *words)
+    _bad(lambda: WheelRailCorrector(posterior, FilmModel(get_film("HS")), max_samples=max_samples), *words)

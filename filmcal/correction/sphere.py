@@ -115,14 +115,12 @@ class SphereCorrector:
     """
 
     def __init__(self, model, posterior: dict, max_samples: int = 2000, random_state=0) -> None:
+        from filmcal.correction.moduli import thinned_posterior
+
         self.model = model
-        modulus = np.asarray(posterior["modulus_mpa"], dtype=float).ravel()
-        n = len(modulus)
-        take = np.unique(np.linspace(0, n - 1, min(n, max_samples)).round().astype(int))
-        self.modulus_mpa_ = modulus[take]
-        poisson = np.asarray(posterior.get("poisson", 0.33), dtype=float)
-        self.poisson_ = np.broadcast_to(poisson.ravel()[take] if poisson.ndim else poisson, take.shape).copy()
-        self.sigma_mm_ = np.asarray(posterior["sigma_mm"], dtype=float).ravel()[take]
+        samples = thinned_posterior({"poisson": 0.33, **posterior}, max_samples)
+        self.modulus_mpa_, self.poisson_ = samples["modulus_mpa"], samples["poisson"]
+        self.sigma_mm_ = samples["sigma_mm"]
         self.random_state = random_state
 
     @staticmethod

@@ -193,10 +193,11 @@ class WheelRailCorrector:
     def __init__(self, posterior: dict, film: FilmModel, wheel: str = WHEEL, rail: str = RAIL,
                  rail_inclination: float = RAIL_INCLINATION, nominal_radius_mm: float = NOMINAL_RADIUS_MM, grid_mm: float = GRID_MM,
                  max_samples: int = 2000, random_state=0) -> None:
-        modulus = nominal_modulus_mpa(posterior, film.film.poisson)
-        take = np.unique(np.linspace(0, len(modulus) - 1, min(len(modulus), max_samples)).round().astype(int))
-        self.modulus_mpa_ = modulus[take]
-        self.sigma_mm_ = np.asarray(posterior["sigma_mm"], dtype=float).ravel()[take]
+        from filmcal.correction.moduli import thinned_posterior
+
+        samples = thinned_posterior(posterior, max_samples)
+        self.modulus_mpa_ = nominal_modulus_mpa(samples, film.film.poisson)
+        self.sigma_mm_ = samples["sigma_mm"]
         self.film = film
         self.settings = dict(wheel=wheel, rail=rail, rail_inclination=rail_inclination,
                              nominal_radius_mm=nominal_radius_mm, grid_mm=grid_mm)
